@@ -1,0 +1,185 @@
+//! The `terzaghi` command line: flags are parsed and validated here, then handed to the pure core.
+
+mod bench;
+mod fit;
+mod media;
+mod predict;
+
+use crate::model::{FittingWidth, Medium, Plate, TerzaghiModel, medium as presets};
+use anyhow::{Context, Result, bail};
+use clap::{Args, Parser, Subcommand};
+
+/// Forces on flat legs rotating through sand and other granular media.
+#[derive(Debug, Parser)]
+#[command(name = "terzaghi", version, about, long_about = None)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Predict drag, lift and hip torque over a range of attack angles.
+    Predict(predict::PredictArgs),
+    /// Fit b_k and a (and delta) to measured forces in a CSV file, batch (Eq. 26).
+    Fit(fit::FitArgs),
+    /// List the medium presets with their values and provenance.
+    Media(media::MediaArgs),
+    /// Measure the speed of the models on this machine.
+    Bench(bench::BenchArgs),
+}
+
+/// Runs a parsed command. Errors are for the user: `main` prints them on one line, exit code 2.
+pub fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Predict(a) => predict::run(a),
+        Command::Fit(a) => fit::run(a),
+        Command::Media(a) => media::run(a),
+        Command::Bench(a) => bench::run(a),
+    }
+}
+
+/// The leg's geometry.
+#[derive(Debug, Clone, Args)]
+pub struct PlateArgs {
+    /// Plate length from the hip axis to the tip (m).
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
+    pub length_m: f64,
+    /// Plate width (m).
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
+    pub width_m: f64,
+    /// Height of the hip axis above the free surface (m); 0 puts the axis on the surface.
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
+    pub hip_height_m: f64,
+}
+
+impl PlateArgs {
+    pub fn plate(&self) -> Result<Plate> {
+        let plate = Plate::new(self.length_m, self.width_m, self.hip_height_m)?;
+        if plate.never_submerged() {
+            eprintln!(
+                "warning: hip height {} m >= plate length {} m: the plate never enters the medium, every force is 0",
+                self.hip_height_m, self.length_m
+            );
+        }
+        Ok(plate)
+    }
+}
+
+/// The medium: a preset, or custom soil values.
+#[derive(Debug, Clone, Args)]
+pub struct MediumArgs {
+    /// A medium preset (see `terzaghi media`).
+    #[arg(long, value_name = "NAME", conflicts_with_all = ["unit_weight_n_m3", "phi_deg", "delta_deg"])]
+    pub medium: Option<String>,
+    /// Custom medium: unit weight lambda (N/m^3).
+    #[arg(long, value_name = "W", requires_all = ["phi_deg", "delta_deg"], allow_negative_numbers = true)]
+    pub unit_weight_n_m3: Option<f64>,
+    /// Custom medium: internal friction angle phi (deg).
+    #[arg(long, value_name = "DEG", requires_all = ["unit_weight_n_m3", "delta_deg"], allow_negative_numbers = true)]
+    pub phi_deg: Option<f64>,
+    /// Custom medium: plate-medium friction angle delta (deg).
+    #[arg(long, value_name = "DEG", requires_all = ["unit_weight_n_m3", "phi_deg"], allow_negative_numbers = true)]
+    pub delta_deg: Option<f64>,
+}
+
+/// A medium and, when its preset has one for this plate, its identified fitting width.
+pub struct ChosenMedium {
+    pub medium: Medium,
+    pub preset: Option<&'static presets::MediumPreset>,
+}
+
+impl MediumArgs {
+    pub fn medium(&self) -> Result<ChosenMedium> {
+        match (
+            &self.medium,
+            self.unit_weight_n_m3,
+            self.phi_deg,
+            self.delta_deg,
+        ) {
+            (Some(name), ..) => {
+                let preset = presets::preset(name)?;
+                Ok(ChosenMedium {
+                    medium: preset.medium()?,
+                    preset: Some(preset),
+                })
+            }
+            (None, Some(w), Some(phi), Some(delta)) => Ok(ChosenMedium {
+                medium: Medium::new(w, phi, delta)?,
+                preset: None,
+            }),
+            _ => bail!(
+                "no medium given: pass --medium NAME (one of {}) or --unit-weight-n-m3, --phi-deg and --delta-deg",
+                presets::preset_names().join(", ")
+            ),
+        }
+    }
+}
+
+/// `--bk` and `--a`, given together.
+#[derive(Debug, Clone, Args)]
+pub struct WidthArgs {
+    /// Fitting width parameter b_k of Eq. (11) (default: the medium preset's).
+    #[arg(
+        long = "bk",
+        value_name = "K",
+        requires = "a",
+        allow_negative_numbers = true
+    )]
+    pub b_k: Option<f64>,
+    /// Fitting width parameter a of Eq. (11) (default: the medium preset's).
+    #[arg(
+        long,
+        value_name = "A",
+        requires = "b_k",
+        allow_negative_numbers = true
+    )]
+    pub a: Option<f64>,
+}
+
+impl WidthArgs {
+    /// The fitting width from the flags, else from the preset for this plate width.
+    pub fn fitting_width(&self, chosen: &ChosenMedium, plate: &Plate) -> Result<FittingWidth> {
+        if let (Some(b_k), Some(a)) = (self.b_k, self.a) {
+            return Ok(FittingWidth::new(b_k, a)?);
+        }
+        let Some(preset) = chosen.preset else {
+            bail!("the improved model needs --bk and --a for a custom medium");
+        };
+        preset.fitting_width_for(plate.width_m()).with_context(|| {
+            let widths: Vec<String> = preset.fits_by_width.iter().map(|w| w.0.to_string()).collect();
+            format!(
+                "medium {} has identified b_k, a only for plate widths {} m, not {} m; pass --bk and --a",
+                preset.name,
+                widths.join(", "),
+                plate.width_m()
+            )
+        })
+    }
+
+    pub fn given(&self) -> bool {
+        self.b_k.is_some()
+    }
+}
+
+/// A Terzaghi model with the fitting width the flags ask for.
+pub fn terzaghi_model(
+    plate: Plate,
+    chosen: &ChosenMedium,
+    width: Option<FittingWidth>,
+) -> TerzaghiModel {
+    match width {
+        Some(w) => TerzaghiModel::new(plate, chosen.medium, w),
+        None => TerzaghiModel::conventional(plate, chosen.medium),
+    }
+}
+
+/// Writes `text` to stdout; a closed pipe (`| head`) ends the command quietly.
+pub fn print_out(text: &str) -> Result<()> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|_| out.flush()) {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        r => r.context("cannot write to standard output"),
+    }
+}

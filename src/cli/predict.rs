@@ -1,0 +1,207 @@
+//! `terzaghi predict`: one row per attack angle.
+
+use super::{MediumArgs, PlateArgs, WidthArgs, print_out, terzaghi_model};
+use crate::model::{ForceModel, Prediction, RftCoefficients, RftModel, rft::RFT_SET_NAMES};
+use anyhow::{Result, bail};
+use clap::{Args, ValueEnum};
+use serde::Serialize;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum ModelKind {
+    /// Improved Terzaghi model with the fitting width b_e = b_k b a^(-beta).
+    Improved,
+    /// Conventional Terzaghi model (b_e = b).
+    Conventional,
+    /// Resistive force theory (Li, Zhang & Goldman 2013).
+    Rft,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Format {
+    Csv,
+    Json,
+}
+
+#[derive(Debug, Args)]
+pub struct PredictArgs {
+    /// Which model to evaluate.
+    #[arg(long, value_enum, default_value = "improved")]
+    pub model: ModelKind,
+    #[command(flatten)]
+    pub plate: PlateArgs,
+    #[command(flatten)]
+    pub medium: MediumArgs,
+    #[command(flatten)]
+    pub width: WidthArgs,
+    /// RFT: number of elements over the submerged length.
+    #[arg(long, value_name = "N", default_value_t = 100)]
+    pub rft_elements: usize,
+    /// RFT coefficients: poppy_lp, poppy_cp, poppy_lp_grid (measured) or generic (needs
+    /// --rft-zeta). Default: the medium preset's, if it has one.
+    #[arg(long, value_name = "SET")]
+    pub rft_coeffs: Option<String>,
+    /// RFT: the medium's scale factor zeta for the generic coefficients (N/cm^3).
+    #[arg(long, value_name = "N_CM3", allow_negative_numbers = true)]
+    pub rft_zeta: Option<f64>,
+    /// Attack angles in degrees: FROM:TO:STEP (both ends included) or a single angle.
+    #[arg(long, value_name = "FROM:TO:STEP", allow_hyphen_values = true)]
+    pub beta_deg: String,
+    /// Output format.
+    #[arg(long, value_enum, default_value = "csv")]
+    pub format: Format,
+}
+
+/// Most rows one call prints.
+const MAX_ROWS: usize = 1_000_000;
+
+/// Parses `FROM:TO:STEP` or a single angle into the list of angles (degrees).
+pub fn parse_range(text: &str) -> Result<Vec<f64>> {
+    let parts: Vec<&str> = text.split(':').collect();
+    let num = |s: &str| -> Result<f64> {
+        match s.trim().parse::<f64>() {
+            Ok(v) if v.is_finite() => Ok(v),
+            _ => bail!("--beta-deg {text:?}: {s:?} is not a finite number"),
+        }
+    };
+    match parts.as_slice() {
+        [one] => Ok(vec![num(one)?]),
+        [from, to, step] => {
+            let (from, to, step) = (num(from)?, num(to)?, num(step)?);
+            if step == 0.0 || (to - from) * step < 0.0 {
+                bail!("--beta-deg {text:?}: STEP must be non-zero and lead from FROM to TO");
+            }
+            let n = ((to - from) / step + 1e-9).floor() + 1.0;
+            if n > MAX_ROWS as f64 {
+                bail!("--beta-deg {text:?} gives {n} angles; at most {MAX_ROWS}");
+            }
+            // Rounded to 1e-9 deg so that 0.1-steps print as 0.3, not 0.30000000000000004.
+            Ok((0..n as usize)
+                .map(|i| ((from + i as f64 * step) * 1e9).round() / 1e9)
+                .collect())
+        }
+        _ => bail!("--beta-deg {text:?}: expected FROM:TO:STEP or a single angle"),
+    }
+}
+
+#[derive(Serialize)]
+struct Row {
+    beta_deg: f64,
+    submerged_m: f64,
+    depth_m: f64,
+    drag_n: f64,
+    lift_n: f64,
+    hip_torque_nm: f64,
+    regime: &'static str,
+}
+
+pub fn build_model(a: &PredictArgs) -> Result<ForceModel> {
+    let plate = a.plate.plate()?;
+    if a.model != ModelKind::Improved && a.width.given() {
+        bail!("--bk and --a apply to the improved model only");
+    }
+    match a.model {
+        ModelKind::Improved | ModelKind::Conventional => {
+            let chosen = a.medium.medium()?;
+            let width = match a.model {
+                ModelKind::Improved => Some(a.width.fitting_width(&chosen, &plate)?),
+                _ => None,
+            };
+            Ok(ForceModel::Terzaghi(terzaghi_model(plate, &chosen, width)))
+        }
+        ModelKind::Rft => {
+            let set = match (&a.rft_coeffs, &a.medium.medium) {
+                (Some(s), _) => s.clone(),
+                (None, Some(name)) => match crate::model::medium::preset(name)?.rft {
+                    Some(crate::model::medium::RftSet::PoppyLp) => "poppy_lp".into(),
+                    Some(crate::model::medium::RftSet::PoppyCp) => "poppy_cp".into(),
+                    None => bail!(
+                        "medium {name} has no RFT coefficients; pass --rft-coeffs ({})",
+                        RFT_SET_NAMES.join(", ")
+                    ),
+                },
+                (None, None) => bail!(
+                    "RFT needs --rft-coeffs ({}) or a --medium that has them",
+                    RFT_SET_NAMES.join(", ")
+                ),
+            };
+            if set == "generic" && a.rft_zeta.is_none() {
+                bail!("--rft-coeffs generic needs --rft-zeta (the medium's scale, N/cm^3)");
+            }
+            let coeffs = RftCoefficients::by_name(&set, a.rft_zeta)?;
+            Ok(ForceModel::Rft(RftModel::new(
+                plate,
+                coeffs,
+                a.rft_elements,
+            )?))
+        }
+    }
+}
+
+pub fn run(a: PredictArgs) -> Result<()> {
+    let betas = parse_range(&a.beta_deg)?;
+    let model = build_model(&a)?;
+    let rows: Vec<Row> = betas
+        .iter()
+        .map(|&deg| {
+            let p: Prediction = model.predict(deg.to_radians())?;
+            Ok(Row {
+                beta_deg: deg,
+                submerged_m: p.submerged_m,
+                depth_m: p.depth_m,
+                drag_n: p.drag_n,
+                lift_n: p.lift_n,
+                hip_torque_nm: p.hip_torque_nm,
+                regime: p.regime.as_str(),
+            })
+        })
+        .collect::<Result<_>>()?;
+    let text = match a.format {
+        Format::Json => serde_json::to_string_pretty(&rows)? + "\n",
+        Format::Csv => {
+            let mut s =
+                String::from("beta_deg,submerged_m,depth_m,drag_n,lift_n,hip_torque_nm,regime\n");
+            for r in &rows {
+                s += &format!(
+                    "{},{:.6},{:.6},{:.6},{:.6},{:.6},{}\n",
+                    r.beta_deg,
+                    r.submerged_m,
+                    r.depth_m,
+                    r.drag_n,
+                    r.lift_n,
+                    r.hip_torque_nm,
+                    r.regime
+                );
+            }
+            s
+        }
+    };
+    print_out(&text)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ranges_include_both_ends_and_reject_nonsense() {
+        assert_eq!(
+            parse_range("40:90:10").unwrap(),
+            vec![40.0, 50.0, 60.0, 70.0, 80.0, 90.0]
+        );
+        assert_eq!(parse_range("0:0.3:0.1").unwrap(), vec![0.0, 0.1, 0.2, 0.3]);
+        assert_eq!(parse_range("90:80:-5").unwrap(), vec![90.0, 85.0, 80.0]);
+        assert_eq!(parse_range("-10").unwrap(), vec![-10.0]);
+        for bad in [
+            "",
+            "a:b:c",
+            "0:10:0",
+            "0:10:-1",
+            "0:1e9:1e-6",
+            "nan",
+            "1:2",
+            "0:inf:1",
+        ] {
+            assert!(parse_range(bad).is_err(), "{bad}");
+        }
+    }
+}

@@ -1,0 +1,94 @@
+//! Goodness of fit: the paper's Psi (Eq. 28), and R^2 and RMSE, which a large mean force does
+//! not inflate.
+
+use serde::Serialize;
+
+/// Per-component goodness of fit of predicted against measured drag and lift.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct GoodnessOfFit {
+    pub psi_drag: f64,
+    pub psi_lift: f64,
+    pub r2_drag: f64,
+    pub r2_lift: f64,
+    pub rmse_drag_n: f64,
+    pub rmse_lift_n: f64,
+}
+
+/// Psi, R^2 and RMSE of one component.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ComponentFit {
+    /// `1 - sum (pred - meas)^2 / sum meas^2` (Eq. 28).
+    pub psi: f64,
+    /// `1 - sum (pred - meas)^2 / sum (meas - mean)^2`.
+    pub r2: f64,
+    pub rmse: f64,
+}
+
+/// Goodness of fit of one component. Zero denominators (no force, constant force) give 0 for Psi
+/// or R^2 rather than a NaN; an empty input gives all zeros.
+pub fn component_fit(pred: &[f64], meas: &[f64]) -> ComponentFit {
+    let n = pred.len().min(meas.len());
+    if n == 0 {
+        return ComponentFit {
+            psi: 0.0,
+            r2: 0.0,
+            rmse: 0.0,
+        };
+    }
+    let mean = meas[..n].iter().sum::<f64>() / n as f64;
+    let (mut sse, mut ss, mut sst) = (0.0, 0.0, 0.0);
+    for (p, m) in pred[..n].iter().zip(&meas[..n]) {
+        sse += (p - m) * (p - m);
+        ss += m * m;
+        sst += (m - mean) * (m - mean);
+    }
+    let ratio = |den: f64| if den > 0.0 { 1.0 - sse / den } else { 0.0 };
+    ComponentFit {
+        psi: ratio(ss),
+        r2: ratio(sst),
+        rmse: (sse / n as f64).sqrt(),
+    }
+}
+
+/// Goodness of fit over `(drag, lift)` pairs.
+///
+/// ```
+/// use terzaghi::ident::goodness_of_fit;
+/// let g = goodness_of_fit(&[(1.0, 2.0), (2.0, 4.0)], &[(1.0, 2.0), (2.0, 4.0)]);
+/// assert_eq!((g.psi_drag, g.r2_lift, g.rmse_drag_n), (1.0, 1.0, 0.0));
+/// ```
+pub fn goodness_of_fit(pred: &[(f64, f64)], meas: &[(f64, f64)]) -> GoodnessOfFit {
+    let split = |v: &[(f64, f64)]| -> (Vec<f64>, Vec<f64>) { v.iter().copied().unzip() };
+    let ((pd, pl), (md, ml)) = (split(pred), split(meas));
+    let (d, l) = (component_fit(&pd, &md), component_fit(&pl, &ml));
+    GoodnessOfFit {
+        psi_drag: d.psi,
+        psi_lift: l.psi,
+        r2_drag: d.r2,
+        r2_lift: l.r2,
+        rmse_drag_n: d.rmse,
+        rmse_lift_n: l.rmse,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn psi_is_inflated_by_a_mean_that_r2_ignores() {
+        // A constant offset prediction of a large, nearly constant force.
+        let meas: Vec<f64> = (0..100).map(|i| 100.0 + (i as f64 * 0.3).sin()).collect();
+        let pred = vec![100.0; 100];
+        let f = component_fit(&pred, &meas);
+        assert!(f.psi > 0.999 && f.r2 < 0.01, "{f:?}");
+        assert!((f.rmse - (0.5f64).sqrt()).abs() < 0.05);
+    }
+
+    #[test]
+    fn degenerate_inputs_give_numbers_not_nan() {
+        let f = component_fit(&[1.0, 1.0], &[0.0, 0.0]);
+        assert_eq!((f.psi, f.r2), (0.0, 0.0));
+        assert_eq!(component_fit(&[], &[]).rmse, 0.0);
+    }
+}

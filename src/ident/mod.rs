@@ -1,0 +1,86 @@
+//! Identification of the fitting width `b_k, a` (Eq. 11), and optionally `delta`, from measured
+//! drag and lift. Pure: samples in, estimates out.
+//!
+//! Every Terzaghi force is `b_k a^(-beta) F_unit(beta)`, and `delta` enters only through
+//! `F_pT = F_pN tan(delta)`, so a prediction at a sample needs just the unit normal force
+//! `N(beta)`: `D = s N (sin b - t cos b)`, `L = s N (cos b + t sin b)`, `s = b_k a^(-b)`,
+//! `t = tan(delta)`. [`UnitSample`] carries that.
+
+pub mod batch;
+pub mod metrics;
+
+pub use batch::{BatchFit, BatchOptions, fit_batch};
+pub use metrics::{GoodnessOfFit, goodness_of_fit};
+
+use crate::model::{ModelError, Regime, TerzaghiModel};
+
+/// One measurement: attack angle and the forces the medium exerted on the plate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sample {
+    pub t_s: Option<f64>,
+    pub beta_rad: f64,
+    pub drag_n: f64,
+    pub lift_n: f64,
+}
+
+/// What is wrong with a set of samples.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum IdentError {
+    #[error(
+        "too few usable samples: {usable} of {total} (need at least {needed}; {non_finite} non-finite, {outside} outside the fitted regimes or out of the medium)"
+    )]
+    TooFewSamples {
+        usable: usize,
+        total: usize,
+        needed: usize,
+        non_finite: usize,
+        outside: usize,
+    },
+    #[error("the measured forces are all zero: nothing to fit")]
+    NoForce,
+    #[error(transparent)]
+    Model(#[from] ModelError),
+}
+
+/// A sample paired with the unit model's normal force at its angle (`b_k = a = 1`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct UnitSample {
+    pub beta_rad: f64,
+    pub sin_beta: f64,
+    pub cos_beta: f64,
+    /// `F_pN` with `b_e = b`, N.
+    pub normal_unit_n: f64,
+    pub drag_n: f64,
+    pub lift_n: f64,
+    pub regime: Regime,
+}
+
+impl UnitSample {
+    /// Pairs a sample with `unit_model` (a model with `b_k = a = 1`); `None` if any value is
+    /// non-finite.
+    pub fn new(unit_model: &TerzaghiModel, s: &Sample) -> Option<UnitSample> {
+        if !(s.beta_rad.is_finite() && s.drag_n.is_finite() && s.lift_n.is_finite()) {
+            return None;
+        }
+        let f = unit_model.evaluate(s.beta_rad).ok()?;
+        let (sin_beta, cos_beta) = f.beta_rad.sin_cos();
+        Some(UnitSample {
+            beta_rad: f.beta_rad,
+            sin_beta,
+            cos_beta,
+            normal_unit_n: f.normal_n,
+            drag_n: s.drag_n,
+            lift_n: s.lift_n,
+            regime: f.regime,
+        })
+    }
+
+    /// Predicted `(drag, lift)` for `b_k a^(-beta)` = `scale` and `tan(delta)` = `tan_delta`.
+    pub fn predict(&self, scale: f64, tan_delta: f64) -> (f64, f64) {
+        let n = scale * self.normal_unit_n;
+        (
+            n * (self.sin_beta - tan_delta * self.cos_beta),
+            n * (self.cos_beta + tan_delta * self.sin_beta),
+        )
+    }
+}

@@ -1,0 +1,12 @@
+//! `terzaghi`: forces on flat legs rotating through sand and other granular media.
+//!
+//! - [`model`]: the improved and conventional Terzaghi models and RFT (pure).
+//! - [`ident`]: identification of the fitting width `b_k, a` (and `delta`) from measured
+//!   forces, and goodness of fit (pure).
+//! - [`dataset`]: reading force logs (CSV) into samples (I/O adapter).
+//! - [`cli`]: the `terzaghi` command line.
+
+pub mod cli;
+pub mod dataset;
+pub mod ident;
+pub mod model;

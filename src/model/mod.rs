@@ -1,0 +1,145 @@
+//! Force models for a flat leg (plate) rotating about a hip axis through a granular medium.
+//!
+//! - [`terzaghi`]: the improved Terzaghi model of Yang et al. (2020), Eqs. (1)–(25), with the
+//!   fitting width of Eq. (11); the conventional model is the same with `b_e = b`.
+//! - [`rft`]: resistive force theory (Li, Zhang & Goldman 2013), the reference users know.
+//! - [`medium`]: soil values and the paper's identified fitting widths, as named presets.
+//! - [`plate`]: the leg's geometry, the attack angle and the submerged length.
+//!
+//! Conventions (see `docs` in the README): `beta` is the attack angle in radians, `x` points along
+//! the travel of the submerged tip, `z` up; drag is positive when the medium pushes the plate
+//! along `-x`, lift positive up, hip torque positive when it resists the rotation.
+//! Everything here is pure: no I/O, no clock.
+
+pub mod medium;
+pub mod plate;
+pub mod rft;
+pub mod terzaghi;
+
+pub use medium::{FittingWidth, Medium, MediumPreset, Provenance};
+pub use plate::{Plate, wrap_beta_rad};
+pub use rft::{RftCoefficients, RftFit, RftGrid, RftModel};
+pub use terzaghi::{LegForce, Terms, TerzaghiModel};
+
+use serde::Serialize;
+
+/// What went wrong with a model input; every variant names the bad value.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ModelError {
+    #[error("{name} must be a finite number, got {value}")]
+    NotFinite { name: &'static str, value: f64 },
+    #[error("{name} must be greater than 0, got {value}")]
+    NotPositive { name: &'static str, value: f64 },
+    #[error("hip height must be >= 0 m, got {value_m} m")]
+    NegativeHipHeight { value_m: f64 },
+    #[error("{name} must lie in {range} deg, got {value_deg} deg")]
+    AngleOutOfRange {
+        name: &'static str,
+        range: &'static str,
+        value_deg: f64,
+    },
+    #[error("unknown medium {name:?}; known media: {known}")]
+    UnknownMedium { name: String, known: String },
+    #[error("RFT element count must be between 1 and {max}, got {value}")]
+    RftElements { value: usize, max: usize },
+    #[error("unknown RFT coefficient set {name:?}; known: {known}")]
+    UnknownRftSet { name: String, known: String },
+}
+
+pub(crate) fn finite(name: &'static str, value: f64) -> Result<f64, ModelError> {
+    if value.is_finite() {
+        Ok(value)
+    } else {
+        Err(ModelError::NotFinite { name, value })
+    }
+}
+
+pub(crate) fn positive(name: &'static str, value: f64) -> Result<f64, ModelError> {
+    if finite(name, value)? > 0.0 {
+        Ok(value)
+    } else {
+        Err(ModelError::NotPositive { name, value })
+    }
+}
+
+/// Which failure mechanism the prediction comes from, so that consumers can weigh it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Regime {
+    /// Submerged length <= 0: every force is zero.
+    OutOfMedium,
+    /// `beta <= pi/2`: the regime the paper validates.
+    Penetration,
+    /// `pi/2 < beta < 3pi/4 + phi/2`: same equations, which the paper calls unreliable here.
+    ExtractionSpiral,
+    /// `beta >= 3pi/4 + phi/2`: the spiral sector is gone, Eqs. (23)–(25).
+    ExtractionTriangle,
+    /// `beta > pi/2` for a model without a failure surface (RFT).
+    Extraction,
+}
+
+impl Regime {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Regime::OutOfMedium => "out_of_medium",
+            Regime::Penetration => "penetration",
+            Regime::ExtractionSpiral => "extraction_spiral",
+            Regime::ExtractionTriangle => "extraction_triangle",
+            Regime::Extraction => "extraction",
+        }
+    }
+
+    /// Small integer code, as carried in ROS messages (`0` out of medium ... `4` extraction).
+    pub fn code(self) -> u8 {
+        self as u8
+    }
+
+    pub fn is_extraction(self) -> bool {
+        matches!(
+            self,
+            Regime::ExtractionSpiral | Regime::ExtractionTriangle | Regime::Extraction
+        )
+    }
+}
+
+impl std::fmt::Display for Regime {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// The prediction every model gives: what a controller consumes.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Prediction {
+    /// Attack angle after wrapping to `[0, 2pi)`.
+    pub beta_rad: f64,
+    pub submerged_m: f64,
+    pub depth_m: f64,
+    pub drag_n: f64,
+    pub lift_n: f64,
+    pub hip_torque_nm: f64,
+    pub regime: Regime,
+}
+
+/// Which model to evaluate: the improved or conventional Terzaghi model, or RFT.
+#[derive(Debug, Clone)]
+pub enum ForceModel {
+    Terzaghi(TerzaghiModel),
+    Rft(RftModel),
+}
+
+impl ForceModel {
+    pub fn predict(&self, beta_rad: f64) -> Result<Prediction, ModelError> {
+        match self {
+            ForceModel::Terzaghi(m) => m.evaluate(beta_rad).map(|f| f.prediction()),
+            ForceModel::Rft(m) => m.evaluate(beta_rad),
+        }
+    }
+
+    pub fn plate(&self) -> &Plate {
+        match self {
+            ForceModel::Terzaghi(m) => m.plate(),
+            ForceModel::Rft(m) => m.plate(),
+        }
+    }
+}

@@ -1,0 +1,477 @@
+//! Resistive force theory (Li, Zhang & Goldman, Science 2013) for the rotating plate.
+//!
+//! A plate element at depth `|z|` with area `dA` feels the stress `alpha(beta_r, gamma) |z| dA`,
+//! `alpha` in N/cm^3, where `beta_r` is the element's attack angle in `[-pi/2, pi/2]` and
+//! `gamma` the angle of its velocity below the horizontal. From the fit of Li et al.:
+//! `alpha_z = A00 + A10 cos 2b + B11 sin(2b+g) + B01 sin g + B-11 sin(-2b+g)`,
+//! `alpha_x = C11 cos(2b+g) + C01 cos g + C-11 cos(-2b+g) + D10 sin 2b`. `alpha_x` is the
+//! resisting drag, `alpha_z` the lift. For the rotating plate, `gamma = pi/2 - beta` and
+//! `beta_r = beta` (`beta <= pi/2`) or `beta - pi`.
+//!
+//! The integration is element-wise, as RFT is defined: each element's attack angle and velocity
+//! direction come from its own tangent and its own velocity about the hip, so that the same
+//! routine serves a plate, and every element may look up the measured grid.
+
+use super::{ModelError, Plate, Prediction, Regime, finite, positive, wrap_beta_rad};
+use std::f64::consts::{FRAC_PI_2, PI};
+use std::sync::OnceLock;
+
+/// N/cm^3 to N/m^3.
+const N_CM3_TO_N_M3: f64 = 1e6;
+
+/// The nine coefficients of the RFT fit, in N/cm^3.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct RftFit {
+    pub a00: f64,
+    pub a10: f64,
+    pub b11: f64,
+    pub b01: f64,
+    pub bm11: f64,
+    pub c11: f64,
+    pub c01: f64,
+    pub cm11: f64,
+    pub d10: f64,
+}
+
+impl RftFit {
+    /// The generic (dimensionless) coefficients of Li et al.; scale with [`RftFit::generic`].
+    pub const GENERIC_SHAPE: RftFit = RftFit {
+        a00: 0.206,
+        a10: 0.169,
+        b11: 0.212,
+        b01: 0.358,
+        bm11: 0.055,
+        c11: -0.124,
+        c01: 0.253,
+        cm11: 0.007,
+        d10: 0.088,
+    };
+    /// Loosely packed poppy seeds, N/cm^3.
+    pub const POPPY_LP: RftFit = RftFit {
+        a00: 0.051,
+        a10: 0.047,
+        b11: 0.053,
+        b01: 0.083,
+        bm11: 0.020,
+        c11: -0.026,
+        c01: 0.057,
+        cm11: 0.0,
+        d10: 0.025,
+    };
+    /// Closely packed poppy seeds, N/cm^3.
+    pub const POPPY_CP: RftFit = RftFit {
+        a00: 0.094,
+        a10: 0.092,
+        b11: 0.092,
+        b01: 0.151,
+        bm11: 0.035,
+        c11: -0.039,
+        c01: 0.086,
+        cm11: 0.018,
+        d10: 0.046,
+    };
+
+    /// The generic coefficients times a medium's scale factor `zeta` (N/cm^3, > 0).
+    pub fn generic(zeta_n_cm3: f64) -> Result<RftFit, ModelError> {
+        let z = positive("RFT scale factor zeta (N/cm^3)", zeta_n_cm3)?;
+        let g = Self::GENERIC_SHAPE;
+        Ok(RftFit {
+            a00: g.a00 * z,
+            a10: g.a10 * z,
+            b11: g.b11 * z,
+            b01: g.b01 * z,
+            bm11: g.bm11 * z,
+            c11: g.c11 * z,
+            c01: g.c01 * z,
+            cm11: g.cm11 * z,
+            d10: g.d10 * z,
+        })
+    }
+
+    /// `(alpha_x, alpha_z)` in N/cm^3.
+    pub fn alpha(&self, beta_r: f64, gamma: f64) -> (f64, f64) {
+        let (b2, g) = (2.0 * beta_r, gamma);
+        let az = self.a00
+            + self.a10 * b2.cos()
+            + self.b11 * (b2 + g).sin()
+            + self.b01 * g.sin()
+            + self.bm11 * (-b2 + g).sin();
+        let ax = self.c11 * (b2 + g).cos()
+            + self.c01 * g.cos()
+            + self.cm11 * (-b2 + g).cos()
+            + self.d10 * b2.sin();
+        (ax, az)
+    }
+}
+
+/// A measured `alpha` table on a rectilinear `(beta_r, gamma)` grid, looked up bilinearly.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RftGrid {
+    betas: Vec<f64>,
+    gammas: Vec<f64>,
+    /// `[gamma index][beta index]`
+    alpha_x: Vec<Vec<f64>>,
+    alpha_z: Vec<Vec<f64>>,
+}
+
+impl RftGrid {
+    /// Parses `beta_rad,gamma_rad,alpha_x,alpha_z` rows (`#` comments, one header line) that
+    /// cover a full rectilinear grid.
+    pub fn parse(text: &str) -> Result<RftGrid, String> {
+        let mut rows = Vec::new();
+        for (i, line) in text.lines().enumerate() {
+            let line = line.trim();
+            if line.is_empty() || line.starts_with('#') || line.starts_with("beta_rad") {
+                continue;
+            }
+            let cells: Vec<f64> = line
+                .split(',')
+                .map(|c| c.trim().parse::<f64>())
+                .collect::<Result<_, _>>()
+                .map_err(|e| format!("RFT grid line {}: {e}", i + 1))?;
+            if cells.len() != 4 || cells.iter().any(|c| !c.is_finite()) {
+                return Err(format!(
+                    "RFT grid line {}: expected 4 finite numbers",
+                    i + 1
+                ));
+            }
+            rows.push([cells[0], cells[1], cells[2], cells[3]]);
+        }
+        let axis = |col: usize| {
+            let mut v: Vec<f64> = rows.iter().map(|r| r[col]).collect();
+            v.sort_by(f64::total_cmp);
+            v.dedup();
+            v
+        };
+        let (betas, gammas) = (axis(0), axis(1));
+        if betas.len() < 2 || gammas.len() < 2 || betas.len() * gammas.len() != rows.len() {
+            return Err(format!(
+                "RFT grid is not rectilinear: {} rows for {} x {} axes",
+                rows.len(),
+                betas.len(),
+                gammas.len()
+            ));
+        }
+        let mut alpha_x = vec![vec![f64::NAN; betas.len()]; gammas.len()];
+        let mut alpha_z = alpha_x.clone();
+        for r in &rows {
+            let bi = betas.iter().position(|&b| b == r[0]).unwrap_or(0);
+            let gi = gammas.iter().position(|&g| g == r[1]).unwrap_or(0);
+            alpha_x[gi][bi] = r[2];
+            alpha_z[gi][bi] = r[3];
+        }
+        if alpha_x.iter().flatten().any(|v| v.is_nan()) {
+            return Err("RFT grid has duplicate or missing points".into());
+        }
+        Ok(RftGrid {
+            betas,
+            gammas,
+            alpha_x,
+            alpha_z,
+        })
+    }
+
+    /// The measured grid for loosely packed poppy seeds shipped with the crate.
+    pub fn poppy_lp() -> &'static RftGrid {
+        static GRID: OnceLock<RftGrid> = OnceLock::new();
+        GRID.get_or_init(|| {
+            // The shipped file is checked by a unit test; a parse failure here is a build defect.
+            RftGrid::parse(include_str!("data/rft_poppy_lp_alpha_grid.csv"))
+                .unwrap_or_else(|e| panic!("shipped RFT grid is corrupt: {e}"))
+        })
+    }
+
+    /// Bilinear `(alpha_x, alpha_z)` in N/cm^3; angles outside the grid are clamped to it.
+    pub fn alpha(&self, beta_r: f64, gamma: f64) -> (f64, f64) {
+        let (bi, tb) = bracket(&self.betas, beta_r);
+        let (gi, tg) = bracket(&self.gammas, gamma);
+        let lerp2 = |t: &Vec<Vec<f64>>| {
+            let lo = t[gi][bi] * (1.0 - tb) + t[gi][bi + 1] * tb;
+            let hi = t[gi + 1][bi] * (1.0 - tb) + t[gi + 1][bi + 1] * tb;
+            lo * (1.0 - tg) + hi * tg
+        };
+        (lerp2(&self.alpha_x), lerp2(&self.alpha_z))
+    }
+}
+
+/// Index `i` and fraction `t` with `x = axis[i] + t (axis[i+1] - axis[i])`, clamped to the axis.
+fn bracket(axis: &[f64], x: f64) -> (usize, f64) {
+    let last = axis.len() - 2;
+    let i = axis[1..=last].partition_point(|&a| a <= x).min(last);
+    let t = ((x - axis[i]) / (axis[i + 1] - axis[i])).clamp(0.0, 1.0);
+    (i, t)
+}
+
+/// Which stress law RFT uses.
+#[derive(Debug, Clone, PartialEq)]
+pub enum RftCoefficients {
+    Fit(RftFit),
+    Grid(&'static RftGrid),
+}
+
+/// The coefficient sets users can name.
+pub const RFT_SET_NAMES: [&str; 4] = ["poppy_lp", "poppy_cp", "poppy_lp_grid", "generic"];
+
+impl RftCoefficients {
+    /// `poppy_lp`, `poppy_cp`, `poppy_lp_grid`, or `generic` (which needs `zeta_n_cm3`).
+    pub fn by_name(name: &str, zeta_n_cm3: Option<f64>) -> Result<Self, ModelError> {
+        match name {
+            "poppy_lp" => Ok(RftCoefficients::Fit(RftFit::POPPY_LP)),
+            "poppy_cp" => Ok(RftCoefficients::Fit(RftFit::POPPY_CP)),
+            "poppy_lp_grid" => Ok(RftCoefficients::Grid(RftGrid::poppy_lp())),
+            "generic" => Ok(RftCoefficients::Fit(RftFit::generic(
+                zeta_n_cm3.unwrap_or(f64::NAN),
+            )?)),
+            _ => Err(ModelError::UnknownRftSet {
+                name: name.to_string(),
+                known: RFT_SET_NAMES.join(", "),
+            }),
+        }
+    }
+
+    fn alpha(&self, beta_r: f64, gamma: f64) -> (f64, f64) {
+        match self {
+            RftCoefficients::Fit(f) => f.alpha(beta_r, gamma),
+            RftCoefficients::Grid(g) => g.alpha(beta_r, gamma),
+        }
+    }
+}
+
+/// RFT for the rotating plate, integrated over `elements` equal elements of the submerged length.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RftModel {
+    plate: Plate,
+    coefficients: RftCoefficients,
+    elements: usize,
+}
+
+impl RftModel {
+    pub const MAX_ELEMENTS: usize = 100_000;
+
+    pub fn new(
+        plate: Plate,
+        coefficients: RftCoefficients,
+        elements: usize,
+    ) -> Result<Self, ModelError> {
+        if elements == 0 || elements > Self::MAX_ELEMENTS {
+            return Err(ModelError::RftElements {
+                value: elements,
+                max: Self::MAX_ELEMENTS,
+            });
+        }
+        Ok(RftModel {
+            plate,
+            coefficients,
+            elements,
+        })
+    }
+
+    pub fn plate(&self) -> &Plate {
+        &self.plate
+    }
+
+    /// Drag, lift and hip torque at attack angle `beta_rad` (wrapped to `[0, 2pi)`).
+    ///
+    /// ```
+    /// use terzaghi::model::{Plate, RftCoefficients, RftFit, RftModel};
+    /// let rft = RftModel::new(Plate::new(0.25, 0.06, 0.15).unwrap(),
+    ///     RftCoefficients::Fit(RftFit::POPPY_LP), 100).unwrap();
+    /// let p = rft.evaluate(60f64.to_radians()).unwrap();
+    /// assert!((p.drag_n - 14.3).abs() < 0.05 && (p.lift_n - 11.6).abs() < 0.05);
+    /// ```
+    pub fn evaluate(&self, beta_rad: f64) -> Result<Prediction, ModelError> {
+        let beta = wrap_beta_rad(finite("attack angle beta (rad)", beta_rad)?);
+        let l_s = self.plate.submerged_length_m(beta);
+        if l_s <= 0.0 {
+            return Ok(Prediction {
+                beta_rad: beta,
+                submerged_m: 0.0,
+                depth_m: 0.0,
+                drag_n: 0.0,
+                lift_n: 0.0,
+                hip_torque_nm: 0.0,
+                regime: Regime::OutOfMedium,
+            });
+        }
+        let l = self.plate.length_m();
+        let h = self.plate.hip_height_m();
+        let ds = l_s / self.elements as f64;
+        let area = self.plate.width_m() * ds;
+        // Unit vector from the hip along the plate, and the element velocity direction for a
+        // rotation that increases beta (the tip travels along +x at beta = pi/2).
+        let (sin_b, cos_b) = beta.sin_cos();
+        let (ux, uz) = (-cos_b, -sin_b);
+        let (vx, vz) = (sin_b, -cos_b);
+        let (mut drag, mut lift, mut torque) = (0.0, 0.0, 0.0);
+        for i in 0..self.elements {
+            let r = (l - l_s) + (i as f64 + 0.5) * ds; // distance from the hip
+            let depth = -(h + r * uz); // below the free surface at z = 0 (hip at z = h)
+            if depth <= 0.0 {
+                continue;
+            }
+            // The element's own attack angle in [-pi/2, pi/2] and intrusion angle.
+            let beta_r = wrap_half_pi(uz.atan2(ux) + PI);
+            let gamma = (-vz).atan2(vx);
+            let (ax, az) = self.coefficients.alpha(beta_r, gamma);
+            let (d_drag, d_lift) = (
+                ax * N_CM3_TO_N_M3 * depth * area,
+                az * N_CM3_TO_N_M3 * depth * area,
+            );
+            drag += d_drag;
+            lift += d_lift;
+            // Resisting moment: the component of the element force against its velocity.
+            torque += r * (d_drag * vx - d_lift * vz);
+        }
+        Ok(Prediction {
+            beta_rad: beta,
+            submerged_m: l_s,
+            depth_m: l_s * sin_b,
+            drag_n: drag,
+            lift_n: lift,
+            hip_torque_nm: torque,
+            regime: if beta <= FRAC_PI_2 {
+                Regime::Penetration
+            } else {
+                Regime::Extraction
+            },
+        })
+    }
+}
+
+/// A line's angle folded into `[-pi/2, pi/2]` (a plate has no head or tail).
+/// Both ends, `-pi/2` and `pi/2`, are the same vertical plate and give the same stress.
+fn wrap_half_pi(angle: f64) -> f64 {
+    (angle + FRAC_PI_2).rem_euclid(PI) - FRAC_PI_2
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn plate() -> Plate {
+        Plate::new(0.25, 0.06, 0.15).unwrap()
+    }
+
+    /// For a flat plate, alpha is the same on every element, so the integral is
+    /// `alpha b sin(beta) l_s^2 / 2`.
+    fn closed_form(fit: &RftFit, beta: f64) -> (f64, f64) {
+        let l_s = plate().submerged_length_m(beta);
+        let beta_r = if beta <= FRAC_PI_2 { beta } else { beta - PI };
+        let (ax, az) = fit.alpha(beta_r, FRAC_PI_2 - beta);
+        let k = N_CM3_TO_N_M3 * 0.06 * beta.sin() * l_s * l_s / 2.0;
+        (ax * k, az * k)
+    }
+
+    #[test]
+    fn poppy_lp_reference_values() {
+        let m = RftModel::new(plate(), RftCoefficients::Fit(RftFit::POPPY_LP), 100).unwrap();
+        let p60 = m.evaluate(60f64.to_radians()).unwrap();
+        assert!((p60.drag_n - 14.3).abs() < 0.05, "{}", p60.drag_n);
+        assert!((p60.lift_n - 11.6).abs() < 0.05, "{}", p60.lift_n);
+        let p90 = m.evaluate(90f64.to_radians()).unwrap();
+        assert!((p90.drag_n - 24.9).abs() < 0.05, "{}", p90.drag_n);
+        assert!((p90.lift_n - 1.2).abs() < 0.05, "{}", p90.lift_n);
+    }
+
+    #[test]
+    fn element_integration_matches_closed_form_for_a_flat_plate() {
+        for fit in [
+            RftFit::POPPY_LP,
+            RftFit::POPPY_CP,
+            RftFit::generic(0.5).unwrap(),
+        ] {
+            let m = RftModel::new(plate(), RftCoefficients::Fit(fit), 7).unwrap();
+            for beta_deg in [40.0, 60.0, 90.0, 110.0, 130.0] {
+                let beta = f64::to_radians(beta_deg);
+                let p = m.evaluate(beta).unwrap();
+                let (d, l) = closed_form(&fit, beta);
+                assert!(
+                    (p.drag_n - d).abs() < 1e-9 * d.abs().max(1.0),
+                    "{beta_deg}: {} {d}",
+                    p.drag_n
+                );
+                assert!(
+                    (p.lift_n - l).abs() < 1e-9 * l.abs().max(1.0),
+                    "{beta_deg}: {} {l}",
+                    p.lift_n
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn torque_is_drag_and_lift_resolved_against_the_velocity() {
+        let m = RftModel::new(plate(), RftCoefficients::Fit(RftFit::POPPY_LP), 1000).unwrap();
+        let beta = 70f64.to_radians();
+        let p = m.evaluate(beta).unwrap();
+        // Forces act at 2/3 of the submerged length below O (stress grows linearly with depth).
+        let arm = 0.25 - p.submerged_m + 2.0 / 3.0 * p.submerged_m;
+        let want = arm * (p.drag_n * beta.sin() + p.lift_n * beta.cos());
+        assert!(
+            (p.hip_torque_nm - want).abs() < 1e-3 * want,
+            "{} {want}",
+            p.hip_torque_nm
+        );
+    }
+
+    #[test]
+    fn shipped_grid_parses_and_interpolates_at_its_nodes() {
+        let g = RftGrid::poppy_lp();
+        assert_eq!((g.betas.len(), g.gammas.len()), (7, 13));
+        let (ax, az) = g.alpha(1.0472, -0.7854);
+        assert!((ax - 0.046233).abs() < 1e-12 && (az - 0.0092621).abs() < 1e-12);
+        // Halfway between two nodes in beta: the mean.
+        let (ax2, _) = g.alpha((1.0472 + 0.5236) / 2.0, -0.7854);
+        assert!((ax2 - (0.046233 + -0.0051974) / 2.0).abs() < 1e-9);
+        // Clamped outside.
+        assert_eq!(g.alpha(9.0, 9.0), g.alpha(1.5708, 1.5708));
+    }
+
+    #[test]
+    fn grid_is_close_to_the_fit_where_both_apply() {
+        let fit = RftModel::new(plate(), RftCoefficients::Fit(RftFit::POPPY_LP), 50).unwrap();
+        let grid = RftModel::new(
+            plate(),
+            RftCoefficients::by_name("poppy_lp_grid", None).unwrap(),
+            50,
+        )
+        .unwrap();
+        let (a, b) = (fit.evaluate(1.2).unwrap(), grid.evaluate(1.2).unwrap());
+        assert!(
+            (a.lift_n - b.lift_n).abs() < 0.35 * a.lift_n.abs(),
+            "{} {}",
+            a.lift_n,
+            b.lift_n
+        );
+        assert!(
+            (a.drag_n - b.drag_n).abs() < 0.35 * a.drag_n.abs(),
+            "{} {}",
+            a.drag_n,
+            b.drag_n
+        );
+    }
+
+    #[test]
+    fn bad_grids_and_settings_are_errors() {
+        assert!(RftGrid::parse("beta_rad,gamma_rad,alpha_x,alpha_z\n0,0,1,x\n").is_err());
+        assert!(RftGrid::parse("0,0,1,1\n1,0,1,1\n0,1,1,1\n").is_err());
+        assert!(RftModel::new(plate(), RftCoefficients::Fit(RftFit::POPPY_LP), 0).is_err());
+        assert!(RftCoefficients::by_name("generic", None).is_err());
+        assert!(
+            RftCoefficients::by_name("mud", None)
+                .unwrap_err()
+                .to_string()
+                .contains("poppy_lp")
+        );
+    }
+
+    #[test]
+    fn zero_out_of_medium() {
+        let m = RftModel::new(plate(), RftCoefficients::Fit(RftFit::POPPY_LP), 10).unwrap();
+        let p = m.evaluate(0.2).unwrap();
+        assert_eq!(
+            (p.drag_n, p.lift_n, p.regime),
+            (0.0, 0.0, Regime::OutOfMedium)
+        );
+    }
+}
