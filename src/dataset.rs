@@ -1,5 +1,6 @@
 //! Reading force logs: CSV with a header that names at least `beta_rad,drag_n,lift_n`
-//! (optionally `t_s`; other columns are ignored). Cells `nan`/`inf` are kept as samples for the
+//! (optionally `t_s`; other columns are ignored). A `beta_deg` column stands in for `beta_rad`,
+//! so that the output of `terzaghi predict` reads back. Cells `nan`/`inf` are kept as samples for the
 //! identification to count and skip; a cell that is not a number is an error naming its line.
 
 use crate::ident::Sample;
@@ -82,7 +83,13 @@ pub fn read_samples<R: Read>(input: R, name: &str) -> Result<Vec<Sample>, Datase
                 found: headers.iter().collect::<Vec<_>>().join(","),
             })
     };
-    let (ib, id, il) = (col("beta_rad")?, col("drag_n")?, col("lift_n")?);
+    let deg = headers.iter().position(|h| h == "beta_deg");
+    let (ib, beta_column, to_rad) = match (col("beta_rad"), deg) {
+        (Ok(i), _) => (i, "beta_rad", 1.0),
+        (Err(_), Some(i)) => (i, "beta_deg", std::f64::consts::PI / 180.0),
+        (Err(e), None) => return Err(e),
+    };
+    let (id, il) = (col("drag_n")?, col("lift_n")?);
     let it = headers.iter().position(|h| h == "t_s");
     let mut out = Vec::new();
     for rec in rdr.records() {
@@ -99,7 +106,7 @@ pub fn read_samples<R: Read>(input: R, name: &str) -> Result<Vec<Sample>, Datase
         };
         out.push(Sample {
             t_s: it.map(|i| cell(i, "t_s")).transpose()?,
-            beta_rad: cell(ib, "beta_rad")?,
+            beta_rad: cell(ib, beta_column)? * to_rad,
             drag_n: cell(id, "drag_n")?,
             lift_n: cell(il, "lift_n")?,
         });
@@ -124,6 +131,12 @@ mod tests {
             (0.5, 2.0, 1.0, None)
         );
         assert!(s[1].lift_n.is_nan());
+    }
+
+    #[test]
+    fn beta_deg_stands_in_for_beta_rad() {
+        let s = read_samples("beta_deg,drag_n,lift_n\n90,1,2\n".as_bytes(), "t").unwrap();
+        assert!((s[0].beta_rad - std::f64::consts::FRAC_PI_2).abs() < 1e-15);
     }
 
     #[test]

@@ -4,9 +4,11 @@
 //! - [`ident`]: identification of the fitting width `b_k, a` (and `delta`) from measured
 //!   forces, and goodness of fit (pure).
 //! - [`dataset`]: reading force logs (CSV) into samples (I/O adapter).
+//! - [`sim`]: synthetic sessions (rotation, forces, sensor noise) for tests and the demo.
 //! - [`cli`]: the `terzaghi` command line.
 
 pub mod cli;
 pub mod dataset;
 pub mod ident;
 pub mod model;
+pub mod sim;

@@ -42,6 +42,10 @@ pub enum ModelError {
     UnknownMedium { name: String, known: String },
     #[error("RFT element count must be between 1 and {max}, got {value}")]
     RftElements { value: usize, max: usize },
+    #[error(
+        "the model overflows at beta = {beta_deg} deg with phi = {phi_deg} deg (the failure surface grows as exp(3 theta tan phi)); use a smaller phi"
+    )]
+    Overflow { beta_deg: f64, phi_deg: f64 },
     #[error("unknown RFT coefficient set {name:?}; known: {known}")]
     UnknownRftSet { name: String, known: String },
 }

@@ -81,6 +81,9 @@ impl Plate {
 /// assert!((wrap_beta_rad(std::f64::consts::TAU + 1.0) - 1.0).abs() < 1e-12);
 /// ```
 pub fn wrap_beta_rad(beta_rad: f64) -> f64 {
+    if (0.0..TAU).contains(&beta_rad) {
+        return beta_rad; // the common case, without a division
+    }
     let w = beta_rad.rem_euclid(TAU);
     // rem_euclid can round up to exactly TAU for tiny negative inputs.
     if w >= TAU { 0.0 } else { w }

@@ -170,7 +170,15 @@ impl TerzaghiModel {
     /// ```
     pub fn evaluate(&self, beta_rad: f64) -> Result<LegForce, ModelError> {
         let beta = wrap_beta_rad(finite("attack angle beta (rad)", beta_rad)?);
-        Ok(self.evaluate_wrapped(beta))
+        let f = self.evaluate_wrapped(beta);
+        if f.hip_torque_nm.is_finite() && f.drag_n.is_finite() && f.lift_n.is_finite() {
+            Ok(f)
+        } else {
+            Err(ModelError::Overflow {
+                beta_deg: beta.to_degrees(),
+                phi_deg: self.medium.phi_deg(),
+            })
+        }
     }
 
     /// [`TerzaghiModel::evaluate`] for an angle already wrapped to `[0, 2pi)`.
@@ -201,8 +209,14 @@ impl TerzaghiModel {
         let (regime, terms) = if theta > 0.0 {
             let e1 = (theta * c.k).exp();
             let r_b = l_s * e1; // |OB|
-            // Eq. (14): sector area l_s^2 (e^{2 theta k} - 1) / (4k); exp_m1 keeps it exact near 0.
-            let g_lg = w * l_s * l_s * (2.0 * theta * c.k).exp_m1() / (4.0 * c.k);
+            // Eq. (14): sector area l_s^2 (e^{2 theta k} - 1) / (4k); exp_m1 keeps it exact near
+            // theta = 0, where e1^2 - 1 would cancel (a third exp only there).
+            let e2_m1 = if theta * c.k < 1e-3 {
+                (2.0 * theta * c.k).exp_m1()
+            } else {
+                e1 * e1 - 1.0
+            };
+            let g_lg = w * l_s * l_s * e2_m1 / (4.0 * c.k);
             // Eqs. (15)-(16): G_lg d_lg = w l_s^3 f / (3 (1 + 9k^2)), with
             // f = sin b + 3k cos b + e^{3 theta k} [3k cos(pi + b + theta) - sin(b + theta)],
             // and b + theta = 3pi/4 + phi/2 = pi - alpha, so cos(pi+b+theta) = cos(alpha),
@@ -526,6 +540,16 @@ mod tests {
                 .to_string()
                 .contains("inf")
         );
+    }
+
+    #[test]
+    fn overflow_near_phi_90_is_an_error_not_a_nan() {
+        let m = TerzaghiModel::conventional(
+            Plate::new(0.25, 0.06, 0.0).unwrap(),
+            Medium::new(16170.0, 89.9, 19.0).unwrap(),
+        );
+        let e = m.evaluate(0.3).unwrap_err();
+        assert!(matches!(e, ModelError::Overflow { .. }), "{e}");
     }
 
     #[test]

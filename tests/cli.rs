@@ -1,0 +1,385 @@
+//! The `terzaghi` binary as users call it: outputs, --help, and every kind of bad input
+//! (exit code 2, one clear line on stderr, no panic, nothing on stdout).
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn terzaghi(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_terzaghi"))
+        .args(args)
+        .output()
+        .expect("run terzaghi")
+}
+
+const GEOM: [&str; 6] = [
+    "--length-m",
+    "0.25",
+    "--width-m",
+    "0.06",
+    "--hip-height-m",
+    "0.15",
+];
+const SAND: [&str; 6] = [
+    "--unit-weight-n-m3",
+    "16170",
+    "--phi-deg",
+    "32",
+    "--delta-deg",
+    "19",
+];
+
+fn with(base: &[&str], extra: &[&str]) -> Vec<String> {
+    base.iter().chain(extra).map(|s| s.to_string()).collect()
+}
+
+fn run(args: &[String]) -> Output {
+    terzaghi(&args.iter().map(String::as_str).collect::<Vec<_>>())
+}
+
+/// Exit 2, a single stderr line that contains every `needle`, no panic, no stdout.
+fn assert_clean_error(out: &Output, needles: &[&str]) {
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "stderr: {err}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(
+        err.trim_end().lines().count(),
+        1,
+        "one line expected: {err}"
+    );
+    for n in needles {
+        assert!(err.contains(n), "{n:?} missing from: {err}");
+    }
+    assert!(
+        out.stdout.is_empty(),
+        "partial output: {}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+}
+
+fn predict(extra: &[&str]) -> Output {
+    let mut a = with(&["predict"], &GEOM);
+    a.extend(extra.iter().map(|s| s.to_string()));
+    run(&a)
+}
+
+#[test]
+fn predict_prints_the_check_values_as_csv() {
+    let mut extra = vec!["--model", "conventional", "--beta-deg", "45:135:15"];
+    extra.extend(SAND);
+    let out = predict(&extra);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8(out.stdout).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(
+        lines[0],
+        "beta_deg,submerged_m,depth_m,drag_n,lift_n,hip_torque_nm,regime"
+    );
+    assert_eq!(lines.len(), 8);
+    assert_eq!(
+        lines[2],
+        "60,0.076795,0.066506,39.674130,45.639865,12.831005,penetration"
+    );
+    assert!(lines[5].ends_with("extraction_spiral"));
+}
+
+#[test]
+fn predict_json_and_presets_and_rft() {
+    let out = predict(&[
+        "--medium",
+        "poppy_lp",
+        "--model",
+        "rft",
+        "--beta-deg",
+        "60",
+        "--format",
+        "json",
+    ]);
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let drag = v[0]["drag_n"].as_f64().unwrap();
+    assert!((drag - 14.3).abs() < 0.05, "{drag}");
+    // Improved with a preset's Table 3 fit, and with explicit --bk --a (Case B).
+    let out = predict(&["--medium", "poppy_cp", "--beta-deg", "60"]);
+    assert!(out.status.success());
+    let mut extra = vec![
+        "--bk",
+        "2.5",
+        "--a",
+        "1.6",
+        "--beta-deg",
+        "60",
+        "--format",
+        "json",
+    ];
+    extra.extend(SAND);
+    let v: serde_json::Value = serde_json::from_slice(&predict(&extra).stdout).unwrap();
+    assert!((v[0]["drag_n"].as_f64().unwrap() - 60.630824).abs() < 1e-5);
+}
+
+#[test]
+fn never_submerged_is_a_warning_with_zero_forces() {
+    let out = terzaghi(&[
+        "predict",
+        "--length-m",
+        "0.1",
+        "--width-m",
+        "0.05",
+        "--hip-height-m",
+        "0.2",
+        "--medium",
+        "poppy_lp",
+        "--beta-deg",
+        "90",
+    ]);
+    assert_eq!(out.status.code(), Some(0));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("never enters the medium"));
+    assert!(
+        String::from_utf8_lossy(&out.stdout).contains("0.000000,0.000000,0.000000,out_of_medium")
+    );
+}
+
+#[test]
+fn help_for_every_command() {
+    for cmd in [
+        vec!["--help"],
+        vec!["predict", "--help"],
+        vec!["fit", "--help"],
+        vec!["media", "--help"],
+        vec!["bench", "--help"],
+    ] {
+        let out = terzaghi(&cmd);
+        assert!(out.status.success(), "{cmd:?}");
+        assert!(
+            String::from_utf8_lossy(&out.stdout).contains("Usage"),
+            "{cmd:?}"
+        );
+    }
+    let out = terzaghi(&["media"]);
+    assert!(String::from_utf8_lossy(&out.stdout).contains("glass_spheres_cp"));
+}
+
+#[test]
+fn impossible_geometry_and_media_are_clean_errors() {
+    let cases: Vec<(Vec<&str>, Vec<&str>)> = vec![
+        (
+            vec![
+                "--length-m",
+                "0",
+                "--width-m",
+                "0.06",
+                "--hip-height-m",
+                "0.1",
+            ],
+            vec!["length", "0"],
+        ),
+        (
+            vec![
+                "--length-m",
+                "0.25",
+                "--width-m",
+                "-0.06",
+                "--hip-height-m",
+                "0.1",
+            ],
+            vec!["width", "-0.06"],
+        ),
+        (
+            vec![
+                "--length-m",
+                "0.25",
+                "--width-m",
+                "0.06",
+                "--hip-height-m",
+                "-0.1",
+            ],
+            vec!["hip height", "-0.1"],
+        ),
+        (
+            vec![
+                "--length-m",
+                "nan",
+                "--width-m",
+                "0.06",
+                "--hip-height-m",
+                "0.1",
+            ],
+            vec!["length", "NaN"],
+        ),
+    ];
+    for (geom, needles) in cases {
+        let mut a = vec!["predict"];
+        a.extend(geom);
+        a.extend(["--medium", "poppy_lp", "--beta-deg", "60"]);
+        assert_clean_error(&terzaghi(&a), &needles);
+    }
+    let bad_media: Vec<(Vec<&str>, Vec<&str>)> = vec![
+        (
+            vec![
+                "--unit-weight-n-m3",
+                "16170",
+                "--phi-deg",
+                "95",
+                "--delta-deg",
+                "19",
+            ],
+            vec!["phi", "95"],
+        ),
+        (
+            vec![
+                "--unit-weight-n-m3",
+                "16170",
+                "--phi-deg",
+                "32",
+                "--delta-deg",
+                "90",
+            ],
+            vec!["delta", "90"],
+        ),
+        (
+            vec![
+                "--unit-weight-n-m3",
+                "-1",
+                "--phi-deg",
+                "32",
+                "--delta-deg",
+                "19",
+            ],
+            vec!["unit weight", "-1"],
+        ),
+        (
+            vec![
+                "--unit-weight-n-m3",
+                "16170",
+                "--phi-deg",
+                "32",
+                "--delta-deg",
+                "19",
+                "--bk",
+                "0",
+                "--a",
+                "1",
+            ],
+            vec!["b_k", "0"],
+        ),
+        (
+            vec![
+                "--unit-weight-n-m3",
+                "16170",
+                "--phi-deg",
+                "32",
+                "--delta-deg",
+                "19",
+                "--bk",
+                "1",
+                "--a",
+                "-2",
+            ],
+            vec!["a ", "-2"],
+        ),
+        (
+            vec![
+                "--unit-weight-n-m3",
+                "16170",
+                "--phi-deg",
+                "32",
+                "--delta-deg",
+                "19",
+            ],
+            vec!["--bk"],
+        ),
+        (vec!["--medium", "mud"], vec!["mud", "poppy_lp"]),
+        (vec![], vec!["no medium"]),
+        (
+            vec!["--medium", "poppy_lp", "--beta-deg", "0:10:0"],
+            vec!["STEP"],
+        ),
+        (
+            vec![
+                "--medium",
+                "poppy_lp",
+                "--model",
+                "rft",
+                "--rft-elements",
+                "0",
+            ],
+            vec!["element"],
+        ),
+        (
+            vec!["--medium", "glass_beads_lp", "--model", "rft"],
+            vec!["--rft-coeffs"],
+        ),
+    ];
+    for (extra, needles) in bad_media {
+        let mut a = extra.clone();
+        if !a.contains(&"--beta-deg") {
+            a.extend(["--beta-deg", "60"]);
+        }
+        assert_clean_error(&predict(&a), &needles);
+    }
+}
+
+fn fit(path: &Path, extra: &[&str]) -> Output {
+    let mut a = with(&["fit", path.to_str().unwrap()], &GEOM);
+    a.extend(SAND.iter().chain(extra).map(|s| s.to_string()));
+    run(&a)
+}
+
+#[test]
+fn fit_rejects_bad_files_cleanly() {
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("nope.csv");
+    assert_clean_error(&fit(&missing, &[]), &["nope.csv"]);
+
+    let header = dir.path().join("header.csv");
+    std::fs::write(&header, "beta,drag,lift\n1,2,3\n").unwrap();
+    assert_clean_error(&fit(&header, &[]), &["beta_rad", "beta,drag,lift"]);
+
+    let cell = dir.path().join("cell.csv");
+    std::fs::write(&cell, "beta_rad,drag_n,lift_n\n1.0,2,3\n1.1,2x,3\n").unwrap();
+    assert_clean_error(&fit(&cell, &[]), &["line 3", "drag_n", "2x"]);
+
+    let empty = dir.path().join("empty.csv");
+    std::fs::write(&empty, "").unwrap();
+    assert_clean_error(&fit(&empty, &[]), &["empty"]);
+
+    let ragged = dir.path().join("ragged.csv");
+    std::fs::write(&ragged, "beta_rad,drag_n,lift_n\n1.0,2,3\n1.1,2\n").unwrap();
+    assert_clean_error(&fit(&ragged, &[]), &["line 3"]);
+
+    let few = dir.path().join("few.csv");
+    std::fs::write(&few, "beta_rad,drag_n,lift_n\n1.0,2,3\n0.1,0,0\n").unwrap();
+    assert_clean_error(&fit(&few, &[]), &["too few usable samples"]);
+
+    let binary = dir.path().join("binary.csv");
+    std::fs::write(&binary, [0xff, 0xfe, 0x00, 0x41, 0x0a, 0x80]).unwrap();
+    let out = fit(&binary, &[]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("panicked"));
+}
+
+#[test]
+fn usage_errors_exit_2() {
+    let out = terzaghi(&["predict", "--frobnicate"]);
+    assert_eq!(out.status.code(), Some(2));
+    let out = terzaghi(&["nonsense"]);
+    assert_eq!(out.status.code(), Some(2));
+    let out = terzaghi(&["bench", "--seconds", "-1"]);
+    assert_eq!(out.status.code(), Some(2));
+}
+
+/// RFT integrated over 100 elements costs at least 20x one improved-model evaluation, measured in
+/// the same run (a ratio, so machine load cancels out).
+#[test]
+fn bench_reports_rft_at_least_20x_slower_than_improved() {
+    let out = terzaghi(&["bench", "--seconds", "0.3", "--json"]);
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let ratio = v["ratio_rft_to_improved"].as_f64().unwrap();
+    eprintln!("{v}");
+    assert!(ratio >= 20.0, "{v}");
+    assert!(v["improved_median_ns"].as_f64().unwrap() > 0.0);
+}
