@@ -8,9 +8,11 @@
 
 pub mod batch;
 pub mod metrics;
+pub mod online;
 
 pub use batch::{BatchFit, BatchOptions, fit_batch};
 pub use metrics::{GoodnessOfFit, goodness_of_fit};
+pub use online::{Estimate, OnlineEstimator, OnlineOptions};
 
 use crate::model::{ModelError, Regime, TerzaghiModel};
 

@@ -1,0 +1,598 @@
+//! Online identification of `b_k, a` (and optionally `delta`), sample by sample.
+//!
+//! The state is `theta = (ln b_k, ln a, delta)`; every sample gives two rows, drag and lift:
+//! `D = s N (sin b - tan(delta) cos b)`, `L = s N (cos b + tan(delta) sin b)`,
+//! `s = exp(theta_0 - beta theta_1)`, `N` the unit-width normal force of the model at `beta`.
+//! The update is a recursive Gauss–Newton (extended Kalman) step on the raw forces:
+//! `K = P H^T (H P H^T + R)^-1`, `theta += K e`, `P = (I - K H) P (I - K H)^T + K R K^T`, then
+//! forgetting `P /= lambda`. `P` is the covariance of `theta` (it carries the noise variance), so
+//! the reported standard deviations come straight from it.
+//!
+//! Until `startup_samples` samples have been used, a log-linear RLS (`ln(F / F_unit) =
+//! ln b_k - beta ln a`, linear in `theta`) runs instead: it cannot overshoot from a far start, but
+//! is biased where forces are small, so it only initialises the Gauss–Newton step.
+//!
+//! Robustness, each an option of [`OnlineOptions`]:
+//! - forgetting by the angle swept while updating (memory in strokes, whatever the sample rate
+//!   or speed), or a fixed factor per sample; `P` is bounded so it cannot wind up;
+//! - an excitation gate: only penetration samples whose unit-width force is above a threshold;
+//! - Huber weights on standardized innovations, and detection of a stuck sensor;
+//! - bounds on `b_k`, `a`, `delta` (projection), and non-finite samples skipped and counted;
+//! - change detection: a CUSUM of clipped squared standardized innovations; on an alarm the
+//!   covariance is re-opened and the event reported.
+//!
+//! Convergence rule: `converged` is true when at least `converge_min_updates` updates have been
+//! made since the start (or the last detected change), and the relative standard deviations of
+//! `b_k` and `a` (that is, of `ln b_k` and `ln a`) are both below `converge_rel_std`, and the
+//! CUSUM statistic is below half its alarm level.
+
+use super::Sample;
+use crate::model::{FittingWidth, ModelError, Regime, TerzaghiModel};
+use nalgebra::{Matrix2, Matrix3, Matrix3x2, Vector2, Vector3};
+use serde::Serialize;
+use std::f64::consts::FRAC_PI_2;
+
+/// How old information fades.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Forgetting {
+    /// Memory in strokes: each update forgets `exp(-dbeta / (strokes * span))`, `dbeta` the
+    /// angle swept since the previous sample and `span` the penetration span of one stroke.
+    Strokes(f64),
+    /// A fixed factor per update (`lambda` in `(0, 1]`), as in textbook RLS.
+    PerSample(f64),
+}
+
+/// Options of the online estimator. Defaults suit a leg turning at 0.5–4 rad/s sampled at
+/// 100 Hz–1 kHz with a sensor noise of a few percent of the peak force.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct OnlineOptions {
+    /// Estimate `delta` too (observable from the drag/lift ratio).
+    pub fit_delta: bool,
+    /// Forgetting; default: a memory of three strokes.
+    pub forgetting: Forgetting,
+    /// Excitation gate: skip samples whose unit-width model force (`b_e = b`) is below this (N).
+    pub min_unit_force_n: f64,
+    /// Huber threshold on the standardized innovation (in standard deviations).
+    pub huber_k: f64,
+    /// Consecutive identical measurements that mark the sensor as stuck.
+    pub stuck_samples: usize,
+    /// Bounds on `b_k`, `a` and `delta` (deg).
+    pub b_k_range: (f64, f64),
+    pub a_range: (f64, f64),
+    pub delta_range_deg: (f64, f64),
+    /// Initial guess (default: the conventional model `b_k = a = 1`).
+    pub initial_b_k: f64,
+    pub initial_a: f64,
+    /// Initial standard deviation of `ln b_k` and `ln a`, and of `delta` (deg).
+    pub initial_std_ln: f64,
+    pub initial_std_delta_deg: f64,
+    /// Upper bound on the standard deviation of `ln b_k`, `ln a` (no wind-up beyond this).
+    pub max_std_ln: f64,
+    /// Initial sensor noise standard deviation (N); it is then estimated from the innovations.
+    pub initial_noise_n: f64,
+    /// Samples used by the log-linear start-up before the Gauss–Newton step takes over.
+    pub startup_samples: usize,
+    /// Convergence rule: relative std of `b_k` and `a` below this ...
+    pub converge_rel_std: f64,
+    /// ... after at least this many updates.
+    pub converge_min_updates: u64,
+    /// CUSUM drift per sample and alarm level (in units of squared standardized innovation).
+    pub cusum_drift: f64,
+    pub cusum_alarm: f64,
+}
+
+impl Default for OnlineOptions {
+    fn default() -> Self {
+        OnlineOptions {
+            fit_delta: false,
+            forgetting: Forgetting::Strokes(3.0),
+            min_unit_force_n: 0.5,
+            huber_k: 2.5,
+            stuck_samples: 8,
+            b_k_range: (1e-3, 1e4),
+            a_range: (0.05, 100.0),
+            delta_range_deg: (0.0, 80.0),
+            initial_b_k: 1.0,
+            initial_a: 1.0,
+            initial_std_ln: 2.0,
+            initial_std_delta_deg: 10.0,
+            max_std_ln: 3.0,
+            initial_noise_n: 1.0,
+            startup_samples: 40,
+            converge_rel_std: 0.02,
+            converge_min_updates: 50,
+            cusum_drift: 1.0,
+            cusum_alarm: 60.0,
+        }
+    }
+}
+
+/// What is wrong with the options; names the option and its value.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum OnlineOptionsError {
+    #[error("{name} = {value} is out of range: {expected}")]
+    OutOfRange {
+        name: &'static str,
+        value: f64,
+        expected: &'static str,
+    },
+}
+
+impl OnlineOptions {
+    pub fn validate(&self) -> Result<(), OnlineOptionsError> {
+        let check = |name, value: f64, ok: bool, expected| {
+            if value.is_finite() && ok {
+                Ok(())
+            } else {
+                Err(OnlineOptionsError::OutOfRange {
+                    name,
+                    value,
+                    expected,
+                })
+            }
+        };
+        match self.forgetting {
+            Forgetting::Strokes(m) => check("forgetting memory (strokes)", m, m > 0.0, "> 0")?,
+            Forgetting::PerSample(l) => {
+                check("forgetting factor", l, l > 0.0 && l <= 1.0, "in (0, 1]")?
+            }
+        }
+        let pos = |name, v: f64| check(name, v, v > 0.0, "> 0");
+        check(
+            "min_unit_force_n",
+            self.min_unit_force_n,
+            self.min_unit_force_n >= 0.0,
+            ">= 0",
+        )?;
+        pos("huber_k", self.huber_k)?;
+        pos("initial_b_k", self.initial_b_k)?;
+        pos("initial_a", self.initial_a)?;
+        pos("initial_std_ln", self.initial_std_ln)?;
+        pos("initial_std_delta_deg", self.initial_std_delta_deg)?;
+        pos("max_std_ln", self.max_std_ln)?;
+        pos("initial_noise_n", self.initial_noise_n)?;
+        pos("converge_rel_std", self.converge_rel_std)?;
+        pos("cusum_alarm", self.cusum_alarm)?;
+        check(
+            "cusum_drift",
+            self.cusum_drift,
+            self.cusum_drift >= 0.0,
+            ">= 0",
+        )?;
+        for (name, (lo, hi)) in [("b_k range", self.b_k_range), ("a range", self.a_range)] {
+            check(
+                name,
+                lo,
+                lo > 0.0 && hi > lo && hi.is_finite(),
+                "0 < low < high",
+            )?;
+        }
+        let (dlo, dhi) = self.delta_range_deg;
+        check(
+            "delta range (deg)",
+            dlo,
+            dlo >= 0.0 && dhi > dlo && dhi < 90.0,
+            "0 <= low < high < 90",
+        )?;
+        let inside = |name, v: f64, (lo, hi): (f64, f64)| {
+            check(name, v, v >= lo && v <= hi, "inside its range")
+        };
+        inside("initial_b_k", self.initial_b_k, self.b_k_range)?;
+        inside("initial_a", self.initial_a, self.a_range)?;
+        if self.stuck_samples < 2 {
+            return Err(OnlineOptionsError::OutOfRange {
+                name: "stuck_samples",
+                value: self.stuck_samples as f64,
+                expected: ">= 2",
+            });
+        }
+        Ok(())
+    }
+}
+
+/// Why a sample did not update the estimate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Skip {
+    /// A non-finite angle or force.
+    NonFinite,
+    /// Outside the excitation gate (not penetration, or too little force to learn from).
+    NotExcited,
+    /// The sensor repeats the same value: stuck.
+    Stuck,
+}
+
+/// A detected change of the medium.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ChangeEvent {
+    pub t_s: Option<f64>,
+    /// Estimates just before the change was declared.
+    pub b_k_before: f64,
+    pub a_before: f64,
+}
+
+/// The estimate after a sample, as the node publishes it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Estimate {
+    pub b_k: f64,
+    pub a: f64,
+    pub delta_deg: f64,
+    pub std_b_k: f64,
+    pub std_a: f64,
+    pub std_delta_deg: f64,
+    pub samples_used: u64,
+    pub samples_non_finite: u64,
+    pub samples_not_excited: u64,
+    pub samples_stuck: u64,
+    /// RMS of recent innovations (measured minus predicted force), N.
+    pub innovation_rms_n: f64,
+    /// Estimated sensor noise standard deviation, N.
+    pub noise_n: f64,
+    pub converged: bool,
+    pub changes_detected: u64,
+}
+
+impl Estimate {
+    pub fn fitting_width(&self) -> Result<FittingWidth, ModelError> {
+        FittingWidth::new(self.b_k, self.a)
+    }
+}
+
+/// The online estimator for one leg.
+#[derive(Debug, Clone)]
+pub struct OnlineEstimator {
+    unit: TerzaghiModel,
+    opts: OnlineOptions,
+    /// Penetration span of one stroke (rad), for forgetting by strokes.
+    span_rad: f64,
+    theta: Vector3<f64>,
+    p: Matrix3<f64>,
+    noise_var: f64,
+    innov_ms: f64,
+    cusum: f64,
+    updates_since_reset: u64,
+    /// Start-up samples still to be taken by the log-linear fit.
+    startup_left: usize,
+    /// The CUSUM runs once the estimate has converged since the last reset or change.
+    cusum_armed: bool,
+    prev_beta: Option<f64>,
+    last_meas: Option<(f64, f64)>,
+    repeats: usize,
+    // Log-linear start-up: information matrix and vector in (ln b_k, ln a).
+    start_info: Matrix2<f64>,
+    start_vec: Vector2<f64>,
+    est: Estimate,
+    changes: Vec<ChangeEvent>,
+    converged_at_s: Option<f64>,
+}
+
+impl OnlineEstimator {
+    /// An estimator for `model`'s plate and medium (its fitting width is ignored: the estimate
+    /// starts from `opts.initial_b_k, opts.initial_a` and the medium's `delta`).
+    pub fn new(model: &TerzaghiModel, opts: OnlineOptions) -> Result<Self, OnlineOptionsError> {
+        opts.validate()?;
+        let plate = model.plate();
+        let span_rad = FRAC_PI_2 - plate.entry_beta_rad().unwrap_or(0.0);
+        let mut s = OnlineEstimator {
+            unit: model.with_fitting_width(FittingWidth::CONVENTIONAL),
+            opts,
+            span_rad: span_rad.max(0.05),
+            theta: Vector3::zeros(),
+            p: Matrix3::zeros(),
+            noise_var: 0.0,
+            innov_ms: 0.0,
+            cusum: 0.0,
+            updates_since_reset: 0,
+            startup_left: 0,
+            cusum_armed: false,
+            prev_beta: None,
+            last_meas: None,
+            repeats: 0,
+            start_info: Matrix2::zeros(),
+            start_vec: Vector2::zeros(),
+            est: Estimate {
+                b_k: 0.0,
+                a: 0.0,
+                delta_deg: 0.0,
+                std_b_k: 0.0,
+                std_a: 0.0,
+                std_delta_deg: 0.0,
+                samples_used: 0,
+                samples_non_finite: 0,
+                samples_not_excited: 0,
+                samples_stuck: 0,
+                innovation_rms_n: 0.0,
+                noise_n: 0.0,
+                converged: false,
+                changes_detected: 0,
+            },
+            changes: Vec::new(),
+            converged_at_s: None,
+        };
+        s.reset();
+        Ok(s)
+    }
+
+    /// Back to the initial guess; counters and change history are cleared too.
+    pub fn reset(&mut self) {
+        let o = &self.opts;
+        self.theta = Vector3::new(
+            o.initial_b_k.ln(),
+            o.initial_a.ln(),
+            self.unit.medium().delta_rad(),
+        );
+        self.noise_var = o.initial_noise_n.powi(2);
+        self.innov_ms = 0.0;
+        self.prev_beta = None;
+        self.last_meas = None;
+        self.repeats = 0;
+        self.restart();
+        self.changes.clear();
+        self.converged_at_s = None;
+        self.est.samples_used = 0;
+        self.est.samples_non_finite = 0;
+        self.est.samples_not_excited = 0;
+        self.est.samples_stuck = 0;
+        self.est.changes_detected = 0;
+        self.refresh_estimate();
+    }
+
+    /// Opens the covariance and runs the log-linear start-up again from the current estimate.
+    fn restart(&mut self) {
+        let o = &self.opts;
+        self.p = self.initial_p();
+        self.cusum = 0.0;
+        self.cusum_armed = false;
+        self.updates_since_reset = 0;
+        self.startup_left = o.startup_samples;
+        self.start_info = Matrix2::from_diagonal_element(1.0 / o.initial_std_ln.powi(2));
+        self.start_vec = self.start_info * Vector2::new(self.theta[0], self.theta[1]);
+    }
+
+    fn initial_p(&self) -> Matrix3<f64> {
+        let o = &self.opts;
+        let d = if o.fit_delta {
+            o.initial_std_delta_deg.to_radians().powi(2)
+        } else {
+            0.0
+        };
+        Matrix3::from_diagonal(&Vector3::new(
+            o.initial_std_ln.powi(2),
+            o.initial_std_ln.powi(2),
+            d,
+        ))
+    }
+
+    pub fn options(&self) -> &OnlineOptions {
+        &self.opts
+    }
+
+    /// The current estimate.
+    pub fn estimate(&self) -> &Estimate {
+        &self.est
+    }
+
+    /// Changes of the medium detected so far.
+    pub fn changes(&self) -> &[ChangeEvent] {
+        &self.changes
+    }
+
+    /// Time of the first sample at which `converged` became true (since the last reset).
+    pub fn converged_at_s(&self) -> Option<f64> {
+        self.converged_at_s
+    }
+
+    /// Feeds one sample; `Ok(())` if it updated the estimate, otherwise why not.
+    pub fn update(&mut self, s: &Sample) -> Result<(), Skip> {
+        let r = self.update_inner(s);
+        match r {
+            Ok(()) => self.est.samples_used += 1,
+            Err(Skip::NonFinite) => self.est.samples_non_finite += 1,
+            Err(Skip::NotExcited) => self.est.samples_not_excited += 1,
+            Err(Skip::Stuck) => self.est.samples_stuck += 1,
+        }
+        r
+    }
+
+    fn update_inner(&mut self, s: &Sample) -> Result<(), Skip> {
+        if !(s.beta_rad.is_finite() && s.drag_n.is_finite() && s.lift_n.is_finite())
+            || s.t_s.is_some_and(|t| !t.is_finite())
+        {
+            return Err(Skip::NonFinite);
+        }
+        // Stuck sensor: the same reading again and again.
+        if self.last_meas == Some((s.drag_n, s.lift_n)) {
+            self.repeats += 1;
+        } else {
+            self.repeats = 1;
+            self.last_meas = Some((s.drag_n, s.lift_n));
+        }
+        let f = self
+            .unit
+            .evaluate(s.beta_rad)
+            .map_err(|_| Skip::NonFinite)?;
+        let dbeta = self
+            .prev_beta
+            .map(|p| angle_step(p, f.beta_rad))
+            .unwrap_or(0.0);
+        self.prev_beta = Some(f.beta_rad);
+        if self.repeats >= self.opts.stuck_samples {
+            return Err(Skip::Stuck);
+        }
+        let unit_mag = f.drag_n.hypot(f.lift_n);
+        if f.regime != Regime::Penetration || unit_mag < self.opts.min_unit_force_n {
+            return Err(Skip::NotExcited);
+        }
+        let (sin_b, cos_b) = f.beta_rad.sin_cos();
+        if self.startup_left > 0 {
+            self.startup_left -= 1;
+            self.startup_update(f.beta_rad, f.drag_n, f.lift_n, s);
+        } else {
+            self.gauss_newton_update(f.beta_rad, sin_b, cos_b, f.normal_n, s, dbeta);
+        }
+        self.updates_since_reset += 1;
+        self.refresh_estimate();
+        if self.est.converged {
+            self.cusum_armed = true;
+            if self.converged_at_s.is_none() {
+                self.converged_at_s = s.t_s;
+            }
+        }
+        Ok(())
+    }
+
+    /// Log-linear RLS: `ln(meas / unit) = ln b_k - beta ln a`, for the rows whose measured and
+    /// unit forces share a sign and are clear of zero. Relative noise `sigma / |meas|`.
+    fn startup_update(&mut self, beta: f64, unit_d: f64, unit_l: f64, s: &Sample) {
+        let sigma = self.noise_var.sqrt();
+        for (unit, meas) in [(unit_d, s.drag_n), (unit_l, s.lift_n)] {
+            if unit * meas <= 0.0 || meas.abs() < 3.0 * sigma {
+                continue;
+            }
+            let z = (meas / unit).ln();
+            let w = (meas / sigma).powi(2).min(1e6); // 1 / var(ln meas)
+            let h = Vector2::new(1.0, -beta);
+            self.start_info += w * h * h.transpose();
+            self.start_vec += w * z * h;
+        }
+        if let Some(cov) = self.start_info.try_inverse() {
+            let th = cov * self.start_vec;
+            self.theta[0] = th[0];
+            self.theta[1] = th[1];
+            self.project();
+            // Hand over a covariance no tighter than the log fit's, which is biased.
+            let floor = 0.05f64.powi(2);
+            self.p[(0, 0)] = cov[(0, 0)].max(floor);
+            self.p[(1, 1)] = cov[(1, 1)].max(floor);
+            self.p[(0, 1)] = cov[(0, 1)];
+            self.p[(1, 0)] = cov[(1, 0)];
+        }
+    }
+
+    fn gauss_newton_update(
+        &mut self,
+        beta: f64,
+        sin_b: f64,
+        cos_b: f64,
+        normal_unit: f64,
+        s: &Sample,
+        dbeta: f64,
+    ) {
+        let o = self.opts;
+        let th = self.theta;
+        let scale = (th[0] - beta * th[1]).exp();
+        let (t, sec2) = (th[2].tan(), 1.0 / th[2].cos().powi(2));
+        let n = scale * normal_unit;
+        let (pd, pl) = (n * (sin_b - t * cos_b), n * (cos_b + t * sin_b));
+        let dd = if o.fit_delta { -n * cos_b * sec2 } else { 0.0 };
+        let dl = if o.fit_delta { n * sin_b * sec2 } else { 0.0 };
+        // H: 2 x 3 Jacobian of (drag, lift) in theta, stored transposed.
+        let ht = Matrix3x2::new(pd, pl, -beta * pd, -beta * pl, dd, dl);
+        let e = Vector2::new(s.drag_n - pd, s.lift_n - pl);
+
+        let hp = ht.transpose() * self.p;
+        let hph = hp * ht;
+        // Huber weights on standardized innovations: a large one counts as noisier.
+        let mut r = Matrix2::zeros();
+        let mut nis = 0.0;
+        for i in 0..2 {
+            let var = hph[(i, i)] + self.noise_var;
+            let z = e[i] / var.sqrt();
+            let w = if z.abs() <= o.huber_k {
+                1.0
+            } else {
+                o.huber_k / z.abs()
+            };
+            r[(i, i)] = self.noise_var / w;
+            nis += (z * z).min(o.huber_k * o.huber_k);
+            // Noise variance from clipped innovations, slowly, and not while the CUSUM builds
+            // up: a change of the medium must not pass for noise.
+            if self.cusum < 0.25 * o.cusum_alarm {
+                let clipped = e[i].abs().min(o.huber_k * var.sqrt());
+                self.noise_var =
+                    0.998 * self.noise_var + 0.002 * (clipped * clipped - hph[(i, i)]).max(0.0);
+            }
+            self.innov_ms = 0.99 * self.innov_ms + 0.01 * e[i] * e[i];
+        }
+        self.noise_var = self.noise_var.max(1e-12);
+
+        let Some(s_inv) = (hph + r).try_inverse() else {
+            return;
+        };
+        let k = self.p * ht * s_inv; // 3 x 2
+        self.theta += k * e;
+        let ikh = Matrix3::identity() - k * ht.transpose();
+        self.p = ikh * self.p * ikh.transpose() + k * r * k.transpose();
+        let lambda = match o.forgetting {
+            Forgetting::Strokes(m) => (-dbeta.min(0.2) / (m * self.span_rad)).exp(),
+            Forgetting::PerSample(l) => l,
+        };
+        self.p /= lambda;
+        self.p = 0.5 * (self.p + self.p.transpose());
+        self.bound_covariance();
+        self.project();
+
+        // CUSUM of clipped NIS (two rows: mean 2 without a change), once converged: before
+        // that, large innovations are the estimate still moving, not the medium.
+        if !self.cusum_armed {
+            return;
+        }
+        self.cusum = (self.cusum + nis - 2.0 - o.cusum_drift).max(0.0);
+        if self.cusum > o.cusum_alarm {
+            self.changes.push(ChangeEvent {
+                t_s: s.t_s,
+                b_k_before: self.theta[0].exp(),
+                a_before: self.theta[1].exp(),
+            });
+            self.est.changes_detected += 1;
+            self.restart();
+        }
+    }
+
+    fn bound_covariance(&mut self) {
+        let max_var = self.opts.max_std_ln.powi(2);
+        let worst = self.p[(0, 0)].max(self.p[(1, 1)]);
+        if worst > max_var {
+            self.p *= max_var / worst;
+        }
+    }
+
+    /// Keeps the parameters inside their bounds.
+    fn project(&mut self) {
+        let o = &self.opts;
+        self.theta[0] = self.theta[0].clamp(o.b_k_range.0.ln(), o.b_k_range.1.ln());
+        self.theta[1] = self.theta[1].clamp(o.a_range.0.ln(), o.a_range.1.ln());
+        let (dlo, dhi) = o.delta_range_deg;
+        self.theta[2] = self.theta[2].clamp(dlo.to_radians(), dhi.to_radians());
+    }
+
+    fn refresh_estimate(&mut self) {
+        let (b_k, a) = (self.theta[0].exp(), self.theta[1].exp());
+        let (sd0, sd1) = (
+            self.p[(0, 0)].max(0.0).sqrt(),
+            self.p[(1, 1)].max(0.0).sqrt(),
+        );
+        let o = &self.opts;
+        let e = &mut self.est;
+        e.b_k = b_k;
+        e.a = a;
+        e.delta_deg = self.theta[2].to_degrees();
+        e.std_b_k = b_k * sd0;
+        e.std_a = a * sd1;
+        e.std_delta_deg = self.p[(2, 2)].max(0.0).sqrt().to_degrees();
+        e.innovation_rms_n = self.innov_ms.sqrt();
+        e.noise_n = self.noise_var.sqrt();
+        e.converged = self.updates_since_reset >= o.converge_min_updates
+            && self.startup_left == 0
+            && sd0 < o.converge_rel_std
+            && sd1 < o.converge_rel_std
+            && self.cusum < 0.5 * o.cusum_alarm;
+    }
+}
+
+/// Angle swept between two wrapped angles, the short way round.
+fn angle_step(from: f64, to: f64) -> f64 {
+    let d = (to - from).abs();
+    d.min(std::f64::consts::TAU - d)
+}
