@@ -22,5 +22,39 @@ fn models(c: &mut Criterion) {
     });
 }
 
-criterion_group!(benches, models);
+/// One online-estimator update with a penetration sample, past the start-up.
+fn online_update(c: &mut Criterion) {
+    use terzaghi::ident::{OnlineEstimator, OnlineOptions, Sample};
+    let model = TerzaghiModel::new(
+        Plate::new(0.25, 0.06, 0.15).unwrap(),
+        Medium::new(16170.0, 32.0, 19.0).unwrap(),
+        FittingWidth::new(2.0, 1.5).unwrap(),
+    );
+    let samples: Vec<Sample> = (0..256)
+        .map(|i| {
+            let beta = 0.7 + 0.85 * i as f64 / 255.0;
+            let f = model.evaluate(beta).unwrap();
+            let wobble = 0.3 * ((i * 7919) % 13) as f64 / 13.0 - 0.15;
+            Sample {
+                t_s: None,
+                beta_rad: beta,
+                drag_n: f.drag_n + wobble,
+                lift_n: f.lift_n - wobble,
+            }
+        })
+        .collect();
+    let mut est = OnlineEstimator::new(&model, OnlineOptions::default()).unwrap();
+    for s in samples.iter().cycle().take(1000) {
+        let _ = est.update(s);
+    }
+    let mut i = 0;
+    c.bench_function("online_update", |b| {
+        b.iter(|| {
+            i = (i + 1) % samples.len();
+            est.update(black_box(&samples[i])).is_ok()
+        })
+    });
+}
+
+criterion_group!(benches, models, online_update);
 criterion_main!(benches);

@@ -382,4 +382,180 @@ fn bench_reports_rft_at_least_20x_slower_than_improved() {
     eprintln!("{v}");
     assert!(ratio >= 20.0, "{v}");
     assert!(v["improved_median_ns"].as_f64().unwrap() > 0.0);
+    // One online update within 1 us, so that 6 legs at 1 kHz cost well under 1 % of a core.
+    assert!(
+        v["online_update_median_ns"].as_f64().unwrap() <= 1000.0,
+        "{v}"
+    );
+}
+
+const SAND_GEOM: [&str; 12] = [
+    "--length-m",
+    "0.25",
+    "--width-m",
+    "0.06",
+    "--hip-height-m",
+    "0.15",
+    "--unit-weight-n-m3",
+    "16170",
+    "--phi-deg",
+    "32",
+    "--delta-deg",
+    "19",
+];
+
+#[test]
+fn simulate_then_identify_online_with_trace_and_plot() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("session.csv");
+    let mut a = vec![
+        "simulate",
+        "--bk",
+        "2",
+        "--a",
+        "1.5",
+        "--strokes",
+        "12",
+        "--seed",
+        "4",
+        "-o",
+        data.to_str().unwrap(),
+    ];
+    a.extend(SAND_GEOM);
+    let out = terzaghi(&a);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // A NaN row in the middle is counted, not fatal.
+    let mut text = std::fs::read_to_string(&data).unwrap();
+    text.push_str("999,1.0,nan,nan\n");
+    std::fs::write(&data, text).unwrap();
+
+    let trace = dir.path().join("trace.csv");
+    let plot = dir.path().join("trace.svg");
+    let mut a = vec![
+        "identify",
+        data.to_str().unwrap(),
+        "--online",
+        "--json",
+        "--trace",
+        trace.to_str().unwrap(),
+        "--trace-plot",
+        plot.to_str().unwrap(),
+    ];
+    a.extend(SAND_GEOM);
+    let out = terzaghi(&a);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    for key in [
+        "b_k",
+        "a",
+        "delta_deg",
+        "std_b_k",
+        "std_a",
+        "converged_at_s",
+        "samples",
+    ] {
+        assert!(v[key].is_number(), "{key}: {v}");
+    }
+    for key in [
+        "psi_drag",
+        "psi_lift",
+        "r2_drag",
+        "r2_lift",
+        "rmse_drag_n",
+        "rmse_lift_n",
+    ] {
+        assert!(
+            v["improved"][key].is_number() && v["conventional"][key].is_number(),
+            "{key}"
+        );
+    }
+    assert_eq!(v["converged"], true);
+    assert_eq!(v["changes_detected"], 0);
+    assert_eq!(v["samples_non_finite"], 1);
+    assert!((v["b_k"].as_f64().unwrap() / 2.0 - 1.0).abs() < 0.03, "{v}");
+    assert!((v["a"].as_f64().unwrap() / 1.5 - 1.0).abs() < 0.03, "{v}");
+
+    let trace_text = std::fs::read_to_string(&trace).unwrap();
+    assert!(
+        trace_text.starts_with("t_s,b_k,a,delta_deg,std_b_k,std_a,innovation_rms_n,converged\n")
+    );
+    assert_eq!(
+        trace_text.lines().count() as u64 - 1,
+        v["samples_used"].as_u64().unwrap()
+    );
+    let svg = std::fs::read_to_string(&plot).unwrap();
+    assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+    assert!(
+        svg.contains("b_k (online estimate") && svg.contains("<polygon"),
+        "band missing"
+    );
+
+    // Batch mode of the same command is `fit`.
+    let mut a = vec!["identify", data.to_str().unwrap(), "--json"];
+    a.extend(SAND_GEOM);
+    let v: serde_json::Value = serde_json::from_slice(&terzaghi(&a).stdout).unwrap();
+    assert!((v["b_k"].as_f64().unwrap() / 2.0 - 1.0).abs() < 0.03);
+}
+
+#[test]
+fn identify_errors_are_clean_and_leave_no_partial_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("s.csv");
+    let mut a = vec![
+        "simulate",
+        "--strokes",
+        "2",
+        "--bk",
+        "2",
+        "--a",
+        "1.5",
+        "-o",
+        data.to_str().unwrap(),
+    ];
+    a.extend(SAND_GEOM);
+    assert!(terzaghi(&a).status.success());
+    let d = data.to_str().unwrap();
+
+    let mut a = vec!["identify", d, "--trace", "x.csv"];
+    a.extend(SAND_GEOM);
+    assert_clean_error(&terzaghi(&a), &["--online"]);
+
+    let mut a = vec!["identify", d, "--online", "--forgetting", "1.5"];
+    a.extend(SAND_GEOM);
+    assert_clean_error(&terzaghi(&a), &["forgetting factor", "1.5"]);
+
+    let bad_dir = dir.path().join("no/such/dir/trace.csv");
+    let mut a = vec![
+        "identify",
+        d,
+        "--online",
+        "--trace",
+        bad_dir.to_str().unwrap(),
+    ];
+    a.extend(SAND_GEOM);
+    assert_clean_error(&terzaghi(&a), &["trace.csv"]);
+
+    // Nothing learnable: every sample out of the medium.
+    let flat = dir.path().join("flat.csv");
+    std::fs::write(&flat, "t_s,beta_rad,drag_n,lift_n\n0,4.0,0,0\n1,4.1,0,0\n").unwrap();
+    let mut a = vec!["identify", flat.to_str().unwrap(), "--online"];
+    a.extend(SAND_GEOM);
+    assert_clean_error(&terzaghi(&a), &["excitation gate"]);
+
+    let mut a = vec!["simulate", "--speed-rad-s", "0:1"];
+    a.extend(SAND_GEOM);
+    assert_clean_error(&terzaghi(&a), &["speed"]);
+    assert_eq!(
+        std::fs::read_dir(dir.path()).unwrap().count(),
+        2,
+        "no stray files"
+    );
 }

@@ -27,6 +27,9 @@ pub struct BenchReport {
     pub rft_100_p90_ns: f64,
     /// RFT median / improved median.
     pub ratio_rft_to_improved: f64,
+    /// One online-estimator update with a penetration sample (the Gauss-Newton path).
+    pub online_update_median_ns: f64,
+    pub online_update_p90_ns: f64,
     pub batches: usize,
 }
 
@@ -79,14 +82,57 @@ pub fn measure(seconds: f64) -> Result<BenchReport> {
         rft.evaluate(b).map(|f| f.drag_n + f.lift_n).unwrap_or(0.0)
     });
     let (mi, mr) = (quantile(&t_imp, 0.5), quantile(&t_rft, 0.5));
+    let t_upd = time_online_updates(&improved, budget)?;
     Ok(BenchReport {
         improved_median_ns: mi,
         improved_p90_ns: quantile(&t_imp, 0.9),
         rft_100_median_ns: mr,
         rft_100_p90_ns: quantile(&t_rft, 0.9),
         ratio_rft_to_improved: mr / mi,
+        online_update_median_ns: quantile(&t_upd, 0.5),
+        online_update_p90_ns: quantile(&t_upd, 0.9),
         batches: t_imp.len().min(t_rft.len()),
     })
+}
+
+/// Per-update times (ns) of the online estimator fed penetration samples of the model, noisy.
+fn time_online_updates(model: &TerzaghiModel, budget: Duration) -> Result<Vec<f64>> {
+    use crate::ident::{OnlineEstimator, OnlineOptions, Sample};
+    let samples: Vec<Sample> = (0..256)
+        .map(|i| {
+            let beta = 0.7 + 0.85 * i as f64 / 255.0;
+            let f = model
+                .evaluate(beta)
+                .map(|f| (f.drag_n, f.lift_n))
+                .unwrap_or((0.0, 0.0));
+            let wobble = 0.3 * ((i * 7919) % 13) as f64 / 13.0 - 0.15;
+            Sample {
+                t_s: Some(i as f64 * 1e-3),
+                beta_rad: beta,
+                drag_n: f.0 + wobble,
+                lift_n: f.1 - wobble,
+            }
+        })
+        .collect();
+    let mut est = OnlineEstimator::new(model, OnlineOptions::default())?;
+    // Past the start-up, so that every timed update takes the Gauss-Newton path.
+    for s in samples.iter().cycle().take(1000) {
+        let _ = est.update(s);
+    }
+    let mut per_call = Vec::new();
+    let start = Instant::now();
+    while per_call.len() < 11 || start.elapsed() < budget {
+        let t = Instant::now();
+        for s in &samples {
+            black_box(est.update(black_box(s)).is_ok());
+        }
+        per_call.push(t.elapsed().as_nanos() as f64 / samples.len() as f64);
+        if per_call.len() >= 100_000 {
+            break;
+        }
+    }
+    per_call.sort_by(f64::total_cmp);
+    Ok(per_call)
 }
 
 pub fn run(a: BenchArgs) -> Result<()> {
@@ -102,6 +148,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
          {:<36} {:>10} {:>10}\n\
          {:<36} {:>10.1} {:>10.1}\n\
          {:<36} {:>10.1} {:>10.1}\n\
+         {:<36} {:>10.1} {:>10.1}\n\
          RFT / improved (medians, same run): {:.1}x\n",
         r.batches,
         "model",
@@ -113,6 +160,9 @@ pub fn run(a: BenchArgs) -> Result<()> {
         "RFT, 100 elements (poppy_lp)",
         r.rft_100_median_ns,
         r.rft_100_p90_ns,
+        "online update (penetration sample)",
+        r.online_update_median_ns,
+        r.online_update_p90_ns,
         r.ratio_rft_to_improved
     ))
 }

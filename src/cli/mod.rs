@@ -2,8 +2,10 @@
 
 mod bench;
 mod fit;
+mod identify;
 mod media;
 mod predict;
+mod simulate;
 
 use crate::model::{FittingWidth, Medium, Plate, TerzaghiModel, medium as presets};
 use anyhow::{Context, Result, bail};
@@ -23,8 +25,13 @@ pub enum Command {
     Predict(predict::PredictArgs),
     /// Fit b_k and a (and delta) to measured forces in a CSV file, batch (Eq. 26).
     Fit(fit::FitArgs),
+    /// Identify b_k and a (and delta) from a CSV log: batch, or replayed through the online
+    /// estimator with --online.
+    Identify(identify::IdentifyArgs),
     /// List the medium presets with their values and provenance.
     Media(media::MediaArgs),
+    /// Write a synthetic session (one leg in continuous rotation, with sensor noise) as CSV.
+    Simulate(simulate::SimulateArgs),
     /// Measure the speed of the models on this machine.
     Bench(bench::BenchArgs),
 }
@@ -34,7 +41,9 @@ pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Predict(a) => predict::run(a),
         Command::Fit(a) => fit::run(a),
+        Command::Identify(a) => identify::run(a),
         Command::Media(a) => media::run(a),
+        Command::Simulate(a) => simulate::run(a),
         Command::Bench(a) => bench::run(a),
     }
 }
@@ -182,4 +191,38 @@ pub fn print_out(text: &str) -> Result<()> {
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
         r => r.context("cannot write to standard output"),
     }
+}
+
+/// Writes a file through a temporary beside it and renames it into place, so that a failure
+/// leaves no partial file behind.
+pub fn write_atomically(
+    path: &std::path::Path,
+    write: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> Result<()>,
+) -> Result<()> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => std::path::PathBuf::from("."),
+    };
+    let name = path
+        .file_name()
+        .with_context(|| format!("{} is not a file path", path.display()))?;
+    let tmp = dir.join(format!(
+        ".{}.tmp{}",
+        name.to_string_lossy(),
+        std::process::id()
+    ));
+    let result = (|| {
+        let file = std::fs::File::create(&tmp)
+            .with_context(|| format!("cannot create {}", path.display()))?;
+        let mut w = std::io::BufWriter::new(file);
+        write(&mut w)?;
+        use std::io::Write;
+        w.flush()
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
 }
