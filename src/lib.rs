@@ -8,7 +8,9 @@
 //! - [`cli`]: the `terzaghi` command line.
 
 pub mod cli;
+pub mod config;
 pub mod dataset;
 pub mod ident;
 pub mod model;
+pub mod msgs;
 pub mod sim;
