@@ -54,13 +54,10 @@ pub enum ConfigError {
     },
     #[error("parameter {name} is required: {hint}")]
     Missing { name: String, hint: String },
-    #[error("parameter {name}: {source}")]
-    Model { name: String, source: ModelError },
-    #[error("cannot read params file {path}: {source}")]
-    ReadFile {
-        path: String,
-        source: std::io::Error,
-    },
+    #[error("parameter {name}: {error}")]
+    Model { name: String, error: ModelError },
+    #[error("cannot read params file {path}: {error}")]
+    ReadFile { path: String, error: std::io::Error },
     #[error("params file {path}: {reason}")]
     BadFile { path: String, reason: String },
     #[error("--ros-args: {0}")]
@@ -462,9 +459,9 @@ impl Get<'_> {
 }
 
 fn model_err(name: &str) -> impl Fn(ModelError) -> ConfigError + '_ {
-    move |source| ConfigError::Model {
+    move |error| ConfigError::Model {
         name: name.to_string(),
-        source,
+        error,
     }
 }
 
@@ -676,7 +673,19 @@ fn leg_config(
     let length = g.need_f64(&k("length_m"), geom_hint)?;
     let width = g.need_f64(&k("width_m"), geom_hint)?;
     let height = g.need_f64(&k("hip_height_m"), geom_hint)?;
-    let plate = Plate::new(length, width, height).map_err(model_err(&k("length_m")))?;
+    let plate = Plate::new(length, width, height).map_err(|e| {
+        let which = match &e {
+            ModelError::NegativeHipHeight { .. } => "hip_height_m",
+            ModelError::NotPositive { name, .. } | ModelError::NotFinite { name, .. }
+                if name.contains("width") =>
+            {
+                "width_m"
+            }
+            ModelError::NotFinite { name, .. } if name.contains("hip") => "hip_height_m",
+            _ => "length_m",
+        };
+        model_err(&k(which))(e)
+    })?;
     let direction = g.f64(&k("direction"))?.unwrap_or(1.0);
     if direction != 1.0 && direction != -1.0 {
         return Err(invalid(&k("direction"), &direction, "expected 1 or -1"));
@@ -777,9 +786,9 @@ fn read_params_file(
     namespace: &str,
 ) -> Result<ParamMap, ConfigError> {
     let shown = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|source| ConfigError::ReadFile {
+    let text = std::fs::read_to_string(path).map_err(|error| ConfigError::ReadFile {
         path: shown.clone(),
-        source,
+        error,
     })?;
     parse_params_yaml(&text, &shown, node_name, namespace)
 }
@@ -890,7 +899,7 @@ other_node:
     #[test]
     fn bad_values_name_parameter_and_value() {
         let cases = [
-            ("-p left.width_m:=-1", "left.length_m"),
+            ("-p left.width_m:=-1", "left.width_m"),
             ("-p model:=fancy", "fancy"),
             ("-p right.direction:=2", "right.direction"),
             ("-p left.medium:=mud", "mud"),

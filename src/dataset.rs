@@ -9,11 +9,8 @@ use std::path::Path;
 
 #[derive(Debug, thiserror::Error)]
 pub enum DatasetError {
-    #[error("cannot read {path}: {source}")]
-    Io {
-        path: String,
-        source: std::io::Error,
-    },
+    #[error("cannot read {path}: {error}")]
+    Io { path: String, error: std::io::Error },
     #[error("{path}: empty file (expected a header with beta_rad,drag_n,lift_n)")]
     Empty { path: String },
     #[error("{path}: header lacks column {column:?} (found: {found})")]
@@ -40,9 +37,9 @@ pub enum DatasetError {
 /// Reads the samples of a CSV file.
 pub fn read_samples_csv(path: &Path) -> Result<Vec<Sample>, DatasetError> {
     let name = path.display().to_string();
-    let file = std::fs::File::open(path).map_err(|source| DatasetError::Io {
+    let file = std::fs::File::open(path).map_err(|error| DatasetError::Io {
         path: name.clone(),
-        source,
+        error,
     })?;
     read_samples(file, &name)
 }
@@ -58,7 +55,7 @@ pub fn read_samples<R: Read>(input: R, name: &str) -> Result<Vec<Sample>, Datase
         match e.kind() {
             csv::ErrorKind::Io(_) => DatasetError::Io {
                 path: name.to_string(),
-                source: std::io::Error::other(e.to_string()),
+                error: std::io::Error::other(e.to_string()),
             },
             _ => DatasetError::Malformed {
                 path: name.to_string(),

@@ -13,4 +13,5 @@ pub mod dataset;
 pub mod ident;
 pub mod model;
 pub mod msgs;
+pub mod node;
 pub mod sim;

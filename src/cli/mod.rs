@@ -4,6 +4,7 @@ mod bench;
 mod fit;
 mod identify;
 mod media;
+mod node;
 mod predict;
 mod simulate;
 
@@ -28,6 +29,9 @@ pub enum Command {
     /// Identify b_k and a (and delta) from a CSV log: batch, or replayed through the online
     /// estimator with --online.
     Identify(identify::IdentifyArgs),
+    /// Run the ROS 2 node: joint angles in, predicted wrenches out, online identification from
+    /// F/T topics.
+    Node(node::NodeArgs),
     /// List the medium presets with their values and provenance.
     Media(media::MediaArgs),
     /// Write a synthetic session (one leg in continuous rotation, with sensor noise) as CSV.
@@ -43,6 +47,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Fit(a) => fit::run(a),
         Command::Identify(a) => identify::run(a),
         Command::Media(a) => media::run(a),
+        Command::Node(a) => node::run(a),
         Command::Simulate(a) => simulate::run(a),
         Command::Bench(a) => bench::run(a),
     }

@@ -1,0 +1,123 @@
+//! `terzaghi node`: the ROS 2 node.
+
+use crate::config::{
+    NodeConfig, domain_id_from_env, load_params, localhost_only_from_env, parse_ros_args,
+};
+use crate::node::dds::{NodeSetup, run as run_node};
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use std::path::PathBuf;
+
+#[derive(Debug, Args)]
+#[command(
+    after_help = "ROS arguments: --ros-args [-p NAME:=VALUE]... [--params-file FILE]... \
+[-r __node:=NAME] [-r __ns:=/NAMESPACE] [-r FROM:=TO]... [--]\n\
+Environment: ROS_DOMAIN_ID (0-232), ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST or \
+ROS_LOCALHOST_ONLY=1 (DDS on loopback only).\n\
+Parameters: see launch_configs/ and the README."
+)]
+pub struct NodeArgs {
+    /// Write the processing-time summary as JSON to this file at shutdown.
+    #[arg(long, value_name = "FILE")]
+    pub latency_report: Option<PathBuf>,
+    /// ROS arguments, after --ros-args.
+    #[arg(
+        trailing_var_arg = true,
+        allow_hyphen_values = true,
+        value_name = "--ros-args ..."
+    )]
+    pub ros_args: Vec<String>,
+}
+
+/// Resolves when SIGINT or SIGTERM arrives.
+async fn shutdown_signal() {
+    #[cfg(unix)]
+    {
+        use tokio::signal::unix::{SignalKind, signal};
+        match signal(SignalKind::terminate()) {
+            Ok(mut term) => {
+                tokio::select! {
+                    _ = tokio::signal::ctrl_c() => {}
+                    _ = term.recv() => {}
+                }
+            }
+            Err(_) => {
+                let _ = tokio::signal::ctrl_c().await;
+            }
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = tokio::signal::ctrl_c().await;
+    }
+}
+
+/// Reads the parameters and the environment into a setup, without starting anything.
+pub fn setup(a: &NodeArgs) -> Result<NodeSetup> {
+    let (own, ros) = parse_ros_args(&a.ros_args)?;
+    if let Some(first) = own.first() {
+        bail!("unexpected argument {first:?} (ROS arguments go after --ros-args)");
+    }
+    let node_name = ros
+        .node_name
+        .clone()
+        .unwrap_or_else(|| "terzaghi".to_string());
+    let namespace = ros.namespace.clone().unwrap_or_else(|| "/".to_string());
+    let params = load_params(&ros, &node_name, &namespace)?;
+    let config = NodeConfig::from_params(&params, &node_name, &namespace, &ros.remaps)?;
+    let domain_id = domain_id_from_env(std::env::var("ROS_DOMAIN_ID").ok().as_deref())?;
+    let localhost_only = localhost_only_from_env(
+        std::env::var("ROS_AUTOMATIC_DISCOVERY_RANGE")
+            .ok()
+            .as_deref(),
+        std::env::var("ROS_LOCALHOST_ONLY").ok().as_deref(),
+    )?;
+    Ok(NodeSetup {
+        params,
+        config,
+        domain_id,
+        localhost_only,
+        latency_report: a.latency_report.clone(),
+    })
+}
+
+pub fn run(a: NodeArgs) -> Result<()> {
+    let setup = setup(&a)?;
+    let c = &setup.config;
+    eprintln!(
+        "terzaghi node {}/{}: {} legs ({}), model {}, joint states on {}, domain {}{}",
+        c.namespace.trim_end_matches('/'),
+        c.node_name,
+        c.legs.len(),
+        c.legs
+            .iter()
+            .map(|l| l.name.as_str())
+            .collect::<Vec<_>>()
+            .join(", "),
+        c.model.as_str(),
+        c.joint_states_topic,
+        setup.domain_id,
+        if setup.localhost_only {
+            ", localhost only"
+        } else {
+            ""
+        }
+    );
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .context("cannot start the async runtime")?;
+    let summary = rt.block_on(run_node(setup, shutdown_signal()))?;
+    eprintln!(
+        "terzaghi node stopped: {} joint states, {} predictions, {} inputs dropped; processing p50 {:.1} us, p99 {:.1} us, max {:.1} us",
+        summary.joint_states,
+        summary.predictions,
+        summary.dropped,
+        summary.processing_p50_ns as f64 / 1e3,
+        summary.processing_p99_ns as f64 / 1e3,
+        summary.processing_max_ns as f64 / 1e3
+    );
+    rt.shutdown_timeout(std::time::Duration::from_secs(2));
+    Ok(())
+}

@@ -1,0 +1,690 @@
+//! What the node does with each message, without DDS or a clock: joint angles in, predicted
+//! wrenches out; measured wrenches in, identified parameters out. The DDS adapter and the
+//! in-memory demo both drive this same code.
+
+use crate::config::{FtFrame, NodeConfig};
+use crate::ident::{Estimate, OnlineEstimator, Sample};
+use crate::model::{FittingWidth, ForceModel, TerzaghiModel, wrap_beta_rad};
+use crate::msgs::{
+    DiagnosticArray, DiagnosticStatus, Header, JointState, KeyValue, LegForce, ModelParams, Time,
+    Vector3, Wrench, WrenchStamped,
+};
+use std::collections::VecDeque;
+
+/// Joint angles kept per leg for matching F/T samples by time.
+const ANGLE_HISTORY: usize = 1024;
+/// F/T samples held per leg until a joint angle at or after their stamp arrives.
+const PENDING_WRENCHES: usize = 64;
+
+/// Counters of one leg, since start.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+pub struct LegCounters {
+    pub joint_states: u64,
+    pub predictions: u64,
+    /// JointStates that did not name this leg's joint.
+    pub missing_joint: u64,
+    /// Non-finite joint positions, or a model that could not evaluate.
+    pub invalid_position: u64,
+    /// JointState stamps older than the last one used.
+    pub stamps_backwards: u64,
+    pub ft_received: u64,
+    /// F/T samples with no joint angle within `max_match_dt_s`.
+    pub ft_unmatched: u64,
+    /// F/T samples with a non-finite value or an invalid stamp.
+    pub ft_invalid: u64,
+}
+
+/// Node-wide counters, since start.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+pub struct NodeCounters {
+    pub joint_states: u64,
+    /// JointStates whose arrays disagree in length, or whose stamp is invalid.
+    pub invalid_joint_states: u64,
+}
+
+struct Leg {
+    model: ForceModel,
+    estimator: Option<OnlineEstimator>,
+    /// The estimate currently used for predictions (converged and `use_identified`).
+    identified: Option<Estimate>,
+    history: VecDeque<(i64, f64)>,
+    last_stamp_ns: Option<i64>,
+    joint_index: usize,
+    last_params_ns: Option<i64>,
+    /// F/T samples newer than the newest joint angle, waiting for it.
+    pending: VecDeque<WrenchStamped>,
+    counters: LegCounters,
+    /// Counters at the last diagnostics, for rates.
+    at_last_diag: LegCounters,
+}
+
+/// The outputs of one leg for one JointState.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LegOutput {
+    pub leg: usize,
+    pub wrench: WrenchStamped,
+    pub force: LegForce,
+}
+
+/// The node's state: configuration, per-leg models, estimators and counters.
+pub struct NodeCore {
+    cfg: NodeConfig,
+    legs: Vec<Leg>,
+    /// Parameters to publish, from F/T samples handled since the last [`NodeCore::take_params`].
+    params_out: Vec<(usize, ModelParams)>,
+    counters: NodeCounters,
+    last_diag_ns: Option<i64>,
+}
+
+impl NodeCore {
+    pub fn new(cfg: NodeConfig) -> NodeCore {
+        let mut core = NodeCore {
+            legs: Vec::new(),
+            params_out: Vec::new(),
+            cfg,
+            counters: NodeCounters::default(),
+            last_diag_ns: None,
+        };
+        core.legs = (0..core.cfg.legs.len()).map(|i| core.new_leg(i)).collect();
+        core
+    }
+
+    fn new_leg(&self, i: usize) -> Leg {
+        let lc = &self.cfg.legs[i];
+        let estimator = lc.ft_topic.as_ref().and_then(|_| {
+            let base = TerzaghiModel::conventional(lc.plate, lc.medium);
+            let opts = crate::ident::OnlineOptions {
+                initial_b_k: lc.width.b_k().clamp(
+                    self.cfg.estimator.b_k_range.0,
+                    self.cfg.estimator.b_k_range.1,
+                ),
+                initial_a: lc
+                    .width
+                    .a()
+                    .clamp(self.cfg.estimator.a_range.0, self.cfg.estimator.a_range.1),
+                ..self.cfg.estimator
+            };
+            OnlineEstimator::new(&base, opts).ok()
+        });
+        Leg {
+            model: self.model_for(i, None),
+            estimator,
+            identified: None,
+            history: VecDeque::with_capacity(ANGLE_HISTORY),
+            last_stamp_ns: None,
+            joint_index: 0,
+            last_params_ns: None,
+            pending: VecDeque::new(),
+            counters: LegCounters::default(),
+            at_last_diag: LegCounters::default(),
+        }
+    }
+
+    /// The leg's model with the configured parameters, or with an identified estimate.
+    fn model_for(&self, i: usize, identified: Option<&Estimate>) -> ForceModel {
+        let lc = &self.cfg.legs[i];
+        let (width, delta) =
+            match identified.and_then(|e| e.fitting_width().ok().map(|w| (w, e.delta_deg))) {
+                Some((w, d)) => (w, self.cfg.estimator.fit_delta.then_some(d)),
+                None => (lc.width, None),
+            };
+        self.cfg
+            .leg_model(i, width, delta)
+            .or_else(|_| self.cfg.leg_model(i, lc.width, None))
+            .unwrap_or_else(|_| {
+                ForceModel::Terzaghi(TerzaghiModel::new(
+                    lc.plate,
+                    lc.medium,
+                    FittingWidth::CONVENTIONAL,
+                ))
+            })
+    }
+
+    pub fn config(&self) -> &NodeConfig {
+        &self.cfg
+    }
+
+    /// Takes a new configuration (a parameter change): models are rebuilt; a leg whose plate,
+    /// medium or estimator options changed starts its identification again.
+    pub fn set_config(&mut self, cfg: NodeConfig) {
+        let old = std::mem::replace(&mut self.cfg, cfg);
+        for i in 0..self.legs.len().min(self.cfg.legs.len()) {
+            let (o, n) = (&old.legs[i], &self.cfg.legs[i]);
+            let relearn = o.plate != n.plate
+                || o.medium != n.medium
+                || o.ft_topic != n.ft_topic
+                || old.estimator != self.cfg.estimator;
+            if relearn {
+                let fresh = self.new_leg(i);
+                let leg = &mut self.legs[i];
+                leg.estimator = fresh.estimator;
+                leg.identified = None;
+            }
+            let identified = if self.cfg.use_identified {
+                self.legs[i].identified
+            } else {
+                None
+            };
+            self.legs[i].model = self.model_for(i, identified.as_ref());
+        }
+    }
+
+    /// Predicts every configured leg found in `msg`; appends one output per leg predicted.
+    pub fn on_joint_state(&mut self, msg: &JointState, out: &mut Vec<LegOutput>) {
+        self.counters.joint_states += 1;
+        if msg.name.len() != msg.position.len() || !msg.header.stamp.is_valid() {
+            self.counters.invalid_joint_states += 1;
+            return;
+        }
+        let stamp_ns = msg.header.stamp.to_nanos();
+        for i in 0..self.legs.len() {
+            let lc = &self.cfg.legs[i];
+            let leg = &mut self.legs[i];
+            leg.counters.joint_states += 1;
+            // The joint's index is usually where it was last time.
+            let idx = if msg.name.get(leg.joint_index) == Some(&lc.joint) {
+                Some(leg.joint_index)
+            } else {
+                msg.name.iter().position(|n| *n == lc.joint)
+            };
+            let Some(idx) = idx else {
+                leg.counters.missing_joint += 1;
+                continue;
+            };
+            leg.joint_index = idx;
+            let position = msg.position[idx];
+            if !position.is_finite() {
+                leg.counters.invalid_position += 1;
+                continue;
+            }
+            if leg.last_stamp_ns.is_some_and(|last| stamp_ns < last) {
+                leg.counters.stamps_backwards += 1;
+                continue;
+            }
+            leg.last_stamp_ns = Some(stamp_ns);
+            let beta = wrap_beta_rad(lc.direction * (position - lc.angle_offset_rad));
+            if leg.history.len() == ANGLE_HISTORY {
+                leg.history.pop_front();
+            }
+            leg.history.push_back((stamp_ns, beta));
+            if leg
+                .pending
+                .front()
+                .is_some_and(|w| w.header.stamp.to_nanos() <= stamp_ns)
+            {
+                self.resolve_pending(i, stamp_ns);
+            }
+            let (lc, leg) = (&self.cfg.legs[i], &mut self.legs[i]);
+            let Ok(p) = leg.model.predict(beta) else {
+                leg.counters.invalid_position += 1;
+                continue;
+            };
+            leg.counters.predictions += 1;
+            let header = Header {
+                stamp: msg.header.stamp,
+                frame_id: format!("{}_hip", lc.name),
+            };
+            let (b_k, a, delta_deg) = match (&leg.identified, self.cfg.use_identified) {
+                (Some(e), true) => (
+                    e.b_k,
+                    e.a,
+                    if self.cfg.estimator.fit_delta {
+                        e.delta_deg
+                    } else {
+                        lc.medium.delta_deg()
+                    },
+                ),
+                _ => (lc.width.b_k(), lc.width.a(), lc.medium.delta_deg()),
+            };
+            out.push(LegOutput {
+                leg: i,
+                wrench: WrenchStamped {
+                    header: header.clone(),
+                    wrench: Wrench {
+                        force: Vector3 {
+                            x: -p.drag_n,
+                            y: 0.0,
+                            z: p.lift_n,
+                        },
+                        torque: Vector3 {
+                            x: 0.0,
+                            y: p.hip_torque_nm,
+                            z: 0.0,
+                        },
+                    },
+                },
+                force: LegForce {
+                    header,
+                    attack_angle_rad: p.beta_rad,
+                    submerged_length_m: p.submerged_m,
+                    depth_m: p.depth_m,
+                    drag_n: p.drag_n,
+                    lift_n: p.lift_n,
+                    hip_torque_nm: p.hip_torque_nm,
+                    regime: p.regime.code(),
+                    model: self.cfg.model.as_str().to_string(),
+                    b_k,
+                    a,
+                    delta_deg,
+                    identified: leg.identified.is_some() && self.cfg.use_identified,
+                },
+            });
+        }
+    }
+
+    /// Feeds a measured wrench of leg `leg` to its estimator. A wrench newer than the newest
+    /// joint angle waits (bounded) for the angle after it, so that the nearest angle in time is
+    /// used. Parameters to publish (at most `model_params_rate_hz`, and at once on convergence or
+    /// a detected change) are collected by [`NodeCore::take_params`].
+    pub fn on_wrench(&mut self, leg: usize, msg: &WrenchStamped) {
+        let Some(l) = self.legs.get_mut(leg) else {
+            return;
+        };
+        l.counters.ft_received += 1;
+        let f = &msg.wrench.force;
+        if !(msg.header.stamp.is_valid() && f.x.is_finite() && f.z.is_finite()) {
+            l.counters.ft_invalid += 1;
+            return;
+        }
+        let t_ns = msg.header.stamp.to_nanos();
+        let newest = l.history.back().map(|h| h.0);
+        if newest.is_none_or(|n| n < t_ns) {
+            l.pending.push_back(msg.clone());
+            if l.pending.len() > PENDING_WRENCHES {
+                // Joint angles stopped coming: match the oldest with what there is.
+                if let Some(old) = l.pending.pop_front()
+                    && let Some(p) = self.match_wrench(leg, &old)
+                {
+                    self.params_out.push((leg, p));
+                }
+            }
+            return;
+        }
+        if let Some(p) = self.match_wrench(leg, msg) {
+            self.params_out.push((leg, p));
+        }
+    }
+
+    /// Handles the waiting wrenches of `leg` whose stamp is at or before `upto_ns`.
+    fn resolve_pending(&mut self, leg: usize, upto_ns: i64) {
+        while let Some(w) = self.legs[leg].pending.front() {
+            if w.header.stamp.to_nanos() > upto_ns {
+                break;
+            }
+            let Some(w) = self.legs[leg].pending.pop_front() else {
+                break;
+            };
+            if let Some(p) = self.match_wrench(leg, &w) {
+                self.params_out.push((leg, p));
+            }
+        }
+    }
+
+    /// Parameters produced since the last call, with their leg.
+    pub fn take_params(&mut self, out: &mut Vec<(usize, ModelParams)>) {
+        out.append(&mut self.params_out);
+    }
+
+    fn match_wrench(&mut self, leg: usize, msg: &WrenchStamped) -> Option<ModelParams> {
+        let max_dt_ns = (self.cfg.max_match_dt_s * 1e9) as i64;
+        let period_ns = (1e9 / self.cfg.model_params_rate_hz) as i64;
+        let frame = self.cfg.legs.get(leg)?.ft_frame;
+        let l = self.legs.get_mut(leg)?;
+        let f = &msg.wrench.force;
+        let t_ns = msg.header.stamp.to_nanos();
+        let Some(beta) = nearest(&l.history, t_ns, max_dt_ns) else {
+            l.counters.ft_unmatched += 1;
+            return None;
+        };
+        // The force on the leg in the hip frame: drag = -F_x, lift = F_z.
+        let (fx, fz) = match frame {
+            FtFrame::Hip => (f.x, f.z),
+            FtFrame::Leg => {
+                let (s, c) = beta.sin_cos();
+                (f.x * s + f.z * c, -f.x * c + f.z * s)
+            }
+        };
+        let est = l.estimator.as_mut()?;
+        let before = *est.estimate();
+        let _ = est.update(&Sample {
+            t_s: Some(msg.header.stamp.to_secs()),
+            beta_rad: beta,
+            drag_n: -fx,
+            lift_n: fz,
+        });
+        let e = *est.estimate();
+        let event =
+            e.converged != before.converged || e.changes_detected != before.changes_detected;
+        // Predictions follow the estimate while it is converged.
+        let now_identified = e.converged.then_some(e);
+        let changed = now_identified.map(|x| (x.b_k, x.a, x.delta_deg))
+            != l.identified.map(|x| (x.b_k, x.a, x.delta_deg));
+        if changed {
+            l.identified = now_identified;
+        }
+        let due = l
+            .last_params_ns
+            .is_none_or(|last| t_ns - last >= period_ns || t_ns < last);
+        if changed && self.cfg.use_identified {
+            let id = self.legs[leg].identified;
+            self.legs[leg].model = self.model_for(leg, id.as_ref());
+        }
+        let l = &mut self.legs[leg];
+        if !(due || event) {
+            return None;
+        }
+        l.last_params_ns = Some(t_ns);
+        Some(ModelParams {
+            header: Header {
+                stamp: msg.header.stamp,
+                frame_id: format!("{}_hip", self.cfg.legs[leg].name),
+            },
+            b_k: e.b_k,
+            a: e.a,
+            delta_deg: e.delta_deg,
+            std_b_k: e.std_b_k,
+            std_a: e.std_a,
+            std_delta_deg: e.std_delta_deg,
+            samples_used: e.samples_used,
+            samples_rejected: e.samples_non_finite
+                + e.samples_not_excited
+                + e.samples_stuck
+                + l.counters.ft_unmatched
+                + l.counters.ft_invalid,
+            innovation_rms_n: e.innovation_rms_n,
+            converged: e.converged,
+            changes_detected: e.changes_detected.min(u32::MAX as u64) as u32,
+        })
+    }
+
+    pub fn leg_counters(&self, leg: usize) -> Option<LegCounters> {
+        self.legs.get(leg).map(|l| l.counters)
+    }
+
+    pub fn counters(&self) -> NodeCounters {
+        self.counters
+    }
+
+    pub fn estimate(&self, leg: usize) -> Option<Estimate> {
+        self.legs
+            .get(leg)?
+            .estimator
+            .as_ref()
+            .map(|e| *e.estimate())
+    }
+
+    /// One status per leg plus one for the node, with rates since the previous call.
+    /// `dropped` is what the transport dropped from its bounded queues, `latency` the node's
+    /// processing-time summary, both reported as they are.
+    pub fn diagnostics(
+        &mut self,
+        now_ns: i64,
+        dropped: u64,
+        latency: &[(String, String)],
+    ) -> DiagnosticArray {
+        let dt_s = self
+            .last_diag_ns
+            .map(|t| ((now_ns - t) as f64 * 1e-9).max(1e-9))
+            .unwrap_or(self.cfg.diagnostics_period_s);
+        self.last_diag_ns = Some(now_ns);
+        let kv = |k: &str, v: String| KeyValue {
+            key: k.to_string(),
+            value: v,
+        };
+        let mut status = Vec::new();
+        let mut node_values = vec![
+            kv("joint_states", self.counters.joint_states.to_string()),
+            kv(
+                "invalid_joint_states",
+                self.counters.invalid_joint_states.to_string(),
+            ),
+            kv("dropped_queue_full", dropped.to_string()),
+            kv("model", self.cfg.model.as_str().to_string()),
+        ];
+        node_values.extend(latency.iter().map(|(k, v)| kv(k, v.clone())));
+        status.push(DiagnosticStatus {
+            level: if dropped > 0 || self.counters.invalid_joint_states > 0 {
+                DiagnosticStatus::WARN
+            } else {
+                DiagnosticStatus::OK
+            },
+            name: format!("{}: node", self.cfg.node_name),
+            message: if dropped > 0 {
+                format!("{dropped} inputs dropped (queue full)")
+            } else {
+                "running".into()
+            },
+            hardware_id: String::new(),
+            values: node_values,
+        });
+        for (i, l) in self.legs.iter_mut().enumerate() {
+            let c = l.counters;
+            let p = l.at_last_diag;
+            l.at_last_diag = c;
+            let rate = |now: u64, before: u64| format!("{:.1}", (now - before) as f64 / dt_s);
+            let mut values = vec![
+                kv("joint_state_rate_hz", rate(c.predictions, p.predictions)),
+                kv("predictions", c.predictions.to_string()),
+                kv("missing_joint", c.missing_joint.to_string()),
+                kv("invalid_position", c.invalid_position.to_string()),
+                kv("stamps_backwards", c.stamps_backwards.to_string()),
+                kv("ft_rate_hz", rate(c.ft_received, p.ft_received)),
+                kv("ft_unmatched", c.ft_unmatched.to_string()),
+                kv("ft_invalid", c.ft_invalid.to_string()),
+            ];
+            let mut message = String::from("predicting");
+            if let Some(e) = l.estimator.as_ref().map(|e| *e.estimate()) {
+                values.extend([
+                    kv("b_k", format!("{:.6}", e.b_k)),
+                    kv("a", format!("{:.6}", e.a)),
+                    kv("delta_deg", format!("{:.4}", e.delta_deg)),
+                    kv("std_b_k", format!("{:.6}", e.std_b_k)),
+                    kv("std_a", format!("{:.6}", e.std_a)),
+                    kv("samples_used", e.samples_used.to_string()),
+                    kv("converged", e.converged.to_string()),
+                    kv("changes_detected", e.changes_detected.to_string()),
+                ]);
+                message = if e.converged {
+                    "identified".into()
+                } else {
+                    "identifying".into()
+                };
+            }
+            let bad_now = c.invalid_position > p.invalid_position
+                || c.missing_joint > p.missing_joint
+                || c.stamps_backwards > p.stamps_backwards
+                || c.ft_invalid > p.ft_invalid;
+            let silent = c.predictions == p.predictions;
+            let level = if silent {
+                DiagnosticStatus::STALE
+            } else if bad_now {
+                DiagnosticStatus::WARN
+            } else {
+                DiagnosticStatus::OK
+            };
+            if silent {
+                message = "no joint angles".into();
+            }
+            status.push(DiagnosticStatus {
+                level,
+                name: format!("{}: leg {}", self.cfg.node_name, self.cfg.legs[i].name),
+                message,
+                hardware_id: self.cfg.legs[i].joint.clone(),
+                values,
+            });
+        }
+        DiagnosticArray {
+            header: Header {
+                stamp: Time::from_nanos(now_ns).unwrap_or_default(),
+                frame_id: String::new(),
+            },
+            status,
+        }
+    }
+}
+
+/// The angle whose stamp is nearest `t_ns`, if within `max_dt_ns`. History is in time order.
+fn nearest(history: &VecDeque<(i64, f64)>, t_ns: i64, max_dt_ns: i64) -> Option<f64> {
+    let i = history.partition_point(|&(t, _)| t < t_ns);
+    let candidates = [i.checked_sub(1), (i < history.len()).then_some(i)];
+    candidates
+        .into_iter()
+        .flatten()
+        .map(|j| history[j])
+        .min_by_key(|&(t, _)| (t - t_ns).abs())
+        .filter(|&(t, _)| (t - t_ns).abs() <= max_dt_ns)
+        .map(|(_, b)| b)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::{defaults, parse_params_yaml};
+
+    fn config(extra: &str) -> NodeConfig {
+        let yaml = format!(
+            "/**:\n  ros__parameters:\n    legs: [fl, fr]\n    fl:\n      joint: hip_fl\n      length_m: 0.25\n      width_m: 0.06\n      hip_height_m: 0.15\n      unit_weight_n_m3: 16170\n      phi_deg: 32.0\n      delta_deg: 19.0\n      b_k: 2.0\n      a: 1.5\n      ft_topic: fl/ft\n{extra}    fr:\n      length_m: 0.25\n      width_m: 0.06\n      hip_height_m: 0.15\n      medium: hit_sand\n      direction: -1\n"
+        );
+        let mut p = defaults();
+        p.extend(parse_params_yaml(&yaml, "t", "terzaghi", "/").unwrap());
+        NodeConfig::from_params(&p, "terzaghi", "/", &[]).unwrap()
+    }
+
+    fn js(t_ns: i64, names: &[&str], pos: &[f64]) -> JointState {
+        JointState {
+            header: Header {
+                stamp: Time::from_nanos(t_ns).unwrap(),
+                frame_id: String::new(),
+            },
+            name: names.iter().map(|s| s.to_string()).collect(),
+            position: pos.to_vec(),
+            velocity: vec![],
+            effort: vec![],
+        }
+    }
+
+    #[test]
+    fn predicts_each_leg_in_its_hip_frame() {
+        let mut core = NodeCore::new(config(""));
+        let mut out = Vec::new();
+        core.on_joint_state(
+            &js(
+                1_000,
+                &["fr", "hip_fl"],
+                &[-60f64.to_radians(), 60f64.to_radians()],
+            ),
+            &mut out,
+        );
+        assert_eq!(out.len(), 2);
+        let fl = &out[0];
+        assert_eq!(fl.wrench.header.frame_id, "fl_hip");
+        assert!(
+            (fl.force.drag_n - 39.674130 * 2.0 * 1.5f64.powf(-60f64.to_radians())).abs() < 1e-5
+        );
+        assert_eq!(fl.wrench.wrench.force.x, -fl.force.drag_n);
+        assert_eq!(fl.wrench.wrench.torque.y, fl.force.hip_torque_nm);
+        // direction -1 maps -60 deg to +60 deg.
+        assert!((out[1].force.attack_angle_rad - 60f64.to_radians()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn counts_every_kind_of_bad_input() {
+        let mut core = NodeCore::new(config(""));
+        let mut out = Vec::new();
+        core.on_joint_state(&js(10, &["hip_fl", "fr"], &[1.0]), &mut out); // unequal arrays
+        core.on_joint_state(&js(20, &["other"], &[1.0]), &mut out); // missing joints
+        core.on_joint_state(
+            &js(30, &["hip_fl", "fr"], &[f64::NAN, f64::INFINITY]),
+            &mut out,
+        );
+        core.on_joint_state(&js(40, &["hip_fl", "fr"], &[1.0, 1.0]), &mut out);
+        core.on_joint_state(&js(35, &["hip_fl", "fr"], &[1.0, 1.0]), &mut out); // backwards
+        assert_eq!(out.len(), 2);
+        assert_eq!(core.counters().invalid_joint_states, 1);
+        let c = core.leg_counters(0).unwrap();
+        assert_eq!(
+            (
+                c.missing_joint,
+                c.invalid_position,
+                c.stamps_backwards,
+                c.predictions
+            ),
+            (1, 1, 1, 1)
+        );
+        // An F/T sample far before any joint angle, and a NaN one; one far after waits.
+        let w = |t: i64, x: f64| WrenchStamped {
+            header: Header {
+                stamp: Time::from_nanos(t).unwrap(),
+                frame_id: "ft".into(),
+            },
+            wrench: Wrench {
+                force: Vector3 { x, y: 0.0, z: 1.0 },
+                torque: Vector3::default(),
+            },
+        };
+        core.on_wrench(0, &w(-5_000_000_000, -1.0));
+        core.on_wrench(0, &w(40, f64::NAN));
+        core.on_wrench(7, &w(40, 1.0));
+        core.on_wrench(0, &w(5_000_000_000, -1.0));
+        let mut params = Vec::new();
+        core.take_params(&mut params);
+        assert!(params.is_empty());
+        let c = core.leg_counters(0).unwrap();
+        assert_eq!((c.ft_unmatched, c.ft_invalid), (1, 1));
+        // The waiting one is matched (and found too far) when a later angle arrives.
+        core.on_joint_state(&js(6_000_000_000, &["hip_fl", "fr"], &[1.0, 1.0]), &mut out);
+        assert_eq!(core.leg_counters(0).unwrap().ft_unmatched, 2);
+        let d = core.diagnostics(1_000_000_000, 3, &[]);
+        assert_eq!(d.status.len(), 3);
+        assert_eq!(d.status[0].level, DiagnosticStatus::WARN);
+        assert!(
+            d.status[1]
+                .values
+                .iter()
+                .any(|k| k.key == "ft_unmatched" && k.value == "2")
+        );
+    }
+
+    #[test]
+    fn leg_frame_wrench_converts_to_hip_frame() {
+        let mut core = NodeCore::new(config("      ft_frame: leg\n"));
+        let mut out = Vec::new();
+        let beta = 70f64.to_radians();
+        core.on_joint_state(&js(1_000_000, &["hip_fl", "fr"], &[beta, 0.0]), &mut out);
+        let (d, l) = (out[0].force.drag_n, out[0].force.lift_n);
+        // The same force expressed in the leg frame: rotate (F_x, F_z) = (-d, l) by beta - pi/2.
+        let (s, c) = beta.sin_cos();
+        let (fx, fz) = (-d, l);
+        let (fxl, fzl) = (fx * s - fz * c, fx * c + fz * s);
+        let m = WrenchStamped {
+            header: out[0].wrench.header.clone(),
+            wrench: Wrench {
+                force: Vector3 {
+                    x: fxl,
+                    y: 0.0,
+                    z: fzl,
+                },
+                torque: Vector3::default(),
+            },
+        };
+        core.on_wrench(0, &m);
+        let mut params = Vec::new();
+        core.take_params(&mut params);
+        assert_eq!(params[0].1.samples_used, 1);
+        // The log-linear start-up sees the exact force: b_k a^-beta is recovered at this angle.
+        let e = core.estimate(0).unwrap();
+        assert!(
+            (e.b_k * e.a.powf(-beta) - 2.0 * 1.5f64.powf(-beta)).abs() < 0.2,
+            "{e:?}"
+        );
+    }
+
+    #[test]
+    fn nearest_angle_by_stamp() {
+        let h: VecDeque<(i64, f64)> = [(10, 1.0), (20, 2.0), (30, 3.0)].into();
+        assert_eq!(nearest(&h, 24, 5), Some(2.0));
+        assert_eq!(nearest(&h, 26, 5), Some(3.0));
+        assert_eq!(nearest(&h, 100, 5), None);
+        assert_eq!(nearest(&VecDeque::new(), 1, 5), None);
+    }
+}

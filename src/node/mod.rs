@@ -1,0 +1,9 @@
+//! The ROS 2 node: [`core`] is what it does with each message (pure), [`dds`] connects it to a
+//! ROS 2 network through ros2-client, [`queue`] bounds its input.
+
+pub mod core;
+pub mod dds;
+pub mod latency;
+pub mod queue;
+
+pub use core::{LegOutput, NodeCore};

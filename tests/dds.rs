@@ -1,0 +1,99 @@
+//! The node on a real DDS network, against an independent DDS implementation (Python
+//! cyclonedds), inside a private network namespace.
+
+mod common;
+
+use common::*;
+
+fn run_peer(node_args: &[&str], predict_flags: &[&str], extra: &[&str]) -> serde_json::Value {
+    let out = isolated_command(&python())
+        .arg(repo().join("tests/python/interop_peer.py"))
+        .arg("--terzaghi")
+        .arg(terzaghi())
+        .arg("--node-args")
+        .arg(serde_json::to_string(node_args).unwrap())
+        .arg("--predict-flags")
+        .arg(serde_json::to_string(predict_flags).unwrap())
+        .args(extra)
+        .current_dir(repo().join("tests/python"))
+        .output()
+        .expect("run the Python peer");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    eprintln!("{stdout}\n{}", String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success(), "peer failed: {stdout}");
+    serde_json::from_str(&stdout).expect("peer summary")
+}
+
+const GEOM: [&str; 12] = [
+    "--length-m",
+    "0.25",
+    "--width-m",
+    "0.06",
+    "--hip-height-m",
+    "0.15",
+    "--unit-weight-n-m3",
+    "16170",
+    "--phi-deg",
+    "32",
+    "--delta-deg",
+    "19",
+];
+
+/// Cyclone DDS publishes JointState and F/T; the node's wrenches match `terzaghi predict` and
+/// its model_params converge within 3 % to the b_k, a the F/T was generated with.
+#[test]
+fn cyclonedds_peer_gets_predictions_and_sees_identification_converge() {
+    let dir = tempfile::tempdir().unwrap();
+    let params = dir.path().join("leg.yaml");
+    std::fs::write(
+        &params,
+        "/**:\n  ros__parameters:\n    legs: [leg]\n    leg:\n      joint: hip\n      length_m: 0.25\n      width_m: 0.06\n      hip_height_m: 0.15\n      unit_weight_n_m3: 16170\n      phi_deg: 32.0\n      delta_deg: 19.0\n      b_k: 2.0\n      a: 1.5\n      ft_topic: leg/ft\n",
+    )
+    .unwrap();
+    let mut flags = GEOM.to_vec();
+    flags.extend(["--bk", "2.0", "--a", "1.5"]);
+    let v = run_peer(
+        &["--ros-args", "--params-file", params.to_str().unwrap()],
+        &flags,
+        &["--identify", "--truth-bk", "3.0", "--truth-a", "1.8"],
+    );
+    assert_eq!(v["checks"]["predictions"]["received"], 21);
+    let id = &v["checks"]["identification"];
+    assert!(id["rel_error_b_k"].as_f64().unwrap().abs() < 0.03, "{id}");
+    assert!(id["rel_error_a"].as_f64().unwrap().abs() < 0.03, "{id}");
+    assert_eq!(id["converged"], true);
+    assert_eq!(v["node_exit_code"], 0);
+}
+
+/// The shipped testbed parameter file, with --ros-args overrides: another plate width (whose
+/// Table 1 fit the hip_sand preset supplies), a namespace and a joint name.
+#[test]
+fn node_runs_from_the_launch_config_with_ros_args_overrides() {
+    let params = repo().join("launch_configs/testbed.yaml");
+    let v = run_peer(
+        &[
+            "--ros-args",
+            "--params-file",
+            params.to_str().unwrap(),
+            "-p",
+            "leg.width_m:=0.04",
+            "-p",
+            "leg.joint:=knee",
+            "-r",
+            "__ns:=/bench",
+        ],
+        &[
+            "--length-m",
+            "0.25",
+            "--width-m",
+            "0.04",
+            "--hip-height-m",
+            "0.15",
+            "--medium",
+            "hit_sand",
+        ],
+        &["--ns", "/bench", "--joint", "knee"],
+    );
+    assert_eq!(v["checks"]["predictions"]["received"], 21);
+    assert_eq!(v["checks"]["predictions"]["worst_rel_error"], 0.0);
+}

@@ -1,0 +1,83 @@
+"""ROS 2 message types as Cyclone DDS IDL structs (the wire names ROS uses), for test peers."""
+from dataclasses import dataclass, field
+
+from cyclonedds.idl import IdlStruct
+from cyclonedds.idl.types import float64, int32, sequence, uint8, uint32, uint64
+
+
+@dataclass
+class Time(IdlStruct, typename="builtin_interfaces::msg::dds_::Time_"):
+    sec: int32 = 0
+    nanosec: uint32 = 0
+
+
+@dataclass
+class Header(IdlStruct, typename="std_msgs::msg::dds_::Header_"):
+    stamp: Time = field(default_factory=Time)
+    frame_id: str = ""
+
+
+@dataclass
+class JointState(IdlStruct, typename="sensor_msgs::msg::dds_::JointState_"):
+    header: Header = field(default_factory=Header)
+    name: sequence[str] = field(default_factory=list)
+    position: sequence[float64] = field(default_factory=list)
+    velocity: sequence[float64] = field(default_factory=list)
+    effort: sequence[float64] = field(default_factory=list)
+
+
+@dataclass
+class Vector3(IdlStruct, typename="geometry_msgs::msg::dds_::Vector3_"):
+    x: float64 = 0.0
+    y: float64 = 0.0
+    z: float64 = 0.0
+
+
+@dataclass
+class Wrench(IdlStruct, typename="geometry_msgs::msg::dds_::Wrench_"):
+    force: Vector3 = field(default_factory=Vector3)
+    torque: Vector3 = field(default_factory=Vector3)
+
+
+@dataclass
+class WrenchStamped(IdlStruct, typename="geometry_msgs::msg::dds_::WrenchStamped_"):
+    header: Header = field(default_factory=Header)
+    wrench: Wrench = field(default_factory=Wrench)
+
+
+@dataclass
+class ModelParams(IdlStruct, typename="terzaghi_msgs::msg::dds_::ModelParams_"):
+    header: Header = field(default_factory=Header)
+    b_k: float64 = 0.0
+    a: float64 = 0.0
+    delta_deg: float64 = 0.0
+    std_b_k: float64 = 0.0
+    std_a: float64 = 0.0
+    std_delta_deg: float64 = 0.0
+    samples_used: uint64 = 0
+    samples_rejected: uint64 = 0
+    innovation_rms_n: float64 = 0.0
+    converged: bool = False
+    changes_detected: uint32 = 0
+
+
+@dataclass
+class LegForce(IdlStruct, typename="terzaghi_msgs::msg::dds_::LegForce_"):
+    header: Header = field(default_factory=Header)
+    attack_angle_rad: float64 = 0.0
+    submerged_length_m: float64 = 0.0
+    depth_m: float64 = 0.0
+    drag_n: float64 = 0.0
+    lift_n: float64 = 0.0
+    hip_torque_nm: float64 = 0.0
+    regime: uint8 = 0
+    model: str = ""
+    b_k: float64 = 0.0
+    a: float64 = 0.0
+    delta_deg: float64 = 0.0
+    identified: bool = False
+
+
+def stamp(t_s):
+    sec = int(t_s // 1)
+    return Time(sec=sec, nanosec=int(round((t_s - sec) * 1e9)) % 1_000_000_000)
