@@ -30,7 +30,7 @@ impl std::fmt::Display for ParamValue {
         match self {
             ParamValue::Bool(v) => write!(f, "{v}"),
             ParamValue::Int(v) => write!(f, "{v}"),
-            ParamValue::Double(v) => write!(f, "{v}"),
+            ParamValue::Double(v) => write!(f, "{v:?}"),
             ParamValue::String(v) => write!(f, "{v:?}"),
             ParamValue::BoolArray(v) => write!(f, "{v:?}"),
             ParamValue::IntArray(v) => write!(f, "{v:?}"),
@@ -304,6 +304,9 @@ pub enum FtFrame {
 #[derive(Debug, Clone)]
 pub struct LegConfig {
     pub name: String,
+    /// `ft_topic` as given (before resolution), and the RFT set's name ("" for none).
+    pub ft_topic_given: String,
+    pub rft_name: String,
     pub joint: String,
     /// `+1` or `-1`: `beta = direction * (position - angle_offset_rad)`.
     pub direction: f64,
@@ -633,6 +636,42 @@ impl NodeConfig {
         })
     }
 
+    /// `given` completed with the value in force of every leg parameter, so that each can be
+    /// read and set through the parameter services.
+    pub fn effective_params(&self, given: &ParamMap) -> ParamMap {
+        let mut m = given.clone();
+        for l in &self.legs {
+            let mut put = |key: &str, v: ParamValue| {
+                m.entry(format!("{}.{key}", l.name)).or_insert(v);
+            };
+            put("joint", ParamValue::String(l.joint.clone()));
+            put("direction", ParamValue::Double(l.direction));
+            put("angle_offset_rad", ParamValue::Double(l.angle_offset_rad));
+            put("length_m", ParamValue::Double(l.plate.length_m()));
+            put("width_m", ParamValue::Double(l.plate.width_m()));
+            put("hip_height_m", ParamValue::Double(l.plate.hip_height_m()));
+            let preset = l.preset.map(|p| p.name.to_string()).unwrap_or_default();
+            put("medium", ParamValue::String(preset));
+            put(
+                "unit_weight_n_m3",
+                ParamValue::Double(l.medium.unit_weight_n_m3()),
+            );
+            put("phi_deg", ParamValue::Double(l.medium.phi_deg()));
+            put("delta_deg", ParamValue::Double(l.medium.delta_deg()));
+            put("b_k", ParamValue::Double(l.width.b_k()));
+            put("a", ParamValue::Double(l.width.a()));
+            put("ft_topic", ParamValue::String(l.ft_topic_given.clone()));
+            let frame = match l.ft_frame {
+                FtFrame::Hip => "hip",
+                FtFrame::Leg => "leg",
+            };
+            put("ft_frame", ParamValue::String(frame.into()));
+            put("rft_coeffs", ParamValue::String(l.rft_name.clone()));
+            put("rft_zeta", ParamValue::Double(0.0));
+        }
+        m
+    }
+
     /// The model of leg `i` with fitting width `width` (and plate friction `delta_deg`).
     pub fn leg_model(
         &self,
@@ -693,10 +732,13 @@ fn leg_config(
     let (medium, preset) = match g.str(&k("medium"))? {
         Some(name) if !name.is_empty() => {
             let p = medium::preset(&name).map_err(model_err(&k("medium")))?;
-            let mut m = p.medium().map_err(model_err(&k("medium")))?;
-            if let Some(d) = g.f64(&k("delta_deg"))? {
-                m = m.with_delta_deg(d).map_err(model_err(&k("delta_deg")))?;
-            }
+            // Explicit soil values override the preset's.
+            let m = Medium::new(
+                g.f64(&k("unit_weight_n_m3"))?.unwrap_or(p.unit_weight_n_m3),
+                g.f64(&k("phi_deg"))?.unwrap_or(p.phi_deg),
+                g.f64(&k("delta_deg"))?.unwrap_or(p.delta_deg),
+            )
+            .map_err(model_err(&k("medium")))?;
             (m, Some(p))
         }
         _ => {
@@ -732,11 +774,9 @@ fn leg_config(
                 RftSet::PoppyCp => "poppy_cp".to_string(),
             })
         });
-    let rft = match rft_name {
-        Some(n) => Some(
-            RftCoefficients::by_name(&n, g.f64(&k("rft_zeta"))?)
-                .map_err(model_err(&k("rft_coeffs")))?,
-        ),
+    let zeta = g.f64(&k("rft_zeta"))?.filter(|z| *z != 0.0); // 0: not set
+    let rft = match rft_name.clone() {
+        Some(n) => Some(RftCoefficients::by_name(&n, zeta).map_err(model_err(&k("rft_coeffs")))?),
         None if model == ModelKind::Rft => {
             return Err(ConfigError::Missing {
                 name: k("rft_coeffs"),
@@ -751,6 +791,8 @@ fn leg_config(
         .unwrap_or_else(|| leg.to_string());
     Ok(LegConfig {
         name: leg.to_string(),
+        ft_topic_given: g.str(&k("ft_topic"))?.unwrap_or_default(),
+        rft_name: rft_name.unwrap_or_default(),
         joint,
         direction,
         angle_offset_rad: g.f64(&k("angle_offset_rad"))?.unwrap_or(0.0),

@@ -66,7 +66,8 @@ fn cyclonedds_peer_gets_predictions_and_sees_identification_converge() {
 }
 
 /// The shipped testbed parameter file, with --ros-args overrides: another plate width (whose
-/// Table 1 fit the hip_sand preset supplies), a namespace and a joint name.
+/// Table 1 fit the hit_sand preset supplies), a namespace and a joint name; then `leg.b_k` set
+/// through the parameter services takes effect at once, and an invalid width is refused.
 #[test]
 fn node_runs_from_the_launch_config_with_ros_args_overrides() {
     let params = repo().join("launch_configs/testbed.yaml");
@@ -92,8 +93,16 @@ fn node_runs_from_the_launch_config_with_ros_args_overrides() {
             "--medium",
             "hit_sand",
         ],
-        &["--ns", "/bench", "--joint", "knee"],
+        &[
+            "--ns", "/bench", "--joint", "knee", "--set-param", "leg.b_k=7.5",
+            "--after-set-flags",
+            r#"["--length-m", "0.25", "--width-m", "0.04", "--hip-height-m", "0.15", "--medium", "hit_sand", "--bk", "7.5", "--a", "1.61"]"#,
+        ],
     );
     assert_eq!(v["checks"]["predictions"]["received"], 21);
     assert_eq!(v["checks"]["predictions"]["worst_rel_error"], 0.0);
+    // Changed at run time, without a restart; an invalid value is refused with its reason.
+    assert_eq!(v["checks"]["predictions_after_set"]["received"], 21);
+    assert_eq!(v["checks"]["predictions_after_set"]["worst_rel_error"], 0.0);
+    assert_eq!(v["checks"]["refused_set"]["exit_code"], 2);
 }

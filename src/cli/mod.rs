@@ -5,6 +5,7 @@ mod fit;
 mod identify;
 mod media;
 mod node;
+mod param;
 mod predict;
 mod simulate;
 
@@ -32,6 +33,8 @@ pub enum Command {
     /// Run the ROS 2 node: joint angles in, predicted wrenches out, online identification from
     /// F/T topics.
     Node(node::NodeArgs),
+    /// Get or set a running node's parameters (like `ros2 param`).
+    Param(param::ParamArgs),
     /// List the medium presets with their values and provenance.
     Media(media::MediaArgs),
     /// Write a synthetic session (one leg in continuous rotation, with sensor noise) as CSV.
@@ -48,6 +51,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Identify(a) => identify::run(a),
         Command::Media(a) => media::run(a),
         Command::Node(a) => node::run(a),
+        Command::Param(a) => param::run(a),
         Command::Simulate(a) => simulate::run(a),
         Command::Bench(a) => bench::run(a),
     }

@@ -65,6 +65,7 @@ pub fn setup(a: &NodeArgs) -> Result<NodeSetup> {
     let namespace = ros.namespace.clone().unwrap_or_else(|| "/".to_string());
     let params = load_params(&ros, &node_name, &namespace)?;
     let config = NodeConfig::from_params(&params, &node_name, &namespace, &ros.remaps)?;
+    let params = config.effective_params(&params);
     let domain_id = domain_id_from_env(std::env::var("ROS_DOMAIN_ID").ok().as_deref())?;
     let localhost_only = localhost_only_from_env(
         std::env::var("ROS_AUTOMATIC_DISCOVERY_RANGE")

@@ -52,7 +52,7 @@ enum Input {
     Wrench(usize, WrenchStamped),
 }
 
-fn qos_in() -> QosProfile {
+pub fn qos_in() -> QosProfile {
     // Best effort matches every publisher; a deep history rides out bursts.
     QosProfile::subscription_default()
         .reliability(Reliability::BestEffort)
@@ -60,7 +60,7 @@ fn qos_in() -> QosProfile {
         .history(History::KeepLast { depth: 1000 })
 }
 
-fn qos_out() -> QosProfile {
+pub fn qos_out() -> QosProfile {
     QosProfile::publisher_default().history(History::KeepLast { depth: 10 })
 }
 
@@ -72,7 +72,7 @@ fn message_type<M: RosMessage>() -> MessageTypeName {
     MessageTypeName::new(M::TYPE.0, M::TYPE.1)
 }
 
-fn publisher<M: RosMessage>(node: &mut Node, topic: &str) -> Result<Publisher<M>> {
+pub fn publisher<M: RosMessage>(node: &mut Node, topic: &str) -> Result<Publisher<M>> {
     let t = node
         .create_topic(&topic_name(topic)?, message_type::<M>(), &qos_out())
         .with_context(|| format!("cannot create topic {topic}"))?;
@@ -80,7 +80,7 @@ fn publisher<M: RosMessage>(node: &mut Node, topic: &str) -> Result<Publisher<M>
         .with_context(|| format!("cannot publish {topic}"))
 }
 
-fn subscription<M: RosMessage>(node: &mut Node, topic: &str) -> Result<Subscription<M>> {
+pub fn subscription<M: RosMessage>(node: &mut Node, topic: &str) -> Result<Subscription<M>> {
     let t = node
         .create_topic(&topic_name(topic)?, message_type::<M>(), &qos_in())
         .with_context(|| format!("cannot create topic {topic}"))?;
@@ -158,6 +158,28 @@ fn candidate(
         .map_err(|e| e.to_string())
 }
 
+/// A ROS 2 context on `domain_id`, on loopback only if asked.
+pub fn dds_context(domain_id: u16, localhost_only: bool) -> Result<Context> {
+    let mut dpb = DomainParticipantBuilder::new(domain_id);
+    if localhost_only {
+        dpb = dpb.with_only_networks([IpAddr::V4(Ipv4Addr::LOCALHOST)]);
+    }
+    let participant = dpb.build().context("cannot start DDS")?;
+    Context::from_domain_participant(participant).context("cannot start ROS 2 context")
+}
+
+/// The context the environment asks for (`ROS_DOMAIN_ID`, localhost-only settings).
+pub fn dds_context_from_env() -> Result<Context> {
+    let domain = crate::config::domain_id_from_env(std::env::var("ROS_DOMAIN_ID").ok().as_deref())?;
+    let local = crate::config::localhost_only_from_env(
+        std::env::var("ROS_AUTOMATIC_DISCOVERY_RANGE")
+            .ok()
+            .as_deref(),
+        std::env::var("ROS_LOCALHOST_ONLY").ok().as_deref(),
+    )?;
+    dds_context(domain, local)
+}
+
 fn unix_now_ns() -> i64 {
     SystemTime::now()
         .duration_since(UNIX_EPOCH)
@@ -177,13 +199,7 @@ pub fn peak_rss_kb() -> Option<u64> {
 /// it did. Called from a tokio runtime.
 pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result<RunSummary> {
     let cfg = setup.config.clone();
-    let mut dpb = DomainParticipantBuilder::new(setup.domain_id);
-    if setup.localhost_only {
-        dpb = dpb.with_only_networks([IpAddr::V4(Ipv4Addr::LOCALHOST)]);
-    }
-    let participant = dpb.build().context("cannot start DDS")?;
-    let context =
-        Context::from_domain_participant(participant).context("cannot start ROS 2 context")?;
+    let context = dds_context(setup.domain_id, setup.localhost_only)?;
 
     let live = Arc::new(LiveParams {
         map: Mutex::new(setup.params.clone()),

@@ -48,6 +48,8 @@ def main():
     ap.add_argument("--leg", default="leg")
     ap.add_argument("--joint", default="hip")
     ap.add_argument("--identify", action="store_true", help="also check identification from F/T on <leg>/ft")
+    ap.add_argument("--set-param", default="", help="NAME=VALUE to set through the parameter services")
+    ap.add_argument("--after-set-flags", default="[]", help="JSON list: predict flags once it is set")
     ap.add_argument("--truth-bk", type=float, default=3.0)
     ap.add_argument("--truth-a", type=float, default=1.8)
     ap.add_argument("--strokes", type=int, default=8)
@@ -70,35 +72,52 @@ def main():
             raise SystemExit("the node's topics never matched (discovery failed)")
 
         # 1. Predictions against `terzaghi predict` for the same angles.
-        expected = predict_table(args.terzaghi, flags, "40:140:5")
-        t0 = 1000.0
-        for i, row in enumerate(expected):
-            beta = math.radians(row["beta_deg"])
-            js_w.write(JointState(header=Header(stamp=stamp(t0 + 0.01 * i)), name=["other", args.joint], position=[0.3, beta]))
-            time.sleep(0.005)
-        got = {}
-        end = time.time() + 10
-        while len(got) < len(expected) and time.time() < end:
-            for s in wr_r.take(N=100):
-                if isinstance(s, WrenchStamped):
-                    got[(s.header.stamp.sec, s.header.stamp.nanosec)] = s
-            time.sleep(0.02)
-        worst = 0.0
-        for i, row in enumerate(expected):
-            st = stamp(t0 + 0.01 * i)
-            s = got.get((st.sec, st.nanosec))
-            if s is None:
-                failures.append(f"no prediction for beta {row['beta_deg']}")
-                continue
-            if s.header.frame_id != args.leg + "_hip":
-                failures.append(f"frame {s.header.frame_id!r}")
-            for want, have in [(-row["drag_n"], s.wrench.force.x), (row["lift_n"], s.wrench.force.z),
-                               (row["hip_torque_nm"], s.wrench.torque.y)]:
-                err = abs(want - have) / max(1.0, abs(want))
-                worst = max(worst, err)
-        summary["checks"]["predictions"] = {"sent": len(expected), "received": len(got), "worst_rel_error": worst}
-        if worst > 1e-9:
-            failures.append(f"prediction differs from terzaghi predict by {worst}")
+        def check_predictions(flags, t0, label):
+            expected = predict_table(args.terzaghi, flags, "40:140:5")
+            for i, row in enumerate(expected):
+                beta = math.radians(row["beta_deg"])
+                js_w.write(JointState(header=Header(stamp=stamp(t0 + 0.01 * i)), name=["other", args.joint],
+                                      position=[0.3, beta]))
+                time.sleep(0.005)
+            got = {}
+            end = time.time() + 10
+            while len(got) < len(expected) and time.time() < end:
+                for s in wr_r.take(N=100):
+                    if isinstance(s, WrenchStamped):
+                        got[(s.header.stamp.sec, s.header.stamp.nanosec)] = s
+                time.sleep(0.02)
+            worst = 0.0
+            for i, row in enumerate(expected):
+                st = stamp(t0 + 0.01 * i)
+                s = got.get((st.sec, st.nanosec))
+                if s is None:
+                    failures.append(f"{label}: no prediction for beta {row['beta_deg']}")
+                    continue
+                if s.header.frame_id != args.leg + "_hip":
+                    failures.append(f"{label}: frame {s.header.frame_id!r}")
+                for want, have in [(-row["drag_n"], s.wrench.force.x), (row["lift_n"], s.wrench.force.z),
+                                   (row["hip_torque_nm"], s.wrench.torque.y)]:
+                    worst = max(worst, abs(want - have) / max(1.0, abs(want)))
+            summary["checks"][label] = {"sent": len(expected), "received": len(got), "worst_rel_error": worst}
+            if worst > 1e-9:
+                failures.append(f"{label}: prediction differs from terzaghi predict by {worst}")
+
+        check_predictions(flags, 1000.0, "predictions")
+
+        # 1b. A parameter changed at run time through the parameter services.
+        if args.set_param:
+            name, value = args.set_param.split("=", 1)
+            fqn = args.ns.rstrip("/") + "/terzaghi"
+            bad = subprocess.run([args.terzaghi, "param", "set", fqn, args.leg + ".width_m", "-0.5"],
+                                 capture_output=True, text=True)
+            summary["checks"]["refused_set"] = {"exit_code": bad.returncode, "stderr": bad.stderr.strip()}
+            if bad.returncode != 2 or "width" not in bad.stderr:
+                failures.append(f"an invalid width was not refused: {bad.returncode} {bad.stderr}")
+            ok = subprocess.run([args.terzaghi, "param", "set", fqn, name, value], capture_output=True, text=True)
+            if ok.returncode != 0:
+                failures.append(f"param set {name} {value} failed: {ok.stderr}")
+            time.sleep(0.2)
+            check_predictions(json.loads(args.after_set_flags), 1500.0, "predictions_after_set")
 
         # 2. Identification from F/T generated with known b_k, a.
         if not args.identify:
