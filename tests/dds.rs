@@ -94,7 +94,12 @@ fn node_runs_from_the_launch_config_with_ros_args_overrides() {
             "hit_sand",
         ],
         &[
-            "--ns", "/bench", "--joint", "knee", "--set-param", "leg.b_k=7.5",
+            "--ns",
+            "/bench",
+            "--joint",
+            "knee",
+            "--set-param",
+            "leg.b_k=7.5",
             "--after-set-flags",
             r#"["--length-m", "0.25", "--width-m", "0.04", "--hip-height-m", "0.15", "--medium", "hit_sand", "--bk", "7.5", "--a", "1.61"]"#,
         ],
