@@ -57,4 +57,48 @@ fn online_update(c: &mut Criterion) {
 }
 
 criterion_group!(benches, models, online_update);
-criterion_main!(benches);
+criterion_main!(benches, node);
+
+/// The node's work for one JointState of six legs, without DDS: what `node_processing`
+/// contains besides the publishes.
+fn node_core(c: &mut Criterion) {
+    use terzaghi::config::{NodeConfig, defaults, parse_params_yaml};
+    use terzaghi::msgs::{Header, JointState, Time};
+    use terzaghi::node::NodeCore;
+    let mut p = defaults();
+    p.extend(
+        parse_params_yaml(
+            include_str!("../launch_configs/rhex.yaml"),
+            "rhex",
+            "terzaghi",
+            "/",
+        )
+        .unwrap(),
+    );
+    let cfg = NodeConfig::from_params(&p, "terzaghi", "/", &[]).unwrap();
+    let names: Vec<String> = cfg.legs.iter().map(|l| l.joint.clone()).collect();
+    let mut core = NodeCore::new(cfg);
+    let mut out = Vec::new();
+    let mut k = 0i64;
+    c.bench_function("node_core_joint_state_6_legs", |b| {
+        b.iter(|| {
+            k += 1;
+            let beta = (k as f64 * 0.004) % std::f64::consts::TAU;
+            let msg = JointState {
+                header: Header {
+                    stamp: Time::from_nanos(k * 1_000_000).unwrap(),
+                    frame_id: String::new(),
+                },
+                name: names.clone(),
+                position: vec![beta, beta, beta, -beta, -beta, -beta],
+                velocity: vec![],
+                effort: vec![],
+            };
+            out.clear();
+            core.on_joint_state(black_box(&msg), &mut out);
+            out.len()
+        })
+    });
+}
+
+criterion_group!(node, node_core);

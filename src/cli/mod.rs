@@ -1,6 +1,7 @@
 //! The `terzaghi` command line: flags are parsed and validated here, then handed to the pure core.
 
 mod bench;
+mod bench_node;
 mod fit;
 mod identify;
 mod media;
@@ -39,6 +40,12 @@ pub enum Command {
     Media(media::MediaArgs),
     /// Write a synthetic session (one leg in continuous rotation, with sensor noise) as CSV.
     Simulate(simulate::SimulateArgs),
+    /// Measure the node's latency for 6 legs at 1 kHz against a bare DDS echo (run it inside a
+    /// private network namespace or on a network you may load).
+    BenchNode(bench_node::BenchNodeArgs),
+    /// A bare DDS echo node, for bench-node.
+    #[command(hide = true)]
+    Echo(bench_node::EchoArgs),
     /// Measure the speed of the models on this machine.
     Bench(bench::BenchArgs),
 }
@@ -54,6 +61,8 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Param(a) => param::run(a),
         Command::Simulate(a) => simulate::run(a),
         Command::Bench(a) => bench::run(a),
+        Command::BenchNode(a) => bench_node::run(a),
+        Command::Echo(a) => bench_node::run_echo(a),
     }
 }
 

@@ -104,8 +104,9 @@ pub fn run(a: NodeArgs) -> Result<()> {
             ""
         }
     );
-    let rt = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
+    // One thread: each message is handled where it is taken off DDS, and on two cores more
+    // threads only add wake-ups and preemption to the processing time.
+    let rt = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
         .context("cannot start the async runtime")?;

@@ -4,7 +4,6 @@
 
 use super::core::{LegOutput, NodeCore};
 use super::latency::Histogram;
-use super::queue::DropOldest;
 use crate::config::{NodeConfig, ParamMap, ParamValue, STARTUP_ONLY};
 use crate::msgs::{DiagnosticArray, JointState, LegForce, ModelParams, RosMessage, WrenchStamped};
 use anyhow::{Context as _, Result, anyhow};
@@ -12,13 +11,13 @@ use ros2_client::dds::rustdds::DomainParticipantBuilder;
 use ros2_client::{
     Context, MessageTypeName, Name, Node, NodeName, NodeOptions, ParameterValue, Publisher,
     QosProfile, Subscription,
-    qos::{Durability, History, Reliability},
+    qos::{Durability, History, Reliability, WhenFull},
 };
 use std::collections::HashMap;
 use std::future::Future;
 use std::net::{IpAddr, Ipv4Addr};
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
@@ -33,7 +32,7 @@ pub struct NodeSetup {
 }
 
 /// What a run did, printed at shutdown.
-#[derive(Debug, Clone, serde::Serialize)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct RunSummary {
     pub joint_states: u64,
     pub predictions: u64,
@@ -47,9 +46,80 @@ pub struct RunSummary {
     pub peak_rss_kb: Option<u64>,
 }
 
-enum Input {
-    Joints(JointState, Instant),
-    Wrench(usize, WrenchStamped),
+/// What the message tasks share.
+struct Shared {
+    core: Mutex<NodeCore>,
+    hist: Mutex<Histogram>,
+    dropped: AtomicU64,
+    publish_errors: AtomicU64,
+    seen_version: AtomicU64,
+}
+
+impl Shared {
+    /// The core, with the latest accepted parameters applied.
+    fn lock_core(
+        &self,
+        live: &LiveParams,
+        cfg: &Mutex<NodeConfig>,
+    ) -> std::sync::MutexGuard<'_, NodeCore> {
+        let mut core = self.core.lock().unwrap_or_else(|p| p.into_inner());
+        let v = live.version.load(Ordering::SeqCst);
+        if self.seen_version.swap(v, Ordering::SeqCst) != v
+            && let Ok(c) = cfg.lock()
+        {
+            core.set_config(c.clone());
+        }
+        core
+    }
+
+    fn check(&self, published: bool) {
+        if !published {
+            self.publish_errors.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+}
+
+struct Pubs {
+    wrench: Vec<Publisher<WrenchStamped>>,
+    force: Vec<Publisher<LegForce>>,
+    params: Vec<Publisher<ModelParams>>,
+    /// Whether each publisher (wrench, force, params of leg i at 3i, 3i+1, 3i+2) has a
+    /// subscriber; refreshed every 100 ms. Publishing to nobody costs a DDS write, skipped.
+    listened: Vec<AtomicBool>,
+}
+
+impl Pubs {
+    fn listened(&self, i: usize) -> bool {
+        self.listened[i].load(Ordering::Relaxed)
+    }
+
+    fn refresh(&self, node: &Node) {
+        for (leg, ((w, f), p)) in self
+            .wrench
+            .iter()
+            .zip(&self.force)
+            .zip(&self.params)
+            .enumerate()
+        {
+            self.listened[3 * leg].store(w.get_subscription_count(node) > 0, Ordering::Relaxed);
+            self.listened[3 * leg + 1].store(f.get_subscription_count(node) > 0, Ordering::Relaxed);
+            self.listened[3 * leg + 2].store(p.get_subscription_count(node) > 0, Ordering::Relaxed);
+        }
+    }
+}
+
+/// Samples lost before they reached us: gaps in each writer's sequence numbers.
+#[derive(Default)]
+struct SequenceGaps(HashMap<ros2_client::Gid, i64>);
+
+impl SequenceGaps {
+    fn lost(&mut self, info: &ros2_client::MessageInfo) -> u64 {
+        let seq = info.sequence_number();
+        match self.0.insert(info.publisher_gid(), seq) {
+            Some(prev) if seq > prev + 1 => (seq - prev - 1) as u64,
+            _ => 0,
+        }
+    }
 }
 
 pub fn qos_in() -> QosProfile {
@@ -60,8 +130,12 @@ pub fn qos_in() -> QosProfile {
         .history(History::KeepLast { depth: 1000 })
 }
 
+/// Reliable, but never blocking: when a slow subscriber fills the send window, the sample is
+/// dropped for it and counted, and the node goes on (a controller's data must not wait).
 pub fn qos_out() -> QosProfile {
-    QosProfile::publisher_default().history(History::KeepLast { depth: 10 })
+    QosProfile::publisher_default()
+        .reliability_reliable(WhenFull::Fail)
+        .history(History::KeepLast { depth: 10 })
 }
 
 fn topic_name(full: &str) -> Result<Name> {
@@ -81,10 +155,22 @@ pub fn publisher<M: RosMessage>(node: &mut Node, topic: &str) -> Result<Publishe
 }
 
 pub fn subscription<M: RosMessage>(node: &mut Node, topic: &str) -> Result<Subscription<M>> {
+    subscription_with_depth(node, topic, 1000)
+}
+
+/// A best-effort subscription keeping the last `depth` samples.
+pub fn subscription_with_depth<M: RosMessage>(
+    node: &mut Node,
+    topic: &str,
+    depth: usize,
+) -> Result<Subscription<M>> {
+    let qos = qos_in().history(History::KeepLast {
+        depth: depth.max(1),
+    });
     let t = node
-        .create_topic(&topic_name(topic)?, message_type::<M>(), &qos_in())
+        .create_topic(&topic_name(topic)?, message_type::<M>(), &qos)
         .with_context(|| format!("cannot create topic {topic}"))?;
-    node.create_subscription::<M>(&t, Some(qos_in()))
+    node.create_subscription::<M>(&t, Some(qos))
         .with_context(|| format!("cannot subscribe to {topic}"))
 }
 
@@ -269,119 +355,161 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
     let diag_pub = publisher::<DiagnosticArray>(&mut node, &resolve("/diagnostics"))?;
     let _ = ns;
 
-    let queue = Arc::new(DropOldest::<Input>::new(cfg.queue_depth));
-    let mut readers = Vec::new();
+    // Each message is handled in the task that takes it off DDS (no hand-off, which would add a
+    // thread wake-up to every JointState). The DDS reader's KeepLast history is the bounded
+    // queue: under a flood the oldest samples go, and the gaps in the writers' sequence numbers
+    // count them.
+    let shared = Arc::new(Shared {
+        core: Mutex::new(NodeCore::new(cfg.clone())),
+        hist: Mutex::new(Histogram::default()),
+        dropped: AtomicU64::new(0),
+        publish_errors: AtomicU64::new(0),
+        seen_version: AtomicU64::new(0),
+    });
+    let pubs = Arc::new(Pubs {
+        listened: (0..3 * wrench_pubs.len())
+            .map(|_| AtomicBool::new(false))
+            .collect(),
+        wrench: wrench_pubs,
+        force: force_pubs,
+        params: param_pubs,
+    });
+    pubs.refresh(&node);
+    let depth = cfg.queue_depth;
+    let mut tasks = Vec::new();
     {
-        let sub = subscription::<JointState>(&mut node, &cfg.joint_states_topic)?;
-        let q = queue.clone();
-        readers.push(tokio::spawn(async move {
-            let mut last_seq: HashMap<ros2_client::Gid, i64> = HashMap::new();
+        let sub = subscription_with_depth::<JointState>(&mut node, &cfg.joint_states_topic, depth)?;
+        let (sh, pubs, live, cfgc) = (
+            shared.clone(),
+            pubs.clone(),
+            live.clone(),
+            cfg_for_check.clone(),
+        );
+        tasks.push(tokio::spawn(async move {
+            let mut gaps = SequenceGaps::default();
+            let mut outputs: Vec<LegOutput> = Vec::new();
+            let mut params_out = Vec::new();
             loop {
-                match sub.async_take().await {
-                    Ok((msg, info)) => {
-                        let seq = info.sequence_number();
-                        if let Some(prev) = last_seq.insert(info.publisher_gid(), seq)
-                            && seq > prev + 1
-                        {
-                            q.count_lost((seq - prev - 1) as u64);
-                        }
-                        q.push(Input::Joints(msg, Instant::now()));
+                let (msg, info) = match sub.async_take().await {
+                    Ok(x) => x,
+                    Err(_) => {
+                        sh.dropped.fetch_add(1, Ordering::Relaxed); // undecodable: counted, skipped
+                        continue;
                     }
-                    Err(_) => q.count_lost(1), // undecodable sample: counted, skipped
+                };
+                let received = Instant::now();
+                sh.dropped.fetch_add(gaps.lost(&info), Ordering::Relaxed);
+                {
+                    let mut core = sh.lock_core(&live, &cfgc);
+                    core.on_joint_state(&msg, &mut outputs);
+                    core.take_params(&mut params_out);
                 }
+                for o in outputs.drain(..) {
+                    if pubs.listened(3 * o.leg) {
+                        sh.check(pubs.wrench[o.leg].publish(o.wrench).is_ok());
+                    }
+                    if pubs.listened(3 * o.leg + 1) {
+                        sh.check(pubs.force[o.leg].publish(o.force).is_ok());
+                    }
+                }
+                for (leg, p) in params_out.drain(..) {
+                    if pubs.listened(3 * leg + 2) {
+                        sh.check(pubs.params[leg].publish(p).is_ok());
+                    }
+                }
+                let ns = received.elapsed().as_nanos() as u64;
+                sh.hist.lock().unwrap_or_else(|p| p.into_inner()).record(ns);
             }
         }));
     }
     for (i, leg) in cfg.legs.iter().enumerate() {
         let Some(topic) = &leg.ft_topic else { continue };
-        let sub = subscription::<WrenchStamped>(&mut node, topic)?;
-        let q = queue.clone();
-        readers.push(tokio::spawn(async move {
+        let sub = subscription_with_depth::<WrenchStamped>(&mut node, topic, depth)?;
+        let (sh, pubs, live, cfgc) = (
+            shared.clone(),
+            pubs.clone(),
+            live.clone(),
+            cfg_for_check.clone(),
+        );
+        tasks.push(tokio::spawn(async move {
+            let mut gaps = SequenceGaps::default();
+            let mut params_out = Vec::new();
             loop {
-                match sub.async_take().await {
-                    Ok((msg, _)) => q.push(Input::Wrench(i, msg)),
-                    Err(_) => q.count_lost(1),
+                let (msg, info) = match sub.async_take().await {
+                    Ok(x) => x,
+                    Err(_) => {
+                        sh.dropped.fetch_add(1, Ordering::Relaxed);
+                        continue;
+                    }
+                };
+                sh.dropped.fetch_add(gaps.lost(&info), Ordering::Relaxed);
+                {
+                    let mut core = sh.lock_core(&live, &cfgc);
+                    core.on_wrench(i, &msg);
+                    core.take_params(&mut params_out);
+                }
+                for (leg, p) in params_out.drain(..) {
+                    if pubs.listened(3 * leg + 2) {
+                        sh.check(pubs.params[leg].publish(p).is_ok());
+                    }
                 }
             }
         }));
     }
 
-    let mut core = NodeCore::new(cfg.clone());
-    let mut seen_version = 0;
-    let mut hist = Histogram::default();
-    let mut batch = Vec::new();
-    let mut outputs: Vec<LegOutput> = Vec::new();
-    let mut params_out = Vec::new();
     let mut diag_tick = tokio::time::interval(Duration::from_secs_f64(cfg.diagnostics_period_s));
     diag_tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    let mut listen_tick = tokio::time::interval(Duration::from_millis(100));
     tokio::pin!(shutdown);
-    let mut publish_errors = 0u64;
     loop {
         tokio::select! {
             _ = &mut shutdown => break,
+            _ = listen_tick.tick() => pubs.refresh(&node),
             _ = diag_tick.tick() => {
-                let lat = vec![
-                    ("processing_p50_us".to_string(), format!("{:.1}", hist.quantile_ns(0.5) as f64 / 1e3)),
-                    ("processing_p99_us".to_string(), format!("{:.1}", hist.quantile_ns(0.99) as f64 / 1e3)),
-                    ("processing_max_us".to_string(), format!("{:.1}", hist.max_ns() as f64 / 1e3)),
-                    ("publish_errors".to_string(), publish_errors.to_string()),
-                ];
-                let d = core.diagnostics(unix_now_ns(), queue.dropped(), &lat);
-                if diag_pub.publish(d).is_err() { publish_errors += 1; }
-            }
-            _ = queue.drain(&mut batch) => {
-                let v = live.version.load(Ordering::SeqCst);
-                if v != seen_version {
-                    seen_version = v;
-                    if let Ok(c) = cfg_for_check.lock() {
-                        core.set_config(c.clone());
-                    }
-                }
-                for input in batch.drain(..) {
-                    match input {
-                        Input::Joints(msg, received) => {
-                            outputs.clear();
-                            core.on_joint_state(&msg, &mut outputs);
-                            for o in outputs.drain(..) {
-                                if wrench_pubs[o.leg].publish(o.wrench).is_err() { publish_errors += 1; }
-                                if force_pubs[o.leg].publish(o.force).is_err() { publish_errors += 1; }
-                            }
-                            hist.record(received.elapsed().as_nanos() as u64);
-                        }
-                        Input::Wrench(leg, msg) => core.on_wrench(leg, &msg),
-                    }
-                    core.take_params(&mut params_out);
-                    for (leg, p) in params_out.drain(..) {
-                        if param_pubs[leg].publish(p).is_err() { publish_errors += 1; }
-                    }
-                }
+                let lat = {
+                    let h = shared.hist.lock().unwrap_or_else(|p| p.into_inner());
+                    vec![
+                        ("processing_p50_us".to_string(), format!("{:.1}", h.quantile_ns(0.5) as f64 / 1e3)),
+                        ("processing_p99_us".to_string(), format!("{:.1}", h.quantile_ns(0.99) as f64 / 1e3)),
+                        ("processing_max_us".to_string(), format!("{:.1}", h.max_ns() as f64 / 1e3)),
+                        ("publish_errors".to_string(), shared.publish_errors.load(Ordering::Relaxed).to_string()),
+                    ]
+                };
+                let d = shared
+                    .lock_core(&live, &cfg_for_check)
+                    .diagnostics(unix_now_ns(), shared.dropped.load(Ordering::Relaxed), &lat);
+                shared.check(diag_pub.publish(d).is_ok());
             }
         }
     }
 
-    for r in &readers {
-        r.abort();
+    for t in &tasks {
+        t.abort();
+    }
+    for t in tasks {
+        let _ = t.await;
     }
     node.stop_spinner();
     let _ = tokio::time::timeout(Duration::from_secs(2), spin_task).await;
-    let predictions = (0..cfg.legs.len())
-        .filter_map(|i| core.leg_counters(i))
-        .map(|c| c.predictions)
-        .sum();
-    let summary = RunSummary {
-        joint_states: core.counters().joint_states,
-        predictions,
-        dropped: queue.dropped(),
-        processing_p50_ns: hist.quantile_ns(0.5),
-        processing_p99_ns: hist.quantile_ns(0.99),
-        processing_max_ns: hist.max_ns(),
-        processing_count: hist.count(),
-        peak_rss_kb: peak_rss_kb(),
+    let summary = {
+        let core = shared.core.lock().unwrap_or_else(|p| p.into_inner());
+        let hist = shared.hist.lock().unwrap_or_else(|p| p.into_inner());
+        RunSummary {
+            joint_states: core.counters().joint_states,
+            predictions: (0..cfg.legs.len())
+                .filter_map(|i| core.leg_counters(i))
+                .map(|c| c.predictions)
+                .sum(),
+            dropped: shared.dropped.load(Ordering::Relaxed),
+            processing_p50_ns: hist.quantile_ns(0.5),
+            processing_p99_ns: hist.quantile_ns(0.99),
+            processing_max_ns: hist.max_ns(),
+            processing_count: hist.count(),
+            peak_rss_kb: peak_rss_kb(),
+        }
     };
     // Dropping the node and context tells DDS peers that we left.
-    drop(wrench_pubs);
-    drop(force_pubs);
-    drop(param_pubs);
+    drop(pubs);
     drop(diag_pub);
     drop(node);
     drop(context);

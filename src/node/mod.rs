@@ -1,9 +1,8 @@
 //! The ROS 2 node: [`core`] is what it does with each message (pure), [`dds`] connects it to a
-//! ROS 2 network through ros2-client, [`queue`] bounds its input.
+//! ROS 2 network through ros2-client, [`latency`] keeps its processing-time statistics.
 
 pub mod core;
 pub mod dds;
 pub mod latency;
-pub mod queue;
 
 pub use core::{LegOutput, NodeCore};

@@ -1,0 +1,389 @@
+//! `terzaghi bench-node`: the node's latency on this machine, for 6 legs at 1 kHz.
+//!
+//! It starts `terzaghi node` (the RHex launch configuration) and a bare echo node over the same
+//! DDS, then, as an external client, publishes JointStates at the given rate in alternating
+//! blocks to each: the round trip to the node is from publishing a JointState to receiving the
+//! last leg's predicted wrench; to the echo, from publishing to receiving the echo. The node's
+//! own processing time (from taking the JointState off DDS to having published every leg's
+//! outputs) comes from its report at shutdown. Run it inside a private network namespace.
+//!
+//! `terzaghi echo` (hidden) is the bare echo: JointState in, the same JointState out.
+
+use super::print_out;
+use crate::msgs::{Header, JointState, Time, WrenchStamped};
+use crate::node::dds::{RunSummary, dds_context_from_env, publisher, subscription};
+use crate::node::latency::Histogram;
+use anyhow::{Context as _, Result, anyhow, bail};
+use clap::Args;
+use ros2_client::{NodeName, NodeOptions};
+use std::collections::HashMap;
+use std::process::{Child, Command, Stdio};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+#[derive(Debug, Args)]
+pub struct EchoArgs {
+    /// Topic to read JointStates from.
+    #[arg(long, default_value = "/bench/echo_in")]
+    pub input: String,
+    /// Topic to write them to.
+    #[arg(long, default_value = "/bench/echo_out")]
+    pub output: String,
+}
+
+#[derive(Debug, Args)]
+pub struct BenchNodeArgs {
+    /// Measuring time per target (s), split into alternating blocks of one second.
+    #[arg(long, default_value_t = 10)]
+    pub seconds: u32,
+    /// JointState rate (Hz).
+    #[arg(long, default_value_t = 1000.0)]
+    pub rate_hz: f64,
+    /// Print JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Runs the bare echo until SIGINT/SIGTERM.
+pub fn run_echo(a: EchoArgs) -> Result<()> {
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()?;
+    rt.block_on(async move {
+        let context = dds_context_from_env()?;
+        let mut node = context
+            .new_node(
+                NodeName::new("/", "terzaghi_echo").map_err(|e| anyhow!("{e:?}"))?,
+                NodeOptions::new()
+                    .enable_rosout(false)
+                    .start_parameter_services(false),
+            )
+            .context("cannot create the echo node")?;
+        let out = publisher::<JointState>(&mut node, &a.output)?;
+        let sub = subscription::<JointState>(&mut node, &a.input)?;
+        let spin = tokio::spawn(node.spinner()?.spin());
+        let echo = async {
+            while let Ok((msg, _)) = sub.async_take().await {
+                let _ = out.publish(msg);
+            }
+        };
+        tokio::select! {
+            _ = echo => {}
+            _ = tokio::signal::ctrl_c() => {}
+        }
+        node.stop_spinner();
+        let _ = tokio::time::timeout(Duration::from_secs(1), spin).await;
+        Ok(())
+    })
+}
+
+#[derive(Debug, serde::Serialize)]
+struct Figures {
+    p50_us: f64,
+    p99_us: f64,
+    max_us: f64,
+    count: u64,
+}
+
+impl From<&Histogram> for Figures {
+    fn from(h: &Histogram) -> Self {
+        Figures {
+            p50_us: h.quantile_ns(0.5) as f64 / 1e3,
+            p99_us: h.quantile_ns(0.99) as f64 / 1e3,
+            max_us: h.max_ns() as f64 / 1e3,
+            count: h.count(),
+        }
+    }
+}
+
+#[derive(Debug, serde::Serialize)]
+struct Report {
+    legs: usize,
+    rate_hz: f64,
+    seconds_each: u32,
+    node_processing: Figures,
+    node_round_trip: Figures,
+    echo_round_trip: Figures,
+    round_trip_ratio_p50: f64,
+    round_trip_ratio_p99: f64,
+    node_dropped: u64,
+    node_lost_replies: u64,
+    echo_lost_replies: u64,
+}
+
+struct Killer(Vec<Child>);
+
+impl Drop for Killer {
+    fn drop(&mut self) {
+        for c in &mut self.0 {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
+}
+
+fn sigint(child: &mut Child) {
+    // SAFETY-free: `kill` from the shell is enough here and avoids a libc dependency.
+    let _ = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status();
+}
+
+pub fn run(a: BenchNodeArgs) -> Result<()> {
+    if !(a.rate_hz.is_finite() && a.rate_hz > 0.0 && a.rate_hz <= 100_000.0) {
+        bail!("--rate-hz must be in (0, 100000], got {}", a.rate_hz);
+    }
+    if a.seconds == 0 {
+        bail!("--seconds must be at least 1");
+    }
+    let exe = std::env::current_exe().context("cannot find the terzaghi executable")?;
+    let dir = tempdir()?;
+    let params = dir.join("rhex.yaml");
+    std::fs::write(&params, include_str!("../../launch_configs/rhex.yaml"))?;
+    let report_path = dir.join("node_report.json");
+    let legs = [
+        "front_left",
+        "middle_left",
+        "rear_left",
+        "front_right",
+        "middle_right",
+        "rear_right",
+    ];
+    let mut children = Killer(Vec::new());
+    children.0.push(
+        Command::new(&exe)
+            .arg("node")
+            .arg("--latency-report")
+            .arg(&report_path)
+            .args(["--ros-args", "--params-file"])
+            .arg(&params)
+            .stderr(Stdio::inherit())
+            .spawn()
+            .context("cannot start terzaghi node")?,
+    );
+    children.0.push(
+        Command::new(&exe)
+            .arg("echo")
+            .stderr(Stdio::null())
+            .spawn()
+            .context("cannot start terzaghi echo")?,
+    );
+
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()?;
+    let (node_rt, echo_rt, lost_node, lost_echo) =
+        rt.block_on(client(&legs, a.rate_hz, a.seconds))?;
+    sigint(&mut children.0[0]);
+    sigint(&mut children.0[1]);
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while Instant::now() < deadline && !report_path.exists() {
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    std::thread::sleep(Duration::from_millis(100));
+    let text = std::fs::read_to_string(&report_path).context("the node wrote no latency report")?;
+    let summary: RunSummary = serde_json::from_str(&text)?;
+    let _ = std::fs::remove_dir_all(&dir);
+
+    let nr = Figures::from(&node_rt);
+    let er = Figures::from(&echo_rt);
+    let report = Report {
+        legs: legs.len(),
+        rate_hz: a.rate_hz,
+        seconds_each: a.seconds,
+        node_processing: Figures {
+            p50_us: summary.processing_p50_ns as f64 / 1e3,
+            p99_us: summary.processing_p99_ns as f64 / 1e3,
+            max_us: summary.processing_max_ns as f64 / 1e3,
+            count: summary.processing_count,
+        },
+        round_trip_ratio_p50: nr.p50_us / er.p50_us.max(1e-9),
+        round_trip_ratio_p99: nr.p99_us / er.p99_us.max(1e-9),
+        node_round_trip: nr,
+        echo_round_trip: er,
+        node_dropped: summary.dropped,
+        node_lost_replies: lost_node,
+        echo_lost_replies: lost_echo,
+    };
+    if a.json {
+        return print_out(&(serde_json::to_string_pretty(&report)? + "\n"));
+    }
+    let row = |name: &str, f: &Figures| {
+        format!(
+            "{:<44} {:>9.1} {:>9.1} {:>9.1} {:>8}\n",
+            name, f.p50_us, f.p99_us, f.max_us, f.count
+        )
+    };
+    let mut s = format!(
+        "{} legs, JointState at {} Hz, {} s per target (alternating 1 s blocks)\n{:<44} {:>9} {:>9} {:>9} {:>8}\n",
+        report.legs, report.rate_hz, report.seconds_each, "", "p50 us", "p99 us", "max us", "count"
+    );
+    s += &row("node processing (inside the node)", &report.node_processing);
+    s += &row(
+        "round trip: client -> node -> all 6 wrenches",
+        &report.node_round_trip,
+    );
+    s += &row(
+        "round trip: client -> bare echo -> client",
+        &report.echo_round_trip,
+    );
+    s += &format!(
+        "round trip node / echo: p50 {:.2}x, p99 {:.2}x; node dropped {} inputs; replies lost: node {}, echo {}\n",
+        report.round_trip_ratio_p50,
+        report.round_trip_ratio_p99,
+        report.node_dropped,
+        report.node_lost_replies,
+        report.echo_lost_replies
+    );
+    print_out(&s)
+}
+
+fn tempdir() -> Result<std::path::PathBuf> {
+    let d = std::env::temp_dir().join(format!("terzaghi-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&d).with_context(|| format!("cannot create {}", d.display()))?;
+    Ok(d)
+}
+
+type Sent = Arc<Mutex<HashMap<i64, Instant>>>;
+
+/// Publishes to the node and to the echo in alternating one-second blocks; returns the round
+/// trips and how many replies never came.
+async fn client(
+    legs: &[&str],
+    rate_hz: f64,
+    seconds: u32,
+) -> Result<(Histogram, Histogram, u64, u64)> {
+    let context = dds_context_from_env()?;
+    let mut node = context
+        .new_node(
+            NodeName::new("/", "terzaghi_bench_client").map_err(|e| anyhow!("{e:?}"))?,
+            NodeOptions::new()
+                .enable_rosout(false)
+                .start_parameter_services(false),
+        )
+        .context("cannot create the client node")?;
+    let to_node = publisher::<JointState>(&mut node, "/joint_states")?;
+    let to_echo = publisher::<JointState>(&mut node, "/bench/echo_in")?;
+    let from_echo = subscription::<JointState>(&mut node, "/bench/echo_out")?;
+    let mut wrench_subs = Vec::new();
+    for leg in legs {
+        wrench_subs.push(subscription::<WrenchStamped>(
+            &mut node,
+            &format!("/{leg}/predicted_wrench"),
+        )?);
+    }
+    let spin = tokio::spawn(node.spinner()?.spin());
+
+    let node_sent: Sent = Arc::default();
+    let echo_sent: Sent = Arc::default();
+    let node_hist = Arc::new(Mutex::new(Histogram::default()));
+    let echo_hist = Arc::new(Mutex::new(Histogram::default()));
+    // Per stamp, how many legs answered so far.
+    let answers: Arc<Mutex<HashMap<i64, usize>>> = Arc::default();
+    let n_legs = legs.len();
+    let mut tasks = Vec::new();
+    for sub in wrench_subs {
+        let (sent, hist, answers) = (node_sent.clone(), node_hist.clone(), answers.clone());
+        tasks.push(tokio::spawn(async move {
+            while let Ok((w, _)) = sub.async_take().await {
+                let now = Instant::now();
+                let stamp = w.header.stamp.to_nanos();
+                let mut ans = answers.lock().unwrap_or_else(|p| p.into_inner());
+                let n = ans.entry(stamp).or_insert(0);
+                *n += 1;
+                if *n == n_legs {
+                    ans.remove(&stamp);
+                    if let Some(t) = sent
+                        .lock()
+                        .unwrap_or_else(|p| p.into_inner())
+                        .remove(&stamp)
+                    {
+                        hist.lock()
+                            .unwrap_or_else(|p| p.into_inner())
+                            .record((now - t).as_nanos() as u64);
+                    }
+                }
+            }
+        }));
+    }
+    {
+        let (sent, hist) = (echo_sent.clone(), echo_hist.clone());
+        tasks.push(tokio::spawn(async move {
+            while let Ok((m, _)) = from_echo.async_take().await {
+                let now = Instant::now();
+                if let Some(t) = sent
+                    .lock()
+                    .unwrap_or_else(|p| p.into_inner())
+                    .remove(&m.header.stamp.to_nanos())
+                {
+                    hist.lock()
+                        .unwrap_or_else(|p| p.into_inner())
+                        .record((now - t).as_nanos() as u64);
+                }
+            }
+        }));
+    }
+
+    // Discovery, then a warm-up second to each target.
+    tokio::time::sleep(Duration::from_secs(3)).await;
+    let names: Vec<String> = legs.iter().map(|l| format!("{l}_hip")).collect();
+    let period = Duration::from_secs_f64(1.0 / rate_hz);
+    let mut stamp_ns: i64 = 1_000_000_000_000;
+    let mut k: u64 = 0;
+    for block in 0..(2 * seconds + 2) {
+        let warmup = block < 2;
+        let to_echo_now = block % 2 == 1;
+        let mut tick = tokio::time::interval(period);
+        tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+        let end = Instant::now() + Duration::from_secs(1);
+        while Instant::now() < end {
+            tick.tick().await;
+            stamp_ns += 1_000;
+            k += 1;
+            // Both legs of every tripod move; positions sweep through the stroke.
+            let beta = (k as f64 * 0.004) % std::f64::consts::TAU;
+            let msg = JointState {
+                header: Header {
+                    stamp: Time::from_nanos(stamp_ns).unwrap_or_default(),
+                    frame_id: String::new(),
+                },
+                name: names.clone(),
+                position: (0..names.len())
+                    .map(|i| if i < 3 { beta } else { -beta })
+                    .collect(),
+                velocity: vec![],
+                effort: vec![],
+            };
+            let (publ, sent) = if to_echo_now {
+                (&to_echo, &echo_sent)
+            } else {
+                (&to_node, &node_sent)
+            };
+            if !warmup {
+                sent.lock()
+                    .unwrap_or_else(|p| p.into_inner())
+                    .insert(stamp_ns, Instant::now());
+            }
+            let _ = publ.publish(msg);
+        }
+    }
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    for t in &tasks {
+        t.abort();
+    }
+    node.stop_spinner();
+    let _ = tokio::time::timeout(Duration::from_secs(1), spin).await;
+    let lost_node = node_sent.lock().map(|m| m.len() as u64).unwrap_or(0);
+    let lost_echo = echo_sent.lock().map(|m| m.len() as u64).unwrap_or(0);
+    let nh = node_hist
+        .lock()
+        .map(|h| h.clone())
+        .map_err(|_| anyhow!("poisoned"))?;
+    let eh = echo_hist
+        .lock()
+        .map(|h| h.clone())
+        .map_err(|_| anyhow!("poisoned"))?;
+    Ok((nh, eh, lost_node, lost_echo))
+}
