@@ -17,7 +17,7 @@ use std::collections::HashMap;
 use std::future::Future;
 use std::net::{IpAddr, Ipv4Addr};
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
@@ -83,27 +83,15 @@ struct Pubs {
     wrench: Vec<Publisher<WrenchStamped>>,
     force: Vec<Publisher<LegForce>>,
     params: Vec<Publisher<ModelParams>>,
-    /// Whether each publisher (wrench, force, params of leg i at 3i, 3i+1, 3i+2) has a
-    /// subscriber; refreshed every 100 ms. Publishing to nobody costs a DDS write, skipped.
-    listened: Vec<AtomicBool>,
+    /// Asked, before each write, whether anyone subscribes: writing to nobody costs a DDS
+    /// write per message, skipped.
+    node: Arc<Node>,
 }
 
 impl Pubs {
-    fn listened(&self, i: usize) -> bool {
-        self.listened[i].load(Ordering::Relaxed)
-    }
-
-    fn refresh(&self, node: &Node) {
-        for (leg, ((w, f), p)) in self
-            .wrench
-            .iter()
-            .zip(&self.force)
-            .zip(&self.params)
-            .enumerate()
-        {
-            self.listened[3 * leg].store(w.get_subscription_count(node) > 0, Ordering::Relaxed);
-            self.listened[3 * leg + 1].store(f.get_subscription_count(node) > 0, Ordering::Relaxed);
-            self.listened[3 * leg + 2].store(p.get_subscription_count(node) > 0, Ordering::Relaxed);
+    fn send<M: serde::Serialize>(&self, p: &Publisher<M>, msg: M, sh: &Shared) {
+        if p.get_subscription_count(&self.node) > 0 {
+            sh.check(p.publish(msg).is_ok());
         }
     }
 }
@@ -366,19 +354,28 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
         publish_errors: AtomicU64::new(0),
         seen_version: AtomicU64::new(0),
     });
+    let depth = cfg.queue_depth;
+    let js_sub = subscription_with_depth::<JointState>(&mut node, &cfg.joint_states_topic, depth)?;
+    let mut ft_subs = Vec::new();
+    for (i, leg) in cfg.legs.iter().enumerate() {
+        if let Some(topic) = &leg.ft_topic {
+            ft_subs.push((
+                i,
+                subscription_with_depth::<WrenchStamped>(&mut node, topic, depth)?,
+            ));
+        }
+    }
+    // From here on the node is shared: the message tasks ask it who subscribes.
+    let node = Arc::new(node);
     let pubs = Arc::new(Pubs {
-        listened: (0..3 * wrench_pubs.len())
-            .map(|_| AtomicBool::new(false))
-            .collect(),
         wrench: wrench_pubs,
         force: force_pubs,
         params: param_pubs,
+        node: node.clone(),
     });
-    pubs.refresh(&node);
-    let depth = cfg.queue_depth;
     let mut tasks = Vec::new();
     {
-        let sub = subscription_with_depth::<JointState>(&mut node, &cfg.joint_states_topic, depth)?;
+        let sub = js_sub;
         let (sh, pubs, live, cfgc) = (
             shared.clone(),
             pubs.clone(),
@@ -405,26 +402,18 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
                     core.take_params(&mut params_out);
                 }
                 for o in outputs.drain(..) {
-                    if pubs.listened(3 * o.leg) {
-                        sh.check(pubs.wrench[o.leg].publish(o.wrench).is_ok());
-                    }
-                    if pubs.listened(3 * o.leg + 1) {
-                        sh.check(pubs.force[o.leg].publish(o.force).is_ok());
-                    }
+                    pubs.send(&pubs.wrench[o.leg], o.wrench, &sh);
+                    pubs.send(&pubs.force[o.leg], o.force, &sh);
                 }
                 for (leg, p) in params_out.drain(..) {
-                    if pubs.listened(3 * leg + 2) {
-                        sh.check(pubs.params[leg].publish(p).is_ok());
-                    }
+                    pubs.send(&pubs.params[leg], p, &sh);
                 }
                 let ns = received.elapsed().as_nanos() as u64;
                 sh.hist.lock().unwrap_or_else(|p| p.into_inner()).record(ns);
             }
         }));
     }
-    for (i, leg) in cfg.legs.iter().enumerate() {
-        let Some(topic) = &leg.ft_topic else { continue };
-        let sub = subscription_with_depth::<WrenchStamped>(&mut node, topic, depth)?;
+    for (i, sub) in ft_subs {
         let (sh, pubs, live, cfgc) = (
             shared.clone(),
             pubs.clone(),
@@ -449,9 +438,7 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
                     core.take_params(&mut params_out);
                 }
                 for (leg, p) in params_out.drain(..) {
-                    if pubs.listened(3 * leg + 2) {
-                        sh.check(pubs.params[leg].publish(p).is_ok());
-                    }
+                    pubs.send(&pubs.params[leg], p, &sh);
                 }
             }
         }));
@@ -459,12 +446,10 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
 
     let mut diag_tick = tokio::time::interval(Duration::from_secs_f64(cfg.diagnostics_period_s));
     diag_tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-    let mut listen_tick = tokio::time::interval(Duration::from_millis(100));
     tokio::pin!(shutdown);
     loop {
         tokio::select! {
             _ = &mut shutdown => break,
-            _ = listen_tick.tick() => pubs.refresh(&node),
             _ = diag_tick.tick() => {
                 let lat = {
                     let h = shared.hist.lock().unwrap_or_else(|p| p.into_inner());
