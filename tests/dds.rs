@@ -111,3 +111,49 @@ fn node_runs_from_the_launch_config_with_ros_args_overrides() {
     assert_eq!(v["checks"]["predictions_after_set"]["worst_rel_error"], 0.0);
     assert_eq!(v["checks"]["refused_set"]["exit_code"], 2);
 }
+
+/// 10 kHz of JointState for 30 s with six legs: the node keeps up or drops the oldest input and
+/// counts it (every message sent is either processed or counted), its memory stays flat and under
+/// 64 MB, and it stops cleanly on SIGINT.
+#[test]
+fn a_10_khz_flood_is_absorbed_with_drops_counted_and_memory_flat() {
+    let out = isolated_command(&terzaghi())
+        .args([
+            "bench-node",
+            "--load",
+            "--rate-hz",
+            "10000",
+            "--seconds",
+            "30",
+            "--json",
+        ])
+        .output()
+        .expect("run bench-node --load");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    eprintln!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let sent = v["sent"].as_u64().unwrap();
+    let processed = v["node_joint_states"].as_u64().unwrap();
+    let dropped = v["node_dropped_counted"].as_u64().unwrap();
+    assert!(sent > 250_000, "the client fell short of 10 kHz: {sent}");
+    // Nothing vanishes uncounted (a few may be in flight at shutdown).
+    assert!(
+        processed + dropped <= sent && sent - (processed + dropped) <= 100,
+        "{v}"
+    );
+    assert_eq!(v["node_predictions"].as_u64().unwrap(), 6 * processed);
+    assert!(v["node_peak_rss_kb"].as_u64().unwrap() <= 64 * 1024, "{v}");
+    let rss: Vec<u64> = v["node_rss_kb_per_second"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_u64().unwrap())
+        .collect();
+    let (early, last) = (rss[3], *rss.last().unwrap());
+    assert!(
+        last <= early + 2048,
+        "memory grew from {early} kB to {last} kB: {rss:?}"
+    );
+    assert_eq!(v["node_exit_clean"], true);
+}

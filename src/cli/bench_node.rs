@@ -39,6 +39,10 @@ pub struct BenchNodeArgs {
     /// JointState rate (Hz).
     #[arg(long, default_value_t = 1000.0)]
     pub rate_hz: f64,
+    /// Load test instead: JointStates only to the node, at --rate-hz for --seconds, watching its
+    /// memory; reports what it processed, dropped and its peak resident memory.
+    #[arg(long)]
+    pub load: bool,
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
@@ -158,26 +162,46 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
             .arg(&report_path)
             .args(["--ros-args", "--params-file"])
             .arg(&params)
-            .stderr(Stdio::inherit())
+            .stderr(Stdio::null())
             .spawn()
             .context("cannot start terzaghi node")?,
     );
-    children.0.push(
-        Command::new(&exe)
-            .arg("echo")
-            .stderr(Stdio::null())
-            .spawn()
-            .context("cannot start terzaghi echo")?,
-    );
+    if !a.load {
+        children.0.push(
+            Command::new(&exe)
+                .arg("echo")
+                .stderr(Stdio::null())
+                .spawn()
+                .context("cannot start terzaghi echo")?,
+        );
+    }
+    let node_pid = children.0[0].id();
 
     let rt = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()
         .build()?;
-    let (node_rt, echo_rt, lost_node, lost_echo) =
-        rt.block_on(client(&legs, a.rate_hz, a.seconds))?;
-    sigint(&mut children.0[0]);
-    sigint(&mut children.0[1]);
+    let (node_rt, echo_rt, lost_node, lost_echo, load) = rt.block_on(client(
+        &legs,
+        a.rate_hz,
+        a.seconds,
+        a.load.then_some(node_pid),
+    ))?;
+    for c in children.0.iter_mut() {
+        sigint(c);
+    }
+    let node_exit_clean = {
+        let deadline = Instant::now() + Duration::from_secs(15);
+        loop {
+            match children.0[0].try_wait() {
+                Ok(Some(status)) => break status.success(),
+                Ok(None) if Instant::now() < deadline => {
+                    std::thread::sleep(Duration::from_millis(50))
+                }
+                _ => break false,
+            }
+        }
+    };
     let deadline = Instant::now() + Duration::from_secs(10);
     while Instant::now() < deadline && !report_path.exists() {
         std::thread::sleep(Duration::from_millis(50));
@@ -187,6 +211,42 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
     let summary: RunSummary = serde_json::from_str(&text)?;
     let _ = std::fs::remove_dir_all(&dir);
 
+    if a.load {
+        let r = LoadReport {
+            legs: legs.len(),
+            rate_hz: a.rate_hz,
+            seconds: a.seconds,
+            sent: load.sent,
+            node_joint_states: summary.joint_states,
+            node_dropped_counted: summary.dropped,
+            node_predictions: summary.predictions,
+            node_peak_rss_kb: summary.peak_rss_kb,
+            node_rss_kb_per_second: load.rss_kb,
+            node_exit_clean,
+        };
+        if a.json {
+            return print_out(&(serde_json::to_string_pretty(&r)? + "\n"));
+        }
+        let peak = r
+            .node_peak_rss_kb
+            .map(|v| v.to_string())
+            .unwrap_or_else(|| "?".into());
+        return print_out(&format!(
+            "load: {} legs, JointState at {} Hz for {} s\n\
+             sent {}, node processed {} and counted {} dropped; {} predictions\n\
+             node resident memory: peak {} kB; each second {:?} kB; clean exit: {}\n",
+            r.legs,
+            r.rate_hz,
+            r.seconds,
+            r.sent,
+            r.node_joint_states,
+            r.node_dropped_counted,
+            r.node_predictions,
+            peak,
+            r.node_rss_kb_per_second,
+            r.node_exit_clean
+        ));
+    }
     let nr = Figures::from(&node_rt);
     let er = Figures::from(&echo_rt);
     let report = Report {
@@ -254,7 +314,8 @@ async fn client(
     legs: &[&str],
     rate_hz: f64,
     seconds: u32,
-) -> Result<(Histogram, Histogram, u64, u64)> {
+    load: Option<u32>,
+) -> Result<(Histogram, Histogram, u64, u64, LoadFigures)> {
     let context = dds_context_from_env()?;
     let mut node = context
         .new_node(
@@ -332,11 +393,25 @@ async fn client(
     let period = Duration::from_secs_f64(1.0 / rate_hz);
     let mut stamp_ns: i64 = 1_000_000_000_000;
     let mut k: u64 = 0;
-    for block in 0..(2 * seconds + 2) {
-        let warmup = block < 2;
-        let to_echo_now = block % 2 == 1;
+    let mut figures = LoadFigures::default();
+    let blocks = if load.is_some() {
+        seconds + 1
+    } else {
+        2 * seconds + 2
+    };
+    for block in 0..blocks {
+        let warmup = load.is_none() && block < 2;
+        let to_echo_now = load.is_none() && block % 2 == 1;
+        if let Some(pid) = load {
+            figures.rss_kb.push(rss_kb(pid).unwrap_or(0));
+        }
         let mut tick = tokio::time::interval(period);
-        tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+        // Timers tick in milliseconds: above 1 kHz, missed ticks burst to keep the mean rate.
+        tick.set_missed_tick_behavior(if rate_hz > 1000.0 {
+            tokio::time::MissedTickBehavior::Burst
+        } else {
+            tokio::time::MissedTickBehavior::Skip
+        });
         let end = Instant::now() + Duration::from_secs(1);
         while Instant::now() < end {
             tick.tick().await;
@@ -366,7 +441,9 @@ async fn client(
                     .unwrap_or_else(|p| p.into_inner())
                     .insert(stamp_ns, Instant::now());
             }
-            let _ = publ.publish(msg);
+            if publ.publish(msg).is_ok() {
+                figures.sent += 1;
+            }
         }
     }
     tokio::time::sleep(Duration::from_millis(500)).await;
@@ -385,5 +462,34 @@ async fn client(
         .lock()
         .map(|h| h.clone())
         .map_err(|_| anyhow!("poisoned"))?;
-    Ok((nh, eh, lost_node, lost_echo))
+    Ok((nh, eh, lost_node, lost_echo, figures))
+}
+
+/// What the load test saw from outside the node.
+#[derive(Debug, Default, serde::Serialize)]
+struct LoadFigures {
+    sent: u64,
+    /// The node's resident memory at the start of each second (kB).
+    rss_kb: Vec<u64>,
+}
+
+fn rss_kb(pid: u32) -> Option<u64> {
+    let s = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
+    s.lines()
+        .find_map(|l| l.strip_prefix("VmRSS:"))
+        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse().ok())
+}
+
+#[derive(Debug, serde::Serialize)]
+struct LoadReport {
+    legs: usize,
+    rate_hz: f64,
+    seconds: u32,
+    sent: u64,
+    node_joint_states: u64,
+    node_dropped_counted: u64,
+    node_predictions: u64,
+    node_peak_rss_kb: Option<u64>,
+    node_rss_kb_per_second: Vec<u64>,
+    node_exit_clean: bool,
 }
