@@ -66,7 +66,8 @@ fn cyclonedds_peer_gets_predictions_and_sees_identification_converge() {
 }
 
 /// The shipped testbed parameter file, with --ros-args overrides: another plate width (whose
-/// Table 1 fit the hit_sand preset supplies), a namespace and a joint name; then `leg.b_k` set
+/// Table 1 fit the hit_sand preset supplies), a namespace and a joint name, on ROS_DOMAIN_ID 7
+/// with discovery on localhost only; then `leg.b_k` set
 /// through the parameter services takes effect at once, and an invalid width is refused.
 #[test]
 fn node_runs_from_the_launch_config_with_ros_args_overrides() {
@@ -100,6 +101,8 @@ fn node_runs_from_the_launch_config_with_ros_args_overrides() {
             "knee",
             "--set-param",
             "leg.b_k=7.5",
+            "--domain",
+            "7",
             "--after-set-flags",
             r#"["--length-m", "0.25", "--width-m", "0.04", "--hip-height-m", "0.15", "--medium", "hit_sand", "--bk", "7.5", "--a", "1.61"]"#,
         ],

@@ -7,6 +7,7 @@ JSON summary and exits 0 only if every check holds. Run it inside a private netw
 """
 import argparse
 import json
+import os
 import math
 import random
 import signal
@@ -50,6 +51,7 @@ def main():
     ap.add_argument("--identify", action="store_true", help="also check identification from F/T on <leg>/ft")
     ap.add_argument("--set-param", default="", help="NAME=VALUE to set through the parameter services")
     ap.add_argument("--after-set-flags", default="[]", help="JSON list: predict flags once it is set")
+    ap.add_argument("--domain", type=int, default=0, help="DDS domain (the node gets ROS_DOMAIN_ID)")
     ap.add_argument("--truth-bk", type=float, default=3.0)
     ap.add_argument("--truth-a", type=float, default=1.8)
     ap.add_argument("--strokes", type=int, default=8)
@@ -57,12 +59,13 @@ def main():
     summary = {"checks": {}}
     failures = []
 
+    env = dict(os.environ, ROS_DOMAIN_ID=str(args.domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
     node = subprocess.Popen([args.terzaghi, "node", *json.loads(args.node_args)],
-                            stderr=subprocess.PIPE, text=True)
+                            stderr=subprocess.PIPE, text=True, env=env)
     flags = json.loads(args.predict_flags)
     pre = "rt" + args.ns.rstrip("/") + "/"
     try:
-        dp = DomainParticipant(0)
+        dp = DomainParticipant(args.domain)
         rel = Qos(Policy.Reliability.Reliable(duration(seconds=1)), Policy.History.KeepLast(2000))
         js_w = DataWriter(dp, Topic(dp, pre + "joint_states", JointState), qos=rel)
         ft_w = DataWriter(dp, Topic(dp, pre + args.leg + "/ft", WrenchStamped), qos=rel)
@@ -109,11 +112,12 @@ def main():
             name, value = args.set_param.split("=", 1)
             fqn = args.ns.rstrip("/") + "/terzaghi"
             bad = subprocess.run([args.terzaghi, "param", "set", fqn, args.leg + ".width_m", "-0.5"],
-                                 capture_output=True, text=True)
+                                 capture_output=True, text=True, env=env)
             summary["checks"]["refused_set"] = {"exit_code": bad.returncode, "stderr": bad.stderr.strip()}
             if bad.returncode != 2 or "width" not in bad.stderr:
                 failures.append(f"an invalid width was not refused: {bad.returncode} {bad.stderr}")
-            ok = subprocess.run([args.terzaghi, "param", "set", fqn, name, value], capture_output=True, text=True)
+            ok = subprocess.run([args.terzaghi, "param", "set", fqn, name, value], capture_output=True, text=True,
+                                env=env)
             if ok.returncode != 0:
                 failures.append(f"param set {name} {value} failed: {ok.stderr}")
             time.sleep(0.2)
