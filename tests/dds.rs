@@ -1,5 +1,6 @@
 //! The node on a real DDS network, against an independent DDS implementation (Python
-//! cyclonedds), inside a private network namespace.
+//! cyclonedds), inside a private network namespace. Each test uses its own DDS domain, so that
+//! tests running at once in one namespace do not hear each other.
 
 mod common;
 
@@ -55,7 +56,15 @@ fn cyclonedds_peer_gets_predictions_and_sees_identification_converge() {
     let v = run_peer(
         &["--ros-args", "--params-file", params.to_str().unwrap()],
         &flags,
-        &["--identify", "--truth-bk", "3.0", "--truth-a", "1.8"],
+        &[
+            "--identify",
+            "--truth-bk",
+            "3.0",
+            "--truth-a",
+            "1.8",
+            "--domain",
+            "11",
+        ],
     );
     assert_eq!(v["checks"]["predictions"]["received"], 21);
     let id = &v["checks"]["identification"];
@@ -130,6 +139,7 @@ fn a_10_khz_flood_is_absorbed_with_drops_counted_and_memory_flat() {
             "30",
             "--json",
         ])
+        .env("ROS_DOMAIN_ID", "13")
         .output()
         .expect("run bench-node --load");
     let stdout = String::from_utf8_lossy(&out.stdout);
