@@ -43,6 +43,9 @@ pub struct BenchNodeArgs {
     /// memory; reports what it processed, dropped and its peak resident memory.
     #[arg(long)]
     pub load: bool,
+    /// Start the node with --realtime-priority (SCHED_FIFO), as a real-time robot would.
+    #[arg(long, value_name = "PRIORITY")]
+    pub node_realtime_priority: Option<i32>,
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
@@ -160,6 +163,10 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
             .arg("node")
             .arg("--latency-report")
             .arg(&report_path)
+            .args(
+                a.node_realtime_priority
+                    .map(|p| format!("--realtime-priority={p}")),
+            )
             .args(["--ros-args", "--params-file"])
             .arg(&params)
             .stderr(Stdio::null())

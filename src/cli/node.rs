@@ -20,6 +20,10 @@ pub struct NodeArgs {
     /// Write the processing-time summary as JSON to this file at shutdown.
     #[arg(long, value_name = "FILE")]
     pub latency_report: Option<PathBuf>,
+    /// Run the message handling under SCHED_FIFO with this priority (1-99), as real-time
+    /// control nodes do, so that other threads do not preempt it (needs CAP_SYS_NICE or root).
+    #[arg(long, value_name = "PRIORITY")]
+    pub realtime_priority: Option<i32>,
     /// ROS arguments, after --ros-args.
     #[arg(
         trailing_var_arg = true,
@@ -110,6 +114,9 @@ pub fn run(a: NodeArgs) -> Result<()> {
         .enable_all()
         .build()
         .context("cannot start the async runtime")?;
+    if let Some(priority) = a.realtime_priority {
+        set_realtime(priority)?;
+    }
     let summary = rt.block_on(run_node(setup, shutdown_signal()))?;
     eprintln!(
         "terzaghi node stopped: {} joint states, {} predictions, {} inputs dropped; processing p50 {:.1} us, p99 {:.1} us, max {:.1} us",
@@ -122,4 +129,30 @@ pub fn run(a: NodeArgs) -> Result<()> {
     );
     rt.shutdown_timeout(std::time::Duration::from_secs(2));
     Ok(())
+}
+
+/// Puts the calling thread (the one the node's messages are handled on) under SCHED_FIFO.
+fn set_realtime(priority: i32) -> Result<()> {
+    if !(1..=99).contains(&priority) {
+        bail!("--realtime-priority must be from 1 to 99, got {priority}");
+    }
+    #[cfg(target_os = "linux")]
+    {
+        let param = libc::sched_param {
+            sched_priority: priority,
+        };
+        // SAFETY: sched_setscheduler reads `param` and changes only this thread's policy.
+        let rc = unsafe { libc::sched_setscheduler(0, libc::SCHED_FIFO, &param) };
+        if rc != 0 {
+            bail!(
+                "cannot run under SCHED_FIFO priority {priority}: {} (needs CAP_SYS_NICE or root)",
+                std::io::Error::last_os_error()
+            );
+        }
+        Ok(())
+    }
+    #[cfg(not(target_os = "linux"))]
+    {
+        bail!("--realtime-priority is supported on Linux only")
+    }
 }
