@@ -14,4 +14,5 @@ pub mod ident;
 pub mod model;
 pub mod msgs;
 pub mod node;
+pub mod record;
 pub mod sim;
