@@ -4,6 +4,7 @@ mod bench;
 mod bench_node;
 mod fit;
 mod identify;
+mod mcap_tools;
 mod media;
 mod node;
 mod param;
@@ -36,6 +37,10 @@ pub enum Command {
     Node(node::NodeArgs),
     /// Get or set a running node's parameters (like `ros2 param`).
     Param(param::ParamArgs),
+    /// Topics, types, message counts, duration of an MCAP session, and whether it is complete.
+    Info(mcap_tools::InfoArgs),
+    /// Write a valid copy of a cut-off MCAP file, keeping every complete message.
+    Recover(mcap_tools::RecoverArgs),
     /// List the medium presets with their values and provenance.
     Media(media::MediaArgs),
     /// Write a synthetic session (one leg in continuous rotation, with sensor noise) as CSV.
@@ -56,6 +61,8 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Predict(a) => predict::run(a),
         Command::Fit(a) => fit::run(a),
         Command::Identify(a) => identify::run(a),
+        Command::Info(a) => mcap_tools::info(a),
+        Command::Recover(a) => mcap_tools::recover_cmd(a),
         Command::Media(a) => media::run(a),
         Command::Node(a) => node::run(a),
         Command::Param(a) => param::run(a),

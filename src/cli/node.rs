@@ -1,7 +1,8 @@
 //! `terzaghi node`: the ROS 2 node.
 
 use crate::config::{
-    NodeConfig, domain_id_from_env, load_params, localhost_only_from_env, parse_ros_args,
+    NodeConfig, ParamValue, domain_id_from_env, load_params, localhost_only_from_env,
+    parse_ros_args,
 };
 use crate::node::dds::{NodeSetup, run as run_node};
 use anyhow::{Context, Result, bail};
@@ -17,6 +18,9 @@ ROS_LOCALHOST_ONLY=1 (DDS on loopback only).\n\
 Parameters: see launch_configs/ and the README."
 )]
 pub struct NodeArgs {
+    /// Record the session (inputs and outputs) to this MCAP file (or the parameter `record`).
+    #[arg(long, value_name = "FILE.mcap")]
+    pub record: Option<PathBuf>,
     /// Write the processing-time summary as JSON to this file at shutdown.
     #[arg(long, value_name = "FILE")]
     pub latency_report: Option<PathBuf>,
@@ -67,7 +71,13 @@ pub fn setup(a: &NodeArgs) -> Result<NodeSetup> {
         .clone()
         .unwrap_or_else(|| "terzaghi".to_string());
     let namespace = ros.namespace.clone().unwrap_or_else(|| "/".to_string());
-    let params = load_params(&ros, &node_name, &namespace)?;
+    let mut params = load_params(&ros, &node_name, &namespace)?;
+    if let Some(path) = &a.record {
+        params.insert(
+            "record".into(),
+            ParamValue::String(path.display().to_string()),
+        );
+    }
     let config = NodeConfig::from_params(&params, &node_name, &namespace, &ros.remaps)?;
     let params = config.effective_params(&params);
     let domain_id = domain_id_from_env(std::env::var("ROS_DOMAIN_ID").ok().as_deref())?;

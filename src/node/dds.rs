@@ -6,6 +6,8 @@ use super::core::{LegOutput, NodeCore};
 use super::latency::Histogram;
 use crate::config::{NodeConfig, ParamMap, ParamValue, STARTUP_ONLY};
 use crate::msgs::{DiagnosticArray, JointState, LegForce, ModelParams, RosMessage, WrenchStamped};
+use crate::record::RecordOptions;
+use crate::record::recorder::{Record, Recorder};
 use anyhow::{Context as _, Result, anyhow};
 use ros2_client::dds::rustdds::DomainParticipantBuilder;
 use ros2_client::{
@@ -29,6 +31,16 @@ pub struct NodeSetup {
     pub localhost_only: bool,
     /// Write the processing-time summary here as JSON at shutdown (for benchmarks).
     pub latency_report: Option<PathBuf>,
+}
+
+/// Topic names of what the recorder writes, resolved once.
+struct RecTopics {
+    joints: Arc<str>,
+    ft: Vec<Arc<str>>,
+    wrench: Vec<Arc<str>>,
+    force: Vec<Arc<str>>,
+    params: Vec<Arc<str>>,
+    diagnostics: Arc<str>,
 }
 
 /// What a run did, printed at shutdown.
@@ -232,6 +244,38 @@ fn candidate(
         .map_err(|e| e.to_string())
 }
 
+/// Adds the recorder's state to the diagnostics values; returns its error, if it failed.
+fn recording_state(
+    recorder: &Option<Arc<Recorder>>,
+    start_error: &Mutex<Option<String>>,
+    kv: &mut Vec<(String, String)>,
+) -> Option<String> {
+    if let Some(e) = start_error.lock().ok().and_then(|e| e.clone()) {
+        kv.push(("recording".into(), "failed".into()));
+        return Some(e);
+    }
+    let r = recorder.as_ref()?;
+    kv.push(("recording".into(), r.path.display().to_string()));
+    kv.push((
+        "recorded_messages".into(),
+        r.status.written.load(Ordering::Relaxed).to_string(),
+    ));
+    kv.push((
+        "recording_dropped".into(),
+        r.status.dropped.load(Ordering::Relaxed).to_string(),
+    ));
+    if r.status.failed.load(Ordering::Relaxed) {
+        return r
+            .status
+            .error
+            .lock()
+            .ok()
+            .and_then(|e| e.clone())
+            .or(Some("write failed".into()));
+    }
+    None
+}
+
 /// A ROS 2 context on `domain_id`, on loopback only if asked.
 pub fn dds_context(domain_id: u16, localhost_only: bool) -> Result<Context> {
     let mut dpb = DomainParticipantBuilder::new(domain_id);
@@ -367,15 +411,62 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
     }
     // From here on the node is shared: the message tasks ask it who subscribes.
     let node = Arc::new(node);
+    let record_error: Mutex<Option<String>> = Mutex::new(None);
     let pubs = Arc::new(Pubs {
         wrench: wrench_pubs,
         force: force_pubs,
         params: param_pubs,
         node: node.clone(),
     });
+    // The recorder, if asked for: a failure to start is reported, and the node runs on.
+    let recorder: Option<Arc<Recorder>> = cfg.record.as_ref().and_then(|path| {
+        let params = setup
+            .params
+            .iter()
+            .map(|(k, v)| (k.clone(), v.to_string()))
+            .collect();
+        let opts = RecordOptions {
+            params,
+            ..Default::default()
+        };
+        match Recorder::start(path, opts, 1 << 16) {
+            Ok(r) => Some(Arc::new(r)),
+            Err(e) => {
+                let msg = format!("cannot record to {}: {e}", path.display());
+                eprintln!("error: {msg}; the node runs without recording");
+                *record_error.lock().unwrap_or_else(|p| p.into_inner()) = Some(msg);
+                None
+            }
+        }
+    });
+    let rt_topics = Arc::new(RecTopics {
+        joints: cfg.joint_states_topic.as_str().into(),
+        ft: cfg
+            .legs
+            .iter()
+            .map(|l| l.ft_topic.clone().unwrap_or_default().into())
+            .collect(),
+        wrench: cfg
+            .legs
+            .iter()
+            .map(|l| resolve(&format!("{}/predicted_wrench", l.name)).into())
+            .collect(),
+        force: cfg
+            .legs
+            .iter()
+            .map(|l| resolve(&format!("{}/leg_force", l.name)).into())
+            .collect(),
+        params: cfg
+            .legs
+            .iter()
+            .map(|l| resolve(&format!("{}/model_params", l.name)).into())
+            .collect(),
+        diagnostics: resolve("/diagnostics").into(),
+    });
     let mut tasks = Vec::new();
     {
         let sub = js_sub;
+        let (rec, rt) = (recorder.clone(), rt_topics.clone());
         let (sh, pubs, live, cfgc) = (
             shared.clone(),
             pubs.clone(),
@@ -395,11 +486,29 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
                     }
                 };
                 let received = Instant::now();
+                let log_ns = unix_now_ns() as u64;
                 sh.dropped.fetch_add(gaps.lost(&info), Ordering::Relaxed);
                 {
                     let mut core = sh.lock_core(&live, &cfgc);
                     core.on_joint_state(&msg, &mut outputs);
                     core.take_params(&mut params_out);
+                }
+                if let Some(r) = &rec {
+                    for o in &outputs {
+                        r.record(Record::Prediction(
+                            rt.wrench[o.leg].clone(),
+                            o.wrench.clone(),
+                            log_ns,
+                        ));
+                        r.record(Record::Force(
+                            rt.force[o.leg].clone(),
+                            o.force.clone(),
+                            log_ns,
+                        ));
+                    }
+                    for (leg, p) in &params_out {
+                        r.record(Record::Params(rt.params[*leg].clone(), p.clone(), log_ns));
+                    }
                 }
                 for o in outputs.drain(..) {
                     pubs.send(&pubs.wrench[o.leg], o.wrench, &sh);
@@ -410,10 +519,14 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
                 }
                 let ns = received.elapsed().as_nanos() as u64;
                 sh.hist.lock().unwrap_or_else(|p| p.into_inner()).record(ns);
+                if let Some(r) = &rec {
+                    r.record(Record::Joints(rt.joints.clone(), msg, log_ns));
+                }
             }
         }));
     }
     for (i, sub) in ft_subs {
+        let (rec, rt) = (recorder.clone(), rt_topics.clone());
         let (sh, pubs, live, cfgc) = (
             shared.clone(),
             pubs.clone(),
@@ -431,11 +544,18 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
                         continue;
                     }
                 };
+                let log_ns = unix_now_ns() as u64;
                 sh.dropped.fetch_add(gaps.lost(&info), Ordering::Relaxed);
                 {
                     let mut core = sh.lock_core(&live, &cfgc);
                     core.on_wrench(i, &msg);
                     core.take_params(&mut params_out);
+                }
+                if let Some(r) = &rec {
+                    for (leg, p) in &params_out {
+                        r.record(Record::Params(rt.params[*leg].clone(), p.clone(), log_ns));
+                    }
+                    r.record(Record::Wrench(rt.ft[i].clone(), msg, log_ns));
                 }
                 for (leg, p) in params_out.drain(..) {
                     pubs.send(&pubs.params[leg], p, &sh);
@@ -460,9 +580,18 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
                         ("publish_errors".to_string(), shared.publish_errors.load(Ordering::Relaxed).to_string()),
                     ]
                 };
-                let d = shared
+                let mut lat = lat;
+                let rec_error = recording_state(&recorder, &record_error, &mut lat);
+                let mut d = shared
                     .lock_core(&live, &cfg_for_check)
                     .diagnostics(unix_now_ns(), shared.dropped.load(Ordering::Relaxed), &lat);
+                if let (Some(e), Some(node_status)) = (rec_error, d.status.first_mut()) {
+                    node_status.level = crate::msgs::DiagnosticStatus::ERROR;
+                    node_status.message = format!("recording stopped: {e}");
+                }
+                if let Some(r) = &recorder {
+                    r.record(Record::Diagnostics(rt_topics.diagnostics.clone(), d.clone(), unix_now_ns() as u64));
+                }
                 shared.check(diag_pub.publish(d).is_ok());
             }
         }
@@ -495,6 +624,18 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
     };
     // Dropping the node and context tells DDS peers that we left.
     drop(pubs);
+    if let Some(r) = recorder.and_then(|r| Arc::try_unwrap(r).ok()) {
+        let path = r.path.clone();
+        let written = r.status.written.load(Ordering::Relaxed);
+        let dropped = r.status.dropped.load(Ordering::Relaxed);
+        match r.finish() {
+            None => eprintln!(
+                "recorded {written} messages to {} ({dropped} dropped)",
+                path.display()
+            ),
+            Some(e) => eprintln!("error: recording to {} stopped: {e}", path.display()),
+        }
+    }
     drop(diag_pub);
     drop(node);
     drop(context);

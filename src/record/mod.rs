@@ -10,6 +10,7 @@
 //! written by any ROS 2 tool, cut off or not; [`recover`] rewrites a cut-off file whole.
 
 pub mod read;
+pub mod recorder;
 pub mod recover;
 
 use crate::msgs::RosMessage;

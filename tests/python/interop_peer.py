@@ -52,12 +52,20 @@ def main():
     ap.add_argument("--set-param", default="", help="NAME=VALUE to set through the parameter services")
     ap.add_argument("--after-set-flags", default="[]", help="JSON list: predict flags once it is set")
     ap.add_argument("--domain", type=int, default=0, help="DDS domain (the node gets ROS_DOMAIN_ID)")
+    ap.add_argument("--dump", default="", help="write what was sent and received to this JSON file")
+    ap.add_argument("--kill-after", type=float, default=0.0,
+                    help="SIGKILL the node this many seconds into the F/T phase (crash test)")
     ap.add_argument("--truth-bk", type=float, default=3.0)
     ap.add_argument("--truth-a", type=float, default=1.8)
     ap.add_argument("--strokes", type=int, default=8)
     args = ap.parse_args()
     summary = {"checks": {}}
     failures = []
+    dump = {"joint_states": {}, "ft": {}, "predicted_wrench": {}, "model_params": [], "sent_wall": {},
+            "kill_wall": None}
+
+    def key(st):
+        return str(st.sec * 1_000_000_000 + st.nanosec)
 
     env = dict(os.environ, ROS_DOMAIN_ID=str(args.domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
     node = subprocess.Popen([args.terzaghi, "node", *json.loads(args.node_args)],
@@ -81,6 +89,7 @@ def main():
                 beta = math.radians(row["beta_deg"])
                 js_w.write(JointState(header=Header(stamp=stamp(t0 + 0.01 * i)), name=["other", args.joint],
                                       position=[0.3, beta]))
+                dump["joint_states"][key(stamp(t0 + 0.01 * i))] = [0.3, beta]
                 time.sleep(0.005)
             got = {}
             end = time.time() + 10
@@ -88,6 +97,7 @@ def main():
                 for s in wr_r.take(N=100):
                     if isinstance(s, WrenchStamped):
                         got[(s.header.stamp.sec, s.header.stamp.nanosec)] = s
+                        dump["predicted_wrench"][key(s.header.stamp)] = [s.wrench.force.x, s.wrench.force.z, s.wrench.torque.y]
                 time.sleep(0.02)
             worst = 0.0
             for i, row in enumerate(expected):
@@ -157,6 +167,13 @@ def main():
             js_w.write(JointState(header=Header(stamp=stamp(t)), name=[args.joint], position=[beta]))
             ft_w.write(WrenchStamped(header=Header(stamp=stamp(t), frame_id="ft"),
                                      wrench=Wrench(force=Vector3(x=-d, z=l))))
+            dump["joint_states"][key(stamp(t))] = [beta]
+            dump["ft"][key(stamp(t))] = [-d, l]
+            dump["sent_wall"][key(stamp(t))] = time.time()
+            if args.kill_after and time.time() - start >= args.kill_after:
+                node.kill()
+                dump["kill_wall"] = time.time()
+                break
             lag = start + (k + 1) / rate - time.time()
             if lag > 0:
                 time.sleep(lag)
@@ -166,8 +183,11 @@ def main():
             for s in mp_r.take(N=1000):
                 if isinstance(s, ModelParams):
                     last = s
+                    dump["model_params"].append([key(s.header.stamp), s.b_k, s.a, s.samples_used])
             time.sleep(0.05)
-        if last is None:
+        if args.kill_after:
+            pass  # the node was killed on purpose: nothing more to check here
+        elif last is None:
             failures.append("no model_params received")
         else:
             eb, ea = last.b_k / args.truth_bk - 1, last.a / args.truth_a - 1
@@ -187,8 +207,15 @@ def main():
             failures.append("the node did not stop on SIGINT")
         summary["node_exit_code"] = node.returncode
         summary["node_stderr"] = err[-2000:]
-        if node.returncode != 0:
+        if node.returncode != 0 and not args.kill_after:
             failures.append(f"node exit code {node.returncode}")
+        if args.dump:
+            # Predicted wrenches that arrived during the identification phase count too.
+            for s in wr_r.take(N=100000):
+                if isinstance(s, WrenchStamped):
+                    dump["predicted_wrench"][key(s.header.stamp)] = [s.wrench.force.x, s.wrench.force.z, s.wrench.torque.y]
+            with open(args.dump, "w") as f:
+                json.dump(dump, f)
         summary["failures"] = failures
         print(json.dumps(summary, indent=2))
         sys.exit(1 if failures else 0)
