@@ -9,6 +9,7 @@ mod media;
 mod node;
 mod param;
 mod predict;
+mod replay;
 mod simulate;
 
 use crate::model::{FittingWidth, Medium, Plate, TerzaghiModel, medium as presets};
@@ -41,6 +42,9 @@ pub enum Command {
     Info(mcap_tools::InfoArgs),
     /// Write a valid copy of a cut-off MCAP file, keeping every complete message.
     Recover(mcap_tools::RecoverArgs),
+    /// Republish a session over DDS with its recorded timing, or re-evaluate it offline
+    /// (--reevaluate) through the model and the estimator.
+    Replay(replay::ReplayArgs),
     /// List the medium presets with their values and provenance.
     Media(media::MediaArgs),
     /// Write a synthetic session (one leg in continuous rotation, with sensor noise) as CSV.
@@ -63,6 +67,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Identify(a) => identify::run(a),
         Command::Info(a) => mcap_tools::info(a),
         Command::Recover(a) => mcap_tools::recover_cmd(a),
+        Command::Replay(a) => replay::run(a),
         Command::Media(a) => media::run(a),
         Command::Node(a) => node::run(a),
         Command::Param(a) => param::run(a),

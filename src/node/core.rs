@@ -53,9 +53,22 @@ struct Leg {
     last_params_ns: Option<i64>,
     /// F/T samples newer than the newest joint angle, waiting for it.
     pending: VecDeque<WrenchStamped>,
+    /// F/T samples matched with a joint angle, in the hip frame, kept when asked for
+    /// ([`NodeCore::keep_matches`]) until taken.
+    matches: Vec<Matched>,
+    record_matches: bool,
     counters: LegCounters,
     /// Counters at the last diagnostics, for rates.
     at_last_diag: LegCounters,
+}
+
+/// A measured wrench matched with a joint angle: drag and lift in the hip frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Matched {
+    pub t_ns: i64,
+    pub beta_rad: f64,
+    pub drag_n: f64,
+    pub lift_n: f64,
 }
 
 /// The outputs of one leg for one JointState.
@@ -115,6 +128,8 @@ impl NodeCore {
             joint_index: 0,
             last_params_ns: None,
             pending: VecDeque::new(),
+            matches: Vec::new(),
+            record_matches: false,
             counters: LegCounters::default(),
             at_last_diag: LegCounters::default(),
         }
@@ -344,6 +359,14 @@ impl NodeCore {
                 (f.x * s + f.z * c, -f.x * c + f.z * s)
             }
         };
+        if l.record_matches {
+            l.matches.push(Matched {
+                t_ns,
+                beta_rad: beta,
+                drag_n: -fx,
+                lift_n: fz,
+            });
+        }
         let est = l.estimator.as_mut()?;
         let before = *est.estimate();
         let _ = est.update(&Sample {
@@ -394,6 +417,39 @@ impl NodeCore {
             innovation_rms_n: e.innovation_rms_n,
             converged: e.converged,
             changes_detected: e.changes_detected.min(u32::MAX as u64) as u32,
+        })
+    }
+
+    /// Keep every F/T sample matched with a joint angle, for [`NodeCore::take_matches`] (offline
+    /// re-evaluation puts predictions next to them).
+    pub fn keep_matches(&mut self, keep: bool) {
+        for l in &mut self.legs {
+            l.record_matches = keep;
+        }
+    }
+
+    /// Takes the F/T samples of `leg` matched since the previous call.
+    pub fn take_matches(&mut self, leg: usize, out: &mut Vec<Matched>) {
+        if let Some(l) = self.legs.get_mut(leg) {
+            out.append(&mut l.matches);
+        }
+    }
+
+    /// The prediction of `leg`'s current model at `beta_rad`.
+    pub fn predict(&self, leg: usize, beta_rad: f64) -> Option<crate::model::Prediction> {
+        self.legs.get(leg)?.model.predict(beta_rad).ok()
+    }
+
+    /// The fitting width `leg` predicts with now, and whether it is identified.
+    pub fn width_in_use(&self, leg: usize) -> Option<(f64, f64, bool)> {
+        let l = self.legs.get(leg)?;
+        Some(match (&l.identified, self.cfg.use_identified) {
+            (Some(e), true) => (e.b_k, e.a, true),
+            _ => (
+                self.cfg.legs[leg].width.b_k(),
+                self.cfg.legs[leg].width.a(),
+                false,
+            ),
         })
     }
 

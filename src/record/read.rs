@@ -56,9 +56,16 @@ impl Scan {
     }
 }
 
+/// Largest chunk this reader decompresses (ours are 4 MiB; rosbag2's default is 768 KiB).
+const MAX_CHUNK_BYTES: u64 = 1 << 30;
+
 /// Scans `bytes` from the start, calling `visit(scan, message)` for every complete message, in
 /// file order. An error only if `bytes` is not MCAP at all.
+///
+/// Records are read one by one (chunks whole), and each chunk's declared sizes are checked
+/// before it is decompressed: a damaged size would otherwise ask for an absurd allocation.
 pub fn scan(bytes: &[u8], mut visit: impl FnMut(&Scan, MessageRef)) -> Result<Scan, RecordError> {
+    use mcap::records::Record;
     if bytes.len() < mcap::MAGIC.len() || &bytes[..mcap::MAGIC.len()] != mcap::MAGIC {
         return Err(RecordError::Io(std::io::Error::new(
             std::io::ErrorKind::InvalidData,
@@ -67,64 +74,132 @@ pub fn scan(bytes: &[u8], mut visit: impl FnMut(&Scan, MessageRef)) -> Result<Sc
     }
     let mut s = Scan::default();
     let mut by_channel: BTreeMap<u16, usize> = BTreeMap::new();
+    let mut acc: mcap::read::ChannelAccumulator<'static> = Default::default();
     let opts = mcap::read::Options::IgnoreEndMagic.into();
-    let stream = mcap::MessageStream::new_with_options(bytes, opts)?;
-    for m in stream {
-        let m = match m {
-            Ok(m) => m,
+    let mut handle = |rec: Record, s: &mut Scan| -> Result<(), String> {
+        match rec {
+            Record::Schema { header, data } => acc
+                .add_schema(header, std::borrow::Cow::Owned(data.into_owned()))
+                .map_err(|e| e.to_string()),
+            Record::Channel(c) => acc.add_channel(c).map_err(|e| e.to_string()),
+            Record::Metadata(md) => {
+                s.metadata.insert(md.name, md.metadata);
+                Ok(())
+            }
+            Record::Message { header, data } => {
+                let channel = acc
+                    .get(header.channel_id)
+                    .ok_or_else(|| format!("message on unknown channel {}", header.channel_id))?;
+                let idx = match by_channel.get(&channel.id) {
+                    Some(&i) => i,
+                    None => {
+                        let schema = channel.schema.as_ref();
+                        s.topics.push(TopicInfo {
+                            topic: channel.topic.clone(),
+                            type_name: schema.map(|x| x.name.clone()).unwrap_or_default(),
+                            schema_text: schema
+                                .map(|x| String::from_utf8_lossy(&x.data).into_owned())
+                                .unwrap_or_default(),
+                            encoding: channel.message_encoding.clone(),
+                            channel_metadata: channel.metadata.clone(),
+                            count: 0,
+                        });
+                        by_channel.insert(channel.id, s.topics.len() - 1);
+                        s.topics.len() - 1
+                    }
+                };
+                s.topics[idx].count += 1;
+                s.messages += 1;
+                let t = header.log_time;
+                s.start_ns = Some(s.start_ns.map_or(t, |v| v.min(t)));
+                s.end_ns = Some(s.end_ns.map_or(t, |v| v.max(t)));
+                visit(
+                    s,
+                    MessageRef {
+                        topic: idx,
+                        log_time_ns: t,
+                        publish_time_ns: header.publish_time,
+                        data: data.into_owned(),
+                    },
+                );
+                Ok(())
+            }
+            _ => Ok(()),
+        }
+    };
+    let reader = mcap::read::LinearReader::new_with_options(bytes, opts)?;
+    let mut footer = false;
+    'records: for rec in reader {
+        let rec = match rec {
+            Ok(r) => r,
             Err(e) => {
                 s.stopped = Some(e.to_string());
                 break;
             }
         };
-        let idx = match by_channel.get(&m.channel.id) {
-            Some(&i) => i,
-            None => {
-                let schema = m.channel.schema.as_ref();
-                s.topics.push(TopicInfo {
-                    topic: m.channel.topic.clone(),
-                    type_name: schema.map(|x| x.name.clone()).unwrap_or_default(),
-                    schema_text: schema
-                        .map(|x| String::from_utf8_lossy(&x.data).into_owned())
-                        .unwrap_or_default(),
-                    encoding: m.channel.message_encoding.clone(),
-                    channel_metadata: m.channel.metadata.clone(),
-                    count: 0,
-                });
-                by_channel.insert(m.channel.id, s.topics.len() - 1);
-                s.topics.len() - 1
+        footer |= matches!(rec, Record::Footer(_));
+        if let Record::Chunk { header, data } = rec {
+            let declared = header.uncompressed_size;
+            if declared > MAX_CHUNK_BYTES
+                || declared > header.compressed_size.saturating_mul(1000) + (1 << 20)
+            {
+                s.stopped = Some(format!(
+                    "a chunk declares {declared} bytes uncompressed: damaged"
+                ));
+                break;
             }
-        };
-        s.topics[idx].count += 1;
-        s.messages += 1;
-        s.start_ns = Some(s.start_ns.map_or(m.log_time, |v| v.min(m.log_time)));
-        s.end_ns = Some(s.end_ns.map_or(m.log_time, |v| v.max(m.log_time)));
-        visit(
-            &s,
-            MessageRef {
-                topic: idx,
-                log_time_ns: m.log_time,
-                publish_time_ns: m.publish_time,
-                data: m.data.into_owned(),
-            },
-        );
-    }
-    // Metadata records (outside chunks), up to the first damage.
-    if let Ok(reader) = mcap::read::LinearReader::new_with_options(bytes, opts) {
-        for r in reader {
-            match r {
-                Ok(mcap::records::Record::Metadata(md)) => {
-                    s.metadata.insert(md.name, md.metadata);
+            let records = match decompress_chunk(&header, &data) {
+                Ok(r) => r,
+                Err(e) => {
+                    s.stopped = Some(e);
+                    break;
                 }
-                Ok(_) => {}
-                Err(_) => break,
+            };
+            for r in mcap::read::LinearReader::sans_magic(&records) {
+                match r.map_err(|e| e.to_string()).and_then(|r| handle(r, &mut s)) {
+                    Ok(()) => {}
+                    Err(e) => {
+                        s.stopped = Some(e);
+                        break 'records;
+                    }
+                }
             }
+        } else if let Err(e) = handle(rec, &mut s) {
+            s.stopped = Some(e);
+            break;
         }
     }
-    s.complete = s.stopped.is_none()
-        && bytes.ends_with(mcap::MAGIC)
-        && matches!(mcap::Summary::read(bytes), Ok(Some(_)));
+    // Not mcap::Summary::read: it trusts the offsets in the footer, which may be damaged.
+    s.complete = s.stopped.is_none() && footer && bytes.ends_with(mcap::MAGIC);
     Ok(s)
+}
+
+/// The records of a chunk, decompressed into a buffer of the declared size (already checked to
+/// be sane) and checked against the chunk's CRC. Done here rather than by mcap's ChunkReader,
+/// which sets no limit on the length of the records inside a chunk: a damaged length there asks
+/// for an absurd allocation; `LinearReader::sans_magic` over the buffer bounds it.
+fn decompress_chunk(header: &mcap::records::ChunkHeader, data: &[u8]) -> Result<Vec<u8>, String> {
+    let size = header.uncompressed_size as usize;
+    let out = match header.compression.as_str() {
+        "" => data.to_vec(),
+        "zstd" => zstd::bulk::decompress(data, size)
+            .map_err(|e| format!("a chunk does not decompress: {e}"))?,
+        other => {
+            return Err(format!(
+                "chunks compressed with {other:?} are not supported (zstd or none)"
+            ));
+        }
+    };
+    if out.len() != size {
+        return Err(format!(
+            "a chunk decompresses to {} bytes, not the {size} it declares",
+            out.len()
+        ));
+    }
+    if header.uncompressed_crc != 0 && crc32fast::hash(&out) != header.uncompressed_crc {
+        return Err("a chunk fails its CRC check: damaged".into());
+    }
+    Ok(out)
 }
 
 /// A whole session in memory: topics, metadata and messages.

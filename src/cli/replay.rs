@@ -1,0 +1,402 @@
+//! `terzaghi replay`: republish a session over DDS with its recorded timing (like `ros2 bag
+//! play`), or re-evaluate it offline through the model and the estimator (`--reevaluate`).
+
+use super::mcap_tools::{progress, read_file};
+use super::{print_out, write_atomically};
+use crate::config::{NodeConfig, RosArgs, load_params};
+use crate::msgs::{DiagnosticArray, JointState, LegForce, ModelParams, RosMessage, WrenchStamped};
+use crate::node::dds::{dds_context_from_env, publisher};
+use crate::record::read::{Scan, read_session, same_type, scan};
+use crate::record::reevaluate::{Output, Row, recorded_params, reevaluate};
+use crate::record::{OfferedQos, RecordOptions, SessionWriter};
+use anyhow::{Context as _, Result, anyhow, bail};
+use clap::Args;
+use ros2_client::{NodeName, NodeOptions, Publisher};
+use std::io::Write;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+#[derive(Debug, Args)]
+pub struct ReplayArgs {
+    /// The MCAP session (ours, or any ROS 2 MCAP with JointState and WrenchStamped).
+    pub file: PathBuf,
+    /// Run the recorded joint states and F/T through the model and estimator offline, as fast as
+    /// possible, instead of republishing.
+    #[arg(long)]
+    pub reevaluate: bool,
+    /// --reevaluate: node parameters to use instead of the recorded ones.
+    #[arg(long, value_name = "FILE")]
+    pub params_file: Option<PathBuf>,
+    /// --reevaluate: write to this file, .mcap (inputs and new outputs) or .csv (predictions next
+    /// to measurements); default: CSV on standard output.
+    #[arg(short, long, value_name = "OUT")]
+    pub output: Option<PathBuf>,
+    /// Replay speed factor.
+    #[arg(long, default_value_t = 1.0, conflicts_with = "as_fast_as_possible")]
+    pub rate: f64,
+    /// Replay without waiting.
+    #[arg(long)]
+    pub as_fast_as_possible: bool,
+    /// Replay only these topics.
+    #[arg(long, num_args = 1..)]
+    pub topics: Vec<String>,
+    /// Start again at the end, until interrupted.
+    #[arg(long = "loop")]
+    pub repeat: bool,
+}
+
+pub fn run(a: ReplayArgs) -> Result<()> {
+    if a.reevaluate {
+        return run_reevaluate(&a);
+    }
+    if a.params_file.is_some() || a.output.is_some() {
+        bail!("--params-file and --output go with --reevaluate");
+    }
+    if !(a.rate.is_finite() && a.rate > 0.0) {
+        bail!("--rate must be a positive number, got {}", a.rate);
+    }
+    run_dds(&a)
+}
+
+const CSV_HEADER: &str = "t_s,leg,beta_rad,regime,measured_drag_n,measured_lift_n,predicted_drag_n,predicted_lift_n,predicted_hip_torque_nm,b_k,a,identified\n";
+
+fn csv_row(out: &mut String, r: &Row, legs: &[String]) {
+    let opt = |v: Option<f64>| v.map(|x| format!("{x:.6}")).unwrap_or_default();
+    out.push_str(&format!(
+        "{:.9},{},{:.6},{},{},{},{:.6},{:.6},{:.6},{:.6},{:.6},{}\n",
+        r.t_s,
+        legs[r.leg],
+        r.beta_rad,
+        r.regime.as_str(),
+        opt(r.measured_drag_n),
+        opt(r.measured_lift_n),
+        r.predicted_drag_n,
+        r.predicted_lift_n,
+        r.predicted_hip_torque_nm,
+        r.b_k,
+        r.a,
+        r.identified
+    ));
+}
+
+/// The configuration to re-evaluate with: `--params-file`, else the recorded parameters.
+pub fn reevaluation_config(
+    a_params: &Option<PathBuf>,
+    s: &Scan,
+    file: &std::path::Path,
+) -> Result<NodeConfig> {
+    let recorded = recorded_params(s);
+    let (node, ns) = recorded
+        .as_ref()
+        .map(|r| (r.1.clone(), r.2.clone()))
+        .unwrap_or(("terzaghi".into(), "/".into()));
+    let params = match (a_params, recorded) {
+        (Some(path), _) => {
+            let ros = RosArgs {
+                params_files: vec![path.clone()],
+                ..Default::default()
+            };
+            load_params(&ros, &node, &ns)?
+        }
+        (None, Some((p, _, _))) => p,
+        (None, None) => bail!(
+            "{} has no recorded node parameters (it was not recorded by terzaghi node): pass --params-file",
+            file.display()
+        ),
+    };
+    Ok(NodeConfig::from_params(&params, &node, &ns, &[])?)
+}
+
+fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
+    let bytes = read_file(&a.file)?;
+    let head = scan(&bytes, |_, _| {}).with_context(|| a.file.display().to_string())?;
+    let cfg = reevaluation_config(&a.params_file, &head, &a.file)?;
+    let legs: Vec<String> = cfg.legs.iter().map(|l| l.name.clone()).collect();
+    let out_kind = a
+        .output
+        .as_ref()
+        .and_then(|p| p.extension())
+        .and_then(|e| e.to_str())
+        .map(str::to_lowercase);
+    let pb = progress(head.messages, "re-evaluating");
+    let mut n = 0u64;
+    let summary;
+    match out_kind.as_deref() {
+        Some("mcap") => {
+            let path = a.output.clone().unwrap_or_default();
+            let mut result = None;
+            write_atomically(&path, |w| {
+                let mut writer = SessionWriter::new(w, RecordOptions::default())?;
+                let mut err: Option<anyhow::Error> = None;
+                let resolve = |rel: &str| {
+                    crate::config::resolve_topic(rel, &cfg.namespace, &cfg.node_name, &[])
+                };
+                let wr_topics: Vec<String> = legs
+                    .iter()
+                    .map(|l| resolve(&format!("{l}/predicted_wrench")))
+                    .collect();
+                let lf_topics: Vec<String> = legs
+                    .iter()
+                    .map(|l| resolve(&format!("{l}/leg_force")))
+                    .collect();
+                let mp_topics: Vec<String> = legs
+                    .iter()
+                    .map(|l| resolve(&format!("{l}/model_params")))
+                    .collect();
+                let s = reevaluate(
+                    &bytes,
+                    cfg.clone(),
+                    |_| {},
+                    |o| {
+                        if err.is_some() {
+                            return;
+                        }
+                        n += 1;
+                        if n % 50_000 == 0 {
+                            pb.set_position(n);
+                        }
+                        let r = match o {
+                            Output::Input(scan, m) => {
+                                let t = &scan.topics[m.topic];
+                                writer
+                                    .channel_with_metadata(
+                                        &t.topic,
+                                        &t.type_name,
+                                        &t.schema_text,
+                                        OfferedQos::BEST_EFFORT,
+                                        t.channel_metadata.clone(),
+                                    )
+                                    .and_then(|id| {
+                                        writer.write_cdr(
+                                            id,
+                                            &t.topic,
+                                            &m.data,
+                                            m.log_time_ns,
+                                            m.publish_time_ns,
+                                        )
+                                    })
+                            }
+                            Output::Prediction(log, o) => {
+                                let stamp = o.wrench.header.stamp.to_nanos().max(0) as u64;
+                                writer
+                                    .write(
+                                        &wr_topics[o.leg],
+                                        OfferedQos::RELIABLE,
+                                        &o.wrench,
+                                        log,
+                                        stamp,
+                                    )
+                                    .and_then(|_| {
+                                        writer.write(
+                                            &lf_topics[o.leg],
+                                            OfferedQos::RELIABLE,
+                                            &o.force,
+                                            log,
+                                            stamp,
+                                        )
+                                    })
+                            }
+                            Output::Params(log, leg, p) => {
+                                let stamp = p.header.stamp.to_nanos().max(0) as u64;
+                                writer.write(&mp_topics[leg], OfferedQos::RELIABLE, p, log, stamp)
+                            }
+                        };
+                        if let Err(e) = r {
+                            err = Some(e.into());
+                        }
+                    },
+                )?;
+                if let Some(e) = err {
+                    return Err(e);
+                }
+                writer.finish()?;
+                result = Some(s);
+                Ok(())
+            })?;
+            summary = result.ok_or_else(|| anyhow!("nothing re-evaluated"))?;
+        }
+        Some("csv") | None => {
+            let mut text = String::from(CSV_HEADER);
+            let s = reevaluate(
+                &bytes,
+                cfg.clone(),
+                |r| csv_row(&mut text, r, &legs),
+                |_| {
+                    n += 1;
+                    if n % 50_000 == 0 {
+                        pb.set_position(n);
+                    }
+                },
+            )?;
+            match &a.output {
+                Some(path) => write_atomically(path, |w| Ok(w.write_all(text.as_bytes())?))?,
+                None => print_out(&text)?,
+            }
+            summary = s;
+        }
+        Some(other) => bail!("--output: unknown kind .{other}: use .mcap or .csv"),
+    }
+    pb.finish_and_clear();
+    if !summary.skipped_topics.is_empty() {
+        eprintln!(
+            "note: topics not used by this configuration, skipped: {}",
+            summary.skipped_topics.join(", ")
+        );
+    }
+    if summary.undecodable > 0 {
+        eprintln!(
+            "note: {} messages did not decode and were skipped",
+            summary.undecodable
+        );
+    }
+    if !summary.complete {
+        eprintln!(
+            "note: {} is cut off ({}); re-evaluated what it holds",
+            a.file.display(),
+            summary.stopped.as_deref().unwrap_or("no summary")
+        );
+    }
+    if summary.joint_states == 0 {
+        bail!(
+            "{}: no JointState on {} (topics: {}); check the parameters (joint_states_topic)",
+            a.file.display(),
+            cfg.joint_states_topic,
+            head.topics
+                .iter()
+                .map(|t| t.topic.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    let est: Vec<String> = summary
+        .estimates
+        .iter()
+        .zip(&legs)
+        .filter_map(|(e, l)| {
+            e.map(|e| {
+                format!(
+                    "{l}: b_k {:.4} a {:.4} (converged: {})",
+                    e.b_k, e.a, e.converged
+                )
+            })
+        })
+        .collect();
+    eprintln!(
+        "re-evaluated {} joint states and {} F/T samples into {} rows{}{}",
+        summary.joint_states,
+        summary.ft_samples,
+        summary.rows,
+        if est.is_empty() {
+            String::new()
+        } else {
+            "; final estimates: ".to_string()
+        },
+        est.join("; ")
+    );
+    Ok(())
+}
+
+enum AnyPub {
+    Joints(Publisher<JointState>),
+    Wrench(Publisher<WrenchStamped>),
+    Force(Publisher<LegForce>),
+    Params(Publisher<ModelParams>),
+    Diag(Publisher<DiagnosticArray>),
+}
+
+fn run_dds(a: &ReplayArgs) -> Result<()> {
+    let bytes = read_file(&a.file)?;
+    let session = read_session(&bytes).with_context(|| a.file.display().to_string())?;
+    let wanted = |t: &str| a.topics.is_empty() || a.topics.iter().any(|w| w == t);
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()?;
+    rt.block_on(async {
+        let context = dds_context_from_env()?;
+        let mut node = context
+            .new_node(
+                NodeName::new("/", &format!("terzaghi_replay_{}", std::process::id()))
+                    .map_err(|e| anyhow!("{e:?}"))?,
+                NodeOptions::new()
+                    .enable_rosout(false)
+                    .start_parameter_services(false),
+            )
+            .context("cannot create the replay node")?;
+        let mut pubs: Vec<Option<AnyPub>> = Vec::new();
+        let mut skipped = Vec::new();
+        for t in &session.topics {
+            let p = if !wanted(&t.topic) || t.encoding != "cdr" {
+                None
+            } else if same_type(&t.type_name, &JointState::type_name()) {
+                Some(AnyPub::Joints(publisher(&mut node, &t.topic)?))
+            } else if same_type(&t.type_name, &WrenchStamped::type_name()) {
+                Some(AnyPub::Wrench(publisher(&mut node, &t.topic)?))
+            } else if same_type(&t.type_name, &LegForce::type_name()) {
+                Some(AnyPub::Force(publisher(&mut node, &t.topic)?))
+            } else if same_type(&t.type_name, &ModelParams::type_name()) {
+                Some(AnyPub::Params(publisher(&mut node, &t.topic)?))
+            } else if same_type(&t.type_name, &DiagnosticArray::type_name()) {
+                Some(AnyPub::Diag(publisher(&mut node, &t.topic)?))
+            } else {
+                None
+            };
+            if p.is_none() && wanted(&t.topic) {
+                skipped.push(format!("{} ({})", t.topic, t.type_name));
+            }
+            pubs.push(p);
+        }
+        if !skipped.is_empty() {
+            eprintln!(
+                "note: not replayed (unknown type or encoding): {}",
+                skipped.join(", ")
+            );
+        }
+        let spin = tokio::spawn(node.spinner()?.spin());
+        // Let subscribers discover the publishers before the first message.
+        tokio::time::sleep(Duration::from_secs(2)).await;
+        let pb = progress(session.messages.len() as u64, "replaying");
+        let (mut sent, mut undecodable) = (0u64, 0u64);
+        let stop = tokio::signal::ctrl_c();
+        tokio::pin!(stop);
+        'outer: loop {
+            let t0 = session.messages.first().map(|m| m.log_time_ns).unwrap_or(0);
+            let start = Instant::now();
+            for (i, m) in session.messages.iter().enumerate() {
+                let Some(p) = &pubs[m.topic] else { continue };
+                if !a.as_fast_as_possible {
+                    let due = start
+                        + Duration::from_secs_f64(
+                            m.log_time_ns.saturating_sub(t0) as f64 * 1e-9 / a.rate,
+                        );
+                    tokio::select! {
+                        _ = tokio::time::sleep_until(due.into()) => {}
+                        _ = &mut stop => break 'outer,
+                    }
+                }
+                let ok = match p {
+                    AnyPub::Joints(p) => session.decode(m).map(|x| p.publish(x).is_ok()),
+                    AnyPub::Wrench(p) => session.decode(m).map(|x| p.publish(x).is_ok()),
+                    AnyPub::Force(p) => session.decode(m).map(|x| p.publish(x).is_ok()),
+                    AnyPub::Params(p) => session.decode(m).map(|x| p.publish(x).is_ok()),
+                    AnyPub::Diag(p) => session.decode(m).map(|x| p.publish(x).is_ok()),
+                };
+                match ok {
+                    Ok(_) => sent += 1,
+                    Err(_) => undecodable += 1,
+                }
+                if i % 1000 == 0 {
+                    pb.set_position(i as u64);
+                }
+            }
+            if !a.repeat {
+                break;
+            }
+        }
+        pb.finish_and_clear();
+        node.stop_spinner();
+        let _ = tokio::time::timeout(Duration::from_secs(1), spin).await;
+        eprintln!("replayed {sent} messages ({undecodable} did not decode and were skipped)");
+        Ok(())
+    })
+}
