@@ -2,6 +2,7 @@
 
 mod bench;
 mod bench_node;
+mod bench_record;
 mod fit;
 mod identify;
 mod mcap_tools;
@@ -52,6 +53,9 @@ pub enum Command {
     /// Measure the node's latency for 6 legs at 1 kHz against a bare DDS echo (run it inside a
     /// private network namespace or on a network you may load).
     BenchNode(bench_node::BenchNodeArgs),
+    /// Measure writing sessions and re-evaluating them: messages per second, file size per
+    /// minute, and replay --reevaluate against real time.
+    BenchRecord(bench_record::BenchRecordArgs),
     /// A bare DDS echo node, for bench-node.
     #[command(hide = true)]
     Echo(bench_node::EchoArgs),
@@ -74,6 +78,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Simulate(a) => simulate::run(a),
         Command::Bench(a) => bench::run(a),
         Command::BenchNode(a) => bench_node::run(a),
+        Command::BenchRecord(a) => bench_record::run(a),
         Command::Echo(a) => bench_node::run_echo(a),
     }
 }

@@ -58,25 +58,42 @@ pub fn run(a: ReplayArgs) -> Result<()> {
     run_dds(&a)
 }
 
-const CSV_HEADER: &str = "t_s,leg,beta_rad,regime,measured_drag_n,measured_lift_n,predicted_drag_n,predicted_lift_n,predicted_hip_torque_nm,b_k,a,identified\n";
+/// One CSV row of `replay --reevaluate` (floats written by the csv crate, shortest exact form).
+#[derive(serde::Serialize)]
+struct CsvRow<'a> {
+    t_s: f64,
+    leg: &'a str,
+    beta_rad: f64,
+    regime: &'static str,
+    measured_drag_n: Option<f64>,
+    measured_lift_n: Option<f64>,
+    predicted_drag_n: f64,
+    predicted_lift_n: f64,
+    predicted_hip_torque_nm: f64,
+    b_k: f64,
+    a: f64,
+    identified: bool,
+}
 
-fn csv_row(out: &mut String, r: &Row, legs: &[String]) {
-    let opt = |v: Option<f64>| v.map(|x| format!("{x:.6}")).unwrap_or_default();
-    out.push_str(&format!(
-        "{:.9},{},{:.6},{},{},{},{:.6},{:.6},{:.6},{:.6},{:.6},{}\n",
-        r.t_s,
-        legs[r.leg],
-        r.beta_rad,
-        r.regime.as_str(),
-        opt(r.measured_drag_n),
-        opt(r.measured_lift_n),
-        r.predicted_drag_n,
-        r.predicted_lift_n,
-        r.predicted_hip_torque_nm,
-        r.b_k,
-        r.a,
-        r.identified
-    ));
+fn csv_row<W: std::io::Write>(
+    out: &mut csv::Writer<W>,
+    r: &Row,
+    legs: &[String],
+) -> csv::Result<()> {
+    out.serialize(CsvRow {
+        t_s: r.t_s,
+        leg: &legs[r.leg],
+        beta_rad: r.beta_rad,
+        regime: r.regime.as_str(),
+        measured_drag_n: r.measured_drag_n,
+        measured_lift_n: r.measured_lift_n,
+        predicted_drag_n: r.predicted_drag_n,
+        predicted_lift_n: r.predicted_lift_n,
+        predicted_hip_torque_nm: r.predicted_hip_torque_nm,
+        b_k: r.b_k,
+        a: r.a,
+        identified: r.identified,
+    })
 }
 
 /// The configuration to re-evaluate with: `--params-file`, else the recorded parameters.
@@ -216,11 +233,16 @@ fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
             summary = result.ok_or_else(|| anyhow!("nothing re-evaluated"))?;
         }
         Some("csv") | None => {
-            let mut text = String::from(CSV_HEADER);
+            let mut out = csv::Writer::from_writer(Vec::with_capacity(1 << 20));
+            let mut csv_err = None;
             let s = reevaluate(
                 &bytes,
                 cfg.clone(),
-                |r| csv_row(&mut text, r, &legs),
+                |r| {
+                    if let Err(e) = csv_row(&mut out, r, &legs) {
+                        csv_err.get_or_insert(e);
+                    }
+                },
                 |_| {
                     n += 1;
                     if n % 50_000 == 0 {
@@ -228,9 +250,13 @@ fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
                     }
                 },
             )?;
+            if let Some(e) = csv_err {
+                return Err(e.into());
+            }
+            let text = out.into_inner().map_err(|e| anyhow!("{e}"))?;
             match &a.output {
-                Some(path) => write_atomically(path, |w| Ok(w.write_all(text.as_bytes())?))?,
-                None => print_out(&text)?,
+                Some(path) => write_atomically(path, |w| Ok(w.write_all(&text)?))?,
+                None => print_out(&String::from_utf8_lossy(&text))?,
             }
             summary = s;
         }

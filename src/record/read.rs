@@ -28,6 +28,26 @@ pub struct MessageRef {
     pub data: Vec<u8>,
 }
 
+/// One message during a scan, borrowing its bytes (no copy per message).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MessageView<'a> {
+    pub topic: usize,
+    pub log_time_ns: u64,
+    pub publish_time_ns: u64,
+    pub data: &'a [u8],
+}
+
+impl MessageView<'_> {
+    pub fn to_owned(&self) -> MessageRef {
+        MessageRef {
+            topic: self.topic,
+            log_time_ns: self.log_time_ns,
+            publish_time_ns: self.publish_time_ns,
+            data: self.data.to_vec(),
+        }
+    }
+}
+
 /// What a scan found, besides the messages it handed on.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Scan {
@@ -64,7 +84,7 @@ const MAX_CHUNK_BYTES: u64 = 1 << 30;
 ///
 /// Records are read one by one (chunks whole), and each chunk's declared sizes are checked
 /// before it is decompressed: a damaged size would otherwise ask for an absurd allocation.
-pub fn scan(bytes: &[u8], mut visit: impl FnMut(&Scan, MessageRef)) -> Result<Scan, RecordError> {
+pub fn scan(bytes: &[u8], mut visit: impl FnMut(&Scan, MessageView)) -> Result<Scan, RecordError> {
     use mcap::records::Record;
     if bytes.len() < mcap::MAGIC.len() || &bytes[..mcap::MAGIC.len()] != mcap::MAGIC {
         return Err(RecordError::Io(std::io::Error::new(
@@ -115,11 +135,11 @@ pub fn scan(bytes: &[u8], mut visit: impl FnMut(&Scan, MessageRef)) -> Result<Sc
                 s.end_ns = Some(s.end_ns.map_or(t, |v| v.max(t)));
                 visit(
                     s,
-                    MessageRef {
+                    MessageView {
                         topic: idx,
                         log_time_ns: t,
                         publish_time_ns: header.publish_time,
-                        data: data.into_owned(),
+                        data: &data,
                     },
                 );
                 Ok(())
@@ -219,7 +239,7 @@ impl std::ops::Deref for Session {
 /// Reads every complete message of `bytes`.
 pub fn read_session(bytes: &[u8]) -> Result<Session, RecordError> {
     let mut messages = Vec::new();
-    let scan = scan(bytes, |_, m| messages.push(m))?;
+    let scan = scan(bytes, |_, m| messages.push(m.to_owned()))?;
     Ok(Session { scan, messages })
 }
 
@@ -247,8 +267,17 @@ impl Scan {
                 wanted: M::type_name(),
             });
         }
-        from_cdr::<M>(&m.data).map_err(|error| DecodeError::Cdr {
-            topic: t.topic.clone(),
+        self.decode_checked::<M>(m.topic, &m.data)
+    }
+
+    /// Decodes the bytes of a message on `topic` whose type the caller has checked once.
+    pub fn decode_checked<M: RosMessage>(
+        &self,
+        topic: usize,
+        data: &[u8],
+    ) -> Result<M, DecodeError> {
+        from_cdr::<M>(data).map_err(|error| DecodeError::Cdr {
+            topic: self.topics[topic].topic.clone(),
             error,
         })
     }

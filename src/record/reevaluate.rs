@@ -3,7 +3,7 @@
 //! new ones; predictions come out next to the measurements.
 
 use super::RecordError;
-use super::read::{MessageRef, Scan, same_type, scan};
+use super::read::{MessageView, Scan, same_type, scan};
 use crate::config::{NodeConfig, ParamMap, defaults, parse_value};
 use crate::ident::Estimate;
 use crate::model::Regime;
@@ -30,7 +30,7 @@ pub struct Row {
 /// What the re-evaluation produces besides rows, for an MCAP output.
 pub enum Output<'a> {
     /// A recorded input, as it was.
-    Input(&'a Scan, &'a MessageRef),
+    Input(&'a Scan, &'a MessageView<'a>),
     Prediction(u64, &'a LegOutput),
     Params(u64, usize, &'a ModelParams),
 }
@@ -120,7 +120,7 @@ pub fn reevaluate(
         let log = m.log_time_ns;
         match roles[m.topic] {
             Role::Joints => {
-                let Ok(js) = scan.decode::<JointState>(&m) else {
+                let Ok(js) = scan.decode_checked::<JointState>(m.topic, m.data) else {
                     sum.undecodable += 1;
                     return;
                 };
@@ -151,7 +151,7 @@ pub fn reevaluate(
                 }
             }
             Role::Ft(leg) => {
-                let Ok(w) = scan.decode::<WrenchStamped>(&m) else {
+                let Ok(w) = scan.decode_checked::<WrenchStamped>(m.topic, m.data) else {
                     sum.undecodable += 1;
                     return;
                 };

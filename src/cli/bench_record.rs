@@ -1,0 +1,242 @@
+//! `terzaghi bench-record`: how fast sessions are written and re-evaluated on this machine.
+//!
+//! It writes a synthetic session of the node's traffic for the RHex configuration (6 legs,
+//! JointState and F/T at `--rate-hz`, with every leg's predicted wrench, leg force, and model
+//! parameters at 10 Hz) through the recorder's writer on one thread, timing it; then it runs
+//! `terzaghi replay --reevaluate` (this executable) on the file and times that.
+
+use super::print_out;
+use crate::config::{NodeConfig, defaults, parse_params_yaml};
+use crate::msgs::{Header, JointState, Time, Vector3, Wrench, WrenchStamped};
+use crate::node::NodeCore;
+use crate::record::{OfferedQos, RecordOptions, SessionWriter};
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use std::io::BufWriter;
+use std::time::Instant;
+
+#[derive(Debug, Args)]
+pub struct BenchRecordArgs {
+    /// Length of the session (minutes).
+    #[arg(long, default_value_t = 10.0)]
+    pub minutes: f64,
+    /// JointState and F/T rate (Hz).
+    #[arg(long, default_value_t = 1000.0)]
+    pub rate_hz: f64,
+    /// Keep the session file here instead of a temporary one.
+    #[arg(long, value_name = "FILE.mcap")]
+    pub keep: Option<std::path::PathBuf>,
+    /// Print JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Debug, serde::Serialize)]
+struct Report {
+    minutes: f64,
+    legs: usize,
+    rate_hz: f64,
+    messages: u64,
+    write_s: f64,
+    write_messages_per_s: f64,
+    file_bytes: u64,
+    file_mb_per_minute: f64,
+    reevaluate_s: f64,
+    reevaluate_times_real_time: f64,
+}
+
+pub fn run(a: BenchRecordArgs) -> Result<()> {
+    if !(a.minutes.is_finite() && a.minutes > 0.0 && a.minutes <= 600.0) {
+        bail!("--minutes must be in (0, 600], got {}", a.minutes);
+    }
+    if !(a.rate_hz.is_finite() && a.rate_hz > 0.0 && a.rate_hz <= 10_000.0) {
+        bail!("--rate-hz must be in (0, 10000], got {}", a.rate_hz);
+    }
+    let mut params = defaults();
+    params.extend(parse_params_yaml(
+        include_str!("../../launch_configs/rhex.yaml"),
+        "rhex.yaml",
+        "terzaghi",
+        "/",
+    )?);
+    let cfg = NodeConfig::from_params(&params, "terzaghi", "/", &[])?;
+    let legs = cfg.legs.len();
+    let dir = std::env::temp_dir().join(format!("terzaghi-bench-record-{}", std::process::id()));
+    std::fs::create_dir_all(&dir)?;
+    let path = a.keep.clone().unwrap_or_else(|| dir.join("session.mcap"));
+
+    // The session: the node's own core makes the outputs, so the traffic is the node's.
+    let meta = params
+        .iter()
+        .map(|(k, v)| (k.clone(), v.to_string()))
+        .collect();
+    let file = std::fs::File::create(&path)
+        .with_context(|| format!("cannot create {}", path.display()))?;
+    let mut w = SessionWriter::new(
+        BufWriter::with_capacity(1 << 20, file),
+        RecordOptions {
+            params: meta,
+            ..Default::default()
+        },
+    )?;
+    let mut core = NodeCore::new(cfg.clone());
+    let names: Vec<String> = cfg.legs.iter().map(|l| l.joint.clone()).collect();
+    let ft_topics: Vec<String> = cfg
+        .legs
+        .iter()
+        .map(|l| l.ft_topic.clone().unwrap_or_default())
+        .collect();
+    let out_topics: Vec<(String, String, String)> = cfg
+        .legs
+        .iter()
+        .map(|l| {
+            (
+                format!("/{}/predicted_wrench", l.name),
+                format!("/{}/leg_force", l.name),
+                format!("/{}/model_params", l.name),
+            )
+        })
+        .collect();
+    let n = (a.minutes * 60.0 * a.rate_hz) as u64;
+    let dt_ns = (1e9 / a.rate_hz) as u64;
+    let t0: u64 = 1_700_000_000_000_000_000;
+    let mut outputs = Vec::new();
+    let mut params_out = Vec::new();
+    let mut messages = 0u64;
+    let omega = 3.0; // rad/s
+    let start = Instant::now();
+    for k in 0..n {
+        let t = t0 + k * dt_ns;
+        let stamp = Time::from_nanos(t as i64).unwrap_or_default();
+        let beta = omega * (k as f64 / a.rate_hz);
+        let positions: Vec<f64> = cfg
+            .legs
+            .iter()
+            .enumerate()
+            .map(|(i, l)| {
+                l.direction
+                    * (beta
+                        + if i % 2 == 0 {
+                            0.0
+                        } else {
+                            std::f64::consts::PI
+                        })
+            })
+            .collect();
+        let js = JointState {
+            header: Header {
+                stamp,
+                frame_id: String::new(),
+            },
+            name: names.clone(),
+            position: positions,
+            velocity: vec![],
+            effort: vec![],
+        };
+        outputs.clear();
+        core.on_joint_state(&js, &mut outputs);
+        w.write("/joint_states", OfferedQos::BEST_EFFORT, &js, t, t)?;
+        messages += 1;
+        for o in &outputs {
+            w.write(
+                &out_topics[o.leg].0,
+                OfferedQos::RELIABLE,
+                &o.wrench,
+                t + 20_000,
+                t,
+            )?;
+            w.write(
+                &out_topics[o.leg].1,
+                OfferedQos::RELIABLE,
+                &o.force,
+                t + 20_000,
+                t,
+            )?;
+            messages += 2;
+            // The leg's F/T: the predicted force with a little noise, in the leg frame's hip view.
+            let wobble = ((k * 7919 + o.leg as u64 * 104_729) % 1000) as f64 * 1e-3 - 0.5;
+            let ft = WrenchStamped {
+                header: Header {
+                    stamp,
+                    frame_id: format!("{}_ft", cfg.legs[o.leg].name),
+                },
+                wrench: Wrench {
+                    force: Vector3 {
+                        x: o.wrench.wrench.force.x + wobble,
+                        y: 0.0,
+                        z: o.wrench.wrench.force.z - wobble,
+                    },
+                    torque: Vector3::default(),
+                },
+            };
+            w.write(
+                &ft_topics[o.leg],
+                OfferedQos::BEST_EFFORT,
+                &ft,
+                t + 10_000,
+                t,
+            )?;
+            messages += 1;
+            core.on_wrench(o.leg, &ft);
+        }
+        core.take_params(&mut params_out);
+        for (leg, p) in params_out.drain(..) {
+            w.write(&out_topics[leg].2, OfferedQos::RELIABLE, &p, t + 30_000, t)?;
+            messages += 1;
+        }
+    }
+    w.finish()?;
+    let write_s = start.elapsed().as_secs_f64();
+    let file_bytes = std::fs::metadata(&path)?.len();
+
+    let exe = std::env::current_exe()?;
+    let csv = dir.join("reevaluated.csv");
+    let start = Instant::now();
+    let status = std::process::Command::new(exe)
+        .arg("replay")
+        .arg(&path)
+        .arg("--reevaluate")
+        .arg("-o")
+        .arg(&csv)
+        .stderr(std::process::Stdio::null())
+        .status()?;
+    let reevaluate_s = start.elapsed().as_secs_f64();
+    if !status.success() {
+        bail!("replay --reevaluate failed on the benchmark session");
+    }
+    let _ = std::fs::remove_file(&csv);
+    if a.keep.is_none() {
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+    let r = Report {
+        minutes: a.minutes,
+        legs,
+        rate_hz: a.rate_hz,
+        messages,
+        write_s,
+        write_messages_per_s: messages as f64 / write_s,
+        file_bytes,
+        file_mb_per_minute: file_bytes as f64 / 1e6 / a.minutes,
+        reevaluate_s,
+        reevaluate_times_real_time: a.minutes * 60.0 / reevaluate_s,
+    };
+    if a.json {
+        return print_out(&(serde_json::to_string_pretty(&r)? + "\n"));
+    }
+    print_out(&format!(
+        "session: {} min, {} legs, JointState and F/T at {} Hz, with the node's outputs: {} messages\n\
+         write (one thread, zstd): {:.1} s, {:.0} messages/s\n\
+         file: {:.1} MB, {:.1} MB per minute\n\
+         replay --reevaluate to CSV: {:.1} s, {:.0}x real time\n",
+        r.minutes,
+        r.legs,
+        r.rate_hz,
+        r.messages,
+        r.write_s,
+        r.write_messages_per_s,
+        r.file_bytes as f64 / 1e6,
+        r.file_mb_per_minute,
+        r.reevaluate_s,
+        r.reevaluate_times_real_time
+    ))
+}
