@@ -187,7 +187,7 @@ fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
                                         writer.write_cdr(
                                             id,
                                             &t.topic,
-                                            &m.data,
+                                            m.data,
                                             m.log_time_ns,
                                             m.publish_time_ns,
                                         )
