@@ -297,3 +297,85 @@ fn damaged_files_never_panic() {
         let _ = terzaghi::record::recover(&b, std::io::Cursor::new(Vec::new()), |_| {});
     }
 }
+
+/// `replay` republishes a session over DDS with its timing, and `terzaghi record` (the
+/// standalone recorder) records it again: every message arrives, topics and types kept.
+#[test]
+fn replay_over_dds_is_recorded_again_by_the_standalone_recorder() {
+    use terzaghi::msgs::*;
+    use terzaghi::record::{OfferedQos, RecordOptions, SessionWriter};
+    let dir = tempfile::tempdir().unwrap();
+    let mut w =
+        SessionWriter::new(std::io::Cursor::new(Vec::new()), RecordOptions::default()).unwrap();
+    for i in 0..400u64 {
+        let t = 1_000_000_000 + i * 5_000_000;
+        let header = Header {
+            stamp: Time::from_nanos(t as i64).unwrap(),
+            frame_id: String::new(),
+        };
+        let js = JointState {
+            header: header.clone(),
+            name: vec!["hip".into()],
+            position: vec![i as f64 * 0.01],
+            ..Default::default()
+        };
+        w.write("/joint_states", OfferedQos::BEST_EFFORT, &js, t, t)
+            .unwrap();
+        let ft = WrenchStamped {
+            header,
+            wrench: Wrench {
+                force: Vector3 {
+                    x: i as f64,
+                    y: 0.0,
+                    z: 2.0,
+                },
+                ..Default::default()
+            },
+        };
+        w.write("/leg/ft", OfferedQos::BEST_EFFORT, &ft, t, t)
+            .unwrap();
+    }
+    let src = dir.path().join("src.mcap");
+    std::fs::write(&src, w.finish().unwrap().into_inner()).unwrap();
+    let again = dir.path().join("again.mcap");
+    let t = terzaghi();
+    let script = format!(
+        "ROS_DOMAIN_ID=23 '{t}' record --topics /joint_states /leg/ft --duration-s 8 -o '{again}' & R=$!; sleep 1; \
+         ROS_DOMAIN_ID=23 '{t}' replay '{src}' --rate 1; wait $R",
+        t = t.display(),
+        again = again.display(),
+        src = src.display()
+    );
+    let out = isolated_command(Path::new("/bin/sh"))
+        .arg("-c")
+        .arg(&script)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("replayed 800 messages"), "{stderr}");
+    let o = Command::new(terzaghi())
+        .arg("info")
+        .arg(&again)
+        .arg("--json")
+        .output()
+        .unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["complete"], true);
+    let counts: std::collections::BTreeMap<String, u64> = v["topics"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| {
+            (
+                t["topic"].as_str().unwrap().to_string(),
+                t["messages"].as_u64().unwrap(),
+            )
+        })
+        .collect();
+    assert_eq!(counts.get("/joint_states"), Some(&400), "{v}");
+    assert_eq!(counts.get("/leg/ft"), Some(&400), "{v}");
+    // The replay kept the recorded timing: 2 s of messages take about 2 s.
+    let dur = v["duration_s"].as_f64().unwrap();
+    assert!((1.8..2.6).contains(&dur), "{dur}");
+}

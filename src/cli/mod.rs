@@ -10,6 +10,7 @@ mod media;
 mod node;
 mod param;
 mod predict;
+mod record;
 mod replay;
 mod simulate;
 
@@ -43,6 +44,8 @@ pub enum Command {
     Info(mcap_tools::InfoArgs),
     /// Write a valid copy of a cut-off MCAP file, keeping every complete message.
     Recover(mcap_tools::RecoverArgs),
+    /// Record topics this project knows to an MCAP file, without running the model.
+    Record(record::RecordArgs),
     /// Republish a session over DDS with its recorded timing, or re-evaluate it offline
     /// (--reevaluate) through the model and the estimator.
     Replay(replay::ReplayArgs),
@@ -71,6 +74,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Identify(a) => identify::run(a),
         Command::Info(a) => mcap_tools::info(a),
         Command::Recover(a) => mcap_tools::recover_cmd(a),
+        Command::Record(a) => record::run(a),
         Command::Replay(a) => replay::run(a),
         Command::Media(a) => media::run(a),
         Command::Node(a) => node::run(a),
