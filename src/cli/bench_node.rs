@@ -11,11 +11,11 @@
 
 use super::print_out;
 use crate::msgs::{Header, JointState, Time, WrenchStamped};
-use crate::node::dds::{RunSummary, dds_context_from_env, publisher, subscription};
+use crate::node::dds::{RunSummary, publisher, subscription, tool_node};
 use crate::node::latency::Histogram;
 use anyhow::{Context as _, Result, anyhow, bail};
 use clap::Args;
-use ros2_client::{NodeName, NodeOptions};
+
 use std::collections::HashMap;
 use std::process::{Child, Command, Stdio};
 use std::sync::{Arc, Mutex};
@@ -53,20 +53,9 @@ pub struct BenchNodeArgs {
 
 /// Runs the bare echo until SIGINT/SIGTERM.
 pub fn run_echo(a: EchoArgs) -> Result<()> {
-    let rt = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
-        .enable_all()
-        .build()?;
+    let rt = super::runtime()?;
     rt.block_on(async move {
-        let context = dds_context_from_env()?;
-        let mut node = context
-            .new_node(
-                NodeName::new("/", "terzaghi_echo").map_err(|e| anyhow!("{e:?}"))?,
-                NodeOptions::new()
-                    .enable_rosout(false)
-                    .start_parameter_services(false),
-            )
-            .context("cannot create the echo node")?;
+        let mut node = tool_node("terzaghi_echo").context("cannot create the echo node")?;
         let out = publisher::<JointState>(&mut node, &a.output)?;
         let sub = subscription::<JointState>(&mut node, &a.input)?;
         let spin = tokio::spawn(node.spinner()?.spin());
@@ -184,10 +173,7 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
     }
     let node_pid = children.0[0].id();
 
-    let rt = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
-        .enable_all()
-        .build()?;
+    let rt = super::runtime()?;
     let (node_rt, echo_rt, lost_node, lost_echo, load) = rt.block_on(client(
         &legs,
         a.rate_hz,
@@ -323,15 +309,7 @@ async fn client(
     seconds: u32,
     load: Option<u32>,
 ) -> Result<(Histogram, Histogram, u64, u64, LoadFigures)> {
-    let context = dds_context_from_env()?;
-    let mut node = context
-        .new_node(
-            NodeName::new("/", "terzaghi_bench_client").map_err(|e| anyhow!("{e:?}"))?,
-            NodeOptions::new()
-                .enable_rosout(false)
-                .start_parameter_services(false),
-        )
-        .context("cannot create the client node")?;
+    let mut node = tool_node("terzaghi_bench_client").context("cannot create the client node")?;
     let to_node = publisher::<JointState>(&mut node, "/joint_states")?;
     let to_echo = publisher::<JointState>(&mut node, "/bench/echo_in")?;
     let from_echo = subscription::<JointState>(&mut node, "/bench/echo_out")?;

@@ -265,3 +265,12 @@ pub fn write_atomically(
     }
     result
 }
+
+/// The async runtime of the DDS tools: two worker threads, for a two-core robot computer.
+pub fn runtime() -> Result<tokio::runtime::Runtime> {
+    tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .context("cannot start the async runtime")
+}

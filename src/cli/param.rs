@@ -2,15 +2,15 @@
 //! services, as `ros2 param` does, without a ROS installation.
 
 use crate::config::{ParamValue, parse_value};
-use crate::node::dds::{dds_context_from_env, from_ros, to_ros};
+use crate::node::dds::{from_ros, to_ros, tool_node};
 use anyhow::{Context as _, Result, anyhow, bail};
 use clap::{Args, Subcommand};
 use ros2_client::rcl_interfaces::{
     GetParametersRequest, GetParametersResponse, SetParametersRequest, SetParametersResponse,
 };
 use ros2_client::{
-    Message, Name, NodeName, NodeOptions, Parameter, ParameterValue, QosProfile, ServiceMapping,
-    ServiceTypeName, qos::History, service::Client,
+    Message, Name, Parameter, ParameterValue, QosProfile, ServiceMapping, ServiceTypeName,
+    qos::History, service::Client,
 };
 use std::time::Duration;
 
@@ -86,20 +86,9 @@ pub fn run(a: ParamArgs) -> Result<()> {
         bail!("--timeout-s must be a positive number, got {}", a.timeout_s);
     }
     let timeout = Duration::from_secs_f64(a.timeout_s);
-    let rt = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
-        .enable_all()
-        .build()?;
+    let rt = super::runtime()?;
     rt.block_on(async move {
-        let context = dds_context_from_env()?;
-        let mut node = context
-            .new_node(
-                NodeName::new("/", &format!("terzaghi_param_{}", std::process::id()))
-                    .map_err(|e| anyhow!("{e:?}"))?,
-                NodeOptions::new()
-                    .enable_rosout(false)
-                    .start_parameter_services(false),
-            )
+        let mut node = tool_node(&format!("terzaghi_param_{}", std::process::id()))
             .context("cannot create the client node")?;
         let spin = tokio::spawn(node.spinner()?.spin());
         let qos = QosProfile::publisher_default().history(History::KeepLast { depth: 1 });

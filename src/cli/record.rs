@@ -2,12 +2,12 @@
 //! model (for users who record the raw robot and re-evaluate later).
 
 use crate::msgs::{DiagnosticArray, JointState, LegForce, ModelParams, RosMessage, WrenchStamped};
-use crate::node::dds::{dds_context_from_env, subscription};
+use crate::node::dds::{subscription, tool_node};
 use crate::record::RecordOptions;
 use crate::record::recorder::{Record, Recorder};
 use anyhow::{Context as _, Result, anyhow, bail};
 use clap::Args;
-use ros2_client::{Node, NodeName, NodeOptions};
+use ros2_client::Node;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
@@ -103,20 +103,9 @@ pub fn run(a: RecordArgs) -> Result<()> {
         Recorder::start(&a.output, RecordOptions::default(), 1 << 16)
             .with_context(|| format!("cannot record to {}", a.output.display()))?,
     );
-    let rt = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
-        .enable_all()
-        .build()?;
+    let rt = super::runtime()?;
     rt.block_on(async {
-        let context = dds_context_from_env()?;
-        let mut node = context
-            .new_node(
-                NodeName::new("/", &format!("terzaghi_record_{}", std::process::id()))
-                    .map_err(|e| anyhow!("{e:?}"))?,
-                NodeOptions::new()
-                    .enable_rosout(false)
-                    .start_parameter_services(false),
-            )
+        let mut node = tool_node(&format!("terzaghi_record_{}", std::process::id()))
             .context("cannot create the recorder node")?;
         let mut tasks = Vec::new();
         for (topic, kind) in &topics {

@@ -5,13 +5,13 @@ use super::mcap_tools::{progress, read_file};
 use super::{print_out, write_atomically};
 use crate::config::{NodeConfig, RosArgs, load_params};
 use crate::msgs::{DiagnosticArray, JointState, LegForce, ModelParams, RosMessage, WrenchStamped};
-use crate::node::dds::{dds_context_from_env, publisher};
+use crate::node::dds::{publisher, tool_node};
 use crate::record::read::{Scan, read_session, same_type, scan};
 use crate::record::reevaluate::{Output, Row, recorded_params, reevaluate};
 use crate::record::{OfferedQos, RecordOptions, SessionWriter};
 use anyhow::{Context as _, Result, anyhow, bail};
 use clap::Args;
-use ros2_client::{NodeName, NodeOptions, Publisher};
+use ros2_client::Publisher;
 use std::io::Write;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -334,20 +334,9 @@ fn run_dds(a: &ReplayArgs) -> Result<()> {
     let bytes = read_file(&a.file)?;
     let session = read_session(&bytes).with_context(|| a.file.display().to_string())?;
     let wanted = |t: &str| a.topics.is_empty() || a.topics.iter().any(|w| w == t);
-    let rt = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
-        .enable_all()
-        .build()?;
+    let rt = super::runtime()?;
     rt.block_on(async {
-        let context = dds_context_from_env()?;
-        let mut node = context
-            .new_node(
-                NodeName::new("/", &format!("terzaghi_replay_{}", std::process::id()))
-                    .map_err(|e| anyhow!("{e:?}"))?,
-                NodeOptions::new()
-                    .enable_rosout(false)
-                    .start_parameter_services(false),
-            )
+        let mut node = tool_node(&format!("terzaghi_replay_{}", std::process::id()))
             .context("cannot create the replay node")?;
         let mut pubs: Vec<Option<AnyPub>> = Vec::new();
         let mut skipped = Vec::new();

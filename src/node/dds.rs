@@ -298,6 +298,19 @@ pub fn dds_context_from_env() -> Result<Context> {
     dds_context(domain, local)
 }
 
+/// A plain node for the command-line tools (no rosout, no parameter services), on the domain
+/// the environment asks for. The node keeps its context alive.
+pub fn tool_node(name: &str) -> Result<Node> {
+    let context = dds_context_from_env()?;
+    let name = NodeName::new("/", name).map_err(|e| anyhow!("bad node name {name:?}: {e:?}"))?;
+    let options = NodeOptions::new()
+        .enable_rosout(false)
+        .start_parameter_services(false);
+    context
+        .new_node(name, options)
+        .context("cannot create a ROS 2 node")
+}
+
 fn unix_now_ns() -> i64 {
     SystemTime::now()
         .duration_since(UNIX_EPOCH)
