@@ -49,22 +49,28 @@ fn service_name(node: &str, service: &str) -> Result<Name> {
     Name::new(node, service).map_err(|e| anyhow!("node {node:?}: {e:?}"))
 }
 
-async fn call<Req: Message + 'static, Resp: Message + 'static>(
+/// Sends `request` and waits for the answer. A reply sent before the node has discovered our
+/// reply reader is lost (DDS discovery is not symmetric), so a request unanswered for 2 s is
+/// sent again; get and set are idempotent.
+async fn call<Req: Message + Clone + 'static, Resp: Message + 'static>(
     node: &ros2_client::Node,
     client: &Client<Req, Resp>,
     request: Req,
     timeout: Duration,
 ) -> Result<Resp> {
+    const RETRY: Duration = Duration::from_secs(2);
     tokio::time::timeout(timeout, async {
         client.wait_for_service(node).await;
-        let id = client
-            .async_send_request(request)
-            .await
-            .map_err(|e| anyhow!("cannot send the request: {e:?}"))?;
-        client
-            .async_receive_response(id)
-            .await
-            .map_err(|e| anyhow!("no response: {e:?}"))
+        loop {
+            let id = client
+                .async_send_request(request.clone())
+                .await
+                .map_err(|e| anyhow!("cannot send the request: {e:?}"))?;
+            if let Ok(reply) = tokio::time::timeout(RETRY, client.async_receive_response(id)).await
+            {
+                return reply.map_err(|e| anyhow!("no response: {e:?}"));
+            }
+        }
     })
     .await
     .map_err(|_| {
