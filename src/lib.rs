@@ -3,6 +3,7 @@
 //! - [`model`]: the improved and conventional Terzaghi models and RFT (pure).
 //! - [`ident`]: identification of the fitting width `b_k, a` (and `delta`) from measured
 //!   forces, and goodness of fit (pure).
+//! - [`diagnose`]: the analysis of the sim-to-real gap (pure; in progress).
 //! - [`dataset`]: reading force logs (CSV) into samples (I/O adapter).
 //! - [`sim`]: synthetic sessions (rotation, forces, sensor noise) for tests and the demo.
 //! - [`cli`]: the `terzaghi` command line.
@@ -10,6 +11,7 @@
 pub mod cli;
 pub mod config;
 pub mod dataset;
+pub mod diagnose;
 pub mod ident;
 pub mod model;
 pub mod msgs;
