@@ -99,7 +99,7 @@ pub fn cross_validated_baseline(
     }
     let all = fit_batch(model, samples, &bopts)
         .map_err(|error| BaselineError::Fit { fold: folds, error })?;
-    let (pred, meas): (Vec<(f64, f64)>, Vec<(f64, f64)>) = heldout
+    let (pred, meas): (Pairs, Pairs) = heldout
         .iter()
         .zip(samples)
         .zip(&regime)
@@ -128,6 +128,9 @@ pub fn cross_validated_baseline(
         heldout_rmse_n,
     })
 }
+
+/// `(drag, lift)` pairs.
+type Pairs = Vec<(f64, f64)>;
 
 fn fitted_model(model: &TerzaghiModel, b_k: f64, a: f64, delta_deg: f64) -> TerzaghiModel {
     let width = FittingWidth::new(b_k, a).unwrap_or(FittingWidth::CONVENTIONAL);

@@ -132,8 +132,8 @@ mod tests {
     fn acceleration_of_a_speeding_leg() {
         let s = rotation(|t| 1.0 + 0.5 * t, 4.0, 500.0);
         let k = kinematics(&s, 15);
-        for i in 100..s.len() - 100 {
-            let t = s[i].t_s.unwrap();
+        for (i, x) in s.iter().enumerate().take(s.len() - 100).skip(100) {
+            let t = x.t_s.unwrap();
             assert!(
                 (k.speed_rad_s[i] - (1.0 + 0.5 * t)).abs() < 0.01,
                 "speed at {t}"
