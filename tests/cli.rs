@@ -1,6 +1,9 @@
 //! The `terzaghi` binary as users call it: outputs, --help, and every kind of bad input
 //! (exit code 2, one clear line on stderr, no panic, nothing on stdout).
 
+mod common;
+
+use common::SAND_GEOM;
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -388,21 +391,6 @@ fn bench_reports_rft_at_least_20x_slower_than_improved() {
         "{v}"
     );
 }
-
-const SAND_GEOM: [&str; 12] = [
-    "--length-m",
-    "0.25",
-    "--width-m",
-    "0.06",
-    "--hip-height-m",
-    "0.15",
-    "--unit-weight-n-m3",
-    "16170",
-    "--phi-deg",
-    "32",
-    "--delta-deg",
-    "19",
-];
 
 #[test]
 fn simulate_then_identify_online_with_trace_and_plot() {

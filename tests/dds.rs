@@ -25,33 +25,14 @@ fn run_peer(node_args: &[&str], predict_flags: &[&str], extra: &[&str]) -> serde
     serde_json::from_str(&stdout).expect("peer summary")
 }
 
-const GEOM: [&str; 12] = [
-    "--length-m",
-    "0.25",
-    "--width-m",
-    "0.06",
-    "--hip-height-m",
-    "0.15",
-    "--unit-weight-n-m3",
-    "16170",
-    "--phi-deg",
-    "32",
-    "--delta-deg",
-    "19",
-];
-
 /// Cyclone DDS publishes JointState and F/T; the node's wrenches match `terzaghi predict` and
 /// its model_params converge within 3 % to the b_k, a the F/T was generated with.
 #[test]
 fn cyclonedds_peer_gets_predictions_and_sees_identification_converge() {
     let dir = tempfile::tempdir().unwrap();
     let params = dir.path().join("leg.yaml");
-    std::fs::write(
-        &params,
-        "/**:\n  ros__parameters:\n    legs: [leg]\n    leg:\n      joint: hip\n      length_m: 0.25\n      width_m: 0.06\n      hip_height_m: 0.15\n      unit_weight_n_m3: 16170\n      phi_deg: 32.0\n      delta_deg: 19.0\n      b_k: 2.0\n      a: 1.5\n      ft_topic: leg/ft\n",
-    )
-    .unwrap();
-    let mut flags = GEOM.to_vec();
+    std::fs::write(&params, LEG_PARAMS).unwrap();
+    let mut flags = SAND_GEOM.to_vec();
     flags.extend(["--bk", "2.0", "--a", "1.5"]);
     let v = run_peer(
         &["--ros-args", "--params-file", params.to_str().unwrap()],

@@ -7,13 +7,12 @@ use common::*;
 use std::path::Path;
 use std::process::Command;
 
-const PARAMS: &str = "/**:\n  ros__parameters:\n    legs: [leg]\n    leg:\n      joint: hip\n      length_m: 0.25\n      width_m: 0.06\n      hip_height_m: 0.15\n      unit_weight_n_m3: 16170\n      phi_deg: 32.0\n      delta_deg: 19.0\n      b_k: 2.0\n      a: 1.5\n      ft_topic: leg/ft\n";
 const FLAGS: &str = r#"["--length-m","0.25","--width-m","0.06","--hip-height-m","0.15","--unit-weight-n-m3","16170","--phi-deg","32","--delta-deg","19","--bk","2","--a","1.5"]"#;
 
 /// Runs the Cyclone DDS peer against `terzaghi node --record`, with `extra` peer options.
 fn recorded_session(dir: &Path, domain: &str, extra: &[&str]) -> serde_json::Value {
     let params = dir.join("leg.yaml");
-    std::fs::write(&params, PARAMS).unwrap();
+    std::fs::write(&params, LEG_PARAMS).unwrap();
     let mcap = dir.join("session.mcap");
     let node_args = serde_json::json!(["--record", mcap, "--ros-args", "--params-file", params]);
     let out = isolated_command(&python())
@@ -154,7 +153,7 @@ fn a_rosbags_bag_is_reevaluated() {
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let mcap = v["mcap"].as_str().unwrap();
     let params = dir.path().join("leg.yaml");
-    std::fs::write(&params, PARAMS).unwrap();
+    std::fs::write(&params, LEG_PARAMS).unwrap();
     let csv = dir.path().join("out.csv");
     let o = Command::new(terzaghi())
         .args(["replay", mcap, "--reevaluate", "--params-file"])
@@ -198,45 +197,10 @@ fn a_rosbags_bag_is_reevaluated() {
 #[test]
 fn damaged_files_never_panic() {
     use rand::{Rng, SeedableRng};
-    use terzaghi::msgs::*;
-    use terzaghi::record::{OfferedQos, RecordOptions, SessionWriter};
     let dir = tempfile::tempdir().unwrap();
-    let opts = RecordOptions {
-        flush_period_ns: 50_000_000,
-        ..Default::default()
-    };
-    let mut w = SessionWriter::new(std::io::Cursor::new(Vec::new()), opts).unwrap();
-    for i in 0..600u64 {
-        let t = 1_000_000_000 + i * 4_000_000;
-        let header = Header {
-            stamp: Time::from_nanos(t as i64).unwrap(),
-            frame_id: String::new(),
-        };
-        let js = JointState {
-            header: header.clone(),
-            name: vec!["hip".into()],
-            position: vec![i as f64 * 0.016],
-            ..Default::default()
-        };
-        w.write("/joint_states", OfferedQos::BEST_EFFORT, &js, t, t)
-            .unwrap();
-        let ft = WrenchStamped {
-            header,
-            wrench: Wrench {
-                force: Vector3 {
-                    x: -1.0,
-                    y: 0.0,
-                    z: 2.0,
-                },
-                ..Default::default()
-            },
-        };
-        w.write("/leg/ft", OfferedQos::BEST_EFFORT, &ft, t, t)
-            .unwrap();
-    }
-    let good = w.finish().unwrap().into_inner();
+    let good = leg_session(600, 4_000_000, 50_000_000);
     let params = dir.path().join("leg.yaml");
-    std::fs::write(&params, PARAMS).unwrap();
+    std::fs::write(&params, LEG_PARAMS).unwrap();
     let file = dir.path().join("damaged.mcap");
     let fixed = dir.path().join("fixed.mcap");
     let mut rng = rand::rngs::StdRng::seed_from_u64(5);
@@ -302,41 +266,9 @@ fn damaged_files_never_panic() {
 /// standalone recorder) records it again: every message arrives, topics and types kept.
 #[test]
 fn replay_over_dds_is_recorded_again_by_the_standalone_recorder() {
-    use terzaghi::msgs::*;
-    use terzaghi::record::{OfferedQos, RecordOptions, SessionWriter};
     let dir = tempfile::tempdir().unwrap();
-    let mut w =
-        SessionWriter::new(std::io::Cursor::new(Vec::new()), RecordOptions::default()).unwrap();
-    for i in 0..400u64 {
-        let t = 1_000_000_000 + i * 5_000_000;
-        let header = Header {
-            stamp: Time::from_nanos(t as i64).unwrap(),
-            frame_id: String::new(),
-        };
-        let js = JointState {
-            header: header.clone(),
-            name: vec!["hip".into()],
-            position: vec![i as f64 * 0.01],
-            ..Default::default()
-        };
-        w.write("/joint_states", OfferedQos::BEST_EFFORT, &js, t, t)
-            .unwrap();
-        let ft = WrenchStamped {
-            header,
-            wrench: Wrench {
-                force: Vector3 {
-                    x: i as f64,
-                    y: 0.0,
-                    z: 2.0,
-                },
-                ..Default::default()
-            },
-        };
-        w.write("/leg/ft", OfferedQos::BEST_EFFORT, &ft, t, t)
-            .unwrap();
-    }
     let src = dir.path().join("src.mcap");
-    std::fs::write(&src, w.finish().unwrap().into_inner()).unwrap();
+    std::fs::write(&src, leg_session(400, 5_000_000, 1_000_000_000)).unwrap();
     let again = dir.path().join("again.mcap");
     let t = terzaghi();
     let script = format!(

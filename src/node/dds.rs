@@ -108,6 +108,26 @@ impl Pubs {
     }
 }
 
+/// The next sample of `sub`: one that does not decode is counted as dropped and skipped, and
+/// so are the samples missing before it (gaps in its writer's sequence numbers).
+async fn next_sample<M: serde::de::DeserializeOwned + 'static>(
+    sub: &Subscription<M>,
+    gaps: &mut SequenceGaps,
+    dropped: &AtomicU64,
+) -> M {
+    loop {
+        match sub.async_take().await {
+            Ok((msg, info)) => {
+                dropped.fetch_add(gaps.lost(&info), Ordering::Relaxed);
+                return msg;
+            }
+            Err(_) => {
+                dropped.fetch_add(1, Ordering::Relaxed);
+            }
+        }
+    }
+}
+
 /// Samples lost before they reached us: gaps in each writer's sequence numbers.
 #[derive(Default)]
 struct SequenceGaps(HashMap<ros2_client::Gid, i64>);
@@ -493,16 +513,9 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
             let mut outputs: Vec<LegOutput> = Vec::new();
             let mut params_out = Vec::new();
             loop {
-                let (msg, info) = match sub.async_take().await {
-                    Ok(x) => x,
-                    Err(_) => {
-                        sh.dropped.fetch_add(1, Ordering::Relaxed); // undecodable: counted, skipped
-                        continue;
-                    }
-                };
+                let msg = next_sample(&sub, &mut gaps, &sh.dropped).await;
                 let received = Instant::now();
                 let log_ns = unix_now_ns() as u64;
-                sh.dropped.fetch_add(gaps.lost(&info), Ordering::Relaxed);
                 {
                     let mut core = sh.lock_core(&live, &cfgc);
                     core.on_joint_state(&msg, &mut outputs);
@@ -552,15 +565,8 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
             let mut gaps = SequenceGaps::default();
             let mut params_out = Vec::new();
             loop {
-                let (msg, info) = match sub.async_take().await {
-                    Ok(x) => x,
-                    Err(_) => {
-                        sh.dropped.fetch_add(1, Ordering::Relaxed);
-                        continue;
-                    }
-                };
+                let msg = next_sample(&sub, &mut gaps, &sh.dropped).await;
                 let log_ns = unix_now_ns() as u64;
-                sh.dropped.fetch_add(gaps.lost(&info), Ordering::Relaxed);
                 {
                     let mut core = sh.lock_core(&live, &cfgc);
                     core.on_wrench(i, &msg);

@@ -87,3 +87,64 @@ pub fn python() -> PathBuf {
     }
     py
 }
+
+/// The paper's testbed plate (0.25 x 0.06 m, hip 0.15 m) in its sand, as CLI flags.
+pub const SAND_GEOM: [&str; 12] = [
+    "--length-m",
+    "0.25",
+    "--width-m",
+    "0.06",
+    "--hip-height-m",
+    "0.15",
+    "--unit-weight-n-m3",
+    "16170",
+    "--phi-deg",
+    "32",
+    "--delta-deg",
+    "19",
+];
+
+/// Node parameters for one leg on that plate, `b_k = 2, a = 1.5`, F/T on `leg/ft`.
+pub const LEG_PARAMS: &str = "/**:\n  ros__parameters:\n    legs: [leg]\n    leg:\n      joint: hip\n      length_m: 0.25\n      width_m: 0.06\n      hip_height_m: 0.15\n      unit_weight_n_m3: 16170\n      phi_deg: 32.0\n      delta_deg: 19.0\n      b_k: 2.0\n      a: 1.5\n      ft_topic: leg/ft\n";
+
+/// An MCAP session of `n` samples `spacing_ns` apart: JointState on /joint_states (joint `hip`)
+/// and WrenchStamped on /leg/ft, chunks closed every `flush_period_ns` of log time.
+pub fn leg_session(n: u64, spacing_ns: u64, flush_period_ns: u64) -> Vec<u8> {
+    use terzaghi::msgs::*;
+    use terzaghi::record::{OfferedQos, RecordOptions, SessionWriter};
+    let opts = RecordOptions {
+        flush_period_ns,
+        ..Default::default()
+    };
+    let mut w = SessionWriter::new(std::io::Cursor::new(Vec::new()), opts).unwrap();
+    for i in 0..n {
+        let t = 1_000_000_000 + i * spacing_ns;
+        let header = Header {
+            stamp: Time::from_nanos(t as i64).unwrap(),
+            frame_id: String::new(),
+        };
+        let js = JointState {
+            header: header.clone(),
+            name: vec!["hip".into()],
+            position: vec![i as f64 * 0.01],
+            ..Default::default()
+        };
+        w.write("/joint_states", OfferedQos::BEST_EFFORT, &js, t, t)
+            .unwrap();
+        let force = Vector3 {
+            x: -(i as f64),
+            y: 0.0,
+            z: 2.0,
+        };
+        let ft = WrenchStamped {
+            header,
+            wrench: Wrench {
+                force,
+                ..Default::default()
+            },
+        };
+        w.write("/leg/ft", OfferedQos::BEST_EFFORT, &ft, t, t)
+            .unwrap();
+    }
+    w.finish().unwrap().into_inner()
+}
