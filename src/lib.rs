@@ -3,9 +3,11 @@
 //! - [`model`]: the improved and conventional Terzaghi models and RFT (pure).
 //! - [`ident`]: identification of the fitting width `b_k, a` (and `delta`) from measured
 //!   forces, and goodness of fit (pure).
-//! - [`diagnose`]: the analysis of the sim-to-real gap (pure; in progress).
+//! - [`diagnose`]: the analysis of the sim-to-real gap (pure).
 //! - [`dataset`]: reading force logs (CSV) into samples (I/O adapter).
 //! - [`sim`]: synthetic sessions (rotation, forces, sensor noise) for tests and the demo.
+//! - [`withheld`]: sessions with a hidden effect from an independent generator, and the check of
+//!   the diagnosis on them.
 //! - [`cli`]: the `terzaghi` command line.
 
 pub mod cli;
@@ -18,3 +20,4 @@ pub mod msgs;
 pub mod node;
 pub mod record;
 pub mod sim;
+pub mod withheld;

@@ -3,6 +3,7 @@
 mod bench;
 mod bench_node;
 mod bench_record;
+mod diagnose_eval;
 mod fit;
 mod identify;
 mod mcap_tools;
@@ -64,6 +65,9 @@ pub enum Command {
     Echo(bench_node::EchoArgs),
     /// Measure the speed of the models on this machine.
     Bench(bench::BenchArgs),
+    /// Check the diagnosis on generated sessions whose hidden effect it is not told: confusion
+    /// matrix, accuracy, false alarms, error of the reported gap closed.
+    DiagnoseEval(diagnose_eval::DiagnoseEvalArgs),
 }
 
 /// Runs a parsed command. Errors are for the user: `main` prints them on one line, exit code 2.
@@ -84,6 +88,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::BenchNode(a) => bench_node::run(a),
         Command::BenchRecord(a) => bench_record::run(a),
         Command::Echo(a) => bench_node::run_echo(a),
+        Command::DiagnoseEval(a) => diagnose_eval::run_cmd(a),
     }
 }
 

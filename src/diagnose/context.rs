@@ -1,0 +1,173 @@
+//! Everything the candidate corrections are built from, per sample: the measured forces, the
+//! unit model's forces (`b_k = a = 1`), the submerged geometry, the swept area of the current
+//! immersion, speed, acceleration, stroke and fold.
+
+use super::kinematics::Kinematics;
+use crate::ident::Sample;
+use crate::model::{FittingWidth, Plate, Regime, TerzaghiModel};
+use std::f64::consts::{FRAC_PI_2, TAU};
+
+/// One analysed sample.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Point {
+    pub t_s: f64,
+    /// Attack angle wrapped to `[0, 2pi)`.
+    pub beta_rad: f64,
+    /// Measured drag and lift (N).
+    pub y_n: [f64; 2],
+    /// Unit model's drag and lift (`b_e = b`), nominal hip height (N).
+    pub unit_n: [f64; 2],
+    pub regime: Regime,
+    pub submerged_m: f64,
+    pub depth_m: f64,
+    /// Submerged area of the plate's face (m^2).
+    pub area_m2: f64,
+    /// `int b r dr` over the submerged part (m^3): first moment about the hip.
+    pub moment1_m3: f64,
+    /// `int b r^2 dr` over the submerged part (m^4): second moment about the hip.
+    pub moment2_m4: f64,
+    /// Area swept by the submerged plate since it entered the medium in this immersion (m^2).
+    pub swept_m2: f64,
+    /// Angular speed along the direction of travel (rad/s, >= 0 when turning forward).
+    pub speed_rad_s: f64,
+    /// Angular acceleration along the direction of travel (rad/s^2).
+    pub accel_rad_s2: f64,
+    pub stroke: usize,
+    /// Stroke position in the session, 0 (first) to 1 (last).
+    pub session_frac: f64,
+    pub fold: usize,
+}
+
+impl Point {
+    pub fn in_medium(&self) -> bool {
+        self.regime != Regime::OutOfMedium
+    }
+    pub fn extraction(&self) -> bool {
+        self.regime.is_extraction()
+    }
+}
+
+/// The analysed session: points in time order, with the nominal model.
+#[derive(Debug, Clone)]
+pub struct Context {
+    pub model: TerzaghiModel,
+    pub points: Vec<Point>,
+    pub folds: usize,
+    pub strokes: usize,
+}
+
+impl Context {
+    /// Builds the context from finite samples (the caller drops non-finite ones), their
+    /// kinematics, and the unit model (its fitting width is ignored). Every `stride`-th sample is
+    /// kept (1: all).
+    pub fn new(
+        model: &TerzaghiModel,
+        samples: &[Sample],
+        kin: &Kinematics,
+        folds: usize,
+        stride: usize,
+    ) -> Context {
+        let unit = model.with_fitting_width(FittingWidth::CONVENTIONAL);
+        let plate = *unit.plate();
+        let strokes = kin.strokes();
+        let direction = {
+            let total = kin.unwrapped_rad.last().unwrap_or(&0.0)
+                - kin.unwrapped_rad.first().unwrap_or(&0.0);
+            if total < 0.0 { -1.0 } else { 1.0 }
+        };
+        let mut points = Vec::with_capacity(samples.len() / stride.max(1) + 1);
+        let mut swept = 0.0;
+        let mut prev_u: Option<f64> = None;
+        for (i, s) in samples.iter().enumerate() {
+            let beta = s.beta_rad.rem_euclid(TAU);
+            let u = kin.unwrapped_rad[i];
+            let f = unit.evaluate(beta).ok();
+            let submerged = f.as_ref().map_or(0.0, |f| f.submerged_m.max(0.0));
+            let (r_in, l) = (plate.length_m() - submerged, plate.length_m());
+            // Swept area of the submerged part: integral of (l^2 - r_in^2) / 2 d(beta).
+            if submerged > 0.0 {
+                let d = prev_u.map_or(0.0, |p| ((u - p) * direction).max(0.0));
+                swept += 0.5 * (l * l - r_in * r_in) * d;
+            } else {
+                swept = 0.0;
+            }
+            prev_u = Some(u);
+            if i % stride.max(1) != 0 {
+                continue;
+            }
+            let b = plate.width_m();
+            let stroke = kin.stroke[i];
+            points.push(Point {
+                t_s: s.t_s.unwrap_or(i as f64),
+                beta_rad: beta,
+                y_n: [s.drag_n, s.lift_n],
+                unit_n: f.as_ref().map_or([0.0, 0.0], |f| [f.drag_n, f.lift_n]),
+                regime: f.as_ref().map_or(Regime::OutOfMedium, |f| f.regime),
+                submerged_m: submerged,
+                depth_m: f.as_ref().map_or(0.0, |f| f.depth_m),
+                area_m2: submerged * b,
+                moment1_m3: b * (l * l - r_in * r_in) / 2.0 * (submerged > 0.0) as u8 as f64,
+                moment2_m4: b * (l.powi(3) - r_in.powi(3)) / 3.0 * (submerged > 0.0) as u8 as f64,
+                swept_m2: swept,
+                speed_rad_s: kin.speed_rad_s[i] * direction,
+                accel_rad_s2: kin.accel_rad_s2[i] * direction,
+                stroke,
+                session_frac: if strokes > 1 {
+                    stroke as f64 / (strokes - 1) as f64
+                } else {
+                    0.0
+                },
+                fold: stroke % folds.max(1),
+            });
+        }
+        Context {
+            model: unit,
+            points,
+            folds: folds.max(1),
+            strokes,
+        }
+    }
+
+    /// The unit model's drag and lift for every point with the hip `dh_m` higher above the
+    /// surface than configured (the surface that much lower).
+    pub fn unit_forces_with_hip_offset(&self, dh_m: f64) -> Vec<[f64; 2]> {
+        if dh_m == 0.0 {
+            return self.points.iter().map(|p| p.unit_n).collect();
+        }
+        let plate = self.model.plate();
+        let h = (plate.hip_height_m() + dh_m).clamp(0.0, 0.95 * plate.length_m());
+        let Ok(moved) = Plate::new(plate.length_m(), plate.width_m(), h) else {
+            return self.points.iter().map(|p| p.unit_n).collect();
+        };
+        let m = TerzaghiModel::conventional(moved, *self.model.medium());
+        self.points
+            .iter()
+            .map(|p| {
+                m.evaluate(p.beta_rad)
+                    .map_or([0.0, 0.0], |f| [f.drag_n, f.lift_n])
+            })
+            .collect()
+    }
+
+    /// Points where the leg is well out of the medium (at least `margin_rad` beyond entry and
+    /// exit): only sensor noise (and a sensor offset) is measured there.
+    pub fn out_of_medium(&self, margin_rad: f64) -> impl Iterator<Item = &Point> {
+        let entry = self.model.plate().entry_beta_rad().unwrap_or(0.0);
+        let (lo, hi) = (
+            entry - margin_rad,
+            std::f64::consts::PI - entry + margin_rad,
+        );
+        self.points
+            .iter()
+            .filter(move |p| !p.in_medium() && (p.beta_rad < lo || p.beta_rad > hi))
+    }
+
+    /// The angle past vertical for extraction points (rad), 0 elsewhere.
+    pub fn past_vertical_rad(p: &Point) -> f64 {
+        if p.extraction() {
+            (p.beta_rad - FRAC_PI_2).max(0.0)
+        } else {
+            0.0
+        }
+    }
+}

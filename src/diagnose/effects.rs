@@ -1,0 +1,164 @@
+//! The library of candidate corrections: physically motivated terms with few parameters, each
+//! added to the baseline `b_k a^(-beta) F_unit(beta)`. Most are linear in their parameters (extra
+//! columns of a least-squares design); `hip_height` and `sensor_lag` have one nonlinear parameter,
+//! searched over a grid.
+
+use super::context::{Context, Point};
+use std::fmt;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Effect {
+    /// Speed-dependent resistance: inertial drag `~ rho v^2 A` (every element of the plate moves
+    /// at `omega r` across it), normal and along the plate, and the passive forces growing with
+    /// the square of the speed.
+    Rate,
+    /// A force proportional to the angular acceleration (added mass of grains moved with the plate).
+    Inertia,
+    /// Grains piling up ahead of the plate: an overburden growing with the area swept in the
+    /// current immersion (the paper's "rising part").
+    Surcharge,
+    /// The extraction phase (beta > 90 deg) failing differently from the passive model: its own
+    /// scale for drag and lift, changing with the angle past vertical.
+    Extraction,
+    /// The medium's strength drifting over the session (stroke by stroke).
+    Compaction,
+    /// A strength term proportional to the submerged area (normal and along the plate).
+    Cohesion,
+    /// The free surface at another level than the configured hip height.
+    HipHeight,
+    /// A constant offset on the measured drag and lift.
+    SensorBias,
+    /// The measured forces delayed and low-passed against the joint angles (first order).
+    SensorLag,
+}
+
+pub const ALL: [Effect; 9] = [
+    Effect::Rate,
+    Effect::Inertia,
+    Effect::Surcharge,
+    Effect::Extraction,
+    Effect::Compaction,
+    Effect::Cohesion,
+    Effect::HipHeight,
+    Effect::SensorBias,
+    Effect::SensorLag,
+];
+
+impl Effect {
+    pub fn name(self) -> &'static str {
+        match self {
+            Effect::Rate => "rate",
+            Effect::Inertia => "inertia",
+            Effect::Surcharge => "surcharge",
+            Effect::Extraction => "extraction",
+            Effect::Compaction => "compaction",
+            Effect::Cohesion => "cohesion",
+            Effect::HipHeight => "hip_height",
+            Effect::SensorBias => "sensor_bias",
+            Effect::SensorLag => "sensor_lag",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<Effect> {
+        ALL.into_iter().find(|e| e.name() == name)
+    }
+
+    /// Names (with units) of the linear parameters, in column order.
+    pub fn linear_params(self) -> &'static [&'static str] {
+        match self {
+            Effect::Rate => &["normal_kg_m3", "tangential_kg_m3", "passive_gain_s2"],
+            Effect::Inertia => &["normal_kg_m2", "tangential_kg_m2"],
+            Effect::Surcharge => &["normal_n_m4", "tangential_n_m4"],
+            Effect::Extraction => &["drag_scale", "lift_scale", "slope_per_rad"],
+            Effect::Compaction => &["linear", "quadratic"],
+            Effect::Cohesion => &["normal_pa", "tangential_pa"],
+            Effect::HipHeight | Effect::SensorLag => &[],
+            Effect::SensorBias => &["drag_n", "lift_n"],
+        }
+    }
+
+    /// Name and grid of the nonlinear parameter, if any.
+    pub fn nonlinear(self, ctx: &Context) -> Option<(&'static str, Vec<f64>)> {
+        match self {
+            Effect::HipHeight => {
+                let depth = ctx.model.plate().max_depth_m();
+                let grid = [-0.4, -0.25, -0.15, -0.08, 0.08, 0.15, 0.25, 0.4];
+                Some(("surface_drop_m", grid.iter().map(|g| g * depth).collect()))
+            }
+            Effect::SensorLag => Some((
+                "time_constant_s",
+                vec![0.002, 0.005, 0.01, 0.02, 0.035, 0.06, 0.1],
+            )),
+            _ => None,
+        }
+    }
+
+    /// The parameter count the penalty charges.
+    pub fn parameter_count(self) -> usize {
+        self.linear_params().len()
+            + usize::from(matches!(self, Effect::HipHeight | Effect::SensorLag))
+    }
+
+    /// Appends this effect's columns at one point. `base` is the baseline column
+    /// `a^(-beta) F_unit(beta)` at that point.
+    pub fn push_columns(self, p: &Point, base: [f64; 2], out: &mut Vec<[f64; 2]>) {
+        let (s, c) = p.beta_rad.sin_cos();
+        match self {
+            Effect::Rate => {
+                let q = p.speed_rad_s * p.speed_rad_s * p.moment2_m4;
+                out.push(normal(q, s, c));
+                out.push(tangential(q, s, c));
+                let v2 = p.speed_rad_s * p.speed_rad_s;
+                out.push([v2 * base[0], v2 * base[1]]);
+            }
+            Effect::Inertia => {
+                let q = p.accel_rad_s2 * p.moment1_m3;
+                out.push(normal(q, s, c));
+                out.push(tangential(q, s, c));
+            }
+            Effect::Surcharge => {
+                let q = p.swept_m2 * p.submerged_m;
+                out.push(normal(q, s, c));
+                out.push(tangential(q, s, c));
+            }
+            Effect::Extraction => {
+                let e = f64::from(u8::from(p.extraction()));
+                let x = Context::past_vertical_rad(p);
+                out.push([e * base[0], 0.0]);
+                out.push([0.0, e * base[1]]);
+                out.push([e * x * base[0], e * x * base[1]]);
+            }
+            Effect::Compaction => {
+                let u = p.session_frac;
+                out.push([u * base[0], u * base[1]]);
+                out.push([u * u * base[0], u * u * base[1]]);
+            }
+            Effect::Cohesion => {
+                out.push(normal(p.area_m2, s, c));
+                out.push(tangential(p.area_m2, s, c));
+            }
+            Effect::SensorBias => {
+                out.push([1.0, 0.0]);
+                out.push([0.0, 1.0]);
+            }
+            Effect::HipHeight | Effect::SensorLag => {}
+        }
+    }
+}
+
+/// Drag and lift of a force `q` normal to the plate (resisting its travel).
+fn normal(q: f64, sin_beta: f64, cos_beta: f64) -> [f64; 2] {
+    [q * sin_beta, q * cos_beta]
+}
+
+/// Drag and lift of a force `q` along the plate, toward the hip (as the model's `F_pT`).
+fn tangential(q: f64, sin_beta: f64, cos_beta: f64) -> [f64; 2] {
+    [-q * cos_beta, q * sin_beta]
+}
+
+impl fmt::Display for Effect {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}

@@ -1,0 +1,404 @@
+//! Fitting a design (the baseline plus some effects) by whole-stroke folds.
+//!
+//! The prediction is `y = b_k X_0(a) + sum_j c_j X_j(a)`, with `X_0 = a^(-beta) F_unit(beta)` and
+//! the effects' columns. For a given `a` (and nonlinear parameters) it is linear: least squares
+//! gives `b_k` and the `c_j`. `ln a` is searched on a grid, then refined by a parabola through the
+//! three best grid points. One pass over the points gives the normal equations of every fold at
+//! once (the training sums of fold `k` are the total minus fold `k`'s own), so the search costs
+//! the same for five folds as for one. A fold's held-out points are predicted with the parameters
+//! fitted without them.
+
+use super::context::Context;
+use super::effects::Effect;
+use nalgebra::{DMatrix, DVector};
+
+/// Values of the nonlinear parameters (0: effect absent).
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
+pub struct Nonlinear {
+    /// How much lower the surface is than configured (m; negative: higher).
+    pub surface_drop_m: f64,
+    /// Time constant of the sensor's first-order lag (s).
+    pub lag_s: f64,
+}
+
+impl Nonlinear {
+    fn with(mut self, effect: Effect, value: f64) -> Self {
+        match effect {
+            Effect::HipHeight => self.surface_drop_m = value,
+            Effect::SensorLag => self.lag_s = value,
+            _ => {}
+        }
+        self
+    }
+    pub fn get(&self, effect: Effect) -> f64 {
+        match effect {
+            Effect::HipHeight => self.surface_drop_m,
+            Effect::SensorLag => self.lag_s,
+            _ => 0.0,
+        }
+    }
+}
+
+/// A design: the effects added to the baseline, and the nonlinear values of the ones already
+/// chosen (per fold, and at index `folds` for the fit on everything).
+#[derive(Debug, Clone)]
+pub struct Design {
+    pub effects: Vec<Effect>,
+    pub fixed: Vec<Nonlinear>,
+}
+
+impl Design {
+    pub fn baseline(folds: usize) -> Design {
+        Design {
+            effects: Vec::new(),
+            fixed: vec![Nonlinear::default(); folds + 1],
+        }
+    }
+    pub fn columns(&self) -> usize {
+        1 + self
+            .effects
+            .iter()
+            .map(|e| e.linear_params().len())
+            .sum::<usize>()
+    }
+}
+
+/// A fitted design.
+#[derive(Debug, Clone)]
+pub struct Fit {
+    pub design: Design,
+    /// Held-out predictions (drag, lift), N, one per point.
+    pub heldout_n: Vec<[f64; 2]>,
+    /// Predictions of the fit on every stroke (for plots).
+    pub fitted_n: Vec<[f64; 2]>,
+    /// Fit on everything: `a`, then the coefficients (`b_k` first), and nonlinear values.
+    pub a: f64,
+    pub coefficients: Vec<f64>,
+    /// Nonlinear values per fold and (last) for the fit on everything.
+    pub nonlinear: Vec<Nonlinear>,
+    /// Held-out sum of squared residuals over drag and lift (N^2).
+    pub heldout_sse: f64,
+}
+
+impl Fit {
+    /// Held-out mean squared residual per component (N^2).
+    pub fn heldout_mse(&self) -> f64 {
+        self.heldout_sse / (2 * self.heldout_n.len().max(1)) as f64
+    }
+}
+
+const LN_A_GRID: (f64, f64, usize) = (-1.2, 3.4, 14);
+
+/// Fits `design` plus, if given, `search`: a new effect (its nonlinear parameter, if any, is
+/// chosen per fold on the training strokes from its grid).
+pub fn fit(ctx: &Context, design: &Design, search: Option<Effect>) -> Fit {
+    let mut design = design.clone();
+    if let Some(e) = search {
+        design.effects.push(e);
+    }
+    let grid: Vec<Option<(Effect, f64)>> =
+        match search.and_then(|e| e.nonlinear(ctx).map(|g| (e, g))) {
+            Some((e, (_, values))) => values.into_iter().map(|v| Some((e, v))).collect(),
+            None => vec![None],
+        };
+    let k_all = ctx.folds;
+    let mut best: Vec<Option<Candidate>> = vec![None; k_all + 1];
+    for g in &grid {
+        let nl: Vec<Nonlinear> = design
+            .fixed
+            .iter()
+            .map(|f| g.map_or(*f, |(e, v)| f.with(e, v)))
+            .collect();
+        for cand in fit_ln_a(ctx, &design.effects, &nl) {
+            let k = cand.k;
+            if best[k]
+                .as_ref()
+                .is_none_or(|b| cand.train_sse < b.train_sse)
+            {
+                best[k] = Some(cand);
+            }
+        }
+    }
+    let best: Vec<Candidate> = best
+        .into_iter()
+        .map(|b| b.expect("every fold is fitted"))
+        .collect();
+    // Held-out predictions: each fold from its own fit (the lag filter runs over all points).
+    let n = ctx.points.len();
+    let mut heldout = vec![[0.0; 2]; n];
+    let mut fitted = vec![[0.0; 2]; n];
+    let mut cols = Vec::new();
+    for c in &best {
+        build(ctx, &design.effects, c.ln_a.exp(), &c.nl, &mut cols);
+        let p = design.columns();
+        for (i, pt) in ctx.points.iter().enumerate() {
+            if c.k == k_all || pt.fold == c.k {
+                let row = &cols[i * 2 * p..(i + 1) * 2 * p];
+                let yd: f64 = row[..p].iter().zip(&c.coef).map(|(x, c)| x * c).sum();
+                let yl: f64 = row[p..].iter().zip(&c.coef).map(|(x, c)| x * c).sum();
+                if c.k == k_all {
+                    fitted[i] = [yd, yl];
+                } else {
+                    heldout[i] = [yd, yl];
+                }
+            }
+        }
+    }
+    let heldout_sse = ctx
+        .points
+        .iter()
+        .zip(&heldout)
+        .map(|(p, h)| (p.y_n[0] - h[0]).powi(2) + (p.y_n[1] - h[1]).powi(2))
+        .sum();
+    let all = &best[k_all];
+    design.fixed = best.iter().map(|c| c.nl).collect();
+    Fit {
+        nonlinear: design.fixed.clone(),
+        design,
+        heldout_n: heldout,
+        fitted_n: fitted,
+        a: all.ln_a.exp(),
+        coefficients: all.coef.clone(),
+        heldout_sse,
+    }
+}
+
+/// One fold's fit at one nonlinear setting.
+#[derive(Debug, Clone)]
+struct Candidate {
+    k: usize,
+    ln_a: f64,
+    nl: Nonlinear,
+    coef: Vec<f64>,
+    train_sse: f64,
+}
+
+/// Per-fold sums of the normal equations.
+#[derive(Clone)]
+struct Sums {
+    xtx: DMatrix<f64>,
+    xty: DVector<f64>,
+    yty: f64,
+}
+
+impl Sums {
+    fn zero(p: usize) -> Sums {
+        Sums {
+            xtx: DMatrix::zeros(p, p),
+            xty: DVector::zeros(p),
+            yty: 0.0,
+        }
+    }
+    fn minus(&self, o: &Sums) -> Sums {
+        Sums {
+            xtx: &self.xtx - &o.xtx,
+            xty: &self.xty - &o.xty,
+            yty: self.yty - o.yty,
+        }
+    }
+    /// Least squares with columns scaled to unit norm and a tiny ridge (collinear columns of a
+    /// design must not blow up); returns coefficients and the sum of squared residuals.
+    fn solve(&self) -> (Vec<f64>, f64) {
+        let p = self.xty.len();
+        let d: Vec<f64> = (0..p)
+            .map(|j| {
+                let v = self.xtx[(j, j)];
+                if v > 0.0 { 1.0 / v.sqrt() } else { 0.0 }
+            })
+            .collect();
+        let mut m = DMatrix::from_fn(p, p, |i, j| self.xtx[(i, j)] * d[i] * d[j]);
+        for j in 0..p {
+            m[(j, j)] += 1e-9;
+        }
+        let rhs = DVector::from_fn(p, |i, _| self.xty[i] * d[i]);
+        let z = m
+            .clone()
+            .cholesky()
+            .map(|c| c.solve(&rhs))
+            .or_else(|| m.lu().solve(&rhs))
+            .unwrap_or_else(|| DVector::zeros(p));
+        let c = DVector::from_fn(p, |i, _| z[i] * d[i]);
+        let sse = self.yty - 2.0 * c.dot(&self.xty) + (c.transpose() * &self.xtx * &c)[(0, 0)];
+        (c.iter().copied().collect(), sse.max(0.0))
+    }
+}
+
+/// Searches `ln a` for every fold `k` (and `k = folds`: everything) with nonlinear values `nl[k]`.
+fn fit_ln_a(ctx: &Context, effects: &[Effect], nl: &[Nonlinear]) -> Vec<Candidate> {
+    let (lo, hi, steps) = LN_A_GRID;
+    let grid: Vec<f64> = (0..steps)
+        .map(|i| lo + (hi - lo) * i as f64 / (steps - 1) as f64)
+        .collect();
+    let k_all = ctx.folds;
+    // Folds sharing a nonlinear setting share the passes.
+    let mut groups: Vec<(Nonlinear, Vec<usize>)> = Vec::new();
+    for (k, v) in nl.iter().enumerate() {
+        match groups.iter_mut().find(|(g, _)| g == v) {
+            Some((_, ks)) => ks.push(k),
+            None => groups.push((*v, vec![k])),
+        }
+    }
+    let mut cols = Vec::new();
+    let mut out = Vec::new();
+    for (setting, ks) in groups {
+        // sse[k][grid index]
+        let mut sse = vec![vec![f64::INFINITY; grid.len()]; k_all + 1];
+        for (gi, &ln_a) in grid.iter().enumerate() {
+            let sums = fold_sums(ctx, effects, ln_a.exp(), &setting, &mut cols);
+            for &k in &ks {
+                sse[k][gi] = train(&sums, k, k_all).solve().1;
+            }
+        }
+        for &k in &ks {
+            let ln_a = refine(&grid, &sse[k]);
+            let sums = fold_sums(ctx, effects, ln_a.exp(), &setting, &mut cols);
+            let (coef, train_sse) = train(&sums, k, k_all).solve();
+            out.push(Candidate {
+                k,
+                ln_a,
+                nl: setting,
+                coef,
+                train_sse,
+            });
+        }
+    }
+    out
+}
+
+/// Training sums of fold `k` from per-fold sums (last entry: the total).
+fn train(sums: &[Sums], k: usize, k_all: usize) -> Sums {
+    if k == k_all {
+        sums[k_all].clone()
+    } else {
+        sums[k_all].minus(&sums[k])
+    }
+}
+
+/// Minimum of a parabola through the best grid point and its neighbours.
+fn refine(grid: &[f64], sse: &[f64]) -> f64 {
+    let j = (0..sse.len())
+        .min_by(|&a, &b| sse[a].total_cmp(&sse[b]))
+        .unwrap_or(0);
+    if j == 0 || j + 1 >= sse.len() {
+        return grid[j];
+    }
+    let (y0, y1, y2) = (sse[j - 1], sse[j], sse[j + 1]);
+    let den = y0 - 2.0 * y1 + y2;
+    let h = grid[j + 1] - grid[j];
+    if den <= 0.0 || !den.is_finite() {
+        return grid[j];
+    }
+    grid[j] + 0.5 * h * (y0 - y2) / den
+}
+
+/// Per-fold sums (index `folds`: the total) of the design at `a`.
+fn fold_sums(
+    ctx: &Context,
+    effects: &[Effect],
+    a: f64,
+    nl: &Nonlinear,
+    cols: &mut Vec<f64>,
+) -> Vec<Sums> {
+    build(ctx, effects, a, nl, cols);
+    let p = 1 + effects
+        .iter()
+        .map(|e| e.linear_params().len())
+        .sum::<usize>();
+    let mut sums = vec![Sums::zero(p); ctx.folds + 1];
+    // Accumulate the upper triangles in flat buffers (nalgebra indexing per element is slow).
+    let mut xtx = vec![vec![0.0; p * p]; ctx.folds];
+    let mut xty = vec![vec![0.0; p]; ctx.folds];
+    let mut yty = vec![0.0; ctx.folds];
+    for (i, pt) in ctx.points.iter().enumerate() {
+        let f = pt.fold;
+        for c in 0..2 {
+            let row = &cols[(2 * i + c) * p..(2 * i + c + 1) * p];
+            let y = pt.y_n[c];
+            let m = &mut xtx[f];
+            for r in 0..p {
+                let xr = row[r];
+                if xr == 0.0 {
+                    continue;
+                }
+                for s in r..p {
+                    m[r * p + s] += xr * row[s];
+                }
+                xty[f][r] += xr * y;
+            }
+            yty[f] += y * y;
+        }
+    }
+    for f in 0..ctx.folds {
+        for r in 0..p {
+            for s in r..p {
+                sums[f].xtx[(r, s)] = xtx[f][r * p + s];
+                sums[f].xtx[(s, r)] = xtx[f][r * p + s];
+            }
+            sums[f].xty[r] = xty[f][r];
+        }
+        sums[f].yty = yty[f];
+        let own = sums[f].clone();
+        let total = &mut sums[ctx.folds];
+        total.xtx += &own.xtx;
+        total.xty += &own.xty;
+        total.yty += own.yty;
+    }
+    sums
+}
+
+/// The design's columns at every point: `cols[(2 i + c) p + j]` for point `i`, component `c`
+/// (drag, lift), column `j`.
+fn build(ctx: &Context, effects: &[Effect], a: f64, nl: &Nonlinear, cols: &mut Vec<f64>) {
+    let p = 1 + effects
+        .iter()
+        .map(|e| e.linear_params().len())
+        .sum::<usize>();
+    let n = ctx.points.len();
+    cols.clear();
+    cols.resize(2 * n * p, 0.0);
+    let unit = ctx.unit_forces_with_hip_offset(nl.surface_drop_m);
+    let ln_a = a.ln();
+    let mut row: Vec<[f64; 2]> = Vec::with_capacity(p);
+    for (i, pt) in ctx.points.iter().enumerate() {
+        let w = (-ln_a * pt.beta_rad).exp();
+        let base = [w * unit[i][0], w * unit[i][1]];
+        row.clear();
+        row.push(base);
+        for e in effects {
+            e.push_columns(pt, base, &mut row);
+        }
+        for (j, v) in row.iter().enumerate() {
+            cols[2 * i * p + j] = v[0];
+            cols[(2 * i + 1) * p + j] = v[1];
+        }
+    }
+    if nl.lag_s > 0.0 {
+        lag(ctx, nl.lag_s, p, cols);
+    }
+}
+
+/// First-order lag with time constant `tau` on every column, exact for inputs linear between
+/// samples: `y1 = x1 - g tau + (y0 - x0 + g tau) e^(-dt/tau)`, `g` the input's slope. In place:
+/// the previous point's raw input is kept aside.
+fn lag(ctx: &Context, tau: f64, p: usize, cols: &mut [f64]) {
+    let n = ctx.points.len();
+    if n == 0 {
+        return;
+    }
+    let mut raw_prev: Vec<f64> = cols[..2 * p].to_vec();
+    for i in 1..n {
+        let dt = ctx.points[i].t_s - ctx.points[i - 1].t_s;
+        let step = dt > 0.0 && dt.is_finite();
+        let k = (-dt / tau).exp();
+        for q in 0..2 * p {
+            let (x0, x1, y0) = (raw_prev[q], cols[2 * i * p + q], cols[2 * (i - 1) * p + q]);
+            raw_prev[q] = x1;
+            cols[2 * i * p + q] = if step {
+                let g = (x1 - x0) / dt;
+                x1 - g * tau + (y0 - x0 + g * tau) * k
+            } else {
+                y0
+            };
+        }
+    }
+}

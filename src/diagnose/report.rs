@@ -1,0 +1,567 @@
+//! The analysis behind a diagnosis, and its report (serialized as `report.json`).
+
+use super::DiagnoseOptions;
+use super::context::{Context, Point};
+use super::effects::{ALL, Effect};
+use super::fit::{Design, Fit, fit};
+use crate::model::Regime;
+use std::collections::BTreeMap;
+
+/// The report and the per-point series behind its plots.
+#[derive(Debug, Clone)]
+pub struct Diagnosis {
+    pub report: Report,
+    pub plot: PlotData,
+}
+
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Report {
+    /// Samples given, analysed (after thinning) and skipped as non-finite.
+    pub samples: usize,
+    pub analysed: usize,
+    pub skipped_non_finite: usize,
+    pub strokes: usize,
+    pub folds: usize,
+    pub noise: Noise,
+    pub baseline: Baseline,
+    pub gap: Gap,
+    #[serde(rename = "where")]
+    pub where_: Vec<Bin>,
+    pub candidates: Vec<Candidate>,
+    pub steps: Vec<Step>,
+    pub verdict: Verdict,
+    pub summary: String,
+}
+
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Noise {
+    pub drag_n: f64,
+    pub lift_n: f64,
+    /// `out_of_medium` (measured where the leg is out of the medium) or `successive_differences`
+    /// (too few such samples: from sample-to-sample differences).
+    pub source: &'static str,
+    pub samples: usize,
+}
+
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Baseline {
+    pub b_k: f64,
+    pub a: f64,
+    /// Held-out goodness of fit (Eq. 28) and RMSE over drag and lift (N).
+    pub psi_drag: f64,
+    pub psi_lift: f64,
+    pub rmse_n: f64,
+}
+
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Gap {
+    /// Whether the held-out residual exceeds the noise beyond chance and by the set ratio.
+    pub real: bool,
+    pub heldout_mse_n2: f64,
+    pub noise_var_n2: f64,
+    /// `(mse - noise) / noise`.
+    pub excess_ratio: f64,
+    /// Chi-square test of the residual against the noise, as a z score.
+    pub z: f64,
+}
+
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Bin {
+    pub dimension: &'static str,
+    pub lo: f64,
+    pub hi: f64,
+    pub label: String,
+    pub samples: usize,
+    pub rmse_n: f64,
+    /// Share of the gap (the squared residual in excess of the noise) in this bin, %.
+    pub share_of_gap: f64,
+    pub z: f64,
+    pub significant: bool,
+}
+
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Candidate {
+    pub effect: Effect,
+    /// Fit on every stroke: `b_k`, `a`, the effect's parameters.
+    pub params: BTreeMap<String, f64>,
+    pub parameters: usize,
+    pub heldout_rmse_before_n: f64,
+    pub heldout_rmse_after_n: f64,
+    pub heldout_psi_after: f64,
+    /// Share of the gap closed, %; null when the gap is at the noise level (nothing to close).
+    pub gap_closed_pct: Option<f64>,
+    /// Held-out gain less the parameter penalty (N^2 per residual); <= 0: not worth its terms.
+    pub penalized_gain_n2: f64,
+}
+
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Step {
+    pub effect: Effect,
+    /// Share of the baseline's gap closed by all steps so far, %.
+    pub gap_closed_pct: f64,
+    pub heldout_rmse_n: f64,
+    pub heldout_psi: f64,
+}
+
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Verdict {
+    /// An effect's name, `none` or `unexplained`.
+    pub effect: String,
+    /// Share of the gap the named effect closes alone, %.
+    pub gap_closed_pct: f64,
+    /// Held-out Psi over drag and lift together, before and after the correction.
+    pub heldout_psi_before: f64,
+    pub heldout_psi_after: f64,
+    /// Share of the gap closed by all greedy steps, %.
+    pub all_steps_gap_closed_pct: f64,
+}
+
+/// Per analysed point: angle, speed, measurement, held-out prediction before and after the
+/// correction (after = all greedy steps; the baseline again when there are none).
+#[derive(Debug, Clone)]
+pub struct PlotData {
+    pub beta_rad: Vec<f64>,
+    pub speed_rad_s: Vec<f64>,
+    pub measured_n: Vec<[f64; 2]>,
+    pub before_n: Vec<[f64; 2]>,
+    pub after_n: Vec<[f64; 2]>,
+    pub noise_var_n2: f64,
+}
+
+pub(super) fn analyse(
+    ctx: &Context,
+    opts: &DiagnoseOptions,
+    skipped: usize,
+    stride: usize,
+) -> Diagnosis {
+    let n = ctx.points.len();
+    let residuals = 2 * n;
+    let noise = noise(ctx);
+    let var = (0.5 * (noise.drag_n.powi(2) + noise.lift_n.powi(2))).max(1e-18);
+    let base = fit(ctx, &Design::baseline(ctx.folds), None);
+    let mse_b = base.heldout_mse();
+    let excess = mse_b - var;
+    let z = (base.heldout_sse / var - residuals as f64) / (2.0 * residuals as f64).sqrt();
+    let real = excess > opts.min_excess_ratio * var && z > 5.0;
+    let closed = |mse: f64| {
+        if excess > 0.0 {
+            100.0 * (mse_b - mse) / excess
+        } else {
+            0.0
+        }
+    };
+    let penalty_per_param = opts.penalty * var * (residuals as f64).ln() / residuals as f64;
+
+    let mut fits: Vec<(Fit, Candidate)> = ALL
+        .iter()
+        .map(|&e| {
+            let f = fit(ctx, &Design::baseline(ctx.folds), Some(e));
+            let c = Candidate {
+                effect: e,
+                params: params(ctx, &f),
+                parameters: e.parameter_count(),
+                heldout_rmse_before_n: mse_b.sqrt(),
+                heldout_rmse_after_n: f.heldout_mse().sqrt(),
+                heldout_psi_after: psi(ctx, &f.heldout_n),
+                gap_closed_pct: real.then(|| closed(f.heldout_mse())),
+                penalized_gain_n2: mse_b
+                    - f.heldout_mse()
+                    - penalty_per_param * e.parameter_count() as f64,
+            };
+            (f, c)
+        })
+        .collect();
+    fits.sort_by(|a, b| b.1.penalized_gain_n2.total_cmp(&a.1.penalized_gain_n2));
+
+    let psi_before = psi(ctx, &base.heldout_n);
+    let mut steps = Vec::new();
+    let mut after = base.heldout_n.clone();
+    let verdict = match fits.first() {
+        Some((f, c))
+            if c.penalized_gain_n2 > 0.0
+                && c.gap_closed_pct.is_some_and(|g| g >= opts.accept_pct) =>
+        {
+            let alone = c.gap_closed_pct.unwrap_or(0.0);
+            steps.push(Step {
+                effect: c.effect,
+                gap_closed_pct: alone,
+                heldout_rmse_n: c.heldout_rmse_after_n,
+                heldout_psi: c.heldout_psi_after,
+            });
+            let mut current = f.clone();
+            while steps.len() < 3 {
+                let mse = current.heldout_mse();
+                if mse - var <= opts.min_excess_ratio * var {
+                    break;
+                }
+                let tried = ALL
+                    .iter()
+                    .filter(|e| !current.design.effects.contains(e))
+                    .map(|&e| fit(ctx, &current.design, Some(e)))
+                    .min_by(|a, b| a.heldout_mse().total_cmp(&b.heldout_mse()));
+                let Some(next) = tried else { break };
+                let e = *next.design.effects.last().expect("one effect was added");
+                let gain =
+                    mse - next.heldout_mse() - penalty_per_param * e.parameter_count() as f64;
+                if gain <= 0.0 || 100.0 * (mse - next.heldout_mse()) / excess < opts.step_pct {
+                    break;
+                }
+                steps.push(Step {
+                    effect: e,
+                    gap_closed_pct: closed(next.heldout_mse()),
+                    heldout_rmse_n: next.heldout_mse().sqrt(),
+                    heldout_psi: psi(ctx, &next.heldout_n),
+                });
+                current = next;
+            }
+            after = current.heldout_n.clone();
+            Verdict {
+                effect: c.effect.name().to_string(),
+                gap_closed_pct: alone,
+                heldout_psi_before: psi_before,
+                heldout_psi_after: c.heldout_psi_after,
+                all_steps_gap_closed_pct: steps.last().map_or(0.0, |s| s.gap_closed_pct),
+            }
+        }
+        best => Verdict {
+            effect: if real { "unexplained" } else { "none" }.to_string(),
+            gap_closed_pct: best
+                .and_then(|b| b.1.gap_closed_pct)
+                .unwrap_or(0.0)
+                .max(0.0),
+            heldout_psi_before: psi_before,
+            heldout_psi_after: psi_before,
+            all_steps_gap_closed_pct: 0.0,
+        },
+    };
+
+    let where_ = where_bins(ctx, &base.heldout_n, var);
+    let baseline = Baseline {
+        b_k: base.coefficients[0],
+        a: base.a,
+        psi_drag: psi_component(ctx, &base.heldout_n, 0),
+        psi_lift: psi_component(ctx, &base.heldout_n, 1),
+        rmse_n: mse_b.sqrt(),
+    };
+    let gap = Gap {
+        real,
+        heldout_mse_n2: mse_b,
+        noise_var_n2: var,
+        excess_ratio: excess / var,
+        z,
+    };
+    let candidates: Vec<Candidate> = fits.into_iter().map(|(_, c)| c).collect();
+    let summary = summary(&gap, &where_, &candidates, &steps, &verdict, &noise);
+    Diagnosis {
+        report: Report {
+            samples: n * stride + skipped,
+            analysed: n,
+            skipped_non_finite: skipped,
+            strokes: ctx.strokes,
+            folds: ctx.folds,
+            noise,
+            baseline,
+            gap,
+            where_,
+            candidates,
+            steps,
+            verdict,
+            summary,
+        },
+        plot: PlotData {
+            beta_rad: ctx.points.iter().map(|p| p.beta_rad).collect(),
+            speed_rad_s: ctx.points.iter().map(|p| p.speed_rad_s).collect(),
+            measured_n: ctx.points.iter().map(|p| p.y_n).collect(),
+            before_n: base.heldout_n,
+            after_n: after,
+            noise_var_n2: var,
+        },
+    }
+}
+
+/// Sensor noise per component, robust (1.4826 x median absolute deviation).
+fn noise(ctx: &Context) -> Noise {
+    let out: Vec<&Point> = ctx.out_of_medium(0.35).collect();
+    if out.len() >= 100 {
+        let d: Vec<f64> = out.iter().map(|p| p.y_n[0]).collect();
+        let l: Vec<f64> = out.iter().map(|p| p.y_n[1]).collect();
+        return Noise {
+            drag_n: mad_sigma(&d),
+            lift_n: mad_sigma(&l),
+            source: "out_of_medium",
+            samples: out.len(),
+        };
+    }
+    let diff = |c: usize| -> Vec<f64> {
+        ctx.points
+            .windows(2)
+            .map(|w| (w[1].y_n[c] - w[0].y_n[c]) / std::f64::consts::SQRT_2)
+            .collect()
+    };
+    Noise {
+        drag_n: mad_sigma(&diff(0)),
+        lift_n: mad_sigma(&diff(1)),
+        source: "successive_differences",
+        samples: ctx.points.len(),
+    }
+}
+
+fn mad_sigma(x: &[f64]) -> f64 {
+    let med = median(x);
+    let dev: Vec<f64> = x.iter().map(|v| (v - med).abs()).collect();
+    1.4826 * median(&dev)
+}
+
+fn median(x: &[f64]) -> f64 {
+    if x.is_empty() {
+        return 0.0;
+    }
+    let mut v = x.to_vec();
+    let mid = v.len() / 2;
+    *v.select_nth_unstable_by(mid, f64::total_cmp).1
+}
+
+/// Psi (Eq. 28) over drag and lift together.
+fn psi(ctx: &Context, pred: &[[f64; 2]]) -> f64 {
+    let (num, den) = psi_sums(ctx, pred, 0);
+    let (num_l, den_l) = psi_sums(ctx, pred, 1);
+    if den + den_l > 0.0 { 1.0 - (num + num_l) / (den + den_l) } else { 0.0 }
+}
+
+fn psi_component(ctx: &Context, pred: &[[f64; 2]], c: usize) -> f64 {
+    let (num, den) = psi_sums(ctx, pred, c);
+    if den > 0.0 { 1.0 - num / den } else { 0.0 }
+}
+
+/// Squared residuals and squared measurements of component `c`.
+fn psi_sums(ctx: &Context, pred: &[[f64; 2]], c: usize) -> (f64, f64) {
+    ctx.points.iter().zip(pred).fold((0.0, 0.0), |(num, den), (p, q)| {
+        (num + (p.y_n[c] - q[c]).powi(2), den + p.y_n[c].powi(2))
+    })
+}
+
+fn params(ctx: &Context, f: &Fit) -> BTreeMap<String, f64> {
+    let mut m = BTreeMap::new();
+    m.insert("b_k".to_string(), f.coefficients[0]);
+    m.insert("a".to_string(), f.a);
+    let mut j = 1;
+    for e in &f.design.effects {
+        for name in e.linear_params() {
+            m.insert(
+                name.to_string(),
+                f.coefficients.get(j).copied().unwrap_or(0.0),
+            );
+            j += 1;
+        }
+        if let Some((name, _)) = e.nonlinear(ctx) {
+            m.insert(
+                name.to_string(),
+                f.nonlinear.last().map_or(0.0, |v| v.get(*e)),
+            );
+        }
+    }
+    m
+}
+
+/// The held-out squared residual by bins of each dimension.
+fn where_bins(ctx: &Context, pred: &[[f64; 2]], var: f64) -> Vec<Bin> {
+    let sq: Vec<f64> = ctx
+        .points
+        .iter()
+        .zip(pred)
+        .map(|(p, q)| (p.y_n[0] - q[0]).powi(2) + (p.y_n[1] - q[1]).powi(2))
+        .collect();
+    let total_excess: f64 = sq.iter().map(|s| s - 2.0 * var).sum::<f64>().max(1e-300);
+    let mut bins = Vec::new();
+    let mut add = |dimension: &'static str,
+                   lo: f64,
+                   hi: f64,
+                   label: String,
+                   members: &dyn Fn(&Point) -> bool| {
+        let (mut k, mut s) = (0usize, 0.0);
+        for (p, e) in ctx.points.iter().zip(&sq) {
+            if members(p) {
+                k += 1;
+                s += e;
+            }
+        }
+        if k == 0 {
+            return;
+        }
+        let z = (s / var - 2.0 * k as f64) / (4.0 * k as f64).sqrt();
+        bins.push(Bin {
+            dimension,
+            lo,
+            hi,
+            label,
+            samples: k,
+            rmse_n: (s / (2 * k) as f64).sqrt(),
+            share_of_gap: 100.0 * (s - 2.0 * k as f64 * var) / total_excess,
+            z,
+            significant: z > 4.0,
+        });
+    };
+    for i in 0..18 {
+        let (lo, hi) = (10.0 * i as f64, 10.0 * (i + 1) as f64);
+        add(
+            "attack_angle_deg",
+            lo,
+            hi,
+            format!("{lo:.0}-{hi:.0} deg"),
+            &|p| {
+                let d = p.beta_rad.to_degrees();
+                p.in_medium() && d >= lo && d < hi
+            },
+        );
+    }
+    let max_depth = ctx.model.plate().max_depth_m();
+    for i in 0..5 {
+        let (lo, hi) = (max_depth * i as f64 / 5.0, max_depth * (i + 1) as f64 / 5.0);
+        add(
+            "depth_m",
+            lo,
+            hi,
+            format!("{:.0}-{:.0} mm", lo * 1e3, hi * 1e3),
+            &|p| p.in_medium() && p.depth_m > lo && p.depth_m <= hi + 1e-12,
+        );
+    }
+    for (dimension, value, unit) in [
+        (
+            "speed_rad_s",
+            (|p: &Point| p.speed_rad_s) as fn(&Point) -> f64,
+            "rad/s",
+        ),
+        ("accel_rad_s2", |p: &Point| p.accel_rad_s2, "rad/s^2"),
+    ] {
+        let inside: Vec<f64> = ctx
+            .points
+            .iter()
+            .filter(|p| p.in_medium())
+            .map(value)
+            .collect();
+        let edges = quantile_edges(&inside, 5);
+        for w in edges.windows(2) {
+            let (lo, hi) = (w[0], w[1]);
+            add(dimension, lo, hi, format!("{lo:.2}-{hi:.2} {unit}"), &|p| {
+                let v = value(p);
+                p.in_medium() && v >= lo && (v < hi || hi == *edges.last().unwrap_or(&hi))
+            });
+        }
+    }
+    for r in [Regime::Penetration, Regime::Extraction, Regime::OutOfMedium] {
+        let code = f64::from(r.code());
+        add("regime", code, code, r.as_str().to_string(), &|p| match r {
+            Regime::Extraction => p.extraction(),
+            other => p.regime == other,
+        });
+    }
+    let strokes = ctx.strokes.max(1);
+    let per = strokes.div_ceil(5).max(1);
+    for i in (0..strokes).step_by(per) {
+        let (lo, hi) = (i, (i + per).min(strokes));
+        add(
+            "stroke",
+            lo as f64,
+            hi as f64,
+            format!("strokes {lo}-{}", hi - 1),
+            &|p| p.stroke >= lo && p.stroke < hi,
+        );
+    }
+    bins.sort_by(|a, b| b.share_of_gap.total_cmp(&a.share_of_gap));
+    bins
+}
+
+fn quantile_edges(x: &[f64], bins: usize) -> Vec<f64> {
+    if x.is_empty() {
+        return Vec::new();
+    }
+    let mut v = x.to_vec();
+    v.sort_by(f64::total_cmp);
+    let mut e: Vec<f64> = (0..=bins).map(|i| v[((v.len() - 1) * i) / bins]).collect();
+    e.dedup();
+    e
+}
+
+fn summary(
+    gap: &Gap,
+    where_: &[Bin],
+    cands: &[Candidate],
+    steps: &[Step],
+    v: &Verdict,
+    noise: &Noise,
+) -> String {
+    let rmse = (gap.heldout_mse_n2).sqrt();
+    let sigma = gap.noise_var_n2.sqrt();
+    let mut s = format!(
+        "On strokes it was not fitted to, the baseline model misses the measured forces by {rmse:.2} N (RMS), against sensor noise of {sigma:.2} N measured {}. ",
+        if noise.source == "out_of_medium" {
+            "while the leg was out of the medium"
+        } else {
+            "from sample-to-sample differences"
+        }
+    );
+    if !gap.real {
+        s += "That is at the noise level: no unmodelled effect is needed to explain this session (verdict: none).";
+        return s;
+    }
+    let hot: Vec<&Bin> = where_
+        .iter()
+        .filter(|b| b.significant && b.dimension == "attack_angle_deg")
+        .take(3)
+        .collect();
+    if !hot.is_empty() {
+        s += &format!(
+            "The gap sits mostly at attack angles {} ({:.0} % of it). ",
+            hot.iter()
+                .map(|b| b.label.as_str())
+                .collect::<Vec<_>>()
+                .join(", "),
+            hot.iter().map(|b| b.share_of_gap).sum::<f64>()
+        );
+    }
+    match steps.first() {
+        Some(first) => {
+            s += &format!(
+                "The effect that explains it best is {} ({}): it closes {:.0} % of the gap on held-out strokes, and held-out Psi goes from {:.3} to {:.3}.",
+                first.effect,
+                describe(first.effect),
+                v.gap_closed_pct,
+                v.heldout_psi_before,
+                v.heldout_psi_after
+            );
+            if steps.len() > 1 {
+                s += &format!(
+                    " Adding {} as well closes {:.0} % in all.",
+                    steps[1..]
+                        .iter()
+                        .map(|x| x.effect.name())
+                        .collect::<Vec<_>>()
+                        .join(", then "),
+                    v.all_steps_gap_closed_pct
+                );
+            }
+        }
+        None => {
+            s += &format!(
+                "No candidate correction closes half of it (the best, {}, closes {:.0} %): the gap comes from an effect outside the library (verdict: unexplained).",
+                cands.first().map_or("none", |c| c.effect.name()),
+                v.gap_closed_pct
+            );
+        }
+    }
+    s
+}
+
+fn describe(e: Effect) -> &'static str {
+    match e {
+        Effect::Rate => "resistance growing with speed",
+        Effect::Inertia => "a force following the leg's angular acceleration",
+        Effect::Surcharge => "grains piling up ahead of the leg as it sweeps",
+        Effect::Extraction => "the extraction phase behaving unlike the passive model",
+        Effect::Compaction => "the medium's strength drifting over the session",
+        Effect::Cohesion => "a strength proportional to the submerged area",
+        Effect::HipHeight => "the surface at another level than the configured hip height",
+        Effect::SensorBias => "a constant offset of the F/T sensor",
+        Effect::SensorLag => "the F/T signal lagging the joint angles",
+    }
+}

@@ -1,0 +1,228 @@
+//! The check of the diagnosis on withheld effects: sessions from an independent [`generator`]
+//! with a hidden effect chosen at random (every library effect, none, pairs, and effects outside
+//! the library), handed to [`crate::diagnose`] without the label, and scored.
+//!
+//! The truth of `gap_closed_pct`: the same session generated without the named effect (same
+//! motion, same noise) leaves a baseline gap; the true share closed is
+//! `1 - (mse_without - noise^2) / (mse_with - noise^2)`, with the generator's own noise level.
+
+pub mod generator;
+
+use crate::diagnose::{DiagnoseOptions, baseline_heldout_mse, diagnose};
+use crate::model::TerzaghiModel;
+use generator::{Hidden, IN_LIBRARY, OUTSIDE, draw_case, generate};
+use std::collections::BTreeMap;
+
+/// What a case was and what the diagnosis said.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Outcome {
+    pub seed: u64,
+    /// `none`, an effect's name, or two joined by `+`.
+    pub truth: String,
+    pub kind: Kind,
+    /// The verdict (`none`, `unexplained`, an effect), or `error: ...`.
+    pub verdict: String,
+    pub steps: Vec<String>,
+    pub reported_gap_closed_pct: f64,
+    /// The truth of the reported share, when the verdict names an effect that is present.
+    pub true_gap_closed_pct: Option<f64>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Kind {
+    Clean,
+    Single,
+    Pair,
+    Outside,
+}
+
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Summary {
+    pub cases: usize,
+    /// Single library effects named correctly.
+    pub single_accuracy_pct: f64,
+    pub single_cases: usize,
+    /// Clean sessions given anything but `none`.
+    pub false_alarm_pct: f64,
+    pub clean_cases: usize,
+    /// Effects outside the library called `unexplained` or given a gain below 30 %.
+    pub outside_ok_pct: f64,
+    pub outside_cases: usize,
+    /// Pairs whose verdict is one of the two, and whose steps name both.
+    pub pair_first_ok_pct: f64,
+    pub pair_both_ok_pct: f64,
+    pub pair_cases: usize,
+    /// Reported gap closed against the truth (points), where the verdict names a present effect.
+    pub gap_error_mean_pts: f64,
+    pub gap_error_median_pts: f64,
+    pub gap_within_10_pts_pct: f64,
+    pub gap_cases: usize,
+    /// Rows: truth; columns: verdict; counts.
+    pub confusion: BTreeMap<String, BTreeMap<String, usize>>,
+}
+
+/// The hidden effects of case `i` (a fixed rotation over the kinds, so that every kind is
+/// covered whatever `n`), drawn with the case's seed.
+pub fn effects_of_case(i: usize, seed: u64) -> Vec<Hidden> {
+    let slot = i % 13;
+    match slot {
+        0 => Vec::new(),
+        1..=9 => vec![IN_LIBRARY[slot - 1]],
+        10 | 11 => vec![OUTSIDE[slot - 10]],
+        _ => {
+            let a = (seed % 9) as usize;
+            let b = (a + 1 + ((seed / 9) % 8) as usize) % 9;
+            vec![IN_LIBRARY[a], IN_LIBRARY[b]]
+        }
+    }
+}
+
+/// Runs case `i` of a run seeded with `seed`.
+pub fn run_case(i: usize, seed: u64, opts: &DiagnoseOptions) -> Outcome {
+    let case_seed = seed.wrapping_mul(1_000_003).wrapping_add(i as u64);
+    let effects = effects_of_case(i, case_seed);
+    let case = draw_case(case_seed, effects.clone());
+    let (samples, sigma) = generate(&case, &[]);
+    let model = TerzaghiModel::conventional(case.plate, case.medium);
+    let kind = match effects.as_slice() {
+        [] => Kind::Clean,
+        [e] if e.in_library() => Kind::Single,
+        [_] => Kind::Outside,
+        _ => Kind::Pair,
+    };
+    let truth = if effects.is_empty() {
+        "none".to_string()
+    } else {
+        effects
+            .iter()
+            .map(|e| e.name())
+            .collect::<Vec<_>>()
+            .join("+")
+    };
+    let mut out = Outcome {
+        seed: case_seed,
+        truth,
+        kind,
+        verdict: String::new(),
+        steps: Vec::new(),
+        reported_gap_closed_pct: 0.0,
+        true_gap_closed_pct: None,
+    };
+    let d = match diagnose(&model, &samples, opts) {
+        Ok(d) => d,
+        Err(e) => {
+            out.verdict = format!("error: {e}");
+            return out;
+        }
+    };
+    let r = &d.report;
+    out.verdict = r.verdict.effect.clone();
+    out.steps = r
+        .steps
+        .iter()
+        .map(|s| s.effect.name().to_string())
+        .collect();
+    out.reported_gap_closed_pct = r.verdict.gap_closed_pct;
+    if let Some(named) = effects.iter().find(|e| e.name() == r.verdict.effect) {
+        let (without, _) = generate(&case, &[*named]);
+        if let Ok(mse_without) = baseline_heldout_mse(&model, &without, opts) {
+            let var = sigma * sigma;
+            let with = r.gap.heldout_mse_n2 - var;
+            if with > 0.0 {
+                out.true_gap_closed_pct = Some(100.0 * (1.0 - (mse_without - var) / with));
+            }
+        }
+    }
+    out
+}
+
+/// Runs `n` cases on `threads` threads.
+pub fn run(
+    n: usize,
+    seed: u64,
+    threads: usize,
+    opts: &DiagnoseOptions,
+    progress: impl Fn(usize) + Sync,
+) -> Vec<Outcome> {
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let mut out: Vec<Option<Outcome>> = vec![None; n];
+    let slots: Vec<std::sync::Mutex<&mut Option<Outcome>>> =
+        out.iter_mut().map(std::sync::Mutex::new).collect();
+    std::thread::scope(|s| {
+        for _ in 0..threads.max(1) {
+            s.spawn(|| {
+                loop {
+                    let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                    if i >= n {
+                        break;
+                    }
+                    let o = run_case(i, seed, opts);
+                    **slots[i].lock().expect("a slot is locked by one thread") = Some(o);
+                    progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1);
+                }
+            });
+        }
+    });
+    drop(slots);
+    out.into_iter().flatten().collect()
+}
+
+pub fn summarize(outcomes: &[Outcome]) -> Summary {
+    let share = |kind: Kind, ok: &dyn Fn(&Outcome) -> bool| -> (f64, usize) {
+        let of: Vec<&Outcome> = outcomes.iter().filter(|o| o.kind == kind).collect();
+        let good = of.iter().filter(|o| ok(o)).count();
+        (100.0 * good as f64 / of.len().max(1) as f64, of.len())
+    };
+    let (single, single_n) = share(Kind::Single, &|o| o.verdict == o.truth);
+    let (fa, clean_n) = share(Kind::Clean, &|o| o.verdict != "none");
+    let (outside, outside_n) = share(Kind::Outside, &|o| {
+        o.verdict == "unexplained" || o.verdict == "none" || o.reported_gap_closed_pct < 30.0
+    });
+    let parts = |o: &Outcome| o.truth.split('+').map(str::to_string).collect::<Vec<_>>();
+    let (pair_first, pair_n) = share(Kind::Pair, &|o| parts(o).contains(&o.verdict));
+    let (pair_both, _) = share(Kind::Pair, &|o| {
+        parts(o).iter().all(|p| o.steps.contains(p))
+    });
+    let mut errors: Vec<f64> = outcomes
+        .iter()
+        .filter_map(|o| {
+            o.true_gap_closed_pct
+                .map(|t| (o.reported_gap_closed_pct - t).abs())
+        })
+        .collect();
+    errors.sort_by(f64::total_cmp);
+    let mut confusion: BTreeMap<String, BTreeMap<String, usize>> = BTreeMap::new();
+    for o in outcomes {
+        let row = if o.kind == Kind::Pair {
+            "pair".to_string()
+        } else {
+            o.truth.clone()
+        };
+        let col = if o.verdict.starts_with("error") {
+            "error".to_string()
+        } else {
+            o.verdict.clone()
+        };
+        *confusion.entry(row).or_default().entry(col).or_default() += 1;
+    }
+    Summary {
+        cases: outcomes.len(),
+        single_accuracy_pct: single,
+        single_cases: single_n,
+        false_alarm_pct: fa,
+        clean_cases: clean_n,
+        outside_ok_pct: outside,
+        outside_cases: outside_n,
+        pair_first_ok_pct: pair_first,
+        pair_both_ok_pct: pair_both,
+        pair_cases: pair_n,
+        gap_error_mean_pts: errors.iter().sum::<f64>() / errors.len().max(1) as f64,
+        gap_error_median_pts: errors.get(errors.len() / 2).copied().unwrap_or(0.0),
+        gap_within_10_pts_pct: 100.0 * errors.iter().filter(|e| **e <= 10.0).count() as f64
+            / errors.len().max(1) as f64,
+        gap_cases: errors.len(),
+        confusion,
+    }
+}
