@@ -1,9 +1,12 @@
 //! The `terzaghi` command line: flags are parsed and validated here, then handed to the pure core.
 
 mod bench;
+mod bench_diagnose;
 mod bench_node;
 mod bench_record;
+mod diagnose;
 mod diagnose_eval;
+mod diagnose_report;
 mod fit;
 mod identify;
 mod mcap_tools;
@@ -65,6 +68,11 @@ pub enum Command {
     Echo(bench_node::EchoArgs),
     /// Measure the speed of the models on this machine.
     Bench(bench::BenchArgs),
+    /// Measure how long the diagnosis of a long six-legged session takes on this machine.
+    BenchDiagnose(bench_diagnose::BenchDiagnoseArgs),
+    /// Diagnose the sim-to-real gap of a session: where model and measurement part, which
+    /// unmodelled effect causes it, how far the gap shrinks with it (report.json, report.html).
+    Diagnose(diagnose::DiagnoseArgs),
     /// Check the diagnosis on generated sessions whose hidden effect it is not told: confusion
     /// matrix, accuracy, false alarms, error of the reported gap closed.
     DiagnoseEval(diagnose_eval::DiagnoseEvalArgs),
@@ -88,6 +96,8 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::BenchNode(a) => bench_node::run(a),
         Command::BenchRecord(a) => bench_record::run(a),
         Command::Echo(a) => bench_node::run_echo(a),
+        Command::BenchDiagnose(a) => bench_diagnose::run(a),
+        Command::Diagnose(a) => diagnose::run(a),
         Command::DiagnoseEval(a) => diagnose_eval::run_cmd(a),
     }
 }

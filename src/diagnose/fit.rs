@@ -87,7 +87,7 @@ impl Fit {
     }
 }
 
-const LN_A_GRID: (f64, f64, usize) = (-1.2, 3.4, 14);
+const LN_A_GRID: (f64, f64, usize) = (-1.2, 3.4, 11);
 
 /// Fits `design` plus, if given, `search`: a new effect (its nonlinear parameter, if any, is
 /// chosen per fold on the training strokes from its grid).
@@ -399,6 +399,42 @@ fn lag(ctx: &Context, tau: f64, p: usize, cols: &mut [f64]) {
             } else {
                 y0
             };
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::diagnose::{Context, kinematics};
+    use crate::ident::Sample;
+    use crate::model::{Medium, Plate, TerzaghiModel};
+
+    #[test]
+    fn the_lag_filter_follows_a_ramp_one_time_constant_behind() {
+        let samples: Vec<Sample> = (0..2000)
+            .map(|i| Sample {
+                t_s: Some(i as f64 * 0.002),
+                beta_rad: 0.3 + i as f64 * 0.004,
+                drag_n: 0.0,
+                lift_n: 0.0,
+            })
+            .collect();
+        let model = TerzaghiModel::conventional(
+            Plate::new(0.25, 0.06, 0.15).unwrap(),
+            Medium::new(16170.0, 32.0, 19.0).unwrap(),
+        );
+        let ctx = Context::new(&model, &samples, &kinematics(&samples, 5), 2, 1);
+        // One column, the time itself, lagged by 20 ms: y = t - tau once settled.
+        let mut cols: Vec<f64> = ctx.points.iter().flat_map(|p| [p.t_s, p.t_s]).collect();
+        lag(&ctx, 0.02, 1, &mut cols);
+        for (i, p) in ctx.points.iter().enumerate().skip(500) {
+            assert!(
+                (cols[2 * i] - (p.t_s - 0.02)).abs() < 1e-9,
+                "{} at {}",
+                cols[2 * i],
+                p.t_s
+            );
         }
     }
 }

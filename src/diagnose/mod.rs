@@ -54,7 +54,7 @@ impl Default for DiagnoseOptions {
         DiagnoseOptions {
             folds: 5,
             min_strokes: 6,
-            max_points: 40_000,
+            max_points: 24_000,
             min_excess_ratio: 0.1,
             accept_pct: 50.0,
             step_pct: 15.0,
@@ -168,4 +168,98 @@ fn median_step(s: &[Sample]) -> f64 {
     }
     let mid = d.len() / 2;
     *d.select_nth_unstable_by(mid, f64::total_cmp).1
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::{FittingWidth, Medium, Plate};
+    use crate::sim;
+    use rand::SeedableRng;
+
+    fn unit() -> TerzaghiModel {
+        TerzaghiModel::conventional(
+            Plate::new(0.25, 0.06, 0.15).unwrap(),
+            Medium::new(16170.0, 32.0, 19.0).unwrap(),
+        )
+    }
+
+    /// A session of the model with `b_k = 2, a = 1.5`, changed by `effect(drag, lift)`.
+    fn session(strokes: usize, effect: impl Fn(f64, f64) -> (f64, f64)) -> Vec<Sample> {
+        let mut rng = rand::rngs::StdRng::seed_from_u64(3);
+        let truth = unit().with_fitting_width(FittingWidth::new(2.0, 1.5).unwrap());
+        let angles = sim::rotate(&sim::Rotation::default(), strokes, &mut rng);
+        sim::measure(&angles, 0.01, &mut rng, |_, b| {
+            let f = truth.evaluate(b).unwrap();
+            effect(f.drag_n, f.lift_n)
+        })
+    }
+
+    #[test]
+    fn a_clean_session_is_at_the_noise_level() {
+        let d = diagnose(
+            &unit(),
+            &session(20, |d, l| (d, l)),
+            &DiagnoseOptions::default(),
+        )
+        .unwrap();
+        let r = &d.report;
+        assert_eq!(r.verdict.effect, "none");
+        assert!(!r.gap.real);
+        assert!(
+            (r.baseline.b_k / 2.0 - 1.0).abs() < 0.01,
+            "{}",
+            r.baseline.b_k
+        );
+        assert!((r.baseline.a / 1.5 - 1.0).abs() < 0.01, "{}", r.baseline.a);
+        assert!(r.gap.excess_ratio.abs() < 0.1, "{}", r.gap.excess_ratio);
+        assert!(r.candidates.iter().all(|c| c.gap_closed_pct.is_none()));
+    }
+
+    #[test]
+    fn a_sensor_offset_is_named_and_measured() {
+        let s = session(20, |d, l| (d + 3.0, l - 2.0));
+        let r = diagnose(&unit(), &s, &DiagnoseOptions::default())
+            .unwrap()
+            .report;
+        assert_eq!(r.verdict.effect, "sensor_bias");
+        let c = &r.candidates[0];
+        assert!((c.params["drag_n"] - 3.0).abs() < 0.1, "{:?}", c.params);
+        assert!((c.params["lift_n"] + 2.0).abs() < 0.1, "{:?}", c.params);
+        assert!(r.verdict.gap_closed_pct > 95.0);
+        // The gap sits in the air too: the out-of-medium bin holds much of it.
+        let out = r
+            .where_
+            .iter()
+            .find(|b| b.label == "out_of_medium")
+            .unwrap();
+        assert!(out.significant && out.share_of_gap > 30.0, "{out:?}");
+    }
+
+    #[test]
+    fn too_few_strokes_and_no_force_are_errors() {
+        let e = diagnose(
+            &unit(),
+            &session(3, |d, l| (d, l)),
+            &DiagnoseOptions::default(),
+        )
+        .unwrap_err();
+        assert!(
+            matches!(e, DiagnoseError::TooFewStrokes { needed: 6, .. }),
+            "{e}"
+        );
+        // A sensor that reads exactly zero is not a session of forces.
+        let zero: Vec<Sample> = session(10, |d, l| (d, l))
+            .into_iter()
+            .map(|s| Sample {
+                drag_n: 0.0,
+                lift_n: 0.0,
+                ..s
+            })
+            .collect();
+        assert_eq!(
+            diagnose(&unit(), &zero, &DiagnoseOptions::default()).unwrap_err(),
+            DiagnoseError::NoForce
+        );
+    }
 }

@@ -325,7 +325,11 @@ fn median(x: &[f64]) -> f64 {
 fn psi(ctx: &Context, pred: &[[f64; 2]]) -> f64 {
     let (num, den) = psi_sums(ctx, pred, 0);
     let (num_l, den_l) = psi_sums(ctx, pred, 1);
-    if den + den_l > 0.0 { 1.0 - (num + num_l) / (den + den_l) } else { 0.0 }
+    if den + den_l > 0.0 {
+        1.0 - (num + num_l) / (den + den_l)
+    } else {
+        0.0
+    }
 }
 
 fn psi_component(ctx: &Context, pred: &[[f64; 2]], c: usize) -> f64 {
@@ -335,9 +339,12 @@ fn psi_component(ctx: &Context, pred: &[[f64; 2]], c: usize) -> f64 {
 
 /// Squared residuals and squared measurements of component `c`.
 fn psi_sums(ctx: &Context, pred: &[[f64; 2]], c: usize) -> (f64, f64) {
-    ctx.points.iter().zip(pred).fold((0.0, 0.0), |(num, den), (p, q)| {
-        (num + (p.y_n[c] - q[c]).powi(2), den + p.y_n[c].powi(2))
-    })
+    ctx.points
+        .iter()
+        .zip(pred)
+        .fold((0.0, 0.0), |(num, den), (p, q)| {
+            (num + (p.y_n[c] - q[c]).powi(2), den + p.y_n[c].powi(2))
+        })
 }
 
 fn params(ctx: &Context, f: &Fit) -> BTreeMap<String, f64> {

@@ -87,6 +87,8 @@ pub struct NodeCore {
     params_out: Vec<(usize, ModelParams)>,
     counters: NodeCounters,
     last_diag_ns: Option<i64>,
+    /// False: only match F/T samples with joint angles (no predictions, no estimator).
+    modelling: bool,
 }
 
 impl NodeCore {
@@ -97,6 +99,7 @@ impl NodeCore {
             cfg,
             counters: NodeCounters::default(),
             last_diag_ns: None,
+            modelling: true,
         };
         core.legs = (0..core.cfg.legs.len()).map(|i| core.new_leg(i)).collect();
         core
@@ -228,6 +231,9 @@ impl NodeCore {
                 .is_some_and(|w| w.header.stamp.to_nanos() <= stamp_ns)
             {
                 self.resolve_pending(i, stamp_ns);
+            }
+            if !self.modelling {
+                continue;
             }
             let (lc, leg) = (&self.cfg.legs[i], &mut self.legs[i]);
             let Ok(p) = leg.model.predict(beta) else {
@@ -367,6 +373,9 @@ impl NodeCore {
                 lift_n: fz,
             });
         }
+        if !self.modelling {
+            return None;
+        }
         let est = l.estimator.as_mut()?;
         let before = *est.estimate();
         let _ = est.update(&Sample {
@@ -418,6 +427,15 @@ impl NodeCore {
             converged: e.converged,
             changes_detected: e.changes_detected.min(u32::MAX as u64) as u32,
         })
+    }
+
+    /// A core that only matches F/T samples with joint angles (for [`NodeCore::take_matches`]):
+    /// no predictions, no estimator. What offline analysis of the measurements needs.
+    pub fn matching_only(cfg: NodeConfig) -> NodeCore {
+        let mut core = NodeCore::new(cfg);
+        core.modelling = false;
+        core.keep_matches(true);
+        core
     }
 
     /// Keep every F/T sample matched with a joint angle, for [`NodeCore::take_matches`] (offline

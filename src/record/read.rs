@@ -289,3 +289,39 @@ pub fn same_type(a: &str, b: &str) -> bool {
     let norm = |s: &str| s.replace("/msg/", "/");
     norm(a) == norm(b)
 }
+
+/// The file's topics, counts and metadata from its summary section, without reading the
+/// messages: `None` when the file has no readable summary (cut off, or written without one);
+/// then [`scan`] is the way.
+pub fn summary_head(bytes: &[u8]) -> Option<Scan> {
+    let summary = mcap::read::Summary::read(bytes).ok()??;
+    let stats = summary.stats.as_ref()?;
+    let mut s = Scan {
+        complete: true,
+        messages: stats.message_count,
+        start_ns: Some(stats.message_start_time),
+        end_ns: Some(stats.message_end_time),
+        ..Default::default()
+    };
+    let mut ids: Vec<&u16> = summary.channels.keys().collect();
+    ids.sort();
+    for id in ids {
+        let c = &summary.channels[id];
+        let schema = c.schema.as_ref();
+        s.topics.push(TopicInfo {
+            topic: c.topic.clone(),
+            type_name: schema.map(|x| x.name.clone()).unwrap_or_default(),
+            schema_text: schema
+                .map(|x| String::from_utf8_lossy(&x.data).into_owned())
+                .unwrap_or_default(),
+            encoding: c.message_encoding.clone(),
+            channel_metadata: c.metadata.clone(),
+            count: stats.channel_message_counts.get(id).copied().unwrap_or(0),
+        });
+    }
+    for index in &summary.metadata_indexes {
+        let md = mcap::read::metadata(bytes, index).ok()?;
+        s.metadata.insert(md.name, md.metadata);
+    }
+    Some(s)
+}

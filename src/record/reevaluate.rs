@@ -73,15 +73,52 @@ pub fn recorded_params(s: &Scan) -> Option<(ParamMap, String, String)> {
 pub fn reevaluate(
     bytes: &[u8],
     cfg: NodeConfig,
+    on_row: impl FnMut(&Row),
+    on_output: impl FnMut(Output),
+) -> Result<Summary, RecordError> {
+    let mut core = NodeCore::new(cfg);
+    core.keep_matches(true);
+    run_core(bytes, core, on_row, on_output)
+}
+
+/// The measured F/T samples of every leg, each with the joint angle nearest in time (as the
+/// node matches them; F/T in the leg frame turned into the hip frame), without running the
+/// model: what the diagnosis reads. Legs without F/T get none.
+pub fn measured_samples(
+    bytes: &[u8],
+    cfg: NodeConfig,
+) -> Result<(Vec<Vec<crate::ident::Sample>>, Summary), RecordError> {
+    let mut out = vec![Vec::new(); cfg.legs.len()];
+    let core = NodeCore::matching_only(cfg);
+    let sum = run_core(
+        bytes,
+        core,
+        |r| {
+            if let (Some(d), Some(l)) = (r.measured_drag_n, r.measured_lift_n) {
+                out[r.leg].push(crate::ident::Sample {
+                    t_s: Some(r.t_s),
+                    beta_rad: r.beta_rad,
+                    drag_n: d,
+                    lift_n: l,
+                });
+            }
+        },
+        |_| {},
+    )?;
+    Ok((out, sum))
+}
+
+fn run_core(
+    bytes: &[u8],
+    mut core: NodeCore,
     mut on_row: impl FnMut(&Row),
     mut on_output: impl FnMut(Output),
 ) -> Result<Summary, RecordError> {
+    let cfg = core.config().clone();
     let legs = cfg.legs.len();
     let js_topic = cfg.joint_states_topic.clone();
     let ft_topics: Vec<Option<String>> = cfg.legs.iter().map(|l| l.ft_topic.clone()).collect();
     let has_ft: Vec<bool> = ft_topics.iter().map(Option::is_some).collect();
-    let mut core = NodeCore::new(cfg);
-    core.keep_matches(true);
     let mut sum = Summary {
         estimates: vec![None; legs],
         ..Default::default()

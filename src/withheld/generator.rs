@@ -116,36 +116,71 @@ pub fn draw_case(seed: u64, effects: Vec<Hidden>) -> Case {
     }
 }
 
-/// The session of `case` with all its effects except `omit` (same motion and noise), and the
-/// true noise standard deviation (N).
-pub fn generate(case: &Case, omit: &[Hidden]) -> (Vec<Sample>, f64) {
+/// One sample of a leg's motion.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MotionSample {
+    pub t_s: f64,
+    /// Attack angle, unwrapped (rad).
+    pub beta_rad: f64,
+    pub omega_rad_s: f64,
+    pub alpha_rad_s2: f64,
+    pub stroke: usize,
+}
+
+/// The leg's motion of `case`: per stroke a speed around the mean, modulated within the stroke
+/// (gait phases), sampled at `case.rate_hz`.
+pub fn motion(case: &Case) -> Vec<MotionSample> {
     let mut rng = StdRng::seed_from_u64(case.seed);
-    let on = |e: Hidden| case.effects.contains(&e) && !omit.contains(&e);
-    let m = case.magnitude;
-    // Motion: per stroke a speed around the mean, modulated within the stroke (gait phases).
     let dt = 1.0 / case.rate_hz;
     let (mod_depth, mod_hz, mod_phase) = (
         rng.random_range(0.15..0.4),
         rng.random_range(0.6..1.8),
         rng.random_range(0.0..TAU),
     );
-    let mut motion = Vec::new(); // (t, beta, omega, alpha, stroke)
+    let mut out = Vec::new();
     let (mut t, mut beta) = (0.0, rng.random_range(3.5..5.5));
     let start = beta;
     for k in 0..case.strokes {
         let w_stroke = case.mean_speed_rad_s * rng.random_range(0.5..1.5);
         while beta < start + TAU * (k + 1) as f64 {
-            let s = 1.0 + mod_depth * (TAU * mod_hz * t + mod_phase).sin();
-            let omega = w_stroke * s;
-            let alpha = w_stroke * mod_depth * TAU * mod_hz * (TAU * mod_hz * t + mod_phase).cos();
-            motion.push((t, beta, omega, alpha, k));
+            let phase = TAU * mod_hz * t + mod_phase;
+            let omega = w_stroke * (1.0 + mod_depth * phase.sin());
+            let alpha = w_stroke * mod_depth * TAU * mod_hz * phase.cos();
+            out.push(MotionSample {
+                t_s: t,
+                beta_rad: beta,
+                omega_rad_s: omega,
+                alpha_rad_s2: alpha,
+                stroke: k,
+            });
             t += dt;
             beta += omega * dt;
         }
     }
+    out
+}
+
+/// The session of `case` with all its effects except `omit` (same motion and noise), and the
+/// true noise standard deviation (N).
+pub fn generate(case: &Case, omit: &[Hidden]) -> (Vec<Sample>, f64) {
+    measure(case, &motion(case), omit)
+}
+
+/// What the F/T sensor of a leg moving along `motion` reads under `case`'s truth, with all its
+/// effects except `omit`; and the noise standard deviation (N). Random draws (stones, sensor
+/// offsets, delays, noise) come from the case's seed.
+pub fn measure(case: &Case, motion: &[MotionSample], omit: &[Hidden]) -> (Vec<Sample>, f64) {
+    let mut rng = StdRng::seed_from_u64(case.seed ^ 0x0ff5e7);
+    let on = |e: Hidden| case.effects.contains(&e) && !omit.contains(&e);
+    let m = case.magnitude;
+    let dt = motion
+        .get(1)
+        .map_or(1.0 / case.rate_hz, |x| x.t_s - motion[0].t_s)
+        .max(1e-6);
+    let strokes = motion.last().map_or(1, |x| x.stroke + 1);
     // Stones: per stroke, maybe one at a random angle within the immersion.
     let entry = case.plate.entry_beta_rad().unwrap_or(0.3);
-    let stones: Vec<Option<(f64, f64)>> = (0..case.strokes)
+    let stones: Vec<Option<(f64, f64)>> = (0..strokes)
         .map(|_| {
             rng.random_bool(0.5).then(|| {
                 (
@@ -187,8 +222,8 @@ pub fn generate(case: &Case, omit: &[Hidden]) -> (Vec<Sample>, f64) {
     // A scale for the additive effects: the truth's RMS force in the medium.
     let scale = {
         let (mut s, mut k) = (0.0, 0usize);
-        for &(_, b, ..) in &motion {
-            if let Ok(f) = truth.evaluate(b)
+        for x in motion {
+            if let Ok(f) = truth.evaluate(x.beta_rad)
                 && f.submerged_m > 0.0
             {
                 s += f.drag_n * f.drag_n + f.lift_n * f.lift_n;
@@ -204,7 +239,9 @@ pub fn generate(case: &Case, omit: &[Hidden]) -> (Vec<Sample>, f64) {
     let mut prev_in = false;
     let mut clean: Vec<[f64; 2]> = Vec::with_capacity(motion.len());
     let mut raw_effects: Vec<Vec<[f64; 2]>> = Vec::new();
-    for &(t, beta, omega, alpha, stroke) in &motion {
+    for x in motion {
+        let (t, beta, omega, alpha, stroke) =
+            (x.t_s, x.beta_rad, x.omega_rad_s, x.alpha_rad_s2, x.stroke);
         let f = felt.evaluate(beta).expect("finite angle");
         let (mut d, mut li) = (f.drag_n, f.lift_n);
         let (s, c) = beta.rem_euclid(TAU).sin_cos();
@@ -252,7 +289,7 @@ pub fn generate(case: &Case, omit: &[Hidden]) -> (Vec<Sample>, f64) {
             li *= 1.0 - fade;
         }
         if on(Hidden::Compaction) {
-            let n0 = case.strokes as f64 * 0.5;
+            let n0 = strokes as f64 * 0.5;
             let gain = (0.25 + 0.35 * m) * (1.0 - (-(stroke as f64) / n0).exp()) - 0.15;
             d *= 1.0 + gain;
             li *= 1.0 + gain;
@@ -287,7 +324,11 @@ pub fn generate(case: &Case, omit: &[Hidden]) -> (Vec<Sample>, f64) {
         // The RMS over the whole session, in and out of the medium, against the in-medium force.
         let in_share = motion
             .iter()
-            .filter(|m| truth.evaluate(m.1).is_ok_and(|f| f.submerged_m > 0.0))
+            .filter(|x| {
+                truth
+                    .evaluate(x.beta_rad)
+                    .is_ok_and(|f| f.submerged_m > 0.0)
+            })
             .count() as f64
             / motion.len().max(1) as f64;
         let k = if rms > 0.0 {
@@ -301,11 +342,12 @@ pub fn generate(case: &Case, omit: &[Hidden]) -> (Vec<Sample>, f64) {
         }
     }
     let sigma = case.noise_frac * scale * 2.5;
-    let times: Vec<f64> = motion.iter().map(|m| m.0).collect();
+    let times: Vec<f64> = motion.iter().map(|x| x.t_s).collect();
     let samples = motion
         .iter()
         .enumerate()
-        .map(|(i, &(t, beta, ..))| {
+        .map(|(i, x)| {
+            let (t, beta) = (x.t_s, x.beta_rad);
             let mut y = if on(Hidden::SensorLag) {
                 interpolate(&times, &clean, t - delay_s)
             } else {

@@ -78,6 +78,14 @@ pub fn effects_of_case(i: usize, seed: u64) -> Vec<Hidden> {
     }
 }
 
+/// Case `i` of a run seeded with `seed`: the case and its session.
+pub fn case_session(i: usize, seed: u64) -> (generator::Case, Vec<crate::ident::Sample>) {
+    let case_seed = seed.wrapping_mul(1_000_003).wrapping_add(i as u64);
+    let case = draw_case(case_seed, effects_of_case(i, case_seed));
+    let (samples, _) = generate(&case, &[]);
+    (case, samples)
+}
+
 /// Runs case `i` of a run seeded with `seed`.
 pub fn run_case(i: usize, seed: u64, opts: &DiagnoseOptions) -> Outcome {
     let case_seed = seed.wrapping_mul(1_000_003).wrapping_add(i as u64);

@@ -1,0 +1,177 @@
+//! `terzaghi bench-diagnose`: how long the diagnosis of a long session takes on this machine.
+//!
+//! It simulates the shipped six-legged robot (launch_configs/rhex.yaml) walking with a hidden
+//! surcharge effect, writes the session as the robot's recording would hold it (JointState and
+//! every leg's F/T, with the node parameters as metadata), then times `terzaghi diagnose` (this
+//! executable) on the file, every leg.
+
+use super::print_out;
+use crate::config::{NodeConfig, defaults, parse_params_yaml};
+use crate::record::{OfferedQos, RecordOptions, SessionWriter};
+use crate::sim::robot::{Gait, Truth, joint_state, simulate, stamp_ns, wrench};
+use crate::withheld::generator::Hidden;
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use std::io::BufWriter;
+use std::time::Instant;
+
+#[derive(Debug, Args)]
+pub struct BenchDiagnoseArgs {
+    /// Length of the session (minutes).
+    #[arg(long, default_value_t = 10.0)]
+    pub minutes: f64,
+    /// JointState and F/T rate (Hz).
+    #[arg(long, default_value_t = 1000.0)]
+    pub rate_hz: f64,
+    /// Keep the session file here instead of a temporary one.
+    #[arg(long, value_name = "FILE.mcap")]
+    pub keep: Option<std::path::PathBuf>,
+    /// Print JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// The shipped RHex parameters, as a map and a configuration.
+pub fn rhex() -> Result<(crate::config::ParamMap, NodeConfig)> {
+    let mut params = defaults();
+    params.extend(parse_params_yaml(
+        include_str!("../../launch_configs/rhex.yaml"),
+        "rhex.yaml",
+        "terzaghi",
+        "/",
+    )?);
+    let cfg = NodeConfig::from_params(&params, "terzaghi", "/", &[])?;
+    Ok((params, cfg))
+}
+
+pub fn run(a: BenchDiagnoseArgs) -> Result<()> {
+    if !(a.minutes.is_finite() && a.minutes > 0.0 && a.minutes <= 120.0) {
+        bail!("--minutes must be in (0, 120], got {}", a.minutes);
+    }
+    if !(a.rate_hz.is_finite() && (10.0..=10_000.0).contains(&a.rate_hz)) {
+        bail!("--rate-hz must be in [10, 10000], got {}", a.rate_hz);
+    }
+    let (params, cfg) = rhex()?;
+    let dir = std::env::temp_dir().join(format!("terzaghi-bench-diagnose-{}", std::process::id()));
+    std::fs::create_dir_all(&dir)?;
+    let path = a.keep.clone().unwrap_or_else(|| dir.join("session.mcap"));
+    let truth = Truth {
+        b_k: 30.0,
+        a: 2.2,
+        effects: vec![Hidden::Surcharge],
+        magnitude: 0.5,
+        noise_frac: 0.015,
+    };
+    let gait = Gait {
+        seconds: a.minutes * 60.0,
+        rate_hz: a.rate_hz,
+        mean_speed_rad_s: 4.0,
+        seed: 7,
+    };
+    let start = Instant::now();
+    let session = simulate(&cfg, &truth, &gait);
+    let simulate_s = start.elapsed().as_secs_f64();
+    let file = std::fs::File::create(&path)
+        .with_context(|| format!("cannot create {}", path.display()))?;
+    let mut w = SessionWriter::new(
+        BufWriter::with_capacity(1 << 20, file),
+        RecordOptions {
+            params: params
+                .iter()
+                .map(|(k, v)| (k.clone(), v.to_string()))
+                .collect(),
+            ..Default::default()
+        },
+    )?;
+    let t0: i64 = 1_700_000_000_000_000_000;
+    let ft_topics: Vec<String> = cfg
+        .legs
+        .iter()
+        .map(|l| l.ft_topic.clone().unwrap_or_default())
+        .collect();
+    let start = Instant::now();
+    let mut messages = 0u64;
+    for k in 0..session.t_s.len() {
+        let t = stamp_ns(t0, session.t_s[k]) as u64;
+        w.write(
+            "/joint_states",
+            OfferedQos::BEST_EFFORT,
+            &joint_state(&cfg, &session, k, t0),
+            t,
+            t,
+        )?;
+        for (leg, topic) in ft_topics.iter().enumerate() {
+            w.write(
+                topic,
+                OfferedQos::BEST_EFFORT,
+                &wrench(&cfg, &session, leg, k, t0),
+                t + 5_000,
+                t,
+            )?;
+        }
+        messages += 1 + ft_topics.len() as u64;
+    }
+    w.finish()?;
+    let write_s = start.elapsed().as_secs_f64();
+    let out = dir.join("report");
+    let start = Instant::now();
+    let result = std::process::Command::new(std::env::current_exe()?)
+        .arg("diagnose")
+        .arg(&path)
+        .arg("--out")
+        .arg(&out)
+        .arg("--json")
+        .stderr(std::process::Stdio::inherit())
+        .output()?;
+    let diagnose_s = start.elapsed().as_secs_f64();
+    if !result.status.success() {
+        bail!("terzaghi diagnose failed on the benchmark session");
+    }
+    let reports: serde_json::Value = serde_json::from_slice(&result.stdout)?;
+    let verdicts: Vec<String> = reports
+        .as_array()
+        .map(|legs| {
+            legs.iter()
+                .map(|r| {
+                    format!(
+                        "{} {} ({:.0} %)",
+                        r["leg"].as_str().unwrap_or("?"),
+                        r["verdict"]["effect"].as_str().unwrap_or("?"),
+                        r["verdict"]["gap_closed_pct"].as_f64().unwrap_or(0.0)
+                    )
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    if a.keep.is_none() {
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+    if a.json {
+        let doc = serde_json::json!({
+            "minutes": a.minutes,
+            "legs": cfg.legs.len(),
+            "rate_hz": a.rate_hz,
+            "messages": messages,
+            "simulate_s": simulate_s,
+            "write_s": write_s,
+            "diagnose_s": diagnose_s,
+            "hidden": "surcharge",
+            "verdicts": reports.as_array().map(|l| l.iter().map(|r| r["verdict"]["effect"].clone()).collect::<Vec<_>>()),
+        });
+        return print_out(&(serde_json::to_string_pretty(&doc)? + "\n"));
+    }
+    print_out(&format!(
+        "session: {} min, {} legs, JointState and F/T at {} Hz: {} messages, hidden effect surcharge\n\
+         simulated in {:.1} s, written in {:.1} s\n\
+         terzaghi diagnose (every leg): {:.1} s\n\
+         verdicts: {}\n",
+        a.minutes,
+        cfg.legs.len(),
+        a.rate_hz,
+        messages,
+        simulate_s,
+        write_s,
+        diagnose_s,
+        verdicts.join(", ")
+    ))
+}

@@ -1,0 +1,166 @@
+//! A simulated six-legged robot with rotating flat legs (RHex-like): two alternating tripods
+//! whose legs turn together, the stride speed varying from stride to stride and within a
+//! stride. Each leg's F/T sensor reads a truth that the node does not see: its own `b_k, a`,
+//! sensor noise, and hidden effects written by the independent generator of
+//! [`crate::withheld::generator`]. Pure: the session is built in memory.
+
+use crate::config::{FtFrame, NodeConfig};
+use crate::ident::Sample;
+use crate::msgs::{Header, JointState, Time, Vector3, Wrench, WrenchStamped};
+use crate::withheld::generator::{Case, Hidden, MotionSample, measure};
+use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
+use std::f64::consts::{PI, TAU};
+
+/// What the simulation hides from the node.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Truth {
+    pub b_k: f64,
+    pub a: f64,
+    pub effects: Vec<Hidden>,
+    /// Size of the effects, 0-1 (see the generator).
+    pub magnitude: f64,
+    /// Sensor noise, as a fraction of the RMS force in the medium (times 2.5, as the generator).
+    pub noise_frac: f64,
+}
+
+/// How the robot walks.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Gait {
+    pub seconds: f64,
+    pub rate_hz: f64,
+    /// Mean leg speed (rad/s); each stride draws 0.6-1.4 times it.
+    pub mean_speed_rad_s: f64,
+    pub seed: u64,
+}
+
+/// The simulated session: sample times, and per leg the unwrapped attack angle and what its
+/// F/T sensor reads (drag, lift).
+#[derive(Debug, Clone)]
+pub struct Session {
+    pub t_s: Vec<f64>,
+    pub legs: Vec<Vec<Sample>>,
+    /// True sensor noise per leg (N).
+    pub noise_n: Vec<f64>,
+}
+
+/// Tripod of a leg: legs 0, 2 and 4 of the configuration (front left, rear left, middle right
+/// in the shipped RHex parameters) turn together; the others half a turn apart.
+fn tripod_phase(leg: usize) -> f64 {
+    if leg % 2 == 0 { 0.0 } else { PI }
+}
+
+pub fn simulate(cfg: &NodeConfig, truth: &Truth, gait: &Gait) -> Session {
+    let mut rng = StdRng::seed_from_u64(gait.seed);
+    let dt = 1.0 / gait.rate_hz;
+    let n = (gait.seconds * gait.rate_hz).round().max(1.0) as usize;
+    // The shared rotation of the gait: a speed per stride, modulated within it.
+    let (depth, hz) = (rng.random_range(0.15..0.3), rng.random_range(0.7..1.3));
+    let mut theta = rng.random_range(0.0..TAU);
+    let start = theta;
+    let mut stride_speed = gait.mean_speed_rad_s * rng.random_range(0.6..1.4);
+    let mut stride = 0usize;
+    let mut rot: Vec<(f64, f64, f64, f64)> = Vec::with_capacity(n); // t, theta, omega, alpha
+    for k in 0..n {
+        let t = k as f64 * dt;
+        if theta - start >= TAU * (stride + 1) as f64 {
+            stride += 1;
+            stride_speed = gait.mean_speed_rad_s * rng.random_range(0.6..1.4);
+        }
+        let phase = TAU * hz * t;
+        let omega = stride_speed * (1.0 + depth * phase.sin());
+        let alpha = stride_speed * depth * TAU * hz * phase.cos();
+        rot.push((t, theta, omega, alpha));
+        theta += omega * dt;
+    }
+    let mut legs = Vec::with_capacity(cfg.legs.len());
+    let mut noise = Vec::with_capacity(cfg.legs.len());
+    for (i, leg) in cfg.legs.iter().enumerate() {
+        let offset = tripod_phase(i);
+        let first = rot.first().map_or(0.0, |r| r.1 + offset);
+        let motion: Vec<MotionSample> = rot
+            .iter()
+            .map(|&(t, th, w, al)| MotionSample {
+                t_s: t,
+                beta_rad: th + offset,
+                omega_rad_s: w,
+                alpha_rad_s2: al,
+                stroke: ((th + offset - first) / TAU).floor().max(0.0) as usize,
+            })
+            .collect();
+        let case = Case {
+            seed: gait.seed.wrapping_mul(31).wrapping_add(i as u64 + 1),
+            plate: leg.plate,
+            medium: leg.medium,
+            b_k: truth.b_k,
+            a: truth.a,
+            effects: truth.effects.clone(),
+            magnitude: truth.magnitude,
+            noise_frac: truth.noise_frac,
+            rate_hz: gait.rate_hz,
+            strokes: motion.last().map_or(1, |m| m.stroke + 1),
+            mean_speed_rad_s: gait.mean_speed_rad_s,
+        };
+        let (samples, sigma) = measure(&case, &motion, &[]);
+        legs.push(samples);
+        noise.push(sigma);
+    }
+    Session {
+        t_s: rot.iter().map(|r| r.0).collect(),
+        legs,
+        noise_n: noise,
+    }
+}
+
+/// Nanoseconds of the session's clock at `t_s` (the session starts at `t0_ns`).
+pub fn stamp_ns(t0_ns: i64, t_s: f64) -> i64 {
+    t0_ns + (t_s * 1e9).round() as i64
+}
+
+/// The JointState the robot publishes at sample `k`: every leg's joint position.
+pub fn joint_state(cfg: &NodeConfig, s: &Session, k: usize, t0_ns: i64) -> JointState {
+    JointState {
+        header: Header {
+            stamp: Time::from_nanos(stamp_ns(t0_ns, s.t_s[k])).unwrap_or_default(),
+            frame_id: String::new(),
+        },
+        name: cfg.legs.iter().map(|l| l.joint.clone()).collect(),
+        position: cfg
+            .legs
+            .iter()
+            .zip(&s.legs)
+            .map(|(l, samples)| samples[k].beta_rad / l.direction + l.angle_offset_rad)
+            .collect(),
+        velocity: Vec::new(),
+        effort: Vec::new(),
+    }
+}
+
+/// What leg `leg`'s F/T sensor publishes at sample `k`, in its configured frame.
+pub fn wrench(cfg: &NodeConfig, s: &Session, leg: usize, k: usize, t0_ns: i64) -> WrenchStamped {
+    let x = &s.legs[leg][k];
+    let lc = &cfg.legs[leg];
+    // Hip frame: F_x = -drag, F_z = lift. The leg frame turns with the joint.
+    let (fx, fz) = (-x.drag_n, x.lift_n);
+    let (wx, wz) = match lc.ft_frame {
+        FtFrame::Hip => (fx, fz),
+        FtFrame::Leg => {
+            let (sn, cs) = x.beta_rad.sin_cos();
+            (fx * sn - fz * cs, fx * cs + fz * sn)
+        }
+    };
+    WrenchStamped {
+        header: Header {
+            stamp: Time::from_nanos(stamp_ns(t0_ns, s.t_s[k])).unwrap_or_default(),
+            frame_id: format!("{}_ft", lc.name),
+        },
+        wrench: Wrench {
+            force: Vector3 {
+                x: wx,
+                y: 0.0,
+                z: wz,
+            },
+            torque: Vector3::default(),
+        },
+    }
+}

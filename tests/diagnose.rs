@@ -1,0 +1,392 @@
+//! Gap diagnosis as users run it: `terzaghi diagnose` on CSV logs and MCAP sessions (real files
+//! on disk), its reports, its refusals of bad logs, and `diagnose-eval`, the check on sessions
+//! whose hidden effect the diagnosis is not told.
+
+use serde_json::Value;
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn terzaghi(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_terzaghi"))
+        .args(args)
+        .output()
+        .expect("run terzaghi")
+}
+
+fn ok(out: &Output) -> String {
+    assert!(
+        out.status.success(),
+        "exit {:?}\nstdout: {}\nstderr: {}",
+        out.status.code(),
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// Exit 2 with one clear stderr line holding every needle, and no panic.
+fn refused(out: &Output, needles: &[&str]) {
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "stderr: {err}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
+    for n in needles {
+        assert!(err.contains(n), "{n:?} missing from: {err}");
+    }
+}
+
+fn json(path: &Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(path).expect("read json")).expect("parse json")
+}
+
+/// Exports case `i` of diagnose-eval's run 1: its session CSV and its truth.
+fn exported(i: usize, dir: &Path) -> (Vec<String>, Vec<String>) {
+    let d = dir.to_str().unwrap();
+    ok(&terzaghi(&[
+        "diagnose-eval",
+        "--export-case",
+        &i.to_string(),
+        "--export-dir",
+        d,
+    ]));
+    let case = json(&dir.join("case.json"));
+    let flags = case["flags"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap().to_string())
+        .collect();
+    let truth = case["truth"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap().to_string())
+        .collect();
+    (flags, truth)
+}
+
+#[test]
+fn a_csv_log_gives_a_report_that_names_the_hidden_effect() {
+    let tmp = tempfile::tempdir().unwrap();
+    // Cases 3 and 7 of the rotation hide surcharge and hip_height; case 0 hides nothing.
+    for (i, expected) in [(3, "surcharge"), (7, "hip_height"), (0, "none")] {
+        let dir = tmp.path().join(format!("case{i}"));
+        let (flags, truth) = exported(i, &dir);
+        assert_eq!(truth.first().map_or("none", String::as_str), expected);
+        let out_dir = dir.join("report");
+        let mut args = vec![
+            "diagnose".to_string(),
+            dir.join("session.csv").display().to_string(),
+            "--out".into(),
+            out_dir.display().to_string(),
+        ];
+        args.extend(flags);
+        let text = ok(&terzaghi(
+            &args.iter().map(String::as_str).collect::<Vec<_>>(),
+        ));
+        assert!(text.contains(&format!("verdict {expected}")), "{text}");
+        let r = json(&out_dir.join("report.json"));
+        assert_eq!(r["verdict"]["effect"], expected);
+        for key in ["b_k", "a", "psi_drag", "psi_lift", "rmse_n"] {
+            assert!(r["baseline"][key].is_f64(), "baseline.{key}");
+        }
+        let bins = r["where"].as_array().unwrap();
+        for dim in [
+            "attack_angle_deg",
+            "depth_m",
+            "speed_rad_s",
+            "accel_rad_s2",
+            "regime",
+            "stroke",
+        ] {
+            assert!(
+                bins.iter().any(|b| b["dimension"] == dim),
+                "where has no {dim}"
+            );
+        }
+        assert!(
+            bins.iter()
+                .all(|b| b["lo"].is_f64() && b["hi"].is_f64() && b["share_of_gap"].is_f64())
+        );
+        let cands = r["candidates"].as_array().unwrap();
+        assert_eq!(cands.len(), 9, "every candidate is scored");
+        for c in cands {
+            for key in [
+                "effect",
+                "params",
+                "heldout_rmse_before_n",
+                "heldout_rmse_after_n",
+                "gap_closed_pct",
+            ] {
+                assert!(c.get(key).is_some(), "candidate without {key}");
+            }
+        }
+        for key in [
+            "effect",
+            "gap_closed_pct",
+            "heldout_psi_before",
+            "heldout_psi_after",
+        ] {
+            assert!(r["verdict"].get(key).is_some(), "verdict without {key}");
+        }
+        if expected == "none" {
+            assert!(!r["gap"]["real"].as_bool().unwrap());
+            assert!(r["steps"].as_array().unwrap().is_empty());
+        } else {
+            // Candidates come best first, the verdict's effect at the top, closing most of the gap.
+            assert_eq!(cands[0]["effect"], expected);
+            assert!(r["verdict"]["gap_closed_pct"].as_f64().unwrap() > 70.0);
+            assert!(
+                r["verdict"]["heldout_psi_after"].as_f64()
+                    > r["verdict"]["heldout_psi_before"].as_f64()
+            );
+            assert!(r["steps"][0]["effect"] == expected);
+        }
+        let html = std::fs::read_to_string(out_dir.join("report.html")).unwrap();
+        assert_eq!(html.matches("<svg").count(), 3, "three plots");
+        assert!(
+            html.contains("</html>") && !html.contains("<script src") && !html.contains("<link")
+        );
+        assert!(html.contains(&format!("<b>{expected}</b>")));
+    }
+}
+
+/// Writes a short six-legged session (hidden surcharge) through bench-diagnose's simulation.
+fn six_legged_session(path: &Path) -> Value {
+    let out = ok(&terzaghi(&[
+        "bench-diagnose",
+        "--minutes",
+        "1.5",
+        "--rate-hz",
+        "250",
+        "--keep",
+        path.to_str().unwrap(),
+        "--json",
+    ]));
+    serde_json::from_str(&out).unwrap()
+}
+
+#[test]
+fn an_mcap_session_is_diagnosed_per_leg_from_its_recorded_parameters() {
+    let tmp = tempfile::tempdir().unwrap();
+    let mcap = tmp.path().join("walk.mcap");
+    let bench = six_legged_session(&mcap);
+    assert_eq!(bench["verdicts"].as_array().unwrap().len(), 6);
+    // Every leg, each in its own directory, with an index.
+    let out = tmp.path().join("all");
+    ok(&terzaghi(&[
+        "diagnose",
+        mcap.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]));
+    let index = json(&out.join("report.json"));
+    let legs = index["legs"].as_array().unwrap();
+    assert_eq!(legs.len(), 6);
+    for l in legs {
+        let name = l["leg"].as_str().unwrap();
+        let r = json(&out.join(name).join("report.json"));
+        assert_eq!(r["verdict"]["effect"], "surcharge", "leg {name}");
+        assert!(out.join(name).join("report.html").exists());
+    }
+    // One leg, and the same leg read as any ROS 2 MCAP (joint, F/T topic and geometry given).
+    let one = tmp.path().join("one");
+    ok(&terzaghi(&[
+        "diagnose",
+        mcap.to_str().unwrap(),
+        "--leg",
+        "middle_left",
+        "--out",
+        one.to_str().unwrap(),
+    ]));
+    let r1 = json(&one.join("report.json"));
+    assert_eq!(r1["leg"], "middle_left");
+    let flags = tmp.path().join("flags");
+    ok(&terzaghi(&[
+        "diagnose",
+        mcap.to_str().unwrap(),
+        "--joint",
+        "middle_left_hip",
+        "--wrench-topic",
+        "/middle_left/ft/wrench",
+        "--ft-frame",
+        "leg",
+        "--length-m",
+        "0.10",
+        "--width-m",
+        "0.04",
+        "--hip-height-m",
+        "0.06",
+        "--medium",
+        "poppy_lp",
+        "--out",
+        flags.to_str().unwrap(),
+    ]));
+    let r2 = json(&flags.join("report.json"));
+    assert_eq!(r2["verdict"]["effect"], "surcharge");
+    let (b1, b2) = (
+        r1["baseline"]["b_k"].as_f64().unwrap(),
+        r2["baseline"]["b_k"].as_f64().unwrap(),
+    );
+    assert!(
+        (b1 / b2 - 1.0).abs() < 1e-9,
+        "same samples, same fit: {b1} {b2}"
+    );
+}
+
+#[test]
+fn bad_logs_are_refused_with_exit_2() {
+    let tmp = tempfile::tempdir().unwrap();
+    let p = |name: &str| tmp.path().join(name).display().to_string();
+    let out = p("out");
+    let geom = [
+        "--length-m",
+        "0.25",
+        "--width-m",
+        "0.06",
+        "--hip-height-m",
+        "0.15",
+        "--medium",
+        "hit_sand",
+    ];
+    let csv = |name: &str, rows: &dyn Fn(usize) -> String, n: usize| {
+        let mut s = String::from("t_s,beta_rad,drag_n,lift_n\n");
+        for i in 0..n {
+            s += &rows(i);
+        }
+        std::fs::write(p(name), s).unwrap();
+    };
+    let diag = |file: &str, extra: &[&str]| {
+        let mut a = vec!["diagnose", file, "--out", &out];
+        a.extend_from_slice(extra);
+        terzaghi(&a)
+    };
+    // Two strokes only.
+    csv(
+        "short.csv",
+        &|i| {
+            format!(
+                "{},{},{},{}\n",
+                i as f64 * 0.004,
+                (i as f64 * 0.01) % std::f64::consts::TAU,
+                5.0,
+                3.0
+            )
+        },
+        1200,
+    );
+    refused(&diag(&p("short.csv"), &geom), &["strokes", "at least 6"]);
+    // A real session, but the configured hip is higher than the leg is long: never in the medium.
+    ok(&terzaghi(&[
+        "simulate",
+        "--length-m",
+        "0.25",
+        "--width-m",
+        "0.06",
+        "--hip-height-m",
+        "0.15",
+        "--medium",
+        "hit_sand",
+        "--strokes",
+        "10",
+        "-o",
+        &p("walk.csv"),
+    ]));
+    let high = [
+        "--length-m",
+        "0.25",
+        "--width-m",
+        "0.06",
+        "--hip-height-m",
+        "0.3",
+        "--medium",
+        "hit_sand",
+    ];
+    refused(&diag(&p("walk.csv"), &high), &["in the medium"]);
+    // Not a log at all.
+    std::fs::write(p("junk.csv"), "hello\nworld\n").unwrap();
+    let r = diag(&p("junk.csv"), &geom);
+    assert_eq!(r.status.code(), Some(2));
+    assert!(!String::from_utf8_lossy(&r.stderr).contains("panicked"));
+    // A CSV without geometry.
+    refused(&diag(&p("short.csv"), &[]), &["--length-m"]);
+
+    // MCAP: a session, then the same cut off, and a topic that is not there.
+    let mcap = tmp.path().join("walk.mcap");
+    six_legged_session(&mcap);
+    let bytes = std::fs::read(&mcap).unwrap();
+    std::fs::write(p("cut.mcap"), &bytes[..bytes.len() / 2]).unwrap();
+    refused(&diag(&p("cut.mcap"), &[]), &["cut off", "terzaghi recover"]);
+    refused(
+        &diag(
+            mcap.to_str().unwrap(),
+            &[
+                "--joint",
+                "front_left_hip",
+                "--wrench-topic",
+                "/no/such/wrench",
+                "--length-m",
+                "0.1",
+                "--width-m",
+                "0.04",
+                "--hip-height-m",
+                "0.06",
+                "--medium",
+                "poppy_lp",
+            ],
+        ),
+        &["no F/T sample", "/no/such/wrench"],
+    );
+    refused(
+        &diag(mcap.to_str().unwrap(), &["--leg", "tail"]),
+        &["no leg named \"tail\"", "front_left"],
+    );
+    assert!(
+        !Path::new(&out).join("report.json").exists(),
+        "no report from a refused log"
+    );
+}
+
+#[test]
+fn diagnose_eval_meets_its_targets_on_withheld_effects() {
+    // 208 cases: 16 rounds of clean, the nine effects, two outside the library, and a pair.
+    let out = ok(&terzaghi(&[
+        "diagnose-eval",
+        "--cases",
+        "208",
+        "--seed",
+        "1",
+        "--json",
+    ]));
+    let v: Value = serde_json::from_str(&out).unwrap();
+    let s = &v["summary"];
+    eprintln!("{}", serde_json::to_string_pretty(s).unwrap());
+    let f = |k: &str| s[k].as_f64().unwrap();
+    assert_eq!(s["single_cases"], 144);
+    assert!(
+        f("single_accuracy_pct") >= 90.0,
+        "accuracy {}",
+        f("single_accuracy_pct")
+    );
+    assert!(
+        f("false_alarm_pct") <= 5.0,
+        "false alarms {}",
+        f("false_alarm_pct")
+    );
+    assert!(
+        f("outside_ok_pct") >= 90.0,
+        "outside the library {}",
+        f("outside_ok_pct")
+    );
+    assert!(
+        f("gap_error_mean_pts") <= 10.0,
+        "gap error {}",
+        f("gap_error_mean_pts")
+    );
+    assert!(f("gap_error_median_pts") <= 10.0);
+    // The verdicts really come from the sessions: no case is labelled from the truth.
+    let cases = v["cases"].as_array().unwrap();
+    assert_eq!(cases.len(), 208);
+    assert!(cases.iter().any(|c| c["verdict"] == "unexplained"));
+    assert!(cases.iter().any(|c| c["verdict"] == "none"));
+}
