@@ -3,11 +3,12 @@
 //! of a parameter is validated as a whole configuration before it takes effect.
 
 use super::core::{LegOutput, NodeCore};
+use super::handle::{Publish, Topics, diagnostics_done, joint_state_done, wrench_done};
 use super::latency::Histogram;
 use crate::config::{NodeConfig, ParamMap, ParamValue, STARTUP_ONLY};
 use crate::msgs::{DiagnosticArray, JointState, LegForce, ModelParams, RosMessage, WrenchStamped};
 use crate::record::RecordOptions;
-use crate::record::recorder::{Record, Recorder};
+use crate::record::recorder::Recorder;
 use anyhow::{Context as _, Result, anyhow};
 use ros2_client::dds::rustdds::DomainParticipantBuilder;
 use ros2_client::{
@@ -33,16 +34,6 @@ pub struct NodeSetup {
     pub latency_report: Option<PathBuf>,
 }
 
-/// Topic names of what the recorder writes, resolved once.
-struct RecTopics {
-    joints: Arc<str>,
-    ft: Vec<Arc<str>>,
-    wrench: Vec<Arc<str>>,
-    force: Vec<Arc<str>>,
-    params: Vec<Arc<str>>,
-    diagnostics: Arc<str>,
-}
-
 /// What a run did, printed at shutdown.
 #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct RunSummary {
@@ -63,7 +54,6 @@ struct Shared {
     core: Mutex<NodeCore>,
     hist: Mutex<Histogram>,
     dropped: AtomicU64,
-    publish_errors: AtomicU64,
     seen_version: AtomicU64,
 }
 
@@ -83,27 +73,40 @@ impl Shared {
         }
         core
     }
-
-    fn check(&self, published: bool) {
-        if !published {
-            self.publish_errors.fetch_add(1, Ordering::Relaxed);
-        }
-    }
 }
 
 struct Pubs {
     wrench: Vec<Publisher<WrenchStamped>>,
     force: Vec<Publisher<LegForce>>,
     params: Vec<Publisher<ModelParams>>,
+    diagnostics: Publisher<DiagnosticArray>,
+    errors: Arc<AtomicU64>,
     /// Asked, before each write, whether anyone subscribes: writing to nobody costs a DDS
     /// write per message, skipped.
     node: Arc<Node>,
 }
 
 impl Pubs {
-    fn send<M: serde::Serialize>(&self, p: &Publisher<M>, msg: M, sh: &Shared) {
-        if p.get_subscription_count(&self.node) > 0 {
-            sh.check(p.publish(msg).is_ok());
+    fn send<M: serde::Serialize>(&self, p: &Publisher<M>, msg: M) {
+        if p.get_subscription_count(&self.node) > 0 && p.publish(msg).is_err() {
+            self.errors.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+}
+
+impl Publish for Pubs {
+    fn wrench(&self, leg: usize, msg: WrenchStamped) {
+        self.send(&self.wrench[leg], msg);
+    }
+    fn force(&self, leg: usize, msg: LegForce) {
+        self.send(&self.force[leg], msg);
+    }
+    fn params(&self, leg: usize, msg: ModelParams) {
+        self.send(&self.params[leg], msg);
+    }
+    fn diagnostics(&self, msg: DiagnosticArray) {
+        if self.diagnostics.publish(msg).is_err() {
+            self.errors.fetch_add(1, Ordering::Relaxed);
         }
     }
 }
@@ -397,7 +400,6 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
     let spinner = node.spinner().context("cannot start the node's spinner")?;
     let spin_task = tokio::spawn(spinner.spin());
 
-    let ns = cfg.namespace.trim_end_matches('/').to_string();
     let resolve =
         |rel: &str| crate::config::resolve_topic(rel, &cfg.namespace, &cfg.node_name, &cfg.remaps);
     let mut wrench_pubs = Vec::new();
@@ -418,7 +420,6 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
         )?);
     }
     let diag_pub = publisher::<DiagnosticArray>(&mut node, &resolve("/diagnostics"))?;
-    let _ = ns;
 
     // Each message is handled in the task that takes it off DDS (no hand-off, which would add a
     // thread wake-up to every JointState). The DDS reader's KeepLast history is the bounded
@@ -428,7 +429,6 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
         core: Mutex::new(NodeCore::new(cfg.clone())),
         hist: Mutex::new(Histogram::default()),
         dropped: AtomicU64::new(0),
-        publish_errors: AtomicU64::new(0),
         seen_version: AtomicU64::new(0),
     });
     let depth = cfg.queue_depth;
@@ -445,10 +445,13 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
     // From here on the node is shared: the message tasks ask it who subscribes.
     let node = Arc::new(node);
     let record_error: Mutex<Option<String>> = Mutex::new(None);
+    let publish_errors = Arc::new(AtomicU64::new(0));
     let pubs = Arc::new(Pubs {
         wrench: wrench_pubs,
         force: force_pubs,
         params: param_pubs,
+        diagnostics: diag_pub,
+        errors: publish_errors.clone(),
         node: node.clone(),
     });
     // The recorder, if asked for: a failure to start is reported, and the node runs on.
@@ -474,30 +477,7 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
             }
         }
     });
-    let rt_topics = Arc::new(RecTopics {
-        joints: cfg.joint_states_topic.as_str().into(),
-        ft: cfg
-            .legs
-            .iter()
-            .map(|l| l.ft_topic.clone().unwrap_or_default().into())
-            .collect(),
-        wrench: cfg
-            .legs
-            .iter()
-            .map(|l| resolve(&format!("{}/predicted_wrench", l.name)).into())
-            .collect(),
-        force: cfg
-            .legs
-            .iter()
-            .map(|l| resolve(&format!("{}/leg_force", l.name)).into())
-            .collect(),
-        params: cfg
-            .legs
-            .iter()
-            .map(|l| resolve(&format!("{}/model_params", l.name)).into())
-            .collect(),
-        diagnostics: resolve("/diagnostics").into(),
-    });
+    let rt_topics = Arc::new(Topics::new(&cfg));
     let mut tasks = Vec::new();
     {
         let sub = js_sub;
@@ -521,35 +501,19 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
                     core.on_joint_state(&msg, &mut outputs);
                     core.take_params(&mut params_out);
                 }
-                if let Some(r) = &rec {
-                    for o in &outputs {
-                        r.record(Record::Prediction(
-                            rt.wrench[o.leg].clone(),
-                            o.wrench.clone(),
-                            log_ns,
-                        ));
-                        r.record(Record::Force(
-                            rt.force[o.leg].clone(),
-                            o.force.clone(),
-                            log_ns,
-                        ));
-                    }
-                    for (leg, p) in &params_out {
-                        r.record(Record::Params(rt.params[*leg].clone(), p.clone(), log_ns));
-                    }
-                }
-                for o in outputs.drain(..) {
-                    pubs.send(&pubs.wrench[o.leg], o.wrench, &sh);
-                    pubs.send(&pubs.force[o.leg], o.force, &sh);
-                }
-                for (leg, p) in params_out.drain(..) {
-                    pubs.send(&pubs.params[leg], p, &sh);
-                }
-                let ns = received.elapsed().as_nanos() as u64;
-                sh.hist.lock().unwrap_or_else(|p| p.into_inner()).record(ns);
-                if let Some(r) = &rec {
-                    r.record(Record::Joints(rt.joints.clone(), msg, log_ns));
-                }
+                joint_state_done(
+                    rec.as_deref(),
+                    &rt,
+                    msg,
+                    &mut outputs,
+                    &mut params_out,
+                    log_ns,
+                    &*pubs,
+                    || {
+                        let ns = received.elapsed().as_nanos() as u64;
+                        sh.hist.lock().unwrap_or_else(|p| p.into_inner()).record(ns);
+                    },
+                );
             }
         }));
     }
@@ -572,15 +536,7 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
                     core.on_wrench(i, &msg);
                     core.take_params(&mut params_out);
                 }
-                if let Some(r) = &rec {
-                    for (leg, p) in &params_out {
-                        r.record(Record::Params(rt.params[*leg].clone(), p.clone(), log_ns));
-                    }
-                    r.record(Record::Wrench(rt.ft[i].clone(), msg, log_ns));
-                }
-                for (leg, p) in params_out.drain(..) {
-                    pubs.send(&pubs.params[leg], p, &sh);
-                }
+                wrench_done(rec.as_deref(), &rt, i, msg, &mut params_out, log_ns, &*pubs);
             }
         }));
     }
@@ -598,7 +554,7 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
                         ("processing_p50_us".to_string(), format!("{:.1}", h.quantile_ns(0.5) as f64 / 1e3)),
                         ("processing_p99_us".to_string(), format!("{:.1}", h.quantile_ns(0.99) as f64 / 1e3)),
                         ("processing_max_us".to_string(), format!("{:.1}", h.max_ns() as f64 / 1e3)),
-                        ("publish_errors".to_string(), shared.publish_errors.load(Ordering::Relaxed).to_string()),
+                        ("publish_errors".to_string(), publish_errors.load(Ordering::Relaxed).to_string()),
                     ]
                 };
                 let mut lat = lat;
@@ -610,10 +566,7 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
                     node_status.level = crate::msgs::DiagnosticStatus::ERROR;
                     node_status.message = format!("recording stopped: {e}");
                 }
-                if let Some(r) = &recorder {
-                    r.record(Record::Diagnostics(rt_topics.diagnostics.clone(), d.clone(), unix_now_ns() as u64));
-                }
-                shared.check(diag_pub.publish(d).is_ok());
+                diagnostics_done(recorder.as_deref(), &rt_topics, d, unix_now_ns() as u64, &*pubs);
             }
         }
     }
@@ -657,7 +610,6 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
             Some(e) => eprintln!("error: recording to {} stopped: {e}", path.display()),
         }
     }
-    drop(diag_pub);
     drop(node);
     drop(context);
     if let Some(path) = &setup.latency_report {

@@ -3,6 +3,7 @@
 
 pub mod core;
 pub mod dds;
+pub mod handle;
 pub mod latency;
 
 pub use core::{LegOutput, NodeCore};

@@ -1,0 +1,141 @@
+//! What the node does with each message after its core has handled it, whatever carries the
+//! messages (DDS, or the in-memory transport of the demo): record the outputs, publish them,
+//! record the input. Both transports call these, so both run the same code path.
+
+use super::core::LegOutput;
+use crate::config::NodeConfig;
+use crate::msgs::{DiagnosticArray, JointState, LegForce, ModelParams, WrenchStamped};
+use crate::record::recorder::{Record, Recorder};
+use std::sync::Arc;
+
+/// Where the node's outputs go.
+pub trait Publish {
+    fn wrench(&self, leg: usize, msg: WrenchStamped);
+    fn force(&self, leg: usize, msg: LegForce);
+    fn params(&self, leg: usize, msg: ModelParams);
+    fn diagnostics(&self, msg: DiagnosticArray);
+}
+
+/// Topic names of what the node reads and writes, resolved once.
+pub struct Topics {
+    pub joints: Arc<str>,
+    pub ft: Vec<Arc<str>>,
+    pub wrench: Vec<Arc<str>>,
+    pub force: Vec<Arc<str>>,
+    pub params: Vec<Arc<str>>,
+    pub diagnostics: Arc<str>,
+}
+
+impl Topics {
+    pub fn new(cfg: &NodeConfig) -> Topics {
+        let resolve = |rel: &str| {
+            crate::config::resolve_topic(rel, &cfg.namespace, &cfg.node_name, &cfg.remaps)
+        };
+        let per_leg = |suffix: &str| -> Vec<Arc<str>> {
+            cfg.legs
+                .iter()
+                .map(|l| resolve(&format!("{}/{suffix}", l.name)).into())
+                .collect()
+        };
+        Topics {
+            joints: cfg.joint_states_topic.as_str().into(),
+            ft: cfg
+                .legs
+                .iter()
+                .map(|l| l.ft_topic.clone().unwrap_or_default().into())
+                .collect(),
+            wrench: per_leg("predicted_wrench"),
+            force: per_leg("leg_force"),
+            params: per_leg("model_params"),
+            diagnostics: resolve("/diagnostics").into(),
+        }
+    }
+}
+
+/// After the core took a JointState: records and publishes its outputs and the parameters it
+/// produced (draining both), calls `published` (the processing-time clock stops there), then
+/// records the input.
+#[allow(clippy::too_many_arguments)]
+pub fn joint_state_done(
+    rec: Option<&Recorder>,
+    topics: &Topics,
+    msg: JointState,
+    outputs: &mut Vec<LegOutput>,
+    params_out: &mut Vec<(usize, ModelParams)>,
+    log_ns: u64,
+    out: &impl Publish,
+    published: impl FnOnce(),
+) {
+    if let Some(r) = rec {
+        for o in outputs.iter() {
+            r.record(Record::Prediction(
+                topics.wrench[o.leg].clone(),
+                o.wrench.clone(),
+                log_ns,
+            ));
+            r.record(Record::Force(
+                topics.force[o.leg].clone(),
+                o.force.clone(),
+                log_ns,
+            ));
+        }
+        for (leg, p) in params_out.iter() {
+            r.record(Record::Params(
+                topics.params[*leg].clone(),
+                p.clone(),
+                log_ns,
+            ));
+        }
+    }
+    for o in outputs.drain(..) {
+        out.wrench(o.leg, o.wrench);
+        out.force(o.leg, o.force);
+    }
+    for (leg, p) in params_out.drain(..) {
+        out.params(leg, p);
+    }
+    published();
+    if let Some(r) = rec {
+        r.record(Record::Joints(topics.joints.clone(), msg, log_ns));
+    }
+}
+
+/// After the core took leg `leg`'s measured wrench: records and publishes the parameters it
+/// produced (draining them), then records the input.
+pub fn wrench_done(
+    rec: Option<&Recorder>,
+    topics: &Topics,
+    leg: usize,
+    msg: WrenchStamped,
+    params_out: &mut Vec<(usize, ModelParams)>,
+    log_ns: u64,
+    out: &impl Publish,
+) {
+    if let Some(r) = rec {
+        for (l, p) in params_out.iter() {
+            r.record(Record::Params(topics.params[*l].clone(), p.clone(), log_ns));
+        }
+        r.record(Record::Wrench(topics.ft[leg].clone(), msg, log_ns));
+    }
+    for (l, p) in params_out.drain(..) {
+        out.params(l, p);
+    }
+}
+
+/// Records and publishes a diagnostics message.
+pub fn diagnostics_done(
+    rec: Option<&Recorder>,
+    topics: &Topics,
+    msg: DiagnosticArray,
+    log_ns: u64,
+    out: &impl Publish,
+) {
+    if let Some(r) = rec {
+        r.record(Record::Diagnostics(
+            topics.diagnostics.clone(),
+            msg.clone(),
+            log_ns,
+        ));
+    }
+    out.diagnostics(msg);
+}
