@@ -76,6 +76,33 @@ struct LegLog {
 }
 
 pub fn run(a: DiagnoseArgs) -> Result<()> {
+    let done = diagnose_to_dir(&a)?;
+    if a.json {
+        let v = match (done.single, done.reports.as_slice()) {
+            (true, [one]) => one.clone(),
+            _ => serde_json::Value::Array(done.reports.clone()),
+        };
+        print_out(&(serde_json::to_string_pretty(&v)? + "\n"))?;
+    } else {
+        print_out(&done.text)?;
+    }
+    if !done.failed.is_empty() {
+        bail!("cannot diagnose {}", done.failed.join("; "));
+    }
+    Ok(())
+}
+
+/// What a diagnosis wrote: the text summary, each leg's report.json value, the legs that
+/// failed with their reason.
+pub struct Done {
+    pub single: bool,
+    pub text: String,
+    pub reports: Vec<serde_json::Value>,
+    pub failed: Vec<String>,
+}
+
+/// Reads the log, diagnoses its legs and writes the reports into `a.out`.
+pub fn diagnose_to_dir(a: &DiagnoseArgs) -> Result<Done> {
     if a.folds < 2 {
         bail!("--folds must be at least 2, got {}", a.folds);
     }
@@ -85,17 +112,21 @@ pub fn run(a: DiagnoseArgs) -> Result<()> {
     };
     let bytes = read_file(&a.log)?;
     let legs = if bytes.starts_with(b"\x89MCAP") {
-        from_mcap(&a, &bytes)?
+        from_mcap(a, &bytes)?
     } else {
-        from_csv(&a)?
+        from_csv(a)?
     };
+    drop(bytes);
     let results = diagnose_all(&legs, &opts);
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("cannot create the output directory {}", a.out.display()))?;
     let single = legs.len() == 1;
-    let mut text = String::new();
-    let mut json = Vec::new();
-    let mut failed = Vec::new();
+    let mut done = Done {
+        single,
+        text: String::new(),
+        reports: Vec::new(),
+        failed: Vec::new(),
+    };
     for (leg, result) in legs.iter().zip(results) {
         let dir = if single {
             a.out.clone()
@@ -119,29 +150,16 @@ pub fn run(a: DiagnoseArgs) -> Result<()> {
                 write_atomically(&dir.join("report.html"), |w| {
                     Ok(w.write_all(page.as_bytes())?)
                 })?;
-                text += &render(&leg.name, &d.report, &dir);
-                json.push(serde_json::to_value(&doc)?);
+                done.text += &render(&leg.name, &d.report, &dir);
+                done.reports.push(serde_json::to_value(&doc)?);
             }
-            Err(e) => failed.push(format!("leg {}: {e}", leg.name)),
+            Err(e) => done.failed.push(format!("leg {}: {e}", leg.name)),
         }
     }
-    if !single && !json.is_empty() {
-        write_index(&a.out, &legs, &json)?;
+    if !single && !done.reports.is_empty() {
+        write_index(&a.out, &legs, &done.reports)?;
     }
-    if a.json {
-        let v = if single && json.len() == 1 {
-            json.remove(0)
-        } else {
-            serde_json::Value::Array(json)
-        };
-        print_out(&(serde_json::to_string_pretty(&v)? + "\n"))?;
-    } else {
-        print_out(&text)?;
-    }
-    if !failed.is_empty() {
-        bail!("cannot diagnose {}", failed.join("; "));
-    }
-    Ok(())
+    Ok(done)
 }
 
 #[derive(serde::Serialize)]

@@ -4,6 +4,7 @@ mod bench;
 mod bench_diagnose;
 mod bench_node;
 mod bench_record;
+mod demo;
 mod diagnose;
 mod diagnose_eval;
 mod diagnose_report;
@@ -32,6 +33,9 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// The whole job in one command: a simulated six-legged robot walks, the node predicts and
+    /// learns the medium online and records the session, the recording is diagnosed.
+    Demo(demo::DemoArgs),
     /// Predict drag, lift and hip torque over a range of attack angles.
     Predict(predict::PredictArgs),
     /// Fit b_k and a (and delta) to measured forces in a CSV file, batch (Eq. 26).
@@ -81,6 +85,7 @@ pub enum Command {
 /// Runs a parsed command. Errors are for the user: `main` prints them on one line, exit code 2.
 pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
+        Command::Demo(a) => demo::run(a),
         Command::Predict(a) => predict::run(a),
         Command::Fit(a) => fit::run(a),
         Command::Identify(a) => identify::run(a),

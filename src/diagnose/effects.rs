@@ -10,8 +10,7 @@ use std::fmt;
 #[serde(rename_all = "snake_case")]
 pub enum Effect {
     /// Speed-dependent resistance: inertial drag `~ rho v^2 A` (every element of the plate moves
-    /// at `omega r` across it), normal and along the plate, and the passive forces growing with
-    /// the square of the speed.
+    /// at `omega r` across it), normal to the plate and along it.
     Rate,
     /// A force proportional to the angular acceleration (added mass of grains moved with the plate).
     Inertia,
@@ -67,7 +66,7 @@ impl Effect {
     /// Names (with units) of the linear parameters, in column order.
     pub fn linear_params(self) -> &'static [&'static str] {
         match self {
-            Effect::Rate => &["normal_kg_m3", "tangential_kg_m3", "passive_gain_s2"],
+            Effect::Rate => &["normal_kg_m3", "tangential_kg_m3"],
             Effect::Inertia => &["normal_kg_m2", "tangential_kg_m2"],
             Effect::Surcharge => &["normal_n_m4", "tangential_n_m4"],
             Effect::Extraction => &["drag_scale", "lift_scale", "slope_per_rad"],
@@ -109,8 +108,6 @@ impl Effect {
                 let q = p.speed_rad_s * p.speed_rad_s * p.moment2_m4;
                 out.push(normal(q, s, c));
                 out.push(tangential(q, s, c));
-                let v2 = p.speed_rad_s * p.speed_rad_s;
-                out.push([v2 * base[0], v2 * base[1]]);
             }
             Effect::Inertia => {
                 let q = p.accel_rad_s2 * p.moment1_m3;

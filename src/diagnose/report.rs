@@ -97,6 +97,9 @@ pub struct Candidate {
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Step {
     pub effect: Effect,
+    /// Fit on every stroke of the baseline with every effect so far: `b_k`, `a` (the medium's
+    /// parameters once the effects are modelled), and the effects' parameters.
+    pub params: BTreeMap<String, f64>,
     /// Share of the baseline's gap closed by all steps so far, %.
     pub gap_closed_pct: f64,
     pub heldout_rmse_n: f64,
@@ -184,6 +187,7 @@ pub(super) fn analyse(
             let alone = c.gap_closed_pct.unwrap_or(0.0);
             steps.push(Step {
                 effect: c.effect,
+                params: c.params.clone(),
                 gap_closed_pct: alone,
                 heldout_rmse_n: c.heldout_rmse_after_n,
                 heldout_psi: c.heldout_psi_after,
@@ -208,6 +212,7 @@ pub(super) fn analyse(
                 }
                 steps.push(Step {
                     effect: e,
+                    params: params(ctx, &next),
                     gap_closed_pct: closed(next.heldout_mse()),
                     heldout_rmse_n: next.heldout_mse().sqrt(),
                     heldout_psi: psi(ctx, &next.heldout_n),

@@ -1,9 +1,12 @@
 //! The ROS 2 node: [`core`] is what it does with each message (pure), [`dds`] connects it to a
-//! ROS 2 network through ros2-client, [`latency`] keeps its processing-time statistics.
+//! ROS 2 network through ros2-client, [`memory`] runs it over an in-memory transport, [`handle`]
+//! is the code path after the core that both share, [`latency`] keeps its processing-time
+//! statistics.
 
 pub mod core;
 pub mod dds;
 pub mod handle;
 pub mod latency;
+pub mod memory;
 
 pub use core::{LegOutput, NodeCore};

@@ -1,0 +1,118 @@
+//! The node over an in-memory transport: messages come in through a bounded queue, in order,
+//! and go through the same core and the same code path after it ([`super::handle`]) as on DDS:
+//! predictions, the estimator, publications (to a [`Publish`] sink), the recorder. Used by the
+//! demo, which needs no network.
+
+use super::core::{LegOutput, NodeCore};
+use super::handle::{Publish, Topics, diagnostics_done, joint_state_done, wrench_done};
+use crate::config::{NodeConfig, ParamMap};
+use crate::msgs::{JointState, ModelParams, WrenchStamped};
+use crate::record::RecordOptions;
+use crate::record::recorder::Recorder;
+use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
+
+/// A message for the node.
+pub enum Input {
+    Joints(JointState),
+    Wrench(usize, WrenchStamped),
+}
+
+/// What a run through the in-memory transport did.
+#[derive(Debug, Clone, Default)]
+pub struct MemoryRun {
+    pub joint_states: u64,
+    pub wrenches: u64,
+    pub recorded: u64,
+    pub recording_dropped: u64,
+    pub recording_error: Option<String>,
+}
+
+/// The sending end of the transport (blocking when the queue is full: the in-memory robot
+/// waits for the node rather than lose a message).
+pub type Sender = SyncSender<Input>;
+
+/// A bounded queue to the node.
+pub fn queue(depth: usize) -> (Sender, Receiver<Input>) {
+    sync_channel(depth.max(1))
+}
+
+/// Runs the node on every input of `rx` until the senders are gone; `between` is called after
+/// every message with the core (for a live view). Records to `cfg.record` if set, with the
+/// node's parameters as metadata.
+pub fn run<P: Publish>(
+    cfg: NodeConfig,
+    params: &ParamMap,
+    rx: Receiver<Input>,
+    out: &P,
+    mut between: impl FnMut(&NodeCore, &Input),
+) -> Result<MemoryRun, crate::record::RecordError> {
+    let topics = Topics::new(&cfg);
+    let recorder = match &cfg.record {
+        Some(path) => {
+            let mut meta: std::collections::BTreeMap<String, String> = params
+                .iter()
+                .map(|(k, v)| (k.clone(), v.to_string()))
+                .collect();
+            meta.insert("__node".into(), cfg.node_name.clone());
+            meta.insert("__ns".into(), cfg.namespace.clone());
+            let opts = RecordOptions {
+                params: meta,
+                ..Default::default()
+            };
+            Some(Recorder::start(path, opts, 1 << 16)?)
+        }
+        None => None,
+    };
+    let period_ns = (cfg.diagnostics_period_s * 1e9) as i64;
+    let mut core = NodeCore::new(cfg);
+    let mut outputs: Vec<LegOutput> = Vec::new();
+    let mut params_out: Vec<(usize, ModelParams)> = Vec::new();
+    let mut run = MemoryRun::default();
+    let mut next_diag_ns: Option<i64> = None;
+    for input in rx {
+        // The transport's clock is the messages' own: a simulated robot runs faster than real time.
+        let stamp_ns = match &input {
+            Input::Joints(js) => js.header.stamp.to_nanos(),
+            Input::Wrench(_, w) => w.header.stamp.to_nanos(),
+        };
+        let log_ns = stamp_ns.max(0) as u64;
+        match &input {
+            Input::Joints(js) => {
+                run.joint_states += 1;
+                core.on_joint_state(js, &mut outputs);
+                core.take_params(&mut params_out);
+                joint_state_done(
+                    recorder.as_ref(),
+                    &topics,
+                    js.clone(),
+                    &mut outputs,
+                    &mut params_out,
+                    log_ns,
+                    out,
+                    || {},
+                );
+            }
+            Input::Wrench(leg, w) => {
+                run.wrenches += 1;
+                core.on_wrench(*leg, w);
+                core.take_params(&mut params_out);
+                wrench_done(recorder.as_ref(), &topics, *leg, w.clone(), &mut params_out, log_ns, out);
+            }
+        }
+        if next_diag_ns.is_none_or(|t| stamp_ns >= t) {
+            if next_diag_ns.is_some() {
+                let d = core.diagnostics(stamp_ns, 0, &[]);
+                diagnostics_done(recorder.as_ref(), &topics, d, log_ns, out);
+            }
+            next_diag_ns = Some(stamp_ns + period_ns);
+        }
+        between(&core, &input);
+    }
+    if let Some(r) = recorder {
+        let status = r.status.clone();
+        run.recording_error = r.finish();
+        run.recorded = status.written.load(std::sync::atomic::Ordering::Relaxed);
+        run.recording_dropped = status.dropped.load(std::sync::atomic::Ordering::Relaxed);
+    }
+    Ok(run)
+}
