@@ -86,7 +86,11 @@ pub fn run(a: DemoArgs) -> Result<()> {
         cfg.legs[0].preset.map_or("its medium", |p| p.name),
         RATE_HZ,
         format_args!("{}x", a.speed),
-        if a.dds { "runs over DDS" } else { "runs in memory" }
+        if a.dds {
+            "runs over DDS"
+        } else {
+            "runs in memory"
+        }
     );
     let view = LiveView::new(&cfg, &session, &truth);
     let started = Instant::now();
@@ -128,9 +132,20 @@ pub fn run(a: DemoArgs) -> Result<()> {
         bail!("the diagnosis failed: {}", done.failed.join("; "));
     }
     let diagnose_s = started.elapsed().as_secs_f64();
-    let summary = summarize(&cfg, &truth, &estimates, &done.reports, &a, recorded, run_s, diagnose_s);
+    let summary = summarize(
+        &cfg,
+        &truth,
+        &estimates,
+        &done.reports,
+        &a,
+        recorded,
+        run_s,
+        diagnose_s,
+    );
     let body = serde_json::to_string_pretty(&summary.json)? + "\n";
-    write_atomically(&a.out.join("summary.json"), |w| Ok(w.write_all(body.as_bytes())?))?;
+    write_atomically(&a.out.join("summary.json"), |w| {
+        Ok(w.write_all(body.as_bytes())?)
+    })?;
     print_out(&summary.text)
 }
 
@@ -273,11 +288,17 @@ fn run_memory(
             let start = Instant::now();
             for k in 0..session.t_s.len() {
                 pace(start, session.t_s[k], speed);
-                if tx.send(Input::Joints(joint_state(&cfg, &session, k, t0_ns))).is_err() {
+                if tx
+                    .send(Input::Joints(joint_state(&cfg, &session, k, t0_ns)))
+                    .is_err()
+                {
                     return;
                 }
                 for leg in 0..cfg.legs.len() {
-                    if tx.send(Input::Wrench(leg, wrench(&cfg, &session, leg, k, t0_ns))).is_err() {
+                    if tx
+                        .send(Input::Wrench(leg, wrench(&cfg, &session, leg, k, t0_ns)))
+                        .is_err()
+                    {
                         return;
                     }
                 }
@@ -302,10 +323,15 @@ fn run_memory(
         bail!("recording the session failed: {e}");
     }
     if run.recording_dropped > 0 {
-        bail!("the recorder dropped {} messages: run with a lower --speed", run.recording_dropped);
+        bail!(
+            "the recorder dropped {} messages: run with a lower --speed",
+            run.recording_dropped
+        );
     }
     Ok((
-        last.iter().map(|e| e.map(|e| (e.b_k, e.a, e.converged))).collect(),
+        last.iter()
+            .map(|e| e.map(|e| (e.b_k, e.a, e.converged)))
+            .collect(),
         run.recorded,
     ))
 }
@@ -322,7 +348,9 @@ fn run_dds(
     let rt = super::runtime()?;
     let domain = crate::config::domain_id_from_env(std::env::var("ROS_DOMAIN_ID").ok().as_deref())?;
     let local = crate::config::localhost_only_from_env(
-        std::env::var("ROS_AUTOMATIC_DISCOVERY_RANGE").ok().as_deref(),
+        std::env::var("ROS_AUTOMATIC_DISCOVERY_RANGE")
+            .ok()
+            .as_deref(),
         std::env::var("ROS_LOCALHOST_ONLY").ok().as_deref(),
     )?;
     let setup = NodeSetup {
@@ -430,18 +458,33 @@ fn summarize(
     let mut legs = Vec::new();
     for (i, leg) in cfg.legs.iter().enumerate() {
         let r = reports.iter().find(|r| r["leg"] == leg.name.as_str());
-        let verdict = r.and_then(|r| r["verdict"]["effect"].as_str()).unwrap_or("-");
+        let verdict = r
+            .and_then(|r| r["verdict"]["effect"].as_str())
+            .unwrap_or("-");
         let steps: Vec<String> = r
             .and_then(|r| r["steps"].as_array())
-            .map(|s| s.iter().filter_map(|x| x["effect"].as_str().map(String::from)).collect())
+            .map(|s| {
+                s.iter()
+                    .filter_map(|x| x["effect"].as_str().map(String::from))
+                    .collect()
+            })
             .unwrap_or_default();
         let corrected = r
             .and_then(|r| r["steps"].as_array())
             .and_then(|s| s.last())
-            .map(|s| (s["params"]["b_k"].as_f64().unwrap_or(f64::NAN), s["params"]["a"].as_f64().unwrap_or(f64::NAN)));
+            .map(|s| {
+                (
+                    s["params"]["b_k"].as_f64().unwrap_or(f64::NAN),
+                    s["params"]["a"].as_f64().unwrap_or(f64::NAN),
+                )
+            });
         let on = online.get(i).copied().flatten();
         let cell = |p: Option<(f64, f64)>| match p {
-            Some((b, x)) => format!("{b:.2}, {x:.3} ({:+.0} %, {:+.0} %)", err(b, truth.b_k), err(x, truth.a)),
+            Some((b, x)) => format!(
+                "{b:.2}, {x:.3} ({:+.0} %, {:+.0} %)",
+                err(b, truth.b_k),
+                err(x, truth.a)
+            ),
             None => "-".into(),
         };
         text += &format!(
@@ -450,7 +493,11 @@ fn summarize(
             cell(on.map(|o| (o.0, o.1))),
             verdict,
             cell(corrected),
-            if steps.len() > 1 { format!("  (steps: {})", steps.join(", ")) } else { String::new() }
+            if steps.len() > 1 {
+                format!("  (steps: {})", steps.join(", "))
+            } else {
+                String::new()
+            }
         );
         legs.push(serde_json::json!({
             "leg": leg.name,
@@ -460,7 +507,10 @@ fn summarize(
             "corrected": corrected.map(|c| serde_json::json!({"b_k": c.0, "a": c.1})),
         }));
     }
-    let named: Vec<&serde_json::Value> = legs.iter().filter(|l| hidden.contains(&l["verdict"].as_str().unwrap_or(""))).collect();
+    let named: Vec<&serde_json::Value> = legs
+        .iter()
+        .filter(|l| hidden.contains(&l["verdict"].as_str().unwrap_or("")))
+        .collect();
     text += &format!(
         "\nThe diagnosis named a hidden effect on {} of {} legs. The online estimate takes the hidden effects\n\
          into b_k and a; with the effects the diagnosis found added to the model, the fit of the recording\n\

@@ -96,7 +96,15 @@ pub fn run<P: Publish>(
                 run.wrenches += 1;
                 core.on_wrench(*leg, w);
                 core.take_params(&mut params_out);
-                wrench_done(recorder.as_ref(), &topics, *leg, w.clone(), &mut params_out, log_ns, out);
+                wrench_done(
+                    recorder.as_ref(),
+                    &topics,
+                    *leg,
+                    w.clone(),
+                    &mut params_out,
+                    log_ns,
+                    out,
+                );
             }
         }
         if next_diag_ns.is_none_or(|t| stamp_ns >= t) {

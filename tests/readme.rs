@@ -1,0 +1,158 @@
+//! A newcomer's first minutes: clone the repository, run the two commands at the top of the
+//! README exactly as written there, and check what the demo left behind.
+//!
+//! The commands are read from the README's first `sh` block, not copied here. The clone builds
+//! in its own target directory, seeded with a copy of this build's so that only this crate is
+//! compiled again. The clone's own run of the tests skips this test (it would clone again,
+//! forever): that is what `TERZAGHI_IN_CLONE_TEST` says.
+
+mod common;
+
+use serde_json::Value;
+use std::path::Path;
+use std::process::Command;
+use std::time::Instant;
+
+/// The command lines of the README's first ```sh block.
+fn readme_commands(readme: &str) -> Vec<String> {
+    let start = readme.find("```sh\n").expect("the README has an sh block") + 6;
+    let block = &readme[start..];
+    let end = block.find("```").expect("the sh block ends");
+    block[..end]
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && !l.starts_with('#'))
+        .map(String::from)
+        .collect()
+}
+
+#[test]
+fn the_readme_commands_work_in_a_fresh_clone() {
+    if std::env::var_os("TERZAGHI_IN_CLONE_TEST").is_some() {
+        eprintln!("inside the clone's own test run: not cloning again");
+        return;
+    }
+    let repo = common::repo();
+    let readme = std::fs::read_to_string(repo.join("README.md")).unwrap();
+    let commands = readme_commands(&readme);
+    assert_eq!(commands.len(), 2, "two commands at the top: {commands:?}");
+    assert!(commands[0].contains(" demo"), "{commands:?}");
+    assert!(commands[1].starts_with("cargo test"), "{commands:?}");
+
+    let tmp = tempfile::tempdir().unwrap();
+    let clone = tmp.path().join("terzaghi");
+    let status = Command::new("git")
+        .args(["clone", "--quiet"])
+        .arg(&repo)
+        .arg(&clone)
+        .status()
+        .expect("git clone");
+    assert!(status.success());
+    // Seed the clone's target directory with this build's release artifacts.
+    let target = tmp.path().join("target");
+    std::fs::create_dir_all(&target).unwrap();
+    let status = Command::new("cp")
+        .args(["-a"])
+        .arg(repo.join("target/release"))
+        .arg(target.join("release"))
+        .status()
+        .expect("cp");
+    assert!(status.success());
+    let python = common::python();
+    let run = |line: &str| {
+        let started = Instant::now();
+        let out = Command::new("sh")
+            .arg("-c")
+            .arg(line)
+            .current_dir(&clone)
+            .env("CARGO_TARGET_DIR", &target)
+            .env("TERZAGHI_IN_CLONE_TEST", "1")
+            .env("TERZAGHI_PYTHON", &python)
+            .output()
+            .expect("run a README command");
+        let secs = started.elapsed().as_secs_f64();
+        assert!(
+            out.status.success(),
+            "{line} failed:\n{}\n{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        (String::from_utf8_lossy(&out.stdout).into_owned(), secs)
+    };
+    let (demo_out, _) = run(&commands[0]);
+    check_demo(&clone.join("terzaghi-demo"), &python);
+    assert!(demo_out.contains("hidden by the simulation"), "{demo_out}");
+    let (tests_out, _) = run(&commands[1]);
+    assert!(tests_out.contains("test result: ok"), "{tests_out}");
+
+    // After the build, the demo's default run takes under a minute.
+    let bin = target.join("release/terzaghi");
+    let started = Instant::now();
+    let out = Command::new(&bin)
+        .args(["demo", "--out"])
+        .arg(tmp.path().join("timed"))
+        .output()
+        .unwrap();
+    let secs = started.elapsed().as_secs_f64();
+    assert!(out.status.success());
+    eprintln!("demo, default run after the build: {secs:.1} s");
+    assert!(secs < 60.0, "the demo took {secs:.1} s");
+}
+
+/// What the demo leaves: an MCAP that an independent reader decodes, a diagnosis that names a
+/// hidden effect, and identified parameters within 5 % of the truth.
+fn check_demo(dir: &Path, python: &Path) {
+    let mcap = dir.join("session.mcap");
+    let out = Command::new(python)
+        .arg(common::repo().join("tests/python/decode_all.py"))
+        .arg(&mcap)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let counts: Value = serde_json::from_slice(&out.stdout).expect("the reader prints counts");
+    let topics = counts["counts"].as_object().expect("counts per topic");
+    assert!(topics["/joint_states"].as_u64().unwrap() > 1000);
+    assert!(topics.keys().any(|t| t.ends_with("/leg_force")));
+    assert!(topics.keys().any(|t| t.ends_with("/ft/wrench")));
+
+    let summary: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+    let hidden: Vec<&str> = summary["truth"]["effects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e.as_str().unwrap())
+        .collect();
+    let (b_k, a) = (
+        summary["truth"]["b_k"].as_f64().unwrap(),
+        summary["truth"]["a"].as_f64().unwrap(),
+    );
+    for leg in summary["legs"].as_array().unwrap() {
+        let name = leg["leg"].as_str().unwrap();
+        let report: Value = serde_json::from_str(
+            &std::fs::read_to_string(dir.join("diagnosis").join(name).join("report.json")).unwrap(),
+        )
+        .unwrap();
+        let verdict = report["verdict"]["effect"].as_str().unwrap();
+        assert!(
+            hidden.contains(&verdict),
+            "leg {name}: verdict {verdict}, hidden {hidden:?}"
+        );
+        let c = &leg["corrected"];
+        let (cb, ca) = (c["b_k"].as_f64().unwrap(), c["a"].as_f64().unwrap());
+        assert!(
+            (cb / b_k - 1.0).abs() < 0.05,
+            "leg {name}: b_k {cb} vs {b_k}"
+        );
+        assert!((ca / a - 1.0).abs() < 0.05, "leg {name}: a {ca} vs {a}");
+        assert!(
+            leg["online"]["converged"].as_bool().unwrap(),
+            "leg {name}: the node's estimate converged"
+        );
+    }
+    assert!(dir.join("diagnosis/report.html").exists());
+}
