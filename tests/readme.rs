@@ -59,6 +59,10 @@ fn the_readme_commands_work_in_a_fresh_clone() {
         .expect("cp");
     assert!(status.success());
     let python = common::python();
+    // The clone's DDS tests find the namespace tool where this checkout finds it.
+    let netns_run = common::netns_run()
+        .canonicalize()
+        .unwrap_or_else(|_| common::netns_run());
     let run = |line: &str| {
         let started = Instant::now();
         let out = Command::new("sh")
@@ -68,6 +72,7 @@ fn the_readme_commands_work_in_a_fresh_clone() {
             .env("CARGO_TARGET_DIR", &target)
             .env("TERZAGHI_IN_CLONE_TEST", "1")
             .env("TERZAGHI_PYTHON", &python)
+            .env("NETNS_RUN", &netns_run)
             .output()
             .expect("run a README command");
         let secs = started.elapsed().as_secs_f64();
