@@ -101,6 +101,9 @@ pub fn run(a: DemoArgs) -> Result<()> {
     };
     view.finish();
     let run_s = started.elapsed().as_secs_f64();
+    // What the recording holds, from its summary.
+    let recorded = crate::record::read::summary_head(&std::fs::read(&session_path)?)
+        .map_or(recorded, |h| h.messages);
 
     eprintln!("diagnosing the recording...");
     let started = Instant::now();
@@ -382,37 +385,43 @@ fn run_dds(
         .iter()
         .map(|l| subscription::<ModelParams>(&mut robot, &format!("/{}/model_params", l.name)))
         .collect::<Result<Vec<_>>>()?;
-    // Wait until the node is discovered (its subscription to the joint states matches).
-    let wait = Instant::now();
-    while js_pub.get_subscription_count(&robot) == 0 {
-        if wait.elapsed() > Duration::from_secs(20) {
-            bail!("the node did not appear on DDS within 20 s");
-        }
-        std::thread::sleep(Duration::from_millis(50));
-    }
-    std::thread::sleep(Duration::from_millis(500));
-    let start = Instant::now();
-    let mut last: Estimates = vec![None; cfg.legs.len()];
-    for k in 0..session.t_s.len() {
-        pace(start, session.t_s[k], speed);
-        let _ = js_pub.publish(joint_state(cfg, session, k, t0_ns));
-        for (leg, p) in ft_pubs.iter().enumerate() {
-            let _ = p.publish(wrench(cfg, session, leg, k, t0_ns));
-        }
-        for (leg, s) in force_subs.iter().enumerate() {
-            while let Ok(Some((m, _))) = s.take() {
-                view.force(leg, m);
+    let last = rt.block_on(async {
+        let spin = tokio::spawn(robot.spinner()?.spin());
+        // Wait until the node is discovered (its subscription to the joint states matches).
+        let wait = Instant::now();
+        while js_pub.get_subscription_count(&robot) == 0 {
+            if wait.elapsed() > Duration::from_secs(30) {
+                bail!("the node did not appear on DDS within 30 s");
             }
+            tokio::time::sleep(Duration::from_millis(50)).await;
         }
-        for (leg, s) in param_subs.iter().enumerate() {
-            while let Ok(Some((m, _))) = s.take() {
-                last[leg] = Some((m.b_k, m.a, m.converged));
-                view.params(leg, m);
+        tokio::time::sleep(Duration::from_secs(1)).await;
+        let start = tokio::time::Instant::now();
+        let mut last: Estimates = vec![None; cfg.legs.len()];
+        for k in 0..session.t_s.len() {
+            tokio::time::sleep_until(start + Duration::from_secs_f64(session.t_s[k] / speed)).await;
+            let _ = js_pub.publish(joint_state(cfg, session, k, t0_ns));
+            for (leg, p) in ft_pubs.iter().enumerate() {
+                let _ = p.publish(wrench(cfg, session, leg, k, t0_ns));
             }
+            for (leg, s) in force_subs.iter().enumerate() {
+                while let Ok(Some((m, _))) = s.take() {
+                    view.force(leg, m);
+                }
+            }
+            for (leg, s) in param_subs.iter().enumerate() {
+                while let Ok(Some((m, _))) = s.take() {
+                    last[leg] = Some((m.b_k, m.a, m.converged));
+                    view.params(leg, m);
+                }
+            }
+            view.after_joints(k);
         }
-        view.after_joints(k);
-    }
-    std::thread::sleep(Duration::from_millis(500));
+        tokio::time::sleep(Duration::from_secs(1)).await;
+        robot.stop_spinner();
+        let _ = tokio::time::timeout(Duration::from_secs(2), spin).await;
+        anyhow::Ok(last)
+    })?;
     let _ = stop_tx.send(());
     let summary = rt.block_on(node_task)??;
     drop(robot);
