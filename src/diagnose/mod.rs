@@ -54,7 +54,7 @@ impl Default for DiagnoseOptions {
         DiagnoseOptions {
             folds: 5,
             min_strokes: 6,
-            max_points: 24_000,
+            max_points: 16_000,
             min_excess_ratio: 0.1,
             accept_pct: 50.0,
             step_pct: 15.0,

@@ -78,7 +78,7 @@ pub fn reevaluate(
 ) -> Result<Summary, RecordError> {
     let mut core = NodeCore::new(cfg);
     core.keep_matches(true);
-    run_core(bytes, core, on_row, on_output)
+    run_core(bytes, core, true, on_row, on_output)
 }
 
 /// The measured F/T samples of every leg, each with the joint angle nearest in time (as the
@@ -93,6 +93,7 @@ pub fn measured_samples(
     let sum = run_core(
         bytes,
         core,
+        false,
         |r| {
             if let (Some(d), Some(l)) = (r.measured_drag_n, r.measured_lift_n) {
                 out[r.leg].push(crate::ident::Sample {
@@ -111,6 +112,7 @@ pub fn measured_samples(
 fn run_core(
     bytes: &[u8],
     mut core: NodeCore,
+    predict: bool,
     mut on_row: impl FnMut(&Row),
     mut on_output: impl FnMut(Output),
 ) -> Result<Summary, RecordError> {
@@ -205,6 +207,25 @@ fn run_core(
         for leg in (0..legs).filter(|&l| has_ft[l]) {
             core.take_matches(leg, &mut matches);
             for mt in matches.drain(..) {
+                if !predict {
+                    // Measurements only: the row's prediction fields stay empty.
+                    sum.rows += 1;
+                    on_row(&Row {
+                        t_s: mt.t_ns as f64 * 1e-9,
+                        leg,
+                        beta_rad: mt.beta_rad,
+                        regime: Regime::OutOfMedium,
+                        measured_drag_n: Some(mt.drag_n),
+                        measured_lift_n: Some(mt.lift_n),
+                        predicted_drag_n: f64::NAN,
+                        predicted_lift_n: f64::NAN,
+                        predicted_hip_torque_nm: f64::NAN,
+                        b_k: f64::NAN,
+                        a: f64::NAN,
+                        identified: false,
+                    });
+                    continue;
+                }
                 let Some(p) = core.predict(leg, mt.beta_rad) else {
                     continue;
                 };
