@@ -6,7 +6,6 @@
 //! `terzaghi replay --reevaluate` (this executable) on the file and times that.
 
 use super::print_out;
-use crate::config::{NodeConfig, defaults, parse_params_yaml};
 use crate::msgs::{Header, JointState, Time, Vector3, Wrench, WrenchStamped};
 use crate::node::NodeCore;
 use crate::record::{OfferedQos, RecordOptions, SessionWriter};
@@ -52,14 +51,7 @@ pub fn run(a: BenchRecordArgs) -> Result<()> {
     if !(a.rate_hz.is_finite() && a.rate_hz > 0.0 && a.rate_hz <= 10_000.0) {
         bail!("--rate-hz must be in (0, 10000], got {}", a.rate_hz);
     }
-    let mut params = defaults();
-    params.extend(parse_params_yaml(
-        include_str!("../../launch_configs/rhex.yaml"),
-        "rhex.yaml",
-        "terzaghi",
-        "/",
-    )?);
-    let cfg = NodeConfig::from_params(&params, "terzaghi", "/", &[])?;
+    let (params, cfg) = super::bench_diagnose::rhex()?;
     let legs = cfg.legs.len();
     let dir = std::env::temp_dir().join(format!("terzaghi-bench-record-{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;

@@ -349,13 +349,7 @@ fn run_dds(
 ) -> Result<(Estimates, u64)> {
     use crate::node::dds::{NodeSetup, publisher, subscription, tool_node};
     let rt = super::runtime()?;
-    let domain = crate::config::domain_id_from_env(std::env::var("ROS_DOMAIN_ID").ok().as_deref())?;
-    let local = crate::config::localhost_only_from_env(
-        std::env::var("ROS_AUTOMATIC_DISCOVERY_RANGE")
-            .ok()
-            .as_deref(),
-        std::env::var("ROS_LOCALHOST_ONLY").ok().as_deref(),
-    )?;
+    let (domain, local) = crate::node::dds::network_from_env()?;
     let setup = NodeSetup {
         params: params.clone(),
         config: cfg.clone(),

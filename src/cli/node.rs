@@ -1,9 +1,6 @@
 //! `terzaghi node`: the ROS 2 node.
 
-use crate::config::{
-    NodeConfig, ParamValue, domain_id_from_env, load_params, localhost_only_from_env,
-    parse_ros_args,
-};
+use crate::config::{NodeConfig, ParamValue, load_params, parse_ros_args};
 use crate::node::dds::{NodeSetup, run as run_node};
 use anyhow::{Context, Result, bail};
 use clap::Args;
@@ -80,13 +77,7 @@ pub fn setup(a: &NodeArgs) -> Result<NodeSetup> {
     }
     let config = NodeConfig::from_params(&params, &node_name, &namespace, &ros.remaps)?;
     let params = config.effective_params(&params);
-    let domain_id = domain_id_from_env(std::env::var("ROS_DOMAIN_ID").ok().as_deref())?;
-    let localhost_only = localhost_only_from_env(
-        std::env::var("ROS_AUTOMATIC_DISCOVERY_RANGE")
-            .ok()
-            .as_deref(),
-        std::env::var("ROS_LOCALHOST_ONLY").ok().as_deref(),
-    )?;
+    let (domain_id, localhost_only) = crate::node::dds::network_from_env()?;
     Ok(NodeSetup {
         params,
         config,

@@ -309,8 +309,9 @@ pub fn dds_context(domain_id: u16, localhost_only: bool) -> Result<Context> {
     Context::from_domain_participant(participant).context("cannot start ROS 2 context")
 }
 
-/// The context the environment asks for (`ROS_DOMAIN_ID`, localhost-only settings).
-pub fn dds_context_from_env() -> Result<Context> {
+/// The DDS domain and the localhost-only setting the environment asks for (`ROS_DOMAIN_ID`,
+/// `ROS_AUTOMATIC_DISCOVERY_RANGE`, `ROS_LOCALHOST_ONLY`).
+pub fn network_from_env() -> Result<(u16, bool)> {
     let domain = crate::config::domain_id_from_env(std::env::var("ROS_DOMAIN_ID").ok().as_deref())?;
     let local = crate::config::localhost_only_from_env(
         std::env::var("ROS_AUTOMATIC_DISCOVERY_RANGE")
@@ -318,6 +319,12 @@ pub fn dds_context_from_env() -> Result<Context> {
             .as_deref(),
         std::env::var("ROS_LOCALHOST_ONLY").ok().as_deref(),
     )?;
+    Ok((domain, local))
+}
+
+/// The context the environment asks for (`ROS_DOMAIN_ID`, localhost-only settings).
+pub fn dds_context_from_env() -> Result<Context> {
+    let (domain, local) = network_from_env()?;
     dds_context(domain, local)
 }
 
