@@ -129,7 +129,8 @@ pub fn fit(ctx: &Context, design: &Design, search: Option<Effect>) -> Fit {
     let mut fitted = vec![[0.0; 2]; n];
     let mut cols = Vec::new();
     for c in &best {
-        build(ctx, &design.effects, c.ln_a.exp(), &c.nl, &mut cols);
+        let unit = ctx.unit_forces_with_hip_offset(c.nl.surface_drop_m);
+        build(ctx, &design.effects, c.ln_a.exp(), &c.nl, &unit, &mut cols);
         let p = design.columns();
         for (i, pt) in ctx.points.iter().enumerate() {
             if c.k == k_all || pt.fold == c.k {
@@ -241,17 +242,18 @@ fn fit_ln_a(ctx: &Context, effects: &[Effect], nl: &[Nonlinear]) -> Vec<Candidat
     let mut cols = Vec::new();
     let mut out = Vec::new();
     for (setting, ks) in groups {
+        let unit = ctx.unit_forces_with_hip_offset(setting.surface_drop_m);
         // sse[k][grid index]
         let mut sse = vec![vec![f64::INFINITY; grid.len()]; k_all + 1];
         for (gi, &ln_a) in grid.iter().enumerate() {
-            let sums = fold_sums(ctx, effects, ln_a.exp(), &setting, &mut cols);
+            let sums = fold_sums(ctx, effects, ln_a.exp(), &setting, &unit, &mut cols);
             for &k in &ks {
                 sse[k][gi] = train(&sums, k, k_all).solve().1;
             }
         }
         for &k in &ks {
             let ln_a = refine(&grid, &sse[k]);
-            let sums = fold_sums(ctx, effects, ln_a.exp(), &setting, &mut cols);
+            let sums = fold_sums(ctx, effects, ln_a.exp(), &setting, &unit, &mut cols);
             let (coef, train_sse) = train(&sums, k, k_all).solve();
             out.push(Candidate {
                 k,
@@ -297,9 +299,10 @@ fn fold_sums(
     effects: &[Effect],
     a: f64,
     nl: &Nonlinear,
+    unit: &[[f64; 2]],
     cols: &mut Vec<f64>,
 ) -> Vec<Sums> {
-    build(ctx, effects, a, nl, cols);
+    build(ctx, effects, a, nl, unit, cols);
     let p = 1 + effects
         .iter()
         .map(|e| e.linear_params().len())
@@ -348,7 +351,16 @@ fn fold_sums(
 
 /// The design's columns at every point: `cols[(2 i + c) p + j]` for point `i`, component `c`
 /// (drag, lift), column `j`.
-fn build(ctx: &Context, effects: &[Effect], a: f64, nl: &Nonlinear, cols: &mut Vec<f64>) {
+/// `unit` is the unit model's forces at every point for `nl`'s surface level
+/// ([`Context::unit_forces_with_hip_offset`]), computed once per setting by the caller.
+fn build(
+    ctx: &Context,
+    effects: &[Effect],
+    a: f64,
+    nl: &Nonlinear,
+    unit: &[[f64; 2]],
+    cols: &mut Vec<f64>,
+) {
     let p = 1 + effects
         .iter()
         .map(|e| e.linear_params().len())
@@ -356,7 +368,6 @@ fn build(ctx: &Context, effects: &[Effect], a: f64, nl: &Nonlinear, cols: &mut V
     let n = ctx.points.len();
     cols.clear();
     cols.resize(2 * n * p, 0.0);
-    let unit = ctx.unit_forces_with_hip_offset(nl.surface_drop_m);
     let ln_a = a.ln();
     let mut row: Vec<[f64; 2]> = Vec::with_capacity(p);
     for (i, pt) in ctx.points.iter().enumerate() {

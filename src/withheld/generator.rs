@@ -314,6 +314,16 @@ pub fn measure(case: &Case, motion: &[MotionSample], omit: &[Hidden]) -> (Vec<Sa
     }
     // Scale every additive effect to its share of the RMS force.
     let count = raw_effects.first().map_or(0, Vec::len);
+    // The effects' RMS is over the whole session, in and out of the medium; the force's only in it.
+    let in_share = motion
+        .iter()
+        .filter(|x| {
+            truth
+                .evaluate(x.beta_rad)
+                .is_ok_and(|f| f.submerged_m > 0.0)
+        })
+        .count() as f64
+        / motion.len().max(1) as f64;
     for j in 0..count {
         let rms = (raw_effects
             .iter()
@@ -321,16 +331,6 @@ pub fn measure(case: &Case, motion: &[MotionSample], omit: &[Hidden]) -> (Vec<Sa
             .sum::<f64>()
             / (2 * raw_effects.len().max(1)) as f64)
             .sqrt();
-        // The RMS over the whole session, in and out of the medium, against the in-medium force.
-        let in_share = motion
-            .iter()
-            .filter(|x| {
-                truth
-                    .evaluate(x.beta_rad)
-                    .is_ok_and(|f| f.submerged_m > 0.0)
-            })
-            .count() as f64
-            / motion.len().max(1) as f64;
         let k = if rms > 0.0 {
             size * scale * in_share.sqrt() / rms
         } else {
