@@ -34,8 +34,15 @@ fn cyclonedds_peer_gets_predictions_and_sees_identification_converge() {
     std::fs::write(&params, LEG_PARAMS).unwrap();
     let mut flags = SAND_GEOM.to_vec();
     flags.extend(["--bk", "2.0", "--a", "1.5"]);
+    // Pinned to one CPU, as a control node on a core of its own runs (its DDS threads too).
     let v = run_peer(
-        &["--ros-args", "--params-file", params.to_str().unwrap()],
+        &[
+            "--cpu",
+            "0",
+            "--ros-args",
+            "--params-file",
+            params.to_str().unwrap(),
+        ],
         &flags,
         &[
             "--identify",
@@ -103,6 +110,19 @@ fn node_runs_from_the_launch_config_with_ros_args_overrides() {
     assert_eq!(v["checks"]["predictions_after_set"]["received"], 21);
     assert_eq!(v["checks"]["predictions_after_set"]["worst_rel_error"], 0.0);
     assert_eq!(v["checks"]["refused_set"]["exit_code"], 2);
+}
+
+/// A CPU that does not exist is refused at start-up, naming it, before any DDS traffic.
+#[test]
+fn a_cpu_that_does_not_exist_is_refused() {
+    let out = isolated_command(&terzaghi())
+        .args(["node", "--cpu", "4096", "--ros-args", "--params-file"])
+        .arg(repo().join("launch_configs/rhex.yaml"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("CPU 4096 does not exist"), "{err}");
 }
 
 /// 10 kHz of JointState for 30 s with six legs: the node keeps up or drops the oldest input and

@@ -29,6 +29,9 @@ pub struct EchoArgs {
     /// Topic to write them to.
     #[arg(long, default_value = "/bench/echo_out")]
     pub output: String,
+    /// Pin the echo to this CPU.
+    #[arg(long, value_name = "CPU")]
+    pub cpu: Option<usize>,
 }
 
 #[derive(Debug, Args)]
@@ -46,6 +49,11 @@ pub struct BenchNodeArgs {
     /// Start the node with --realtime-priority (SCHED_FIFO), as a real-time robot would.
     #[arg(long, value_name = "PRIORITY")]
     pub node_realtime_priority: Option<i32>,
+    /// Start the node with --cpu (pinned to this CPU, its DDS threads with it); the echo is
+    /// pinned there too, and this client to the other CPUs, so that the node and the echo each
+    /// have that core in their blocks, as a control node on a core of its own.
+    #[arg(long, value_name = "CPU")]
+    pub node_cpu: Option<usize>,
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
@@ -53,6 +61,9 @@ pub struct BenchNodeArgs {
 
 /// Runs the bare echo until SIGINT/SIGTERM.
 pub fn run_echo(a: EchoArgs) -> Result<()> {
+    if let Some(cpu) = a.cpu {
+        super::pin_to_cpus(&[cpu]).context("--cpu")?;
+    }
     let rt = super::runtime()?;
     rt.block_on(async move {
         let mut node = tool_node("terzaghi_echo").context("cannot create the echo node")?;
@@ -156,6 +167,7 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
                 a.node_realtime_priority
                     .map(|p| format!("--realtime-priority={p}")),
             )
+            .args(a.node_cpu.map(|c| format!("--cpu={c}")))
             .args(["--ros-args", "--params-file"])
             .arg(&params)
             .stderr(Stdio::null())
@@ -166,12 +178,21 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
         children.0.push(
             Command::new(&exe)
                 .arg("echo")
+                .args(a.node_cpu.map(|c| format!("--cpu={c}")))
                 .stderr(Stdio::null())
                 .spawn()
                 .context("cannot start terzaghi echo")?,
         );
     }
     let node_pid = children.0[0].id();
+    if let Some(cpu) = a.node_cpu {
+        let online = std::thread::available_parallelism().map_or(1, |n| n.get());
+        let others: Vec<usize> = (0..online).filter(|&c| c != cpu).collect();
+        if others.is_empty() {
+            bail!("--node-cpu needs a second CPU for the client; this machine has {online}");
+        }
+        super::pin_to_cpus(&others)?;
+    }
 
     let rt = super::runtime()?;
     let (node_rt, echo_rt, lost_node, lost_echo, load) = rt.block_on(client(

@@ -287,6 +287,39 @@ pub fn write_atomically(
 }
 
 /// The async runtime of the DDS tools: two worker threads, for a two-core robot computer.
+/// Pins the calling thread, and the threads it starts afterwards, to `cpus`.
+pub fn pin_to_cpus(cpus: &[usize]) -> Result<()> {
+    #[cfg(target_os = "linux")]
+    {
+        let online = std::thread::available_parallelism().map_or(1, |n| n.get());
+        // SAFETY: a zeroed cpu_set_t is a valid empty set; CPU_SET writes inside it (each cpu
+        // is checked against CPU_SETSIZE); sched_setaffinity reads it and changes only this
+        // thread.
+        let rc = unsafe {
+            let mut set: libc::cpu_set_t = std::mem::zeroed();
+            for &cpu in cpus {
+                if cpu >= libc::CPU_SETSIZE as usize {
+                    bail!("CPU {cpu} does not exist (this machine has {online} CPUs online)");
+                }
+                libc::CPU_SET(cpu, &mut set);
+            }
+            libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set)
+        };
+        if rc != 0 {
+            bail!(
+                "cannot run on CPU {cpus:?}: {} (this machine has {online} CPUs online)",
+                std::io::Error::last_os_error()
+            );
+        }
+        Ok(())
+    }
+    #[cfg(not(target_os = "linux"))]
+    {
+        let _ = cpus;
+        bail!("pinning to a CPU is supported on Linux only")
+    }
+}
+
 pub fn runtime() -> Result<tokio::runtime::Runtime> {
     tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)

@@ -25,6 +25,11 @@ pub struct NodeArgs {
     /// control nodes do, so that other threads do not preempt it (needs CAP_SYS_NICE or root).
     #[arg(long, value_name = "PRIORITY")]
     pub realtime_priority: Option<i32>,
+    /// Pin the node (every thread it starts, DDS's included) to this CPU, as real-time control
+    /// nodes are given a core of their own. With --realtime-priority, the DDS threads then
+    /// send what the node published right after it, instead of preempting it.
+    #[arg(long, value_name = "CPU")]
+    pub cpu: Option<usize>,
     /// ROS arguments, after --ros-args.
     #[arg(
         trailing_var_arg = true,
@@ -115,6 +120,10 @@ pub fn run(a: NodeArgs) -> Result<()> {
         .enable_all()
         .build()
         .context("cannot start the async runtime")?;
+    // Before DDS starts its threads, so that they inherit both.
+    if let Some(cpu) = a.cpu {
+        super::pin_to_cpus(&[cpu]).context("--cpu")?;
+    }
     if let Some(priority) = a.realtime_priority {
         set_realtime(priority)?;
     }

@@ -44,6 +44,8 @@ pub struct NodeCounters {
 
 struct Leg {
     model: ForceModel,
+    /// `<leg>_hip`, the frame of the predictions (made once, not per message).
+    hip_frame: String,
     estimator: Option<OnlineEstimator>,
     /// The estimate currently used for predictions (converged and `use_identified`).
     identified: Option<Estimate>,
@@ -124,6 +126,7 @@ impl NodeCore {
         });
         Leg {
             model: self.model_for(i, None),
+            hip_frame: format!("{}_hip", lc.name),
             estimator,
             identified: None,
             history: VecDeque::with_capacity(ANGLE_HISTORY),
@@ -184,6 +187,7 @@ impl NodeCore {
                 None
             };
             self.legs[i].model = self.model_for(i, identified.as_ref());
+            self.legs[i].hip_frame = format!("{}_hip", n.name);
         }
     }
 
@@ -243,7 +247,7 @@ impl NodeCore {
             leg.counters.predictions += 1;
             let header = Header {
                 stamp: msg.header.stamp,
-                frame_id: format!("{}_hip", lc.name),
+                frame_id: leg.hip_frame.clone(),
             };
             let (b_k, a, delta_deg) = match (&leg.identified, self.cfg.use_identified) {
                 (Some(e), true) => (

@@ -52,9 +52,10 @@ impl Topics {
     }
 }
 
-/// After the core took a JointState: records and publishes its outputs and the parameters it
-/// produced (draining both), calls `published` (the processing-time clock stops there), then
-/// records the input.
+/// After the core took a JointState: records its outputs and the parameters it produced,
+/// publishes every leg's predicted wrench, calls `published` (the processing-time clock stops
+/// there: a controller waits for the wrenches), then publishes the leg forces and parameters
+/// (draining both) and records the input.
 #[allow(clippy::too_many_arguments)]
 pub fn joint_state_done(
     rec: Option<&Recorder>,
@@ -87,14 +88,19 @@ pub fn joint_state_done(
             ));
         }
     }
+    // Wrenches first: they are what a controller waits for.
+    let mut forces = Vec::with_capacity(outputs.len());
     for o in outputs.drain(..) {
         out.wrench(o.leg, o.wrench);
-        out.force(o.leg, o.force);
+        forces.push((o.leg, o.force));
+    }
+    published();
+    for (leg, f) in forces {
+        out.force(leg, f);
     }
     for (leg, p) in params_out.drain(..) {
         out.params(leg, p);
     }
-    published();
     if let Some(r) = rec {
         r.record(Record::Joints(topics.joints.clone(), msg, log_ns));
     }
