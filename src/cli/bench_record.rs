@@ -130,14 +130,14 @@ pub fn run(a: BenchRecordArgs) -> Result<()> {
         w.write("/joint_states", OfferedQos::BEST_EFFORT, &js, t, t)?;
         messages += 1;
         for o in &outputs {
-            w.write(
+            w.write_output(
                 &out_topics[o.leg].0,
                 OfferedQos::RELIABLE,
                 &o.wrench,
                 t + 20_000,
                 t,
             )?;
-            w.write(
+            w.write_output(
                 &out_topics[o.leg].1,
                 OfferedQos::RELIABLE,
                 &o.force,
@@ -145,8 +145,15 @@ pub fn run(a: BenchRecordArgs) -> Result<()> {
                 t,
             )?;
             messages += 2;
-            // The leg's F/T: the predicted force with a little noise, in the leg frame's hip view.
+            // The leg's F/T: the predicted force with a little noise, as the leg's sensor reads
+            // it (in its configured frame).
             let wobble = ((k * 7919 + o.leg as u64 * 104_729) % 1000) as f64 * 1e-3 - 0.5;
+            let (fx, fz) = crate::sim::robot::ft_components(
+                cfg.legs[o.leg].ft_frame,
+                o.wrench.wrench.force.x + wobble,
+                o.wrench.wrench.force.z - wobble,
+                o.force.attack_angle_rad,
+            );
             let ft = WrenchStamped {
                 header: Header {
                     stamp,
@@ -154,9 +161,9 @@ pub fn run(a: BenchRecordArgs) -> Result<()> {
                 },
                 wrench: Wrench {
                     force: Vector3 {
-                        x: o.wrench.wrench.force.x + wobble,
+                        x: fx,
                         y: 0.0,
-                        z: o.wrench.wrench.force.z - wobble,
+                        z: fz,
                     },
                     torque: Vector3::default(),
                 },
@@ -173,7 +180,7 @@ pub fn run(a: BenchRecordArgs) -> Result<()> {
         }
         core.take_params(&mut params_out);
         for (leg, p) in params_out.drain(..) {
-            w.write(&out_topics[leg].2, OfferedQos::RELIABLE, &p, t + 30_000, t)?;
+            w.write_output(&out_topics[leg].2, OfferedQos::RELIABLE, &p, t + 30_000, t)?;
             messages += 1;
         }
     }

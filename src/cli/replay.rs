@@ -2,7 +2,7 @@
 //! play`), or re-evaluate it offline through the model and the estimator (`--reevaluate`).
 
 use super::mcap_tools::{progress, read_file};
-use super::{print_out, write_atomically};
+use super::write_atomically;
 use crate::config::{NodeConfig, RosArgs, load_params};
 use crate::msgs::{DiagnosticArray, JointState, LegForce, ModelParams, RosMessage, WrenchStamped};
 use crate::node::dds::{publisher, tool_node};
@@ -12,7 +12,6 @@ use crate::record::{OfferedQos, RecordOptions, SessionWriter};
 use anyhow::{Context as _, Result, anyhow, bail};
 use clap::Args;
 use ros2_client::Publisher;
-use std::io::Write;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
@@ -126,7 +125,11 @@ pub fn reevaluation_config(
 
 fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
     let bytes = read_file(&a.file)?;
-    let head = scan(&bytes, |_, _| {}).with_context(|| a.file.display().to_string())?;
+    // The summary has the topics and parameters; a cut-off file is read for them.
+    let head = match crate::record::read::summary_head(&bytes) {
+        Some(h) => h,
+        None => scan(&bytes, |_, _| {}).with_context(|| a.file.display().to_string())?,
+    };
     let cfg = reevaluation_config(&a.params_file, &head, &a.file)?;
     let legs: Vec<String> = cfg.legs.iter().map(|l| l.name.clone()).collect();
     let out_kind = a
@@ -196,7 +199,7 @@ fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
                             Output::Prediction(log, o) => {
                                 let stamp = o.wrench.header.stamp.to_nanos().max(0) as u64;
                                 writer
-                                    .write(
+                                    .write_output(
                                         &wr_topics[o.leg],
                                         OfferedQos::RELIABLE,
                                         &o.wrench,
@@ -204,7 +207,7 @@ fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
                                         stamp,
                                     )
                                     .and_then(|_| {
-                                        writer.write(
+                                        writer.write_output(
                                             &lf_topics[o.leg],
                                             OfferedQos::RELIABLE,
                                             &o.force,
@@ -215,7 +218,13 @@ fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
                             }
                             Output::Params(log, leg, p) => {
                                 let stamp = p.header.stamp.to_nanos().max(0) as u64;
-                                writer.write(&mp_topics[leg], OfferedQos::RELIABLE, p, log, stamp)
+                                writer.write_output(
+                                    &mp_topics[leg],
+                                    OfferedQos::RELIABLE,
+                                    p,
+                                    log,
+                                    stamp,
+                                )
                             }
                         };
                         if let Err(e) = r {
@@ -233,32 +242,61 @@ fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
             summary = result.ok_or_else(|| anyhow!("nothing re-evaluated"))?;
         }
         Some("csv") | None => {
-            let mut out = csv::Writer::from_writer(Vec::with_capacity(1 << 20));
-            let mut csv_err = None;
-            let s = reevaluate(
-                &bytes,
-                cfg.clone(),
-                |r| {
-                    if let Err(e) = csv_row(&mut out, r, &legs) {
-                        csv_err.get_or_insert(e);
+            // Rows are written as they come (a 10-minute session makes half a gigabyte of CSV).
+            let mut run = |w: &mut dyn std::io::Write| -> Result<_> {
+                let mut out = csv::Writer::from_writer(w);
+                let mut csv_err = None;
+                let s = reevaluate(
+                    &bytes,
+                    cfg.clone(),
+                    |r| {
+                        if csv_err.is_none()
+                            && let Err(e) = csv_row(&mut out, r, &legs)
+                        {
+                            csv_err = Some(e);
+                        }
+                    },
+                    |_| {
+                        n += 1;
+                        if n % 50_000 == 0 {
+                            pb.set_position(n);
+                        }
+                    },
+                )?;
+                if let Some(e) = csv_err {
+                    return Err(e.into());
+                }
+                out.flush()?;
+                Ok(s)
+            };
+            summary = match &a.output {
+                Some(path) => {
+                    let mut result = None;
+                    write_atomically(path, |w| {
+                        result = Some(run(w)?);
+                        Ok(())
+                    })?;
+                    result.ok_or_else(|| anyhow!("nothing re-evaluated"))?
+                }
+                None => {
+                    let mut stdout = std::io::BufWriter::new(std::io::stdout().lock());
+                    match run(&mut stdout) {
+                        Ok(s) => s,
+                        // A reader that stopped early (`| head`) is not an error.
+                        Err(e)
+                            if e.downcast_ref::<csv::Error>().is_some_and(|c| {
+                                matches!(c.kind(), csv::ErrorKind::Io(io)
+                                    if io.kind() == std::io::ErrorKind::BrokenPipe)
+                            }) || e
+                                .downcast_ref::<std::io::Error>()
+                                .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe) =>
+                        {
+                            return Ok(());
+                        }
+                        Err(e) => return Err(e),
                     }
-                },
-                |_| {
-                    n += 1;
-                    if n % 50_000 == 0 {
-                        pb.set_position(n);
-                    }
-                },
-            )?;
-            if let Some(e) = csv_err {
-                return Err(e.into());
-            }
-            let text = out.into_inner().map_err(|e| anyhow!("{e}"))?;
-            match &a.output {
-                Some(path) => write_atomically(path, |w| Ok(w.write_all(&text)?))?,
-                None => print_out(&String::from_utf8_lossy(&text))?,
-            }
-            summary = s;
+                }
+            };
         }
         Some(other) => bail!("--output: unknown kind .{other}: use .mcap or .csv"),
     }

@@ -6,7 +6,9 @@
 //!
 //! [`SessionWriter`] is generic over `Write + Seek` and reads no clock: times come in with each
 //! message, and [`SessionWriter::maybe_flush`] closes the open chunk once `flush_period` of
-//! log time has passed, so that a killed process loses at most that much. [`read`] reads files
+//! log time has passed, so that a killed process loses at most that much. The node's outputs
+//! ([`SessionWriter::write_output`]) go to chunks of their own, which readers of the inputs skip
+//! ([`read::scan_topics`]). [`read`] reads files
 //! written by any ROS 2 tool, cut off or not; [`recover`] rewrites a cut-off file whole.
 
 pub mod read;
@@ -88,9 +90,21 @@ struct Channel {
     count: u64,
 }
 
+/// Output messages held back for chunks of their own (see [`SessionWriter::write_output`]).
+#[derive(Default)]
+struct Apart {
+    data: Vec<u8>,
+    /// channel, sequence, log time, publish time, end of its bytes in `data`.
+    messages: Vec<(u16, u32, u64, u64, usize)>,
+}
+
+/// Held-back outputs go to their chunks at the latest when they reach this size.
+const APART_BYTES: usize = 4 * 1024 * 1024;
+
 /// Writes a session, message by message.
 pub struct SessionWriter<W: Write + Seek> {
     mcap: mcap::Writer<W>,
+    apart: Apart,
     channels: HashMap<String, Channel>,
     schemas: HashMap<String, u16>,
     last_flush_ns: Option<u64>,
@@ -111,6 +125,7 @@ impl<W: Write + Seek> SessionWriter<W> {
             .create(w)?;
         let mut s = SessionWriter {
             mcap,
+            apart: Apart::default(),
             channels: HashMap::new(),
             schemas: HashMap::new(),
             last_flush_ns: None,
@@ -208,6 +223,79 @@ impl<W: Write + Seek> SessionWriter<W> {
         r
     }
 
+    /// Writes an output of the node (a prediction, parameters, diagnostics) like [`Self::write`],
+    /// but in chunks apart from the inputs: they are held back and written as chunks of their
+    /// own at each flush, so that a reader that wants only the inputs (a re-evaluation, a
+    /// diagnosis) skips the outputs' chunks without decompressing them. A killed process loses
+    /// no more of them than of the inputs (one flush period).
+    pub fn write_output<M: RosMessage>(
+        &mut self,
+        topic: &str,
+        qos: OfferedQos,
+        msg: &M,
+        log_time_ns: u64,
+        publish_time_ns: u64,
+    ) -> Result<(), RecordError> {
+        let id = self.channel::<M>(topic, qos)?;
+        let seq = self.next_sequence(id, topic)?;
+        let data = &mut self.apart.data;
+        let start = data.len();
+        data.extend_from_slice(&[0x00, 0x01, 0x00, 0x00]);
+        if let Err(e) = cdr_encoding::to_writer::<_, byteorder::LittleEndian, _>(&mut *data, msg) {
+            data.truncate(start);
+            return Err(RecordError::Encode {
+                topic: topic.to_string(),
+                error: e.to_string(),
+            });
+        }
+        self.apart
+            .messages
+            .push((id, seq, log_time_ns, publish_time_ns, data.len()));
+        self.first_ns.get_or_insert(log_time_ns);
+        self.last_ns = self.last_ns.max(log_time_ns);
+        if self.apart.data.len() >= APART_BYTES {
+            self.flush_apart()?;
+        }
+        self.maybe_flush(log_time_ns)
+    }
+
+    /// Closes the open chunk, then writes the held-back outputs as chunks of their own.
+    fn flush_apart(&mut self) -> Result<(), RecordError> {
+        self.mcap.flush()?;
+        if self.apart.messages.is_empty() {
+            return Ok(());
+        }
+        let mut start = 0;
+        for &(channel_id, sequence, log_time, publish_time, end) in &self.apart.messages {
+            self.mcap.write_to_known_channel(
+                &mcap::records::MessageHeader {
+                    channel_id,
+                    sequence,
+                    log_time,
+                    publish_time,
+                },
+                &self.apart.data[start..end],
+            )?;
+            start = end;
+        }
+        self.apart.messages.clear();
+        self.apart.data.clear();
+        self.mcap.flush()?;
+        Ok(())
+    }
+
+    /// The next sequence number on `channel` (which must be `topic`'s), counting the message.
+    fn next_sequence(&mut self, channel: u16, topic: &str) -> Result<u32, RecordError> {
+        let c = self.channels.get_mut(topic).filter(|c| c.id == channel);
+        let Some(c) = c else {
+            return Err(RecordError::Mcap(mcap::McapError::UnknownChannel(
+                0, channel,
+            )));
+        };
+        c.count += 1;
+        Ok(c.count as u32)
+    }
+
     /// Writes CDR bytes (with their encapsulation header) on a channel of this writer.
     pub fn write_cdr(
         &mut self,
@@ -217,16 +305,7 @@ impl<W: Write + Seek> SessionWriter<W> {
         log_time_ns: u64,
         publish_time_ns: u64,
     ) -> Result<(), RecordError> {
-        let seq = {
-            let c = self.channels.get_mut(topic).filter(|c| c.id == channel);
-            let Some(c) = c else {
-                return Err(RecordError::Mcap(mcap::McapError::UnknownChannel(
-                    0, channel,
-                )));
-            };
-            c.count += 1;
-            c.count as u32
-        };
+        let seq = self.next_sequence(channel, topic)?;
         self.mcap.write_to_known_channel(
             &mcap::records::MessageHeader {
                 channel_id: channel,
@@ -246,7 +325,7 @@ impl<W: Write + Seek> SessionWriter<W> {
         match self.last_flush_ns {
             None => self.last_flush_ns = Some(now_ns),
             Some(last) if now_ns.saturating_sub(last) >= self.opts.flush_period_ns => {
-                self.mcap.flush()?;
+                self.flush_apart()?;
                 self.last_flush_ns = Some(now_ns);
             }
             _ => {}
@@ -277,6 +356,7 @@ impl<W: Write + Seek> SessionWriter<W> {
 
     /// Writes the `rosbag2` metadata and the summary, and returns the underlying writer.
     pub fn finish(mut self) -> Result<W, RecordError> {
+        self.flush_apart()?;
         let meta = self.rosbag2_metadata();
         self.mcap.write_metadata(&mcap::records::Metadata {
             name: "rosbag2".into(),
@@ -349,6 +429,82 @@ mod tests {
             .filter(|r| matches!(r, Ok(mcap::records::Record::Chunk { .. })))
             .count();
         assert!(chunks >= 3, "{chunks} chunks");
+    }
+
+    /// Outputs go to chunks of their own; a reader of the inputs alone skips those chunks and
+    /// gets the same inputs, in order, as a full scan; a cut-off copy reads the same way too.
+    #[test]
+    fn outputs_are_chunked_apart_and_skipped_by_a_reader_of_inputs() {
+        let mut w =
+            SessionWriter::new(std::io::Cursor::new(Vec::new()), RecordOptions::default()).unwrap();
+        let joints = |i: u64, t: u64| JointState {
+            header: Header {
+                stamp: Time::from_nanos(t as i64).unwrap(),
+                frame_id: String::new(),
+            },
+            name: vec!["hip".into()],
+            position: vec![i as f64],
+            velocity: vec![],
+            effort: vec![],
+        };
+        for i in 0..3000u64 {
+            let t = 1_000_000_000 + i * 1_000_000;
+            w.write(
+                "/joint_states",
+                OfferedQos::BEST_EFFORT,
+                &joints(i, t),
+                t,
+                t,
+            )
+            .unwrap();
+            w.write_output("/out", OfferedQos::RELIABLE, &joints(i, t), t + 1, t)
+                .unwrap();
+        }
+        let bytes = w.finish().unwrap().into_inner();
+        // Every chunk holds inputs only or outputs only.
+        let summary = mcap::read::Summary::read(&bytes).unwrap().unwrap();
+        let input_id = summary
+            .channels
+            .values()
+            .find(|c| c.topic == "/joint_states")
+            .unwrap()
+            .id;
+        let mut kinds = summary.chunk_indexes.iter().map(|c| {
+            let has_input = c.message_index_offsets.contains_key(&input_id);
+            assert!(!has_input || c.message_index_offsets.len() == 1);
+            has_input
+        });
+        assert!(kinds.any(|k| k) && kinds.any(|k| !k));
+
+        let read = |bytes: &[u8]| {
+            let mut got = Vec::new();
+            let s = read::scan_topics(
+                bytes,
+                |t| t.topic == "/joint_states",
+                |s, m| {
+                    let js: JointState = s.decode_checked(m.topic, m.data).unwrap();
+                    got.push((m.log_time_ns, js.position[0]));
+                },
+            )
+            .unwrap();
+            (s, got)
+        };
+        let (s, got) = read(&bytes);
+        assert!(s.complete);
+        assert_eq!(s.topics.len(), 2);
+        assert_eq!(got.len(), 3000);
+        assert!(
+            got.windows(2)
+                .all(|w| w[0].0 < w[1].0 && w[1].1 == w[0].1 + 1.0)
+        );
+        let full = read_session(&bytes).unwrap();
+        assert_eq!(full.messages.len(), 6000);
+
+        // Cut off: no summary, read linearly; what it holds is a prefix of the inputs.
+        let (s, cut) = read(&bytes[..bytes.len() * 2 / 3]);
+        assert!(!s.complete);
+        assert!(!cut.is_empty() && cut.len() < 3000);
+        assert_eq!(cut[..], got[..cut.len()]);
     }
 
     #[test]

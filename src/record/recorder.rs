@@ -133,16 +133,16 @@ fn run(mut w: SessionWriter<BufWriter<File>>, rx: Receiver<Record>, st: &Recorde
                 w.write(t, be, m, *log, m.header.stamp.to_nanos().max(0) as u64)
             }
             Record::Prediction(t, m, log) => {
-                w.write(t, rel, m, *log, m.header.stamp.to_nanos().max(0) as u64)
+                w.write_output(t, rel, m, *log, m.header.stamp.to_nanos().max(0) as u64)
             }
             Record::Force(t, m, log) => {
-                w.write(t, rel, m, *log, m.header.stamp.to_nanos().max(0) as u64)
+                w.write_output(t, rel, m, *log, m.header.stamp.to_nanos().max(0) as u64)
             }
             Record::Params(t, m, log) => {
-                w.write(t, rel, m, *log, m.header.stamp.to_nanos().max(0) as u64)
+                w.write_output(t, rel, m, *log, m.header.stamp.to_nanos().max(0) as u64)
             }
             Record::Diagnostics(t, m, log) => {
-                w.write(t, rel, m, *log, m.header.stamp.to_nanos().max(0) as u64)
+                w.write_output(t, rel, m, *log, m.header.stamp.to_nanos().max(0) as u64)
             }
         };
         match res {

@@ -3,7 +3,7 @@
 //! new ones; predictions come out next to the measurements.
 
 use super::RecordError;
-use super::read::{MessageView, Scan, same_type, scan};
+use super::read::{MessageView, Scan, TopicInfo, same_type, scan_topics};
 use crate::config::{NodeConfig, ParamMap, defaults, parse_value};
 use crate::ident::Estimate;
 use crate::model::Regime;
@@ -125,39 +125,38 @@ fn run_core(
         estimates: vec![None; legs],
         ..Default::default()
     };
-    // Per topic index of the file: what it is to us (resolved on first sight).
-    #[derive(Clone, Copy)]
+    // What a topic of the file is to us.
+    #[derive(Clone, Copy, PartialEq)]
     enum Role {
-        Unknown,
         Joints,
         Ft(usize),
         Skip,
     }
-    let mut roles: Vec<Role> = Vec::new();
+    let role_of = |t: &TopicInfo| {
+        if t.topic == js_topic && same_type(&t.type_name, &JointState::type_name()) {
+            Role::Joints
+        } else if let Some(i) = ft_topics
+            .iter()
+            .position(|f| f.as_deref() == Some(t.topic.as_str()))
+            && same_type(&t.type_name, &WrenchStamped::type_name())
+        {
+            Role::Ft(i)
+        } else {
+            Role::Skip
+        }
+    };
+    let mut roles: Vec<Option<Role>> = Vec::new();
     let mut outputs: Vec<LegOutput> = Vec::new();
     let mut params = Vec::new();
     let mut matches: Vec<Matched> = Vec::new();
-    let scan_result = scan(bytes, |scan, m| {
+    let wanted = |t: &TopicInfo| role_of(t) != Role::Skip;
+    let scan_result = scan_topics(bytes, wanted, |scan, m| {
         if roles.len() < scan.topics.len() {
-            roles.resize(scan.topics.len(), Role::Unknown);
+            roles.resize(scan.topics.len(), None);
         }
-        if let Role::Unknown = roles[m.topic] {
-            let t = &scan.topics[m.topic];
-            roles[m.topic] =
-                if t.topic == js_topic && same_type(&t.type_name, &JointState::type_name()) {
-                    Role::Joints
-                } else if let Some(i) = ft_topics
-                    .iter()
-                    .position(|f| f.as_deref() == Some(t.topic.as_str()))
-                    && same_type(&t.type_name, &WrenchStamped::type_name())
-                {
-                    Role::Ft(i)
-                } else {
-                    Role::Skip
-                };
-        }
+        let role = *roles[m.topic].get_or_insert_with(|| role_of(&scan.topics[m.topic]));
         let log = m.log_time_ns;
-        match roles[m.topic] {
+        match role {
             Role::Joints => {
                 let Ok(js) = scan.decode_checked::<JointState>(m.topic, m.data) else {
                     sum.undecodable += 1;
@@ -198,7 +197,7 @@ fn run_core(
                 sum.ft_samples += 1;
                 core.on_wrench(leg, &w);
             }
-            Role::Skip | Role::Unknown => return,
+            Role::Skip => return,
         }
         core.take_params(&mut params);
         for (leg, p) in params.drain(..) {
@@ -253,9 +252,8 @@ fn run_core(
     sum.skipped_topics = scan_result
         .topics
         .iter()
-        .zip(&roles)
-        .filter(|(_, r)| matches!(r, Role::Skip))
-        .map(|(t, _)| t.topic.clone())
+        .filter(|t| role_of(t) == Role::Skip)
+        .map(|t| t.topic.clone())
         .collect();
     sum.estimates = (0..legs).map(|i| core.estimate(i)).collect();
     Ok(sum)

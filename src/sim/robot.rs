@@ -137,18 +137,24 @@ pub fn joint_state(cfg: &NodeConfig, s: &Session, k: usize, t0_ns: i64) -> Joint
 }
 
 /// What leg `leg`'s F/T sensor publishes at sample `k`, in its configured frame.
+/// A hip-frame force (`fx`, `fz`) as an F/T sensor in `frame` reads it at attack angle `beta_rad`
+/// (the leg frame turns with the joint).
+pub fn ft_components(frame: FtFrame, fx: f64, fz: f64, beta_rad: f64) -> (f64, f64) {
+    match frame {
+        FtFrame::Hip => (fx, fz),
+        FtFrame::Leg => {
+            let (sn, cs) = beta_rad.sin_cos();
+            (fx * sn - fz * cs, fx * cs + fz * sn)
+        }
+    }
+}
+
 pub fn wrench(cfg: &NodeConfig, s: &Session, leg: usize, k: usize, t0_ns: i64) -> WrenchStamped {
     let x = &s.legs[leg][k];
     let lc = &cfg.legs[leg];
     // Hip frame: F_x = -drag, F_z = lift. The leg frame turns with the joint.
     let (fx, fz) = (-x.drag_n, x.lift_n);
-    let (wx, wz) = match lc.ft_frame {
-        FtFrame::Hip => (fx, fz),
-        FtFrame::Leg => {
-            let (sn, cs) = x.beta_rad.sin_cos();
-            (fx * sn - fz * cs, fx * cs + fz * sn)
-        }
-    };
+    let (wx, wz) = ft_components(lc.ft_frame, fx, fz, x.beta_rad);
     WrenchStamped {
         header: Header {
             stamp: Time::from_nanos(stamp_ns(t0_ns, s.t_s[k])).unwrap_or_default(),
