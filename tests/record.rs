@@ -268,11 +268,11 @@ fn damaged_files_never_panic() {
 fn replay_over_dds_is_recorded_again_by_the_standalone_recorder() {
     let dir = tempfile::tempdir().unwrap();
     let src = dir.path().join("src.mcap");
-    std::fs::write(&src, leg_session(400, 5_000_000, 1_000_000_000)).unwrap();
+    std::fs::write(&src, session_with_outputs(400, 5_000_000)).unwrap();
     let again = dir.path().join("again.mcap");
     let t = terzaghi();
     let script = format!(
-        "ROS_DOMAIN_ID=23 '{t}' record --topics /joint_states /leg/ft --duration-s 8 -o '{again}' & R=$!; sleep 1; \
+        "ROS_DOMAIN_ID=23 '{t}' record --topics /joint_states /leg/ft /leg/predicted_wrench --duration-s 8 -o '{again}' & R=$!; sleep 1; \
          ROS_DOMAIN_ID=23 '{t}' replay '{src}' --rate 1; wait $R",
         t = t.display(),
         again = again.display(),
@@ -285,7 +285,7 @@ fn replay_over_dds_is_recorded_again_by_the_standalone_recorder() {
         .unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
-    assert!(stderr.contains("replayed 800 messages"), "{stderr}");
+    assert!(stderr.contains("replayed 1200 messages"), "{stderr}");
     let o = Command::new(terzaghi())
         .arg("info")
         .arg(&again)
@@ -307,7 +307,75 @@ fn replay_over_dds_is_recorded_again_by_the_standalone_recorder() {
         .collect();
     assert_eq!(counts.get("/joint_states"), Some(&400), "{v}");
     assert_eq!(counts.get("/leg/ft"), Some(&400), "{v}");
-    // The replay kept the recorded timing: 2 s of messages take about 2 s.
+    assert_eq!(counts.get("/leg/predicted_wrench"), Some(&400), "{v}");
+    // The replay kept the recorded timing: 2 s of messages take about 2 s, and every message,
+    // the outputs (in chunks of their own) too, arrives when its stamp says.
     let dur = v["duration_s"].as_f64().unwrap();
     assert!((1.8..2.6).contains(&dur), "{dur}");
+    let bytes = std::fs::read(&again).unwrap();
+    let session = terzaghi::record::read_session(&bytes).unwrap();
+    let first = session
+        .messages
+        .iter()
+        .min_by_key(|m| m.log_time_ns)
+        .unwrap();
+    let worst_lag_s = session
+        .messages
+        .iter()
+        .map(|m| {
+            let received = m.log_time_ns as f64 - first.log_time_ns as f64;
+            let stamped = m.publish_time_ns as f64 - first.publish_time_ns as f64;
+            (received - stamped).abs() * 1e-9
+        })
+        .fold(0.0, f64::max);
+    assert!(
+        worst_lag_s < 0.3,
+        "a message arrived {worst_lag_s} s off its stamp"
+    );
+}
+
+/// `leg_session` with the node's predicted wrench beside each F/T sample, written as an output
+/// (in chunks apart from the inputs), flushed every second.
+fn session_with_outputs(n: u64, spacing_ns: u64) -> Vec<u8> {
+    use terzaghi::msgs::*;
+    use terzaghi::record::{OfferedQos, RecordOptions, SessionWriter};
+    let mut w =
+        SessionWriter::new(std::io::Cursor::new(Vec::new()), RecordOptions::default()).unwrap();
+    for i in 0..n {
+        let t = 1_000_000_000 + i * spacing_ns;
+        let header = Header {
+            stamp: Time::from_nanos(t as i64).unwrap(),
+            frame_id: String::new(),
+        };
+        let js = JointState {
+            header: header.clone(),
+            name: vec!["hip".into()],
+            position: vec![i as f64 * 0.01],
+            ..Default::default()
+        };
+        w.write("/joint_states", OfferedQos::BEST_EFFORT, &js, t, t)
+            .unwrap();
+        let ft = WrenchStamped {
+            header,
+            wrench: Wrench {
+                force: Vector3 {
+                    x: -(i as f64),
+                    y: 0.0,
+                    z: 2.0,
+                },
+                ..Default::default()
+            },
+        };
+        w.write("/leg/ft", OfferedQos::BEST_EFFORT, &ft, t, t)
+            .unwrap();
+        w.write_output(
+            "/leg/predicted_wrench",
+            OfferedQos::RELIABLE,
+            &ft,
+            t + 1000,
+            t,
+        )
+        .unwrap();
+    }
+    w.finish().unwrap().into_inner()
 }

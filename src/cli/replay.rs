@@ -370,7 +370,10 @@ enum AnyPub {
 
 fn run_dds(a: &ReplayArgs) -> Result<()> {
     let bytes = read_file(&a.file)?;
-    let session = read_session(&bytes).with_context(|| a.file.display().to_string())?;
+    let mut session = read_session(&bytes).with_context(|| a.file.display().to_string())?;
+    // Played in log-time order: chunks may overlap in time (the node's outputs are in chunks of
+    // their own, and other tools interleave too). Stable, so ties keep the file's order.
+    session.messages.sort_by_key(|m| m.log_time_ns);
     let wanted = |t: &str| a.topics.is_empty() || a.topics.iter().any(|w| w == t);
     let rt = super::runtime()?;
     rt.block_on(async {

@@ -236,7 +236,7 @@ impl std::ops::Deref for Session {
     }
 }
 
-/// Reads every complete message of `bytes`.
+/// Reads every complete message of `bytes`, in file order (which need not be log-time order).
 pub fn read_session(bytes: &[u8]) -> Result<Session, RecordError> {
     let mut messages = Vec::new();
     let scan = scan(bytes, |_, m| messages.push(m.to_owned()))?;
