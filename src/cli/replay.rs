@@ -7,7 +7,7 @@ use crate::config::{NodeConfig, RosArgs, load_params};
 use crate::msgs::{DiagnosticArray, JointState, LegForce, ModelParams, RosMessage, WrenchStamped};
 use crate::node::dds::{publisher, tool_node};
 use crate::record::read::{Scan, read_session, same_type, scan};
-use crate::record::reevaluate::{Output, Row, recorded_params, reevaluate};
+use crate::record::reevaluate::{Output, Row, recorded_params, reevaluate, reevaluate_rows};
 use crate::record::{OfferedQos, RecordOptions, SessionWriter};
 use anyhow::{Context as _, Result, anyhow, bail};
 use clap::Args;
@@ -138,7 +138,20 @@ fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
         .and_then(|p| p.extension())
         .and_then(|e| e.to_str())
         .map(str::to_lowercase);
-    let pb = progress(head.messages, "re-evaluating");
+    // Progress counts the inputs read (joint states and F/T), which is what takes the time.
+    let inputs: u64 = head
+        .topics
+        .iter()
+        .filter(|t| {
+            t.topic == cfg.joint_states_topic
+                || cfg
+                    .legs
+                    .iter()
+                    .any(|l| l.ft_topic.as_deref() == Some(&t.topic))
+        })
+        .map(|t| t.count)
+        .sum();
+    let pb = progress(inputs, "re-evaluating");
     let mut n = 0u64;
     let summary;
     match out_kind.as_deref() {
@@ -171,9 +184,11 @@ fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
                         if err.is_some() {
                             return;
                         }
-                        n += 1;
-                        if n % 50_000 == 0 {
-                            pb.set_position(n);
+                        if let Output::Input(..) = o {
+                            n += 1;
+                            if n % 50_000 == 0 {
+                                pb.set_position(n);
+                            }
                         }
                         let r = match o {
                             Output::Input(scan, m) => {
@@ -242,32 +257,56 @@ fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
             summary = result.ok_or_else(|| anyhow!("nothing re-evaluated"))?;
         }
         Some("csv") | None => {
-            // Rows are written as they come (a 10-minute session makes half a gigabyte of CSV).
-            let mut run = |w: &mut dyn std::io::Write| -> Result<_> {
-                let mut out = csv::Writer::from_writer(w);
-                let mut csv_err = None;
-                let s = reevaluate(
-                    &bytes,
-                    cfg.clone(),
-                    |r| {
-                        if csv_err.is_none()
-                            && let Err(e) = csv_row(&mut out, r, &legs)
-                        {
-                            csv_err = Some(e);
+            // Rows are written as they come (a 10-minute session makes half a gigabyte of CSV),
+            // formatted on a second thread in batches: formatting is about as much work as the
+            // re-evaluation itself.
+            let mut run = |w: &mut (dyn std::io::Write + Send)| -> Result<_> {
+                const BATCH: usize = 4096;
+                std::thread::scope(|scope| {
+                    let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<Row>>(8);
+                    let legs = &legs;
+                    let writer = scope.spawn(move || -> csv::Result<()> {
+                        let mut out = csv::Writer::from_writer(w);
+                        for batch in rx {
+                            for r in &batch {
+                                csv_row(&mut out, r, legs)?;
+                            }
                         }
-                    },
-                    |_| {
-                        n += 1;
-                        if n % 50_000 == 0 {
-                            pb.set_position(n);
-                        }
-                    },
-                )?;
-                if let Some(e) = csv_err {
-                    return Err(e.into());
-                }
-                out.flush()?;
-                Ok(s)
+                        out.flush()?;
+                        Ok(())
+                    });
+                    let mut batch = Vec::with_capacity(BATCH);
+                    let send = |batch: &mut Vec<Row>| {
+                        // A writer that failed has hung up; its error is reported below.
+                        let _ = tx.send(std::mem::replace(batch, Vec::with_capacity(BATCH)));
+                    };
+                    let s = reevaluate_rows(
+                        &bytes,
+                        cfg.clone(),
+                        |r| {
+                            batch.push(*r);
+                            if batch.len() == BATCH {
+                                send(&mut batch);
+                            }
+                        },
+                        |o| {
+                            if let Output::Input(..) = o {
+                                n += 1;
+                                if n % 50_000 == 0 {
+                                    pb.set_position(n);
+                                }
+                            }
+                        },
+                    );
+                    send(&mut batch);
+                    drop(tx);
+                    let written = writer
+                        .join()
+                        .map_err(|_| anyhow!("the CSV writer thread failed"))?;
+                    let s = s?;
+                    written?;
+                    Ok(s)
+                })
             };
             summary = match &a.output {
                 Some(path) => {
@@ -279,7 +318,7 @@ fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
                     result.ok_or_else(|| anyhow!("nothing re-evaluated"))?
                 }
                 None => {
-                    let mut stdout = std::io::BufWriter::new(std::io::stdout().lock());
+                    let mut stdout = std::io::BufWriter::new(std::io::stdout());
                     match run(&mut stdout) {
                         Ok(s) => s,
                         // A reader that stopped early (`| head`) is not an error.

@@ -91,6 +91,9 @@ pub struct NodeCore {
     last_diag_ns: Option<i64>,
     /// False: only match F/T samples with joint angles (no predictions, no estimator).
     modelling: bool,
+    /// False: [`NodeCore::on_joint_state`] makes no output messages for legs with F/T, whose
+    /// predictions an offline re-evaluation takes at the matched samples instead.
+    outputs_for_ft_legs: bool,
 }
 
 impl NodeCore {
@@ -102,6 +105,7 @@ impl NodeCore {
             counters: NodeCounters::default(),
             last_diag_ns: None,
             modelling: true,
+            outputs_for_ft_legs: true,
         };
         core.legs = (0..core.cfg.legs.len()).map(|i| core.new_leg(i)).collect();
         core
@@ -236,7 +240,8 @@ impl NodeCore {
             {
                 self.resolve_pending(i, stamp_ns);
             }
-            if !self.modelling {
+            if !self.modelling || (!self.outputs_for_ft_legs && self.cfg.legs[i].ft_topic.is_some())
+            {
                 continue;
             }
             let (lc, leg) = (&self.cfg.legs[i], &mut self.legs[i]);
@@ -440,6 +445,12 @@ impl NodeCore {
         core.modelling = false;
         core.keep_matches(true);
         core
+    }
+
+    /// Whether [`NodeCore::on_joint_state`] makes output messages for legs with F/T (it does by
+    /// default; an offline re-evaluation that wants only rows turns it off).
+    pub fn outputs_for_ft_legs(&mut self, on: bool) {
+        self.outputs_for_ft_legs = on;
     }
 
     /// Keep every F/T sample matched with a joint angle, for [`NodeCore::take_matches`] (offline

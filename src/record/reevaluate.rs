@@ -81,6 +81,22 @@ pub fn reevaluate(
     run_core(bytes, core, true, on_row, on_output)
 }
 
+/// [`reevaluate`] for rows only: the node's output messages of legs with F/T are not made
+/// (their rows come from the matched samples either way), which saves a model evaluation and
+/// two messages per leg and joint state. `on_output` then gets the inputs, the parameters and
+/// the predictions of legs without F/T.
+pub fn reevaluate_rows(
+    bytes: &[u8],
+    cfg: NodeConfig,
+    on_row: impl FnMut(&Row),
+    on_output: impl FnMut(Output),
+) -> Result<Summary, RecordError> {
+    let mut core = NodeCore::new(cfg);
+    core.keep_matches(true);
+    core.outputs_for_ft_legs(false);
+    run_core(bytes, core, true, on_row, on_output)
+}
+
 /// The measured F/T samples of every leg, each with the joint angle nearest in time (as the
 /// node matches them; F/T in the leg frame turned into the hip frame), without running the
 /// model: what the diagnosis reads. Legs without F/T get none.
