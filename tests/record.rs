@@ -268,7 +268,7 @@ fn damaged_files_never_panic() {
 fn replay_over_dds_is_recorded_again_by_the_standalone_recorder() {
     let dir = tempfile::tempdir().unwrap();
     let src = dir.path().join("src.mcap");
-    std::fs::write(&src, session_with_outputs(400, 5_000_000)).unwrap();
+    std::fs::write(&src, leg_session_with(400, 5_000_000, 1_000_000_000, true)).unwrap();
     let again = dir.path().join("again.mcap");
     let t = terzaghi();
     let script = format!(
@@ -332,50 +332,4 @@ fn replay_over_dds_is_recorded_again_by_the_standalone_recorder() {
         worst_lag_s < 0.3,
         "a message arrived {worst_lag_s} s off its stamp"
     );
-}
-
-/// `leg_session` with the node's predicted wrench beside each F/T sample, written as an output
-/// (in chunks apart from the inputs), flushed every second.
-fn session_with_outputs(n: u64, spacing_ns: u64) -> Vec<u8> {
-    use terzaghi::msgs::*;
-    use terzaghi::record::{OfferedQos, RecordOptions, SessionWriter};
-    let mut w =
-        SessionWriter::new(std::io::Cursor::new(Vec::new()), RecordOptions::default()).unwrap();
-    for i in 0..n {
-        let t = 1_000_000_000 + i * spacing_ns;
-        let header = Header {
-            stamp: Time::from_nanos(t as i64).unwrap(),
-            frame_id: String::new(),
-        };
-        let js = JointState {
-            header: header.clone(),
-            name: vec!["hip".into()],
-            position: vec![i as f64 * 0.01],
-            ..Default::default()
-        };
-        w.write("/joint_states", OfferedQos::BEST_EFFORT, &js, t, t)
-            .unwrap();
-        let ft = WrenchStamped {
-            header,
-            wrench: Wrench {
-                force: Vector3 {
-                    x: -(i as f64),
-                    y: 0.0,
-                    z: 2.0,
-                },
-                ..Default::default()
-            },
-        };
-        w.write("/leg/ft", OfferedQos::BEST_EFFORT, &ft, t, t)
-            .unwrap();
-        w.write_output(
-            "/leg/predicted_wrench",
-            OfferedQos::RELIABLE,
-            &ft,
-            t + 1000,
-            t,
-        )
-        .unwrap();
-    }
-    w.finish().unwrap().into_inner()
 }

@@ -62,6 +62,20 @@ impl OfferedQos {
     }
 }
 
+/// Appends `msg` as CDR (little-endian, with its encapsulation header) to `out`; on an error,
+/// `out` is left as it was.
+fn append_cdr<M: RosMessage>(out: &mut Vec<u8>, topic: &str, msg: &M) -> Result<(), RecordError> {
+    let start = out.len();
+    out.extend_from_slice(&[0x00, 0x01, 0x00, 0x00]);
+    cdr_encoding::to_writer::<_, byteorder::LittleEndian, _>(&mut *out, msg).map_err(|e| {
+        out.truncate(start);
+        RecordError::Encode {
+            topic: topic.to_string(),
+            error: e.to_string(),
+        }
+    })
+}
+
 /// Options of a recording.
 #[derive(Debug, Clone)]
 pub struct RecordOptions {
@@ -210,13 +224,7 @@ impl<W: Write + Seek> SessionWriter<W> {
     ) -> Result<(), RecordError> {
         let id = self.channel::<M>(topic, qos)?;
         self.buf.clear();
-        self.buf.extend_from_slice(&[0x00, 0x01, 0x00, 0x00]);
-        cdr_encoding::to_writer::<_, byteorder::LittleEndian, _>(&mut self.buf, msg).map_err(
-            |e| RecordError::Encode {
-                topic: topic.to_string(),
-                error: e.to_string(),
-            },
-        )?;
+        append_cdr(&mut self.buf, topic, msg)?;
         let data = std::mem::take(&mut self.buf);
         let r = self.write_cdr(id, topic, &data, log_time_ns, publish_time_ns);
         self.buf = data;
@@ -237,20 +245,12 @@ impl<W: Write + Seek> SessionWriter<W> {
         publish_time_ns: u64,
     ) -> Result<(), RecordError> {
         let id = self.channel::<M>(topic, qos)?;
+        append_cdr(&mut self.apart.data, topic, msg)?;
         let seq = self.next_sequence(id, topic)?;
-        let data = &mut self.apart.data;
-        let start = data.len();
-        data.extend_from_slice(&[0x00, 0x01, 0x00, 0x00]);
-        if let Err(e) = cdr_encoding::to_writer::<_, byteorder::LittleEndian, _>(&mut *data, msg) {
-            data.truncate(start);
-            return Err(RecordError::Encode {
-                topic: topic.to_string(),
-                error: e.to_string(),
-            });
-        }
+        let end = self.apart.data.len();
         self.apart
             .messages
-            .push((id, seq, log_time_ns, publish_time_ns, data.len()));
+            .push((id, seq, log_time_ns, publish_time_ns, end));
         self.first_ns.get_or_insert(log_time_ns);
         self.last_ns = self.last_ns.max(log_time_ns);
         if self.apart.data.len() >= APART_BYTES {

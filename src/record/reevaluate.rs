@@ -76,9 +76,7 @@ pub fn reevaluate(
     on_row: impl FnMut(&Row),
     on_output: impl FnMut(Output),
 ) -> Result<Summary, RecordError> {
-    let mut core = NodeCore::new(cfg);
-    core.keep_matches(true);
-    run_core(bytes, core, true, on_row, on_output)
+    modelled(bytes, cfg, true, on_row, on_output)
 }
 
 /// [`reevaluate`] for rows only: the node's output messages of legs with F/T are not made
@@ -91,9 +89,19 @@ pub fn reevaluate_rows(
     on_row: impl FnMut(&Row),
     on_output: impl FnMut(Output),
 ) -> Result<Summary, RecordError> {
+    modelled(bytes, cfg, false, on_row, on_output)
+}
+
+fn modelled(
+    bytes: &[u8],
+    cfg: NodeConfig,
+    outputs_for_ft_legs: bool,
+    on_row: impl FnMut(&Row),
+    on_output: impl FnMut(Output),
+) -> Result<Summary, RecordError> {
     let mut core = NodeCore::new(cfg);
     core.keep_matches(true);
-    core.outputs_for_ft_legs(false);
+    core.outputs_for_ft_legs(outputs_for_ft_legs);
     run_core(bytes, core, true, on_row, on_output)
 }
 

@@ -110,6 +110,12 @@ pub const LEG_PARAMS: &str = "/**:\n  ros__parameters:\n    legs: [leg]\n    leg
 /// An MCAP session of `n` samples `spacing_ns` apart: JointState on /joint_states (joint `hip`)
 /// and WrenchStamped on /leg/ft, chunks closed every `flush_period_ns` of log time.
 pub fn leg_session(n: u64, spacing_ns: u64, flush_period_ns: u64) -> Vec<u8> {
+    leg_session_with(n, spacing_ns, flush_period_ns, false)
+}
+
+/// [`leg_session`], and with `outputs` the F/T sample again on `/leg/predicted_wrench`, written
+/// as the node's output (in chunks apart from the inputs).
+pub fn leg_session_with(n: u64, spacing_ns: u64, flush_period_ns: u64, outputs: bool) -> Vec<u8> {
     use terzaghi::msgs::*;
     use terzaghi::record::{OfferedQos, RecordOptions, SessionWriter};
     let opts = RecordOptions {
@@ -145,6 +151,16 @@ pub fn leg_session(n: u64, spacing_ns: u64, flush_period_ns: u64) -> Vec<u8> {
         };
         w.write("/leg/ft", OfferedQos::BEST_EFFORT, &ft, t, t)
             .unwrap();
+        if outputs {
+            w.write_output(
+                "/leg/predicted_wrench",
+                OfferedQos::RELIABLE,
+                &ft,
+                t + 1000,
+                t,
+            )
+            .unwrap();
+        }
     }
     w.finish().unwrap().into_inner()
 }
