@@ -89,14 +89,12 @@ pub fn joint_state_done(
         }
     }
     // Wrenches first: they are what a controller waits for.
-    let mut forces = Vec::with_capacity(outputs.len());
-    for o in outputs.drain(..) {
-        out.wrench(o.leg, o.wrench);
-        forces.push((o.leg, o.force));
+    for o in outputs.iter_mut() {
+        out.wrench(o.leg, std::mem::take(&mut o.wrench));
     }
     published();
-    for (leg, f) in forces {
-        out.force(leg, f);
+    for o in outputs.drain(..) {
+        out.force(o.leg, o.force);
     }
     for (leg, p) in params_out.drain(..) {
         out.params(leg, p);

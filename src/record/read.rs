@@ -294,7 +294,11 @@ pub fn same_type(a: &str, b: &str) -> bool {
 /// messages: `None` when the file has no readable summary (cut off, or written without one);
 /// then [`scan`] is the way.
 pub fn summary_head(bytes: &[u8]) -> Option<Scan> {
-    let summary = mcap::read::Summary::read(bytes).ok()??;
+    head_of(bytes, &mcap::read::Summary::read(bytes).ok()??)
+}
+
+/// [`summary_head`] from a summary already read.
+fn head_of(bytes: &[u8], summary: &mcap::read::Summary) -> Option<Scan> {
     let stats = summary.stats.as_ref()?;
     let mut s = Scan {
         complete: true,
@@ -413,8 +417,8 @@ type Indexed = (Scan, Vec<mcap::records::ChunkIndex>, Vec<Option<usize>>);
 /// The file's head from its summary, its chunk indexes in file order, and per channel id the
 /// index of its topic in the head.
 fn indexed(bytes: &[u8]) -> Option<Indexed> {
-    let head = summary_head(bytes)?;
     let summary = mcap::read::Summary::read(bytes).ok()??;
+    let head = head_of(bytes, &summary)?;
     let mut ids: Vec<&u16> = summary.channels.keys().collect();
     ids.sort();
     let mut topic_of_channel = vec![None; ids.last().map_or(0, |&&id| id as usize + 1)];
