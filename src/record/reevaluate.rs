@@ -7,7 +7,7 @@ use super::read::{MessageView, Scan, TopicInfo, same_type, scan_topics};
 use crate::config::{NodeConfig, ParamMap, defaults, parse_value};
 use crate::ident::Estimate;
 use crate::model::Regime;
-use crate::msgs::{JointState, LegForce, ModelParams, RosMessage, WrenchStamped};
+use crate::msgs::{DecodeInto, JointState, LegForce, ModelParams, RosMessage, WrenchStamped};
 use crate::node::core::{LegOutput, Matched, NodeCore};
 
 /// One prediction, with the measurement it is next to (if the leg has F/T).
@@ -174,6 +174,9 @@ fn run_core(
     let mut params = Vec::new();
     let mut matches: Vec<Matched> = Vec::new();
     let wanted = |t: &TopicInfo| role_of(t) != Role::Skip;
+    // Decoded into, message after message.
+    let mut js = JointState::default();
+    let mut w = WrenchStamped::default();
     let scan_result = scan_topics(bytes, wanted, |scan, m| {
         if roles.len() < scan.topics.len() {
             roles.resize(scan.topics.len(), None);
@@ -182,10 +185,10 @@ fn run_core(
         let log = m.log_time_ns;
         match role {
             Role::Joints => {
-                let Ok(js) = scan.decode_checked::<JointState>(m.topic, m.data) else {
+                if js.decode_into(m.data).is_err() {
                     sum.undecodable += 1;
                     return;
-                };
+                }
                 on_output(Output::Input(scan, &m));
                 sum.joint_states += 1;
                 outputs.clear();
@@ -213,10 +216,10 @@ fn run_core(
                 }
             }
             Role::Ft(leg) => {
-                let Ok(w) = scan.decode_checked::<WrenchStamped>(m.topic, m.data) else {
+                if w.decode_into(m.data).is_err() {
                     sum.undecodable += 1;
                     return;
-                };
+                }
                 on_output(Output::Input(scan, &m));
                 sum.ft_samples += 1;
                 core.on_wrench(leg, &w);
