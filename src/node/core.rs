@@ -2,7 +2,7 @@
 //! wrenches out; measured wrenches in, identified parameters out. The DDS adapter and the
 //! in-memory demo both drive this same code.
 
-use crate::config::{FtFrame, NodeConfig};
+use crate::config::{FtFrame, ModelKind, NodeConfig};
 use crate::ident::{Estimate, OnlineEstimator, Sample};
 use crate::model::{FittingWidth, ForceModel, TerzaghiModel, wrap_beta_rad};
 use crate::msgs::{
@@ -163,6 +163,28 @@ impl NodeCore {
                     FittingWidth::CONVENTIONAL,
                 ))
             })
+    }
+
+    /// The leg's model after its identified estimate changed. While the estimate moves only the
+    /// fitting width (delta not fitted, the improved model of the configured plate and medium),
+    /// the model keeps its medium's constants, which is the same model as [`Self::model_for`]
+    /// makes without the trigonometry, once per F/T sample.
+    fn follow_identified(&mut self, i: usize) {
+        let lc = &self.cfg.legs[i];
+        let id = self.legs[i].identified;
+        if let (Some(e), false, ModelKind::Improved, ForceModel::Terzaghi(m)) = (
+            id,
+            self.cfg.estimator.fit_delta,
+            self.cfg.model,
+            &self.legs[i].model,
+        ) && *m.medium() == lc.medium
+            && *m.plate() == lc.plate
+            && let Ok(width) = e.fitting_width()
+        {
+            self.legs[i].model = ForceModel::Terzaghi(m.with_fitting_width(width));
+            return;
+        }
+        self.legs[i].model = self.model_for(i, id.as_ref());
     }
 
     pub fn config(&self) -> &NodeConfig {
@@ -407,8 +429,7 @@ impl NodeCore {
             .last_params_ns
             .is_none_or(|last| t_ns - last >= period_ns || t_ns < last);
         if changed && self.cfg.use_identified {
-            let id = self.legs[leg].identified;
-            self.legs[leg].model = self.model_for(leg, id.as_ref());
+            self.follow_identified(leg);
         }
         let l = &mut self.legs[leg];
         if !(due || event) {
@@ -614,15 +635,21 @@ impl NodeCore {
 
 /// The angle whose stamp is nearest `t_ns`, if within `max_dt_ns`. History is in time order.
 fn nearest(history: &VecDeque<(i64, f64)>, t_ns: i64, max_dt_ns: i64) -> Option<f64> {
-    let i = history.partition_point(|&(t, _)| t < t_ns);
-    let candidates = [i.checked_sub(1), (i < history.len()).then_some(i)];
-    candidates
-        .into_iter()
-        .flatten()
-        .map(|j| history[j])
-        .min_by_key(|&(t, _)| (t - t_ns).abs())
-        .filter(|&(t, _)| (t - t_ns).abs() <= max_dt_ns)
-        .map(|(_, b)| b)
+    // Where `t_ns` goes in the (sorted) history. A sample is nearly always matched against the
+    // last angles, so look there before searching the whole history.
+    let n = history.len();
+    let i = match (n.checked_sub(2).map(|j| history[j].0), history.back()) {
+        (Some(before_last), Some(&(last, _))) if before_last < t_ns => n - usize::from(last >= t_ns),
+        _ => history.partition_point(|&(t, _)| t < t_ns),
+    };
+    let before = i.checked_sub(1).map(|j| history[j]);
+    let (t, beta) = match (before, history.get(i)) {
+        (Some(b), Some(&a)) if (a.0 - t_ns).abs() < (b.0 - t_ns).abs() => a,
+        (Some(b), _) => b,
+        (None, Some(&a)) => a,
+        (None, None) => return None,
+    };
+    ((t - t_ns).abs() <= max_dt_ns).then_some(beta)
 }
 
 #[cfg(test)]
@@ -775,5 +802,17 @@ mod tests {
         assert_eq!(nearest(&h, 26, 5), Some(3.0));
         assert_eq!(nearest(&h, 100, 5), None);
         assert_eq!(nearest(&VecDeque::new(), 1, 5), None);
+        // Against every entry of the history: the nearest stamp, the earlier one on a tie.
+        for h in [vec![10], vec![10, 20], vec![10, 20, 20, 30], vec![10, 20, 30, 40]] {
+            let h: VecDeque<(i64, f64)> = h.iter().map(|&t| (t, t as f64)).collect();
+            for t in 0..=50 {
+                let brute = h
+                    .iter()
+                    .min_by_key(|&&(s, _)| (s - t).abs())
+                    .filter(|&&(s, _)| (s - t).abs() <= 4)
+                    .map(|&(_, b)| b);
+                assert_eq!(nearest(&h, t, 4), brute, "{h:?} at {t}");
+            }
+        }
     }
 }

@@ -230,7 +230,13 @@ fn run_core(
         for (leg, p) in params.drain(..) {
             on_output(Output::Params(log, leg, &p));
         }
-        for leg in (0..legs).filter(|&l| has_ft[l]) {
+        // An F/T sample can only match for its own leg; a joint state for any (the samples that
+        // waited for it).
+        let from_legs = match role {
+            Role::Ft(leg) => leg..leg + 1,
+            _ => 0..legs,
+        };
+        for leg in from_legs.filter(|&l| has_ft[l]) {
             core.take_matches(leg, &mut matches);
             for mt in matches.drain(..) {
                 if !predict {
