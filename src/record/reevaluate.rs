@@ -174,9 +174,10 @@ fn run_core(
     let mut params = Vec::new();
     let mut matches: Vec<Matched> = Vec::new();
     let wanted = |t: &TopicInfo| role_of(t) != Role::Skip;
-    // Decoded into, message after message.
+    // Decoded into, message after message; one F/T message per leg, so that its frame is
+    // the one already held.
     let mut js = JointState::default();
-    let mut w = WrenchStamped::default();
+    let mut ws = vec![WrenchStamped::default(); legs];
     let scan_result = scan_topics(bytes, wanted, |scan, m| {
         if roles.len() < scan.topics.len() {
             roles.resize(scan.topics.len(), None);
@@ -216,13 +217,14 @@ fn run_core(
                 }
             }
             Role::Ft(leg) => {
+                let w = &mut ws[leg];
                 if w.decode_into(m.data).is_err() {
                     sum.undecodable += 1;
                     return;
                 }
                 on_output(Output::Input(scan, &m));
                 sum.ft_samples += 1;
-                core.on_wrench(leg, &w);
+                core.on_wrench(leg, w);
             }
             Role::Skip => return,
         }
