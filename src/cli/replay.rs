@@ -6,7 +6,7 @@ use super::write_atomically;
 use crate::config::{NodeConfig, RosArgs, load_params};
 use crate::msgs::{DiagnosticArray, JointState, LegForce, ModelParams, RosMessage, WrenchStamped};
 use crate::node::dds::{publisher, tool_node};
-use crate::record::read::{Scan, read_session, same_type, scan};
+use crate::record::read::{IndexedFile, Scan, Source, read_session, same_type, scan};
 use crate::record::reevaluate::{Output, Row, recorded_params, reevaluate, reevaluate_rows};
 use crate::record::{OfferedQos, RecordOptions, SessionWriter};
 use anyhow::{Context as _, Result, anyhow, bail};
@@ -147,11 +147,18 @@ pub fn reevaluation_config(
 }
 
 fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
-    let bytes = read_file(&a.file)?;
-    // The summary has the topics and parameters; a cut-off file is read for them.
-    let head = match crate::record::read::summary_head(&bytes) {
-        Some(h) => h,
-        None => scan(&bytes, |_, _| {}).with_context(|| a.file.display().to_string())?,
+    // A finished file is read as far as its summary, and then chunk by chunk; a cut-off one is
+    // read whole, and scanned for its topics and parameters.
+    let indexed =
+        IndexedFile::open(&a.file).with_context(|| format!("cannot read {}", a.file.display()))?;
+    let whole;
+    let (source, head): (Source, Scan) = match &indexed {
+        Some(f) => (f.into(), f.head().clone()),
+        None => {
+            whole = read_file(&a.file)?;
+            let head = scan(&whole, |_, _| {}).with_context(|| a.file.display().to_string())?;
+            ((&whole).into(), head)
+        }
     };
     let cfg = reevaluation_config(&a.params_file, &head, &a.file)?;
     let legs: Vec<String> = cfg.legs.iter().map(|l| l.name.clone()).collect();
@@ -200,7 +207,7 @@ fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
                     .map(|l| resolve(&format!("{l}/model_params")))
                     .collect();
                 let s = reevaluate(
-                    &bytes,
+                    source,
                     cfg.clone(),
                     |_| {},
                     |o| {
@@ -306,7 +313,7 @@ fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
                         let _ = tx.send(std::mem::replace(batch, Vec::with_capacity(BATCH)));
                     };
                     let s = reevaluate_rows(
-                        &bytes,
+                        source,
                         cfg.clone(),
                         |r| {
                             batch.push(*r);
@@ -348,8 +355,7 @@ fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
                         Ok(s) => s,
                         // A reader that stopped early (`| head`) is not an error.
                         Err(e)
-                            if e
-                                .downcast_ref::<std::io::Error>()
+                            if e.downcast_ref::<std::io::Error>()
                                 .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe) =>
                         {
                             return Ok(());

@@ -476,10 +476,10 @@ mod tests {
         });
         assert!(kinds.any(|k| k) && kinds.any(|k| !k));
 
-        let read = |bytes: &[u8]| {
+        let read = |source: read::Source| {
             let mut got = Vec::new();
             let s = read::scan_topics(
-                bytes,
+                source,
                 |t| t.topic == "/joint_states",
                 |s, m| {
                     let js: JointState = s.decode_checked(m.topic, m.data).unwrap();
@@ -489,7 +489,7 @@ mod tests {
             .unwrap();
             (s, got)
         };
-        let (s, got) = read(&bytes);
+        let (s, got) = read((&bytes).into());
         assert!(s.complete);
         assert_eq!(s.topics.len(), 2);
         assert_eq!(got.len(), 3000);
@@ -501,10 +501,46 @@ mod tests {
         assert_eq!(full.messages.len(), 6000);
 
         // Cut off: no summary, read linearly; what it holds is a prefix of the inputs.
-        let (s, cut) = read(&bytes[..bytes.len() * 2 / 3]);
+        let (s, cut) = read(bytes[..bytes.len() * 2 / 3].into());
         assert!(!s.complete);
         assert!(!cut.is_empty() && cut.len() < 3000);
         assert_eq!(cut[..], got[..cut.len()]);
+
+        // From the file on disk, chunk by chunk: the same head and the same inputs.
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("s.mcap");
+        std::fs::write(&path, &bytes).unwrap();
+        let file = read::IndexedFile::open(&path).unwrap().unwrap();
+        assert_eq!(*file.head(), read::summary_head(&bytes).unwrap());
+        assert_eq!(file.head().metadata.keys().count(), 1, "{:?}", file.head());
+        let (s, from_file) = read((&file).into());
+        assert!(s.complete);
+        assert_eq!(from_file, got);
+        // A file without a summary (cut off), or not MCAP, is to be read whole.
+        std::fs::write(&path, &bytes[..bytes.len() - 100]).unwrap();
+        assert!(read::IndexedFile::open(&path).unwrap().is_none());
+        std::fs::write(
+            &path,
+            b"not an mcap file, but long enough to have a footer: 0123456789",
+        )
+        .unwrap();
+        assert!(read::IndexedFile::open(&path).unwrap().is_none());
+        // A file cut short after its summary was read: the scan stops and says so.
+        std::fs::write(&path, &bytes).unwrap();
+        let file = read::IndexedFile::open(&path).unwrap().unwrap();
+        std::fs::OpenOptions::new()
+            .write(true)
+            .open(&path)
+            .unwrap()
+            .set_len(bytes.len() as u64 / 2)
+            .unwrap();
+        let (s, half) = read((&file).into());
+        assert!(!s.complete);
+        assert!(
+            s.stopped.as_deref().unwrap().contains("past the end"),
+            "{s:?}"
+        );
+        assert_eq!(half[..], got[..half.len()]);
     }
 
     #[test]

@@ -330,18 +330,118 @@ fn head_of(bytes: &[u8], summary: &mcap::read::Summary) -> Option<Scan> {
     Some(s)
 }
 
+/// What [`scan_topics`] reads: a session in memory, or an [`IndexedFile`].
+#[derive(Clone, Copy)]
+pub enum Source<'a> {
+    Bytes(&'a [u8]),
+    Indexed(&'a IndexedFile),
+}
+
+impl<'a> From<&'a [u8]> for Source<'a> {
+    fn from(b: &'a [u8]) -> Self {
+        Source::Bytes(b)
+    }
+}
+
+impl<'a> From<&'a Vec<u8>> for Source<'a> {
+    fn from(b: &'a Vec<u8>) -> Self {
+        Source::Bytes(b)
+    }
+}
+
+impl<'a> From<&'a IndexedFile> for Source<'a> {
+    fn from(f: &'a IndexedFile) -> Self {
+        Source::Indexed(f)
+    }
+}
+
+/// A finished session file of which only the summary section and the metadata records are in
+/// memory; [`scan_topics`] reads the chunks it wants from the file as it goes. A long session
+/// then needs neither its size in memory nor the time to read chunks that are passed over.
+///
+/// The summary is read with the mcap crate, which takes a whole file's bytes: `sparse` is a
+/// buffer of the file's length (zeroed, so that pages never written are never touched) with the
+/// file's start, its summary and its metadata records in place, and only those are read from it.
+pub struct IndexedFile {
+    file: std::fs::File,
+    sparse: Vec<u8>,
+    head: Scan,
+}
+
+impl IndexedFile {
+    /// `None` if the file has no readable summary (a cut-off file, or not MCAP): read it whole.
+    pub fn open(path: &std::path::Path) -> std::io::Result<Option<IndexedFile>> {
+        use std::os::unix::fs::FileExt;
+        let file = std::fs::File::open(path)?;
+        let len = file.metadata()?.len();
+        // Magic and footer: 8 + 29 + 8 bytes at least, with a header record in between.
+        let Ok(size) = usize::try_from(len) else {
+            return Ok(None);
+        };
+        if size < 64 {
+            return Ok(None);
+        }
+        let mut sparse = vec![0u8; size];
+        let fill = |sparse: &mut Vec<u8>, start: u64, end: u64| -> std::io::Result<bool> {
+            let (Ok(a), Ok(b)) = (usize::try_from(start), usize::try_from(end)) else {
+                return Ok(false);
+            };
+            if a > b || b > sparse.len() {
+                return Ok(false);
+            }
+            file.read_exact_at(&mut sparse[a..b], start)?;
+            Ok(true)
+        };
+        fill(&mut sparse, 0, 8)?;
+        fill(&mut sparse, len - 37, len)?;
+        let Ok(footer) = mcap::read::footer(&sparse) else {
+            return Ok(None);
+        };
+        if footer.summary_start == 0 || !fill(&mut sparse, footer.summary_start, len - 37)? {
+            return Ok(None);
+        }
+        let Ok(Some(summary)) = mcap::read::Summary::read(&sparse) else {
+            return Ok(None);
+        };
+        for m in &summary.metadata_indexes {
+            if !fill(&mut sparse, m.offset, m.offset.saturating_add(m.length))? {
+                return Ok(None);
+            }
+        }
+        let Some(head) = head_of(&sparse, &summary) else {
+            return Ok(None);
+        };
+        Ok(Some(IndexedFile { file, sparse, head }))
+    }
+
+    /// The session's topics, counts and metadata, from its summary.
+    pub fn head(&self) -> &Scan {
+        &self.head
+    }
+}
+
 /// Like [`scan`], but hands on only the messages of the topics `wanted` picks, and reads only
 /// the chunks that hold any: with the file's summary, chunks without a wanted channel (the
 /// node's outputs, which the recorder writes in chunks of their own) are skipped without being
 /// decompressed, and the next chunk is decompressed on a second thread while this one is read.
 /// Without a readable summary (a cut-off file), it is [`scan`] with the unwanted messages
 /// dropped. The returned scan lists every topic of the file.
-pub fn scan_topics(
-    bytes: &[u8],
+pub fn scan_topics<'a>(
+    source: impl Into<Source<'a>>,
     wanted: impl Fn(&TopicInfo) -> bool,
     mut visit: impl FnMut(&Scan, MessageView),
 ) -> Result<Scan, RecordError> {
-    let Some((mut s, chunks, topic_of_channel)) = indexed(bytes) else {
+    let (bytes, file) = match source.into() {
+        Source::Bytes(b) => (b, None),
+        Source::Indexed(f) => (&f.sparse[..], Some(&f.file)),
+    };
+    let indexed = indexed(bytes);
+    if indexed.is_none() && file.is_some() {
+        return Err(RecordError::Io(std::io::Error::other(
+            "the session's summary no longer reads",
+        )));
+    }
+    let Some((mut s, chunks, topic_of_channel)) = indexed else {
         let mut want: Vec<Option<bool>> = Vec::new();
         return scan(bytes, |s, m| {
             if want.len() < s.topics.len() {
@@ -371,8 +471,12 @@ pub fn scan_topics(
     std::thread::scope(|scope| {
         let (tx, rx) = std::sync::mpsc::sync_channel::<Result<Vec<u8>, String>>(2);
         scope.spawn(move || {
+            let mut record = Vec::new();
             for c in chunks {
-                let r = chunk_records(bytes, c);
+                let r = match file {
+                    Some(f) => read_chunk(f, c, &mut record).and_then(|()| chunk_records(&record)),
+                    None => chunk_at(bytes, c).and_then(chunk_records),
+                };
                 let failed = r.is_err();
                 if tx.send(r).is_err() || failed {
                     return;
@@ -430,17 +534,40 @@ fn indexed(bytes: &[u8]) -> Option<Indexed> {
     Some((head, chunks, topic_of_channel))
 }
 
-/// The decompressed records of the chunk that `index` points to, with the same checks as
-/// [`scan`].
-fn chunk_records(bytes: &[u8], index: &mcap::records::ChunkIndex) -> Result<Vec<u8>, String> {
-    use mcap::records::Record;
+/// The chunk record that `index` points to in a file in memory.
+fn chunk_at<'b>(bytes: &'b [u8], index: &mcap::records::ChunkIndex) -> Result<&'b [u8], String> {
     let start = usize::try_from(index.chunk_start_offset).unwrap_or(usize::MAX);
     let end = usize::try_from(index.chunk_length)
         .ok()
         .and_then(|l| start.checked_add(l))
         .filter(|&e| e <= bytes.len())
         .ok_or_else(|| "a chunk index points past the end of the file: damaged".to_string())?;
-    let record = &bytes[start..end];
+    Ok(&bytes[start..end])
+}
+
+/// The chunk record that `index` points to, read from `file` into `record`.
+fn read_chunk(
+    file: &std::fs::File,
+    index: &mcap::records::ChunkIndex,
+    record: &mut Vec<u8>,
+) -> Result<(), String> {
+    use std::os::unix::fs::FileExt;
+    let past_end = || "a chunk index points past the end of the file: damaged".to_string();
+    let len = usize::try_from(index.chunk_length)
+        .ok()
+        .filter(|&l| l as u64 <= MAX_CHUNK_BYTES)
+        .ok_or_else(past_end)?;
+    record.resize(len, 0);
+    file.read_exact_at(record, index.chunk_start_offset)
+        .map_err(|e| match e.kind() {
+            std::io::ErrorKind::UnexpectedEof => past_end(),
+            _ => format!("cannot read a chunk: {e}"),
+        })
+}
+
+/// The decompressed records of a chunk record, with the same checks as [`scan`].
+fn chunk_records(record: &[u8]) -> Result<Vec<u8>, String> {
+    use mcap::records::Record;
     let body = record
         .get(9..)
         .filter(|_| record[0] == mcap::records::op::CHUNK)

@@ -3,7 +3,7 @@
 //! new ones; predictions come out next to the measurements.
 
 use super::RecordError;
-use super::read::{MessageView, Scan, TopicInfo, same_type, scan_topics};
+use super::read::{MessageView, Scan, Source, TopicInfo, same_type, scan_topics};
 use crate::config::{NodeConfig, ParamMap, defaults, parse_value};
 use crate::ident::Estimate;
 use crate::model::Regime;
@@ -70,30 +70,30 @@ pub fn recorded_params(s: &Scan) -> Option<(ParamMap, String, String)> {
 
 /// Runs the session in `bytes` through a node with `cfg`. `on_row` gets every prediction next
 /// to its measurement; `on_output` gets inputs and outputs for an MCAP copy.
-pub fn reevaluate(
-    bytes: &[u8],
+pub fn reevaluate<'a>(
+    source: impl Into<Source<'a>>,
     cfg: NodeConfig,
     on_row: impl FnMut(&Row),
     on_output: impl FnMut(Output),
 ) -> Result<Summary, RecordError> {
-    modelled(bytes, cfg, true, on_row, on_output)
+    modelled(source.into(), cfg, true, on_row, on_output)
 }
 
 /// [`reevaluate`] for rows only: the node's output messages of legs with F/T are not made
 /// (their rows come from the matched samples either way), which saves a model evaluation and
 /// two messages per leg and joint state. `on_output` then gets the inputs, the parameters and
 /// the predictions of legs without F/T.
-pub fn reevaluate_rows(
-    bytes: &[u8],
+pub fn reevaluate_rows<'a>(
+    source: impl Into<Source<'a>>,
     cfg: NodeConfig,
     on_row: impl FnMut(&Row),
     on_output: impl FnMut(Output),
 ) -> Result<Summary, RecordError> {
-    modelled(bytes, cfg, false, on_row, on_output)
+    modelled(source.into(), cfg, false, on_row, on_output)
 }
 
 fn modelled(
-    bytes: &[u8],
+    source: Source,
     cfg: NodeConfig,
     outputs_for_ft_legs: bool,
     on_row: impl FnMut(&Row),
@@ -102,20 +102,20 @@ fn modelled(
     let mut core = NodeCore::new(cfg);
     core.keep_matches(true);
     core.outputs_for_ft_legs(outputs_for_ft_legs);
-    run_core(bytes, core, true, on_row, on_output)
+    run_core(source, core, true, on_row, on_output)
 }
 
 /// The measured F/T samples of every leg, each with the joint angle nearest in time (as the
 /// node matches them; F/T in the leg frame turned into the hip frame), without running the
 /// model: what the diagnosis reads. Legs without F/T get none.
-pub fn measured_samples(
-    bytes: &[u8],
+pub fn measured_samples<'a>(
+    source: impl Into<Source<'a>>,
     cfg: NodeConfig,
 ) -> Result<(Vec<Vec<crate::ident::Sample>>, Summary), RecordError> {
     let mut out = vec![Vec::new(); cfg.legs.len()];
     let core = NodeCore::matching_only(cfg);
     let sum = run_core(
-        bytes,
+        source.into(),
         core,
         false,
         |r| {
@@ -134,7 +134,7 @@ pub fn measured_samples(
 }
 
 fn run_core(
-    bytes: &[u8],
+    source: Source,
     mut core: NodeCore,
     predict: bool,
     mut on_row: impl FnMut(&Row),
@@ -178,7 +178,7 @@ fn run_core(
     // the one already held.
     let mut js = JointState::default();
     let mut ws = vec![WrenchStamped::default(); legs];
-    let scan_result = scan_topics(bytes, wanted, |scan, m| {
+    let scan_result = scan_topics(source, wanted, |scan, m| {
         if roles.len() < scan.topics.len() {
             roles.resize(scan.topics.len(), None);
         }
