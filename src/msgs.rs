@@ -347,7 +347,9 @@ impl<'a> CdrReader<'a> {
         let text = bytes.split_last().map_or(bytes, |(_, text)| text);
         if text != s.as_bytes() {
             s.clear();
-            s.push_str(std::str::from_utf8(text).map_err(|_| CdrError::NotUtf8 { at: self.at + 4 })?);
+            s.push_str(
+                std::str::from_utf8(text).map_err(|_| CdrError::NotUtf8 { at: self.at + 4 })?,
+            );
         }
         self.at += len;
         Ok(())
@@ -358,7 +360,9 @@ impl<'a> CdrReader<'a> {
     fn count(&mut self, min_bytes: usize) -> Result<usize, CdrError> {
         let n = self.u32()? as usize;
         if n.saturating_mul(min_bytes) > self.body.len().saturating_sub(self.at) {
-            return Err(CdrError::Truncated { at: self.body.len() + 4 });
+            return Err(CdrError::Truncated {
+                at: self.body.len() + 4,
+            });
         }
         Ok(n)
     }
@@ -506,7 +510,11 @@ mod tests {
             assert_eq!(format!("{js:?}"), format!("{m:?}"));
             for cut in 0..b.len() {
                 let ours = JointState::default().decode_into(&b[..cut]).is_ok();
-                assert_eq!(ours, from_cdr::<JointState>(&b[..cut]).is_ok(), "cut at {cut}");
+                assert_eq!(
+                    ours,
+                    from_cdr::<JointState>(&b[..cut]).is_ok(),
+                    "cut at {cut}"
+                );
             }
         }
         let b = to_cdr(&w).unwrap();
@@ -515,7 +523,11 @@ mod tests {
         assert_eq!(ws, w);
         for cut in 0..b.len() {
             let ours = WrenchStamped::default().decode_into(&b[..cut]).is_ok();
-            assert_eq!(ours, from_cdr::<WrenchStamped>(&b[..cut]).is_ok(), "cut at {cut}");
+            assert_eq!(
+                ours,
+                from_cdr::<WrenchStamped>(&b[..cut]).is_ok(),
+                "cut at {cut}"
+            );
         }
         // A name that is not UTF-8, and a sequence longer than the bytes left.
         let mut bad = to_cdr(&m).unwrap();

@@ -10,7 +10,7 @@ use crate::dataset::read_samples_csv;
 use crate::diagnose::{DiagnoseOptions, Diagnosis, Report, diagnose};
 use crate::ident::Sample;
 use crate::model::{Plate, TerzaghiModel};
-use crate::record::read::{scan, summary_head};
+use crate::record::read::{IndexedFile, Scan, Source, scan};
 use crate::record::reevaluate::measured_samples;
 use anyhow::{Context as _, Result, bail};
 use clap::Args;
@@ -110,13 +110,23 @@ pub fn diagnose_to_dir(a: &DiagnoseArgs) -> Result<Done> {
         folds: a.folds,
         ..Default::default()
     };
-    let bytes = read_file(&a.log)?;
-    let legs = if bytes.starts_with(b"\x89MCAP") {
-        from_mcap(a, &bytes)?
-    } else {
-        from_csv(a)?
+    // A finished MCAP file is read chunk by chunk from its summary; anything else whole.
+    let indexed =
+        IndexedFile::open(&a.log).with_context(|| format!("cannot read {}", a.log.display()))?;
+    let legs = match &indexed {
+        Some(file) => from_mcap(a, file.into(), file.head().clone())?,
+        None => {
+            let bytes = read_file(&a.log)?;
+            if bytes.starts_with(b"\x89MCAP") {
+                // Cut off (no summary): scanned for its topics and parameters, to say why.
+                let head = scan(&bytes, |_, _| {}).with_context(|| a.log.display().to_string())?;
+                from_mcap(a, (&bytes).into(), head)?
+            } else {
+                from_csv(a)?
+            }
+        }
     };
-    drop(bytes);
+    drop(indexed);
     let results = diagnose_all(&legs, &opts);
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("cannot create the output directory {}", a.out.display()))?;
@@ -291,12 +301,7 @@ fn from_csv(a: &DiagnoseArgs) -> Result<Vec<LegLog>> {
     }])
 }
 
-fn from_mcap(a: &DiagnoseArgs, bytes: &[u8]) -> Result<Vec<LegLog>> {
-    // The summary holds the parameters; a file without one is read whole to say why.
-    let head = match summary_head(bytes) {
-        Some(h) => h,
-        None => scan(bytes, |_, _| {}).with_context(|| a.log.display().to_string())?,
-    };
+fn from_mcap(a: &DiagnoseArgs, source: Source, head: Scan) -> Result<Vec<LegLog>> {
     if !head.complete {
         bail!(
             "{} is cut off ({}): recover it first with `terzaghi recover {} -o FIXED.mcap`",
@@ -338,7 +343,7 @@ fn from_mcap(a: &DiagnoseArgs, bytes: &[u8]) -> Result<Vec<LegLog>> {
         );
     }
     let (mut samples, read) =
-        measured_samples(bytes, cfg.clone()).with_context(|| a.log.display().to_string())?;
+        measured_samples(source, cfg.clone()).with_context(|| a.log.display().to_string())?;
     if !read.complete {
         bail!(
             "{} is damaged ({}): recover it first with `terzaghi recover {} -o FIXED.mcap`",

@@ -639,7 +639,9 @@ fn nearest(history: &VecDeque<(i64, f64)>, t_ns: i64, max_dt_ns: i64) -> Option<
     // last angles, so look there before searching the whole history.
     let n = history.len();
     let i = match (n.checked_sub(2).map(|j| history[j].0), history.back()) {
-        (Some(before_last), Some(&(last, _))) if before_last < t_ns => n - usize::from(last >= t_ns),
+        (Some(before_last), Some(&(last, _))) if before_last < t_ns => {
+            n - usize::from(last >= t_ns)
+        }
         _ => history.partition_point(|&(t, _)| t < t_ns),
     };
     let before = i.checked_sub(1).map(|j| history[j]);
@@ -803,7 +805,12 @@ mod tests {
         assert_eq!(nearest(&h, 100, 5), None);
         assert_eq!(nearest(&VecDeque::new(), 1, 5), None);
         // Against every entry of the history: the nearest stamp, the earlier one on a tie.
-        for h in [vec![10], vec![10, 20], vec![10, 20, 20, 30], vec![10, 20, 30, 40]] {
+        for h in [
+            vec![10],
+            vec![10, 20],
+            vec![10, 20, 20, 30],
+            vec![10, 20, 30, 40],
+        ] {
             let h: VecDeque<(i64, f64)> = h.iter().map(|&t| (t, t as f64)).collect();
             for t in 0..=50 {
                 let brute = h

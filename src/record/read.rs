@@ -294,11 +294,28 @@ pub fn same_type(a: &str, b: &str) -> bool {
 /// messages: `None` when the file has no readable summary (cut off, or written without one);
 /// then [`scan`] is the way.
 pub fn summary_head(bytes: &[u8]) -> Option<Scan> {
-    head_of(bytes, &mcap::read::Summary::read(bytes).ok()??)
+    head_of(&mcap::read::Summary::read(bytes).ok()??, |i| {
+        metadata_in(bytes, i)
+    })
 }
 
-/// [`summary_head`] from a summary already read.
-fn head_of(bytes: &[u8], summary: &mcap::read::Summary) -> Option<Scan> {
+/// The metadata record that `index` points to in a file in memory, if it is there.
+fn metadata_in(
+    bytes: &[u8],
+    index: &mcap::records::MetadataIndex,
+) -> Option<mcap::records::Metadata> {
+    let end = index.offset.checked_add(index.length)?;
+    if end > bytes.len() as u64 {
+        return None;
+    }
+    mcap::read::metadata(bytes, index).ok()
+}
+
+/// [`summary_head`] from a summary already read, with its metadata records from `metadata`.
+fn head_of(
+    summary: &mcap::read::Summary,
+    metadata: impl Fn(&mcap::records::MetadataIndex) -> Option<mcap::records::Metadata>,
+) -> Option<Scan> {
     let stats = summary.stats.as_ref()?;
     let mut s = Scan {
         complete: true,
@@ -324,7 +341,7 @@ fn head_of(bytes: &[u8], summary: &mcap::read::Summary) -> Option<Scan> {
         });
     }
     for index in &summary.metadata_indexes {
-        let md = mcap::read::metadata(bytes, index).ok()?;
+        let md = metadata(index)?;
         s.metadata.insert(md.name, md.metadata);
     }
     Some(s)
@@ -355,68 +372,67 @@ impl<'a> From<&'a IndexedFile> for Source<'a> {
     }
 }
 
-/// A finished session file of which only the summary section and the metadata records are in
-/// memory; [`scan_topics`] reads the chunks it wants from the file as it goes. A long session
-/// then needs neither its size in memory nor the time to read chunks that are passed over.
-///
-/// The summary is read with the mcap crate, which takes a whole file's bytes: `sparse` is a
-/// buffer of the file's length (zeroed, so that pages never written are never touched) with the
-/// file's start, its summary and its metadata records in place, and only those are read from it.
+/// A finished session file of which only the summary (and the metadata records it points to)
+/// is read up front; [`scan_topics`] reads the chunks it wants from the file as it goes. A long
+/// session then needs neither its size in memory nor the time to read chunks that are passed
+/// over.
 pub struct IndexedFile {
     file: std::fs::File,
-    sparse: Vec<u8>,
-    head: Scan,
+    indexed: Indexed,
 }
 
 impl IndexedFile {
     /// `None` if the file has no readable summary (a cut-off file, or not MCAP): read it whole.
     pub fn open(path: &std::path::Path) -> std::io::Result<Option<IndexedFile>> {
+        use mcap::sans_io::{SummaryReadEvent, SummaryReader, SummaryReaderOptions};
+        use std::io::{Read, Seek};
         use std::os::unix::fs::FileExt;
-        let file = std::fs::File::open(path)?;
+        let mut file = std::fs::File::open(path)?;
         let len = file.metadata()?.len();
-        // Magic and footer: 8 + 29 + 8 bytes at least, with a header record in between.
-        let Ok(size) = usize::try_from(len) else {
+        let mut reader =
+            SummaryReader::new_with_options(SummaryReaderOptions::default().with_file_size(len));
+        while let Some(event) = reader.next_event() {
+            match event {
+                Ok(SummaryReadEvent::ReadRequest(n)) => {
+                    let got = file.read(reader.insert(n))?;
+                    reader.notify_read(got);
+                }
+                Ok(SummaryReadEvent::SeekRequest(to)) => {
+                    let at = file.seek(to)?;
+                    reader.notify_seeked(at);
+                }
+                Err(_) => return Ok(None),
+            }
+        }
+        let Some(summary) = reader.finish() else {
             return Ok(None);
         };
-        if size < 64 {
-            return Ok(None);
-        }
-        let mut sparse = vec![0u8; size];
-        let fill = |sparse: &mut Vec<u8>, start: u64, end: u64| -> std::io::Result<bool> {
-            let (Ok(a), Ok(b)) = (usize::try_from(start), usize::try_from(end)) else {
-                return Ok(false);
+        // Each metadata record, read on its own and parsed as if it began the file.
+        let metadata = |i: &mcap::records::MetadataIndex| {
+            let end = i.offset.checked_add(i.length)?;
+            if end > len || i.length > MAX_CHUNK_BYTES {
+                return None;
+            }
+            let mut record = vec![0u8; i.length as usize];
+            file.read_exact_at(&mut record, i.offset).ok()?;
+            let at_start = mcap::records::MetadataIndex {
+                offset: 0,
+                ..i.clone()
             };
-            if a > b || b > sparse.len() {
-                return Ok(false);
-            }
-            file.read_exact_at(&mut sparse[a..b], start)?;
-            Ok(true)
+            mcap::read::metadata(&record, &at_start).ok()
         };
-        fill(&mut sparse, 0, 8)?;
-        fill(&mut sparse, len - 37, len)?;
-        let Ok(footer) = mcap::read::footer(&sparse) else {
+        let Some(head) = head_of(&summary, metadata) else {
             return Ok(None);
         };
-        if footer.summary_start == 0 || !fill(&mut sparse, footer.summary_start, len - 37)? {
-            return Ok(None);
-        }
-        let Ok(Some(summary)) = mcap::read::Summary::read(&sparse) else {
-            return Ok(None);
-        };
-        for m in &summary.metadata_indexes {
-            if !fill(&mut sparse, m.offset, m.offset.saturating_add(m.length))? {
-                return Ok(None);
-            }
-        }
-        let Some(head) = head_of(&sparse, &summary) else {
-            return Ok(None);
-        };
-        Ok(Some(IndexedFile { file, sparse, head }))
+        Ok(Some(IndexedFile {
+            indexed: indexed_from(summary, head),
+            file,
+        }))
     }
 
     /// The session's topics, counts and metadata, from its summary.
     pub fn head(&self) -> &Scan {
-        &self.head
+        &self.indexed.0
     }
 }
 
@@ -431,16 +447,10 @@ pub fn scan_topics<'a>(
     wanted: impl Fn(&TopicInfo) -> bool,
     mut visit: impl FnMut(&Scan, MessageView),
 ) -> Result<Scan, RecordError> {
-    let (bytes, file) = match source.into() {
-        Source::Bytes(b) => (b, None),
-        Source::Indexed(f) => (&f.sparse[..], Some(&f.file)),
+    let (bytes, file, indexed): (&[u8], _, _) = match source.into() {
+        Source::Bytes(b) => (b, None, indexed(b)),
+        Source::Indexed(f) => (&[], Some(&f.file), Some(f.indexed.clone())),
     };
-    let indexed = indexed(bytes);
-    if indexed.is_none() && file.is_some() {
-        return Err(RecordError::Io(std::io::Error::other(
-            "the session's summary no longer reads",
-        )));
-    }
     let Some((mut s, chunks, topic_of_channel)) = indexed else {
         let mut want: Vec<Option<bool>> = Vec::new();
         return scan(bytes, |s, m| {
@@ -522,7 +532,11 @@ type Indexed = (Scan, Vec<mcap::records::ChunkIndex>, Vec<Option<usize>>);
 /// index of its topic in the head.
 fn indexed(bytes: &[u8]) -> Option<Indexed> {
     let summary = mcap::read::Summary::read(bytes).ok()??;
-    let head = head_of(bytes, &summary)?;
+    let head = head_of(&summary, |i| metadata_in(bytes, i))?;
+    Some(indexed_from(summary, head))
+}
+
+fn indexed_from(summary: mcap::read::Summary, head: Scan) -> Indexed {
     let mut ids: Vec<&u16> = summary.channels.keys().collect();
     ids.sort();
     let mut topic_of_channel = vec![None; ids.last().map_or(0, |&&id| id as usize + 1)];
@@ -531,7 +545,7 @@ fn indexed(bytes: &[u8]) -> Option<Indexed> {
     }
     let mut chunks = summary.chunk_indexes;
     chunks.sort_by_key(|c| c.chunk_start_offset);
-    Some((head, chunks, topic_of_channel))
+    (head, chunks, topic_of_channel)
 }
 
 /// The chunk record that `index` points to in a file in memory.
