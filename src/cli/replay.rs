@@ -523,3 +523,69 @@ fn run_dds(a: &ReplayArgs) -> Result<()> {
         Ok(())
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::Regime;
+
+    /// The hand-written rows read back with the csv crate: the header names the fields in
+    /// order, a leg's name with a comma or a quote is quoted, a missing measurement is an empty
+    /// field, and floats come back exactly (non-finite ones as NaN and inf).
+    #[test]
+    fn csv_rows_read_back_field_for_field() {
+        let legs = ["front_left".to_string(), "odd, \"leg\"".to_string()];
+        let mut rows = CsvRows::new(&legs).unwrap();
+        let mut text = CSV_HEADER.as_bytes().to_vec();
+        let row = |leg, measured: Option<f64>, predicted: f64| Row {
+            t_s: 1_700_000_000.001,
+            leg,
+            beta_rad: 0.1 + 0.2,
+            regime: Regime::Penetration,
+            measured_drag_n: measured,
+            measured_lift_n: measured.map(|m| -m),
+            predicted_drag_n: predicted,
+            predicted_lift_n: 1e-300,
+            predicted_hip_torque_nm: -2.5e21,
+            b_k: 32.61,
+            a: 2.3,
+            identified: leg == 1,
+        };
+        let written = [
+            row(0, Some(12.345678901234567), 0.0),
+            row(1, None, f64::NAN),
+            row(1, Some(-0.0), f64::INFINITY),
+        ];
+        for r in &written {
+            rows.push(&mut text, r);
+        }
+        let mut rdr = csv::Reader::from_reader(&text[..]);
+        let header: Vec<String> = rdr.headers().unwrap().iter().map(String::from).collect();
+        assert_eq!(header.len(), 12);
+        assert_eq!(header[0], "t_s");
+        assert_eq!(header[11], "identified");
+        let back: Vec<csv::StringRecord> = rdr.records().map(|r| r.unwrap()).collect();
+        assert_eq!(back.len(), written.len());
+        for (b, w) in back.iter().zip(&written) {
+            assert_eq!(b.len(), 12, "{b:?}");
+            let num = |i: usize| b[i].parse::<f64>().unwrap();
+            assert_eq!(num(0), w.t_s);
+            assert_eq!(&b[1], legs[w.leg].as_str());
+            assert_eq!(num(2), w.beta_rad);
+            assert_eq!(&b[3], "penetration");
+            match w.measured_drag_n {
+                Some(m) => {
+                    assert_eq!(num(4).to_bits(), m.to_bits());
+                    assert_eq!(num(5), -m);
+                }
+                None => assert!(b[4].is_empty() && b[5].is_empty()),
+            }
+            let p = num(6);
+            assert!(p == w.predicted_drag_n || (p.is_nan() && w.predicted_drag_n.is_nan()));
+            assert_eq!(num(7), 1e-300);
+            assert_eq!(num(8), -2.5e21);
+            assert_eq!((num(9), num(10)), (32.61, 2.3));
+            assert_eq!(&b[11], if w.identified { "true" } else { "false" });
+        }
+    }
+}
