@@ -16,7 +16,7 @@ mod node;
 mod param;
 mod predict;
 mod record;
-pub mod replay;
+mod replay;
 mod simulate;
 
 use crate::model::{FittingWidth, Medium, Plate, TerzaghiModel, medium as presets};
