@@ -570,7 +570,12 @@ fn read_chunk(
     let len = usize::try_from(index.chunk_length)
         .ok()
         .filter(|&l| l as u64 <= MAX_CHUNK_BYTES)
-        .ok_or_else(past_end)?;
+        .ok_or_else(|| {
+            format!(
+                "a chunk index declares a chunk of {} bytes: damaged",
+                index.chunk_length
+            )
+        })?;
     record.resize(len, 0);
     file.read_exact_at(record, index.chunk_start_offset)
         .map_err(|e| match e.kind() {
