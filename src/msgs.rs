@@ -245,12 +245,19 @@ pub enum CdrError {
     TooShort(usize),
     #[error("unsupported CDR encapsulation {0:#06x} (plain CDR, big or little endian, only)")]
     Encapsulation(u16),
+    // Not `#[from]`, which would make the inner error the source too, printed twice by `{e:#}`.
     #[error("CDR payload does not decode: {0}")]
-    Decode(#[from] cdr_encoding::Error),
+    Decode(cdr_encoding::Error),
     #[error("CDR payload ends at byte {at} inside a field")]
     Truncated { at: usize },
     #[error("CDR string at byte {at} is not UTF-8")]
     NotUtf8 { at: usize },
+}
+
+impl From<cdr_encoding::Error> for CdrError {
+    fn from(e: cdr_encoding::Error) -> Self {
+        CdrError::Decode(e)
+    }
 }
 
 /// Decodes CDR bytes with their encapsulation header (big- or little-endian plain CDR).

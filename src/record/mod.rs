@@ -26,12 +26,20 @@ pub use recover::recover;
 /// What went wrong with a recording.
 #[derive(Debug, thiserror::Error)]
 pub enum RecordError {
+    // Not `#[from]`, which would make the inner error the source as well, and `{e:#}` would
+    // print its text twice.
     #[error("MCAP: {0}")]
-    Mcap(#[from] mcap::McapError),
+    Mcap(mcap::McapError),
     #[error("cannot encode a message on {topic}: {error}")]
     Encode { topic: String, error: String },
-    #[error("{0}")]
+    #[error(transparent)]
     Io(#[from] std::io::Error),
+}
+
+impl From<mcap::McapError> for RecordError {
+    fn from(e: mcap::McapError) -> Self {
+        RecordError::Mcap(e)
+    }
 }
 
 /// The QoS a topic was offered with, as rosbag2 records it.
@@ -541,6 +549,19 @@ mod tests {
             "{s:?}"
         );
         assert_eq!(half[..], got[..half.len()]);
+    }
+
+    /// An error's text appears once in `{:#}` (how the CLI prints errors), not once more as its
+    /// own source.
+    #[test]
+    fn record_errors_say_what_is_wrong_once() {
+        let e = anyhow::Error::from(read::scan(b"not mcap", |_, _| {}).unwrap_err());
+        let text = format!("{e:#}");
+        assert_eq!(text.matches("not an MCAP file").count(), 1, "{text}");
+        let e = anyhow::Error::from(RecordError::from(mcap::McapError::BadMagic));
+        let text = format!("{e:#}");
+        assert!(text.starts_with("MCAP: "), "{text}");
+        assert_eq!(text.matches(&mcap::McapError::BadMagic.to_string()).count(), 1, "{text}");
     }
 
     #[test]
