@@ -124,6 +124,15 @@ pub fn reevaluation_config(
     s: &Scan,
     file: &std::path::Path,
 ) -> Result<NodeConfig> {
+    Ok(reevaluation_params(a_params, s, file)?.0)
+}
+
+/// [`reevaluation_config`] with the parameters it was made from.
+fn reevaluation_params(
+    a_params: &Option<PathBuf>,
+    s: &Scan,
+    file: &std::path::Path,
+) -> Result<(NodeConfig, crate::config::ParamMap)> {
     let recorded = recorded_params(s);
     let (node, ns) = recorded
         .as_ref()
@@ -143,7 +152,8 @@ pub fn reevaluation_config(
             file.display()
         ),
     };
-    Ok(NodeConfig::from_params(&params, &node, &ns, &[])?)
+    let cfg = NodeConfig::from_params(&params, &node, &ns, &[])?;
+    Ok((cfg, params))
 }
 
 fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
@@ -160,7 +170,7 @@ fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
             ((&whole).into(), head)
         }
     };
-    let cfg = reevaluation_config(&a.params_file, &head, &a.file)?;
+    let (cfg, params) = reevaluation_params(&a.params_file, &head, &a.file)?;
     let legs: Vec<String> = cfg.legs.iter().map(|l| l.name.clone()).collect();
     let out_kind = a
         .output
@@ -189,7 +199,9 @@ fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
             let path = a.output.clone().unwrap_or_default();
             let mut result = None;
             write_atomically(&path, |w| {
-                let mut writer = SessionWriter::new(w, RecordOptions::default())?;
+                // The parameters it was re-evaluated with, so that it can be re-run in turn.
+                let opts = RecordOptions::with_node_params(&params, &cfg.node_name, &cfg.namespace);
+                let mut writer = SessionWriter::new(w, opts)?;
                 let mut err: Option<anyhow::Error> = None;
                 let resolve = |rel: &str| {
                     crate::config::resolve_topic(rel, &cfg.namespace, &cfg.node_name, &[])

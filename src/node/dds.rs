@@ -463,17 +463,7 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
     });
     // The recorder, if asked for: a failure to start is reported, and the node runs on.
     let recorder: Option<Arc<Recorder>> = cfg.record.as_ref().and_then(|path| {
-        let mut params: std::collections::BTreeMap<String, String> = setup
-            .params
-            .iter()
-            .map(|(k, v)| (k.clone(), v.to_string()))
-            .collect();
-        params.insert("__node".into(), cfg.node_name.clone());
-        params.insert("__ns".into(), cfg.namespace.clone());
-        let opts = RecordOptions {
-            params,
-            ..Default::default()
-        };
+        let opts = RecordOptions::with_node_params(&setup.params, &cfg.node_name, &cfg.namespace);
         match Recorder::start(path, opts, 1 << 16) {
             Ok(r) => Some(Arc::new(r)),
             Err(e) => {

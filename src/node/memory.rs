@@ -49,16 +49,7 @@ pub fn run<P: Publish>(
     let topics = Topics::new(&cfg);
     let recorder = match &cfg.record {
         Some(path) => {
-            let mut meta: std::collections::BTreeMap<String, String> = params
-                .iter()
-                .map(|(k, v)| (k.clone(), v.to_string()))
-                .collect();
-            meta.insert("__node".into(), cfg.node_name.clone());
-            meta.insert("__ns".into(), cfg.namespace.clone());
-            let opts = RecordOptions {
-                params: meta,
-                ..Default::default()
-            };
+            let opts = RecordOptions::with_node_params(params, &cfg.node_name, &cfg.namespace);
             Some(Recorder::start(path, opts, 1 << 16)?)
         }
         None => None,

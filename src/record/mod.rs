@@ -105,6 +105,27 @@ impl Default for RecordOptions {
     }
 }
 
+impl RecordOptions {
+    /// The default options, with a node's parameters (and its name and namespace) to store as
+    /// the session's `terzaghi_params` metadata, so that the session can be re-run exactly.
+    pub fn with_node_params(
+        params: &crate::config::ParamMap,
+        node_name: &str,
+        namespace: &str,
+    ) -> Self {
+        let mut meta: BTreeMap<String, String> = params
+            .iter()
+            .map(|(k, v)| (k.clone(), v.to_string()))
+            .collect();
+        meta.insert("__node".into(), node_name.to_string());
+        meta.insert("__ns".into(), namespace.to_string());
+        RecordOptions {
+            params: meta,
+            ..Default::default()
+        }
+    }
+}
+
 struct Channel {
     id: u16,
     type_name: String,
@@ -561,7 +582,11 @@ mod tests {
         let e = anyhow::Error::from(RecordError::from(mcap::McapError::BadMagic));
         let text = format!("{e:#}");
         assert!(text.starts_with("MCAP: "), "{text}");
-        assert_eq!(text.matches(&mcap::McapError::BadMagic.to_string()).count(), 1, "{text}");
+        assert_eq!(
+            text.matches(&mcap::McapError::BadMagic.to_string()).count(),
+            1,
+            "{text}"
+        );
     }
 
     #[test]
