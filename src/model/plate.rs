@@ -65,7 +65,11 @@ impl Plate {
     /// Submerged length `l_s = l - h / sin(beta)` for a wrapped `beta` in `[0, 2pi)`, clamped
     /// at 0: the plate is out of the medium when `sin(beta) <= 0` (pointing up) or `l_s <= 0`.
     pub fn submerged_length_m(&self, beta_rad: f64) -> f64 {
-        let s = beta_rad.sin();
+        self.submerged_length_at_sin_m(beta_rad.sin())
+    }
+
+    /// [`Self::submerged_length_m`] from `sin(beta)`, for a caller that has it already.
+    pub(crate) fn submerged_length_at_sin_m(&self, s: f64) -> f64 {
         if s <= 0.0 {
             return 0.0;
         }

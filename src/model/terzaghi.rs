@@ -183,7 +183,8 @@ impl TerzaghiModel {
 
     /// [`TerzaghiModel::evaluate`] for an angle already wrapped to `[0, 2pi)`.
     fn evaluate_wrapped(&self, beta: f64) -> LegForce {
-        let l_s = self.plate.submerged_length_m(beta);
+        let (sin_b, cos_b) = beta.sin_cos();
+        let l_s = self.plate.submerged_length_at_sin_m(sin_b);
         if l_s <= 0.0 {
             return LegForce {
                 beta_rad: beta,
@@ -200,7 +201,6 @@ impl TerzaghiModel {
             };
         }
         let c = &self.c;
-        let (sin_b, cos_b) = beta.sin_cos();
         let b_e = self.plate.width_m() * self.width.b_k() * (-beta * self.ln_a).exp();
         let w = b_e * c.lambda; // N/m^3 * m = N/m^2 per unit side-view area
         let theta = c.theta_end - beta; // Eq. (13)
