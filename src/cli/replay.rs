@@ -67,6 +67,10 @@ const CSV_HEADER: &str = "t_s,leg,beta_rad,regime,measured_drag_n,measured_lift_
 struct CsvRows {
     legs: Vec<Vec<u8>>,
     float: zmij::Buffer,
+    /// The last row's time and its text: the legs' samples of one instant come one after the
+    /// other, and their time is written once.
+    t_s: Option<u64>,
+    t_s_text: Vec<u8>,
 }
 
 impl CsvRows {
@@ -85,6 +89,8 @@ impl CsvRows {
         Ok(CsvRows {
             legs,
             float: zmij::Buffer::new(),
+            t_s: None,
+            t_s_text: Vec::new(),
         })
     }
 
@@ -94,7 +100,14 @@ impl CsvRows {
     }
 
     fn push(&mut self, out: &mut Vec<u8>, r: &Row) {
-        self.number(out, r.t_s);
+        if self.t_s != Some(r.t_s.to_bits()) {
+            self.t_s = Some(r.t_s.to_bits());
+            self.t_s_text.clear();
+            let mut text = std::mem::take(&mut self.t_s_text);
+            self.number(&mut text, r.t_s);
+            self.t_s_text = text;
+        }
+        out.extend_from_slice(&self.t_s_text);
         out.extend_from_slice(&self.legs[r.leg]);
         self.number(out, r.beta_rad);
         out.extend_from_slice(r.regime.as_str().as_bytes());
@@ -563,11 +576,13 @@ mod tests {
             a: 2.3,
             identified: leg == 1,
         };
-        let written = [
+        let mut written = [
             row(0, Some(12.345678901234567), 0.0),
             row(1, None, f64::NAN),
             row(1, Some(-0.0), f64::INFINITY),
         ];
+        // Two rows of one instant, then another instant.
+        written[2].t_s = 1_700_000_000.002;
         for r in &written {
             rows.push(&mut text, r);
         }
