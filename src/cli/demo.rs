@@ -101,9 +101,9 @@ pub fn run(a: DemoArgs) -> Result<()> {
     };
     view.finish();
     let run_s = started.elapsed().as_secs_f64();
-    // What the recording holds, from its summary.
-    let recorded = crate::record::read::summary_head(&std::fs::read(&session_path)?)
-        .map_or(recorded, |h| h.messages);
+    // What the recording holds, from its summary (without reading the whole file).
+    let recorded = crate::record::read::IndexedFile::open(&session_path)?
+        .map_or(recorded, |f| f.head().messages);
 
     eprintln!("diagnosing the recording...");
     let started = Instant::now();

@@ -94,8 +94,8 @@ impl CsvRows {
         })
     }
 
-    fn number(&mut self, out: &mut Vec<u8>, v: f64) {
-        out.extend_from_slice(self.float.format(v).as_bytes());
+    fn number(float: &mut zmij::Buffer, out: &mut Vec<u8>, v: f64) {
+        out.extend_from_slice(float.format(v).as_bytes());
         out.push(b',');
     }
 
@@ -103,18 +103,16 @@ impl CsvRows {
         if self.t_s != Some(r.t_s.to_bits()) {
             self.t_s = Some(r.t_s.to_bits());
             self.t_s_text.clear();
-            let mut text = std::mem::take(&mut self.t_s_text);
-            self.number(&mut text, r.t_s);
-            self.t_s_text = text;
+            Self::number(&mut self.float, &mut self.t_s_text, r.t_s);
         }
         out.extend_from_slice(&self.t_s_text);
         out.extend_from_slice(&self.legs[r.leg]);
-        self.number(out, r.beta_rad);
+        Self::number(&mut self.float, out, r.beta_rad);
         out.extend_from_slice(r.regime.as_str().as_bytes());
         out.push(b',');
         for m in [r.measured_drag_n, r.measured_lift_n] {
             match m {
-                Some(v) => self.number(out, v),
+                Some(v) => Self::number(&mut self.float, out, v),
                 None => out.push(b','),
             }
         }
@@ -125,7 +123,7 @@ impl CsvRows {
             r.b_k,
             r.a,
         ] {
-            self.number(out, v);
+            Self::number(&mut self.float, out, v);
         }
         out.extend_from_slice(if r.identified { b"true\n" } else { b"false\n" });
     }

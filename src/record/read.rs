@@ -378,6 +378,8 @@ impl<'a> From<&'a IndexedFile> for Source<'a> {
 /// over.
 pub struct IndexedFile {
     file: std::fs::File,
+    /// The file's length when it was opened.
+    len: u64,
     indexed: Indexed,
 }
 
@@ -427,6 +429,7 @@ impl IndexedFile {
         Ok(Some(IndexedFile {
             indexed: indexed_from(summary, head),
             file,
+            len,
         }))
     }
 
@@ -449,7 +452,7 @@ pub fn scan_topics<'a>(
 ) -> Result<Scan, RecordError> {
     let (bytes, file, indexed): (&[u8], _, _) = match source.into() {
         Source::Bytes(b) => (b, None, indexed(b)),
-        Source::Indexed(f) => (&[], Some(&f.file), Some(f.indexed.clone())),
+        Source::Indexed(f) => (&[], Some((&f.file, f.len)), Some(f.indexed.clone())),
     };
     let Some((mut s, chunks, topic_of_channel)) = indexed else {
         let mut want: Vec<Option<bool>> = Vec::new();
@@ -560,13 +563,19 @@ fn chunk_at<'b>(bytes: &'b [u8], index: &mcap::records::ChunkIndex) -> Result<&'
 }
 
 /// The chunk record that `index` points to, read from `file` into `record`.
+/// `file_len` is the file's length when it was opened: an index past it is refused before
+/// anything is allocated for it.
 fn read_chunk(
-    file: &std::fs::File,
+    (file, file_len): (&std::fs::File, u64),
     index: &mcap::records::ChunkIndex,
     record: &mut Vec<u8>,
 ) -> Result<(), String> {
     use std::os::unix::fs::FileExt;
     let past_end = || "a chunk index points past the end of the file: damaged".to_string();
+    let end = index.chunk_start_offset.checked_add(index.chunk_length);
+    if end.is_none_or(|e| e > file_len) {
+        return Err(past_end());
+    }
     let len = usize::try_from(index.chunk_length)
         .ok()
         .filter(|&l| l as u64 <= MAX_CHUNK_BYTES)
