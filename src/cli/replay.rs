@@ -4,6 +4,7 @@
 use super::mcap_tools::{progress, read_file};
 use super::write_atomically;
 use crate::config::{NodeConfig, RosArgs, load_params};
+use crate::model::Regime;
 use crate::msgs::{DiagnosticArray, JointState, LegForce, ModelParams, RosMessage, WrenchStamped};
 use crate::node::dds::{publisher, tool_node};
 use crate::record::read::{IndexedFile, Scan, Source, read_session, same_type, scan};
@@ -65,12 +66,99 @@ const CSV_HEADER: &str = "t_s,leg,beta_rad,regime,measured_drag_n,measured_lift_
 /// quoting checks and ryu were two thirds of the time of a long re-evaluation. Floats are in
 /// their shortest exact form (zmij); legs' names are quoted by the csv crate, once.
 struct CsvRows {
-    legs: Vec<Vec<u8>>,
+    /// Each leg's field, quoted as needed, with its comma.
+    legs: Vec<Field>,
+    /// By [`Regime::code`], with its comma.
+    regimes: Vec<Field>,
+    floats: FloatText,
+}
+
+/// A field's text, zero-padded to at least [`PIECE`] bytes for [`put`], and its length.
+struct Field {
+    padded: Vec<u8>,
+    len: usize,
+}
+
+impl Field {
+    fn new(text: &[u8]) -> Self {
+        let mut padded = text.to_vec();
+        padded.resize(text.len().max(PIECE), 0);
+        Field {
+            padded,
+            len: text.len(),
+        }
+    }
+
+    fn put(&self, out: &mut Vec<u8>) {
+        put(out, &self.padded, self.len);
+    }
+}
+
+/// Copies the first `len` bytes of `text` to `out`. A text of at most [`PIECE`] bytes is copied
+/// as a fixed-size block and the excess cut off again: a copy of constant size is a few moves,
+/// where one of variable size is a call to memmove, which was a tenth of a re-evaluation's time.
+fn put(out: &mut Vec<u8>, text: &[u8], len: usize) {
+    match text.first_chunk::<PIECE>() {
+        Some(block) if len <= PIECE => {
+            let end = out.len() + len;
+            out.extend_from_slice(block);
+            out.truncate(end);
+        }
+        _ => out.extend_from_slice(&text[..len]),
+    }
+}
+
+const PIECE: usize = 32;
+
+/// The text of recently written floats, with their comma, by bit pattern in a small
+/// direct-mapped table. Many values of a session repeat from row to row (the time of an
+/// instant for all legs, one attack angle for the legs of a tripod, a leg's width while it is
+/// out of the medium, the zero forces out of it), and looking their text up costs much less
+/// than formatting it again. The text is the same either way.
+struct FloatText {
+    slots: Vec<FloatSlot>,
     float: zmij::Buffer,
-    /// The last row's time and its text: the legs' samples of one instant come one after the
-    /// other, and their time is written once.
-    t_s: Option<u64>,
-    t_s_text: Vec<u8>,
+}
+
+#[derive(Clone, Copy)]
+struct FloatSlot {
+    bits: u64,
+    /// 0 while the slot is empty (no float formats to nothing).
+    len: u8,
+    text: [u8; PIECE],
+}
+
+impl FloatText {
+    const SLOTS_LOG2: u32 = 9;
+
+    fn new() -> Self {
+        let empty = FloatSlot {
+            bits: 0,
+            len: 0,
+            text: [0; PIECE],
+        };
+        FloatText {
+            slots: vec![empty; 1 << Self::SLOTS_LOG2],
+            float: zmij::Buffer::new(),
+        }
+    }
+
+    /// Writes `v` and a comma.
+    fn put(&mut self, out: &mut Vec<u8>, v: f64) {
+        let bits = v.to_bits();
+        // Fibonacci hashing: the top bits of the product mix all of the value's bits.
+        let i = (bits.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> (64 - Self::SLOTS_LOG2)) as usize;
+        let slot = &mut self.slots[i];
+        if slot.bits != bits || slot.len == 0 {
+            // zmij writes at most 24 bytes (its buffer's size), so the text and its comma fit.
+            let s = self.float.format(v).as_bytes();
+            slot.text[..s.len()].copy_from_slice(s);
+            slot.text[s.len()] = b',';
+            slot.len = s.len() as u8 + 1;
+            slot.bits = bits;
+        }
+        put(out, &slot.text, usize::from(slot.len));
+    }
 }
 
 impl CsvRows {
@@ -83,36 +171,28 @@ impl CsvRows {
                     .from_writer(Vec::new());
                 w.write_field(name)?;
                 w.write_record(None::<&[u8]>)?;
-                w.into_inner().map_err(|e| anyhow!("{e}"))
+                Ok(Field::new(&w.into_inner().map_err(|e| anyhow!("{e}"))?))
             })
             .collect::<Result<_>>()?;
+        let regimes = Regime::ALL
+            .iter()
+            .map(|r| Field::new(format!("{},", r.as_str()).as_bytes()))
+            .collect();
         Ok(CsvRows {
             legs,
-            float: zmij::Buffer::new(),
-            t_s: None,
-            t_s_text: Vec::new(),
+            regimes,
+            floats: FloatText::new(),
         })
     }
 
-    fn number(float: &mut zmij::Buffer, out: &mut Vec<u8>, v: f64) {
-        out.extend_from_slice(float.format(v).as_bytes());
-        out.push(b',');
-    }
-
     fn push(&mut self, out: &mut Vec<u8>, r: &Row) {
-        if self.t_s != Some(r.t_s.to_bits()) {
-            self.t_s = Some(r.t_s.to_bits());
-            self.t_s_text.clear();
-            Self::number(&mut self.float, &mut self.t_s_text, r.t_s);
-        }
-        out.extend_from_slice(&self.t_s_text);
-        out.extend_from_slice(&self.legs[r.leg]);
-        Self::number(&mut self.float, out, r.beta_rad);
-        out.extend_from_slice(r.regime.as_str().as_bytes());
-        out.push(b',');
+        self.floats.put(out, r.t_s);
+        self.legs[r.leg].put(out);
+        self.floats.put(out, r.beta_rad);
+        self.regimes[usize::from(r.regime.code())].put(out);
         for m in [r.measured_drag_n, r.measured_lift_n] {
             match m {
-                Some(v) => Self::number(&mut self.float, out, v),
+                Some(v) => self.floats.put(out, v),
                 None => out.push(b','),
             }
         }
@@ -123,7 +203,7 @@ impl CsvRows {
             r.b_k,
             r.a,
         ] {
-            Self::number(&mut self.float, out, v);
+            self.floats.put(out, v);
         }
         out.extend_from_slice(if r.identified { b"true\n" } else { b"false\n" });
     }
@@ -611,6 +691,71 @@ mod tests {
             assert_eq!(num(8), -2.5e21);
             assert_eq!((num(9), num(10)), (32.61, 2.3));
             assert_eq!(&b[11], if w.identified { "true" } else { "false" });
+        }
+    }
+
+    /// Values that repeat, in a pool larger than the table of float texts (so that slots are
+    /// taken over by other values and then wanted back), read back bit for bit, and every
+    /// regime reads back as its name.
+    #[test]
+    fn csv_rows_with_repeated_values_read_back_exactly() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        let pool: Vec<f64> = (0..3000)
+            .map(|i| match i % 3 {
+                0 => f64::from_bits(next() >> 2), // any magnitude
+                1 => (next() % 1_000_000) as f64 / 1000.0 - 500.0,
+                _ => -((next() % 7) as f64),
+            })
+            .collect();
+        let legs = ["a".to_string(), "b".to_string()];
+        let mut rows = CsvRows::new(&legs).unwrap();
+        let mut text = CSV_HEADER.as_bytes().to_vec();
+        let mut written = Vec::new();
+        for i in 0..20_000 {
+            let mut v = || pool[(next() % pool.len() as u64) as usize];
+            let r = Row {
+                t_s: v(),
+                leg: i % 2,
+                beta_rad: v(),
+                regime: Regime::ALL[i % Regime::ALL.len()],
+                measured_drag_n: Some(v()),
+                measured_lift_n: Some(v()),
+                predicted_drag_n: v(),
+                predicted_lift_n: v(),
+                predicted_hip_torque_nm: v(),
+                b_k: v(),
+                a: v(),
+                identified: false,
+            };
+            rows.push(&mut text, &r);
+            written.push(r);
+        }
+        let mut rdr = csv::Reader::from_reader(&text[..]);
+        let back: Vec<csv::StringRecord> = rdr.records().map(|r| r.unwrap()).collect();
+        assert_eq!(back.len(), written.len());
+        for (b, w) in back.iter().zip(&written) {
+            let bits = |i: usize| b[i].parse::<f64>().unwrap().to_bits();
+            let want = [
+                w.t_s,
+                w.beta_rad,
+                w.measured_drag_n.unwrap(),
+                w.measured_lift_n.unwrap(),
+                w.predicted_drag_n,
+                w.predicted_lift_n,
+                w.predicted_hip_torque_nm,
+                w.b_k,
+                w.a,
+            ];
+            for (i, v) in [0, 2, 4, 5, 6, 7, 8, 9, 10].into_iter().zip(want) {
+                assert_eq!(bits(i), v.to_bits(), "field {i} of {b:?}");
+            }
+            assert_eq!(&b[3], w.regime.as_str());
         }
     }
 }

@@ -83,6 +83,15 @@ pub enum Regime {
 }
 
 impl Regime {
+    /// Every regime, in the order of [`Regime::code`].
+    pub const ALL: [Regime; 5] = [
+        Regime::OutOfMedium,
+        Regime::Penetration,
+        Regime::ExtractionSpiral,
+        Regime::ExtractionTriangle,
+        Regime::Extraction,
+    ];
+
     pub fn as_str(self) -> &'static str {
         match self {
             Regime::OutOfMedium => "out_of_medium",
