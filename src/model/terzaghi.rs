@@ -16,7 +16,7 @@
 use super::plate::is_penetration;
 use super::{FittingWidth, Medium, ModelError, Plate, Prediction, Regime, finite, wrap_beta_rad};
 use serde::Serialize;
-use std::f64::consts::FRAC_PI_4;
+use std::f64::consts::{FRAC_PI_4, PI};
 
 /// The terms the passive force is built from (all with the fitting width applied).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
@@ -117,6 +117,21 @@ pub struct TerzaghiModel {
     width: FittingWidth,
     c: MediumConstants,
     ln_a: f64,
+    /// Attack angles outside which the plate is out of the medium for certain (see
+    /// [`submerged_range_rad`]).
+    submerged_rad: (f64, f64),
+}
+
+/// The attack angles `[lo, hi]` outside which `sin(beta) < h / l`, that is, the submerged
+/// length is zero, whatever the rounding of `asin` and `sin`: `[asin(h/l), pi - asin(h/l)]`
+/// widened by 1e-6 rad. Outside it, an evaluation skips the trigonometry: most of a stride's
+/// swing is there. Empty for a plate that is never submerged.
+fn submerged_range_rad(plate: &Plate) -> (f64, f64) {
+    const MARGIN_RAD: f64 = 1e-6;
+    match plate.entry_beta_rad() {
+        Some(entry) => (entry - MARGIN_RAD, PI - entry + MARGIN_RAD),
+        None => (f64::INFINITY, f64::NEG_INFINITY),
+    }
 }
 
 impl TerzaghiModel {
@@ -128,6 +143,7 @@ impl TerzaghiModel {
             width,
             c: MediumConstants::new(&medium),
             ln_a: width.a().ln(),
+            submerged_rad: submerged_range_rad(&plate),
         }
     }
 
@@ -183,7 +199,12 @@ impl TerzaghiModel {
 
     /// [`TerzaghiModel::evaluate`] for an angle already wrapped to `[0, 2pi)`.
     fn evaluate_wrapped(&self, beta: f64) -> LegForce {
-        let (sin_b, cos_b) = beta.sin_cos();
+        let (lo, hi) = self.submerged_rad;
+        let (sin_b, cos_b) = if (lo..=hi).contains(&beta) {
+            beta.sin_cos()
+        } else {
+            (0.0, 1.0) // out of the medium for certain; only l_s <= 0 is used
+        };
         let l_s = self.plate.submerged_length_at_sin_m(sin_b);
         if l_s <= 0.0 {
             return LegForce {
@@ -278,7 +299,7 @@ impl TerzaghiModel {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::f64::consts::{FRAC_PI_2, PI};
+    use std::f64::consts::{FRAC_PI_2, TAU};
 
     fn case_a(b_k: f64, a: f64) -> TerzaghiModel {
         TerzaghiModel::new(
@@ -293,6 +314,37 @@ mod tests {
             Plate::new(0.10, 0.04, 0.0).unwrap(),
             Medium::new(16170.0, 30.0, 19.0).unwrap(),
         )
+    }
+
+    /// Outside the range where the trigonometry is skipped, the plate is out of the medium
+    /// however close to the entry angle: the skip changes no result. Plates from a hip at the
+    /// surface to one just short of the tip's reach, and past it.
+    #[test]
+    fn angles_outside_the_submerged_range_are_out_of_the_medium() {
+        for h_m in [0.0, 0.05, 0.15, 0.2499999, 0.25, 0.3] {
+            let plate = Plate::new(0.25, 0.06, h_m).unwrap();
+            let (lo, hi) = submerged_range_rad(&plate);
+            let mut betas: Vec<f64> = (0..=20_000).map(|i| i as f64 * TAU / 20_000.0).collect();
+            for edge in [lo, hi] {
+                if edge.is_finite() {
+                    betas.extend((-1000..=1000).map(|i| edge + i as f64 * 1e-9));
+                }
+            }
+            let model =
+                TerzaghiModel::conventional(plate, Medium::new(16170.0, 32.0, 19.0).unwrap());
+            let mut skipped = 0;
+            for beta in betas.into_iter().filter(|b| (0.0..TAU).contains(b)) {
+                if (lo..=hi).contains(&beta) {
+                    continue;
+                }
+                skipped += 1;
+                assert_eq!(plate.submerged_length_m(beta), 0.0, "h {h_m} beta {beta}");
+                let f = model.evaluate(beta).unwrap();
+                assert_eq!(f.regime, Regime::OutOfMedium);
+                assert_eq!((f.drag_n, f.lift_n, f.hip_torque_nm), (0.0, 0.0, 0.0));
+            }
+            assert!(skipped > 10_000, "h {h_m}: only {skipped} angles skipped");
+        }
     }
 
     fn assert_rel(got: f64, want: f64, what: &str) {
