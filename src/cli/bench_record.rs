@@ -2,8 +2,9 @@
 //!
 //! It writes a synthetic session of the node's traffic for the RHex configuration (6 legs,
 //! JointState and F/T at `--rate-hz`, with every leg's predicted wrench, leg force, and model
-//! parameters at 10 Hz) through the recorder's writer on one thread, timing it; then it runs
-//! `terzaghi replay --reevaluate` (this executable) on the file and times that.
+//! parameters at 10 Hz; with `--inputs-only`, JointState and F/T alone) through the recorder's
+//! writer on one thread, timing it; then it runs `terzaghi replay --reevaluate` (this
+//! executable) on the file and times that.
 
 use super::print_out;
 use crate::msgs::{Header, JointState, Time, Vector3, Wrench, WrenchStamped};
@@ -28,6 +29,10 @@ pub struct BenchRecordArgs {
     /// Times to run the re-evaluation (the median is reported, with the range).
     #[arg(long, default_value_t = 3)]
     pub runs: usize,
+    /// Record only the robot's topics (JointState and F/T), as `terzaghi record` of a robot
+    /// without the node does, instead of the node's session with every output.
+    #[arg(long)]
+    pub inputs_only: bool,
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
@@ -36,6 +41,8 @@ pub struct BenchRecordArgs {
 #[derive(Debug, serde::Serialize)]
 struct Report {
     minutes: f64,
+    /// The session has only the robot's topics, not the node's outputs.
+    inputs_only: bool,
     legs: usize,
     rate_hz: f64,
     messages: u64,
@@ -49,6 +56,9 @@ struct Report {
     reevaluate_max_s: f64,
     reevaluate_runs: usize,
     reevaluate_times_real_time: f64,
+    /// Median CPU time (user and system, all threads) of a run: at most twice the wall time on
+    /// two cores.
+    reevaluate_cpu_s: f64,
     /// Peak resident memory of the re-evaluating process.
     reevaluate_peak_mb: f64,
 }
@@ -142,21 +152,23 @@ pub fn run(a: BenchRecordArgs) -> Result<()> {
         w.write("/joint_states", OfferedQos::BEST_EFFORT, &js, t, t)?;
         messages += 1;
         for o in &outputs {
-            w.write_output(
-                &out_topics[o.leg].0,
-                OfferedQos::RELIABLE,
-                &o.wrench,
-                t + 20_000,
-                t,
-            )?;
-            w.write_output(
-                &out_topics[o.leg].1,
-                OfferedQos::RELIABLE,
-                &o.force,
-                t + 20_000,
-                t,
-            )?;
-            messages += 2;
+            if !a.inputs_only {
+                w.write_output(
+                    &out_topics[o.leg].0,
+                    OfferedQos::RELIABLE,
+                    &o.wrench,
+                    t + 20_000,
+                    t,
+                )?;
+                w.write_output(
+                    &out_topics[o.leg].1,
+                    OfferedQos::RELIABLE,
+                    &o.force,
+                    t + 20_000,
+                    t,
+                )?;
+                messages += 2;
+            }
             // The leg's F/T: the predicted force with a little noise, as the leg's sensor reads
             // it (in its configured frame).
             let wobble = ((k * 7919 + o.leg as u64 * 104_729) % 1000) as f64 * 1e-3 - 0.5;
@@ -191,6 +203,9 @@ pub fn run(a: BenchRecordArgs) -> Result<()> {
             core.on_wrench(o.leg, &ft);
         }
         core.take_params(&mut params_out);
+        if a.inputs_only {
+            params_out.clear();
+        }
         for (leg, p) in params_out.drain(..) {
             w.write_output(&out_topics[leg].2, OfferedQos::RELIABLE, &p, t + 30_000, t)?;
             messages += 1;
@@ -203,11 +218,13 @@ pub fn run(a: BenchRecordArgs) -> Result<()> {
     let exe = std::env::current_exe()?;
     let csv = dir.join("reevaluated.csv");
     let mut times_s = Vec::new();
+    let mut cpu_s = Vec::new();
     for _ in 0..a.runs {
         // The session and the last run's CSV go to disk first, so that their writeback does not
         // share the cores with this run.
         let _ = std::fs::remove_file(&csv);
         sync_disks();
+        let cpu_before_s = children_usage().map_or(0.0, |u| u.cpu_s);
         let start = Instant::now();
         let status = std::process::Command::new(&exe)
             .arg("replay")
@@ -218,12 +235,14 @@ pub fn run(a: BenchRecordArgs) -> Result<()> {
             .stderr(std::process::Stdio::null())
             .status()?;
         times_s.push(start.elapsed().as_secs_f64());
+        cpu_s.push(children_usage().map_or(0.0, |u| u.cpu_s) - cpu_before_s);
         if !status.success() {
             bail!("replay --reevaluate failed on the benchmark session");
         }
     }
-    let peak_mb = children_peak_rss_kb() as f64 / 1024.0;
+    let peak_mb = children_usage().map_or(0.0, |u| u.peak_rss_kb as f64 / 1024.0);
     times_s.sort_by(f64::total_cmp);
+    cpu_s.sort_by(f64::total_cmp);
     let reevaluate_s = times_s[times_s.len() / 2];
     let _ = std::fs::remove_file(&csv);
     if a.keep.is_none() {
@@ -231,6 +250,7 @@ pub fn run(a: BenchRecordArgs) -> Result<()> {
     }
     let r = Report {
         minutes: a.minutes,
+        inputs_only: a.inputs_only,
         legs,
         rate_hz: a.rate_hz,
         messages,
@@ -243,19 +263,25 @@ pub fn run(a: BenchRecordArgs) -> Result<()> {
         reevaluate_max_s: times_s[times_s.len() - 1],
         reevaluate_runs: times_s.len(),
         reevaluate_times_real_time: a.minutes * 60.0 / reevaluate_s,
+        reevaluate_cpu_s: cpu_s[cpu_s.len() / 2],
         reevaluate_peak_mb: peak_mb,
     };
     if a.json {
         return print_out(&(serde_json::to_string_pretty(&r)? + "\n"));
     }
     print_out(&format!(
-        "session: {} min, {} legs, JointState and F/T at {} Hz, with the node's outputs: {} messages\n\
+        "session: {} min, {} legs, JointState and F/T at {} Hz, {}: {} messages\n\
          write (one thread, zstd): {:.1} s, {:.0} messages/s\n\
          file: {:.1} MB, {:.1} MB per minute\n\
-         replay --reevaluate to CSV: {:.2} s, {:.0}x real time (median of {}; {:.2}-{:.2} s), peak memory {:.0} MB\n",
+         replay --reevaluate to CSV: {:.2} s, {:.0}x real time (median of {}; {:.2}-{:.2} s), CPU {:.2} s (user and system, median), peak memory {:.0} MB\n",
         r.minutes,
         r.legs,
         r.rate_hz,
+        if r.inputs_only {
+            "the robot's topics only"
+        } else {
+            "with the node's outputs"
+        },
         r.messages,
         r.write_s,
         r.write_messages_per_s,
@@ -266,6 +292,7 @@ pub fn run(a: BenchRecordArgs) -> Result<()> {
         r.reevaluate_runs,
         r.reevaluate_min_s,
         r.reevaluate_max_s,
+        r.reevaluate_cpu_s,
         r.reevaluate_peak_mb
     ))
 }
@@ -276,15 +303,26 @@ fn sync_disks() {
     unsafe { libc::sync() }
 }
 
-/// The largest peak resident set (KiB) of the child processes waited for so far
-/// (`getrusage(RUSAGE_CHILDREN)`), 0 if unknown.
-fn children_peak_rss_kb() -> i64 {
+/// What the child processes waited for so far used (`getrusage(RUSAGE_CHILDREN)`).
+struct ChildrenUsage {
+    /// User and system time, summed over the children.
+    cpu_s: f64,
+    /// The largest peak resident set of any of them.
+    peak_rss_kb: i64,
+}
+
+fn children_usage() -> Option<ChildrenUsage> {
     let mut usage = std::mem::MaybeUninit::<libc::rusage>::zeroed();
     // SAFETY: `usage` is a valid, writable rusage for the call to fill.
     let ok = unsafe { libc::getrusage(libc::RUSAGE_CHILDREN, usage.as_mut_ptr()) } == 0;
     if !ok {
-        return 0;
+        return None;
     }
     // SAFETY: getrusage succeeded and filled it.
-    unsafe { usage.assume_init() }.ru_maxrss
+    let u = unsafe { usage.assume_init() };
+    let secs = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
+    Some(ChildrenUsage {
+        cpu_s: secs(u.ru_utime) + secs(u.ru_stime),
+        peak_rss_kb: u.ru_maxrss,
+    })
 }
