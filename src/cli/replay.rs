@@ -699,13 +699,9 @@ mod tests {
     /// regime reads back as its name.
     #[test]
     fn csv_rows_with_repeated_values_read_back_exactly() {
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(0x2545_f491_4f6c_dd1d);
+        let mut next = || rng.random::<u64>();
         let pool: Vec<f64> = (0..3000)
             .map(|i| match i % 3 {
                 0 => f64::from_bits(next() >> 2), // any magnitude

@@ -161,13 +161,9 @@ mod tests {
             let w = b.rem_euclid(TAU);
             if w >= TAU { 0.0 } else { w }
         };
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(0x9e37_79b9_7f4a_7c15);
+        let mut next = || rng.random::<u64>();
         let mut angles = vec![
             -1e-300,
             -1e-17,
