@@ -5,6 +5,8 @@
 //!   forces, and goodness of fit (pure).
 //! - [`diagnose`]: the analysis of the sim-to-real gap (pure).
 //! - [`dataset`]: reading force logs (CSV) into samples (I/O adapter).
+//! - [`dem`]: runs of the DEM testbed (reading, checking, writing as sessions) and the models'
+//!   fidelity against a campaign (pure).
 //! - [`sim`]: synthetic sessions (rotation, forces, sensor noise) for tests and the demo.
 //! - [`withheld`]: sessions with a hidden effect from an independent generator, and the check of
 //!   the diagnosis on them.
@@ -13,6 +15,7 @@
 pub mod cli;
 pub mod config;
 pub mod dataset;
+pub mod dem;
 pub mod diagnose;
 pub mod ident;
 pub mod model;

@@ -1,20 +1,16 @@
-//! `terzaghi fit`: batch identification of b_k, a (and delta) from a CSV log.
+//! `terzaghi fit`: batch identification of b_k, a (and delta) from a CSV log or a recorded
+//! session.
 
-use super::{MediumArgs, PlateArgs, print_out, terzaghi_model};
-use crate::dataset::read_samples_csv;
+use super::log_source::LogArgs;
+use super::print_out;
 use crate::ident::{BatchFit, BatchOptions, GoodnessOfFit, fit_batch};
 use anyhow::Result;
 use clap::Args;
-use std::path::PathBuf;
 
 #[derive(Debug, Args)]
 pub struct FitArgs {
-    /// CSV with a header naming at least beta_rad,drag_n,lift_n (and optionally t_s).
-    pub data: PathBuf,
     #[command(flatten)]
-    pub plate: PlateArgs,
-    #[command(flatten)]
-    pub medium: MediumArgs,
+    pub log: LogArgs,
     /// Fit the plate-medium friction angle delta as well.
     #[arg(long)]
     pub fit_delta: bool,
@@ -27,10 +23,7 @@ pub struct FitArgs {
 }
 
 pub fn run(a: FitArgs) -> Result<()> {
-    let plate = a.plate.plate()?;
-    let chosen = a.medium.medium()?;
-    let samples = read_samples_csv(&a.data)?;
-    let model = terzaghi_model(plate, &chosen, None);
+    let (model, samples) = a.log.load()?;
     let opts = BatchOptions {
         fit_delta: a.fit_delta,
         all_regimes: a.all_regimes,

@@ -1,7 +1,7 @@
 //! `terzaghi identify`: batch or online identification of a log, with a trace and its plot.
 
-use super::{MediumArgs, PlateArgs, print_out, terzaghi_model, write_atomically};
-use crate::dataset::read_samples_csv;
+use super::log_source::LogArgs;
+use super::{print_out, write_atomically};
 use crate::ident::batch::select;
 use crate::ident::online::{ChangeEvent, Forgetting};
 use crate::ident::{
@@ -16,12 +16,8 @@ use std::path::{Path, PathBuf};
 
 #[derive(Debug, Args)]
 pub struct IdentifyArgs {
-    /// CSV with a header naming at least beta_rad,drag_n,lift_n (and t_s for --online timing).
-    pub data: PathBuf,
     #[command(flatten)]
-    pub plate: PlateArgs,
-    #[command(flatten)]
-    pub medium: MediumArgs,
+    pub log: LogArgs,
     /// Replay the samples in time order through the online estimator (default: batch fit).
     #[arg(long)]
     pub online: bool,
@@ -104,10 +100,7 @@ pub fn run(a: IdentifyArgs) -> Result<()> {
             "--trace, --trace-plot, --forgetting, --memory-strokes and --min-unit-force-n need --online"
         );
     }
-    let plate = a.plate.plate()?;
-    let chosen = a.medium.medium()?;
-    let base = terzaghi_model(plate, &chosen, None);
-    let mut samples = read_samples_csv(&a.data)?;
+    let (base, mut samples) = a.log.load()?;
     if !a.online {
         let opts = BatchOptions {
             fit_delta: a.fit_delta,
@@ -145,7 +138,7 @@ pub fn run(a: IdentifyArgs) -> Result<()> {
         }
         eprintln!(
             "note: {} has no t_s column: times are sample numbers",
-            a.data.display()
+            a.log.data.display()
         );
     }
     samples.sort_by(|x, y| {
@@ -178,7 +171,7 @@ pub fn run(a: IdentifyArgs) -> Result<()> {
     if trace.is_empty() {
         bail!(
             "{}: no sample passed the excitation gate ({} non-finite, {} not in penetration or below {} N of unit force, {} stuck)",
-            a.data.display(),
+            a.log.data.display(),
             e.samples_non_finite,
             e.samples_not_excited,
             est.options().min_unit_force_n,
@@ -186,7 +179,7 @@ pub fn run(a: IdentifyArgs) -> Result<()> {
         );
     }
     let medium = base.medium().with_delta_deg(e.delta_deg)?;
-    let fitted = TerzaghiModel::new(plate, medium, FittingWidth::new(e.b_k, e.a)?);
+    let fitted = TerzaghiModel::new(*base.plate(), medium, FittingWidth::new(e.b_k, e.a)?);
     let (improved, conventional, scored) = score(&base, &fitted, &samples, a.all_regimes);
     let report = OnlineReport {
         b_k: e.b_k,

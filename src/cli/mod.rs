@@ -4,12 +4,14 @@ mod bench;
 mod bench_diagnose;
 mod bench_node;
 mod bench_record;
+mod dem;
 mod demo;
 mod diagnose;
 mod diagnose_eval;
 mod diagnose_report;
 mod fit;
 mod identify;
+mod log_source;
 mod mcap_tools;
 mod media;
 mod node;
@@ -36,6 +38,12 @@ pub enum Command {
     /// The whole job in one command: a simulated six-legged robot walks, the node predicts and
     /// learns the medium online and records the session, the recording is diagnosed.
     Demo(demo::DemoArgs),
+    /// Write a run of the DEM testbed (tests/dem/campaign.py) as a ROS 2 MCAP session; a run
+    /// that never touched the bed, has a non-finite force or whose bed did not settle is refused.
+    ImportDem(dem::ImportDemArgs),
+    /// The models against a DEM campaign: the testbed's checks, fidelity of the improved and
+    /// conventional models and RFT from the DEM, width transfer, the C-leg.
+    DemReport(dem::DemReportArgs),
     /// Predict drag, lift and hip torque over a range of attack angles.
     Predict(predict::PredictArgs),
     /// Fit b_k and a (and delta) to measured forces in a CSV file, batch (Eq. 26).
@@ -86,6 +94,8 @@ pub enum Command {
 pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Demo(a) => demo::run(a),
+        Command::ImportDem(a) => dem::import(a),
+        Command::DemReport(a) => dem::report(a),
         Command::Predict(a) => predict::run(a),
         Command::Fit(a) => fit::run(a),
         Command::Identify(a) => identify::run(a),

@@ -18,7 +18,7 @@ pub mod terzaghi;
 
 pub use medium::{FittingWidth, Medium, MediumPreset, Provenance};
 pub use plate::{Plate, wrap_beta_rad};
-pub use rft::{RftCoefficients, RftFit, RftGrid, RftModel};
+pub use rft::{RftCoefficients, RftFit, RftGrid, RftModel, rft_leg};
 pub use terzaghi::{LegForce, Terms, TerzaghiModel};
 
 use serde::Serialize;

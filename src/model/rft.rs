@@ -102,6 +102,69 @@ impl RftFit {
             + self.d10 * b2.sin();
         (ax, az)
     }
+
+    /// The nine coefficients fitted by least squares to measured stresses
+    /// `(beta_r, gamma, alpha_x, alpha_z)` (N/cm^3), as Li et al. fitted them to their
+    /// intrusion experiments: `alpha_z`'s five terms and `alpha_x`'s four are each linear in
+    /// their coefficients. `None` with fewer than five points or a grid that cannot tell the
+    /// terms apart.
+    ///
+    /// ```
+    /// use terzaghi::model::RftFit;
+    /// let truth = RftFit::POPPY_LP;
+    /// let mut pts = Vec::new();
+    /// for b in [-60.0f64, -30.0, 0.0, 30.0, 60.0, 90.0] {
+    ///     for g in [-90.0f64, -45.0, 0.0, 45.0, 90.0] {
+    ///         let (ax, az) = truth.alpha(b.to_radians(), g.to_radians());
+    ///         pts.push((b.to_radians(), g.to_radians(), ax, az));
+    ///     }
+    /// }
+    /// let fit = RftFit::fit_to_points(&pts).unwrap();
+    /// assert!((fit.b01 - truth.b01).abs() < 1e-9 && (fit.c01 - truth.c01).abs() < 1e-9);
+    /// ```
+    pub fn fit_to_points(points: &[(f64, f64, f64, f64)]) -> Option<RftFit> {
+        use nalgebra::{DMatrix, DVector};
+        let pts: Vec<_> = points
+            .iter()
+            .filter(|p| [p.0, p.1, p.2, p.3].iter().all(|v| v.is_finite()))
+            .collect();
+        if pts.len() < 5 {
+            return None;
+        }
+        let n = pts.len();
+        let z_rows = DMatrix::from_fn(n, 5, |i, j| {
+            let (b2, g) = (2.0 * pts[i].0, pts[i].1);
+            [1.0, b2.cos(), (b2 + g).sin(), g.sin(), (-b2 + g).sin()][j]
+        });
+        let x_rows = DMatrix::from_fn(n, 4, |i, j| {
+            let (b2, g) = (2.0 * pts[i].0, pts[i].1);
+            [(b2 + g).cos(), g.cos(), (-b2 + g).cos(), b2.sin()][j]
+        });
+        let az = DVector::from_fn(n, |i, _| pts[i].3);
+        let ax = DVector::from_fn(n, |i, _| pts[i].2);
+        let solve = |a: DMatrix<f64>, y: DVector<f64>| {
+            let svd = a.svd(true, true);
+            let s = &svd.singular_values;
+            let (max, min) = (s.max(), s.min());
+            if min.is_nan() || min <= 1e-9 * max {
+                return None;
+            }
+            svd.solve(&y, 1e-12).ok()
+        };
+        let cz = solve(z_rows, az)?;
+        let cx = solve(x_rows, ax)?;
+        Some(RftFit {
+            a00: cz[0],
+            a10: cz[1],
+            b11: cz[2],
+            b01: cz[3],
+            bm11: cz[4],
+            c11: cx[0],
+            c01: cx[1],
+            cm11: cx[2],
+            d10: cx[3],
+        })
+    }
 }
 
 /// A measured `alpha` table on a rectilinear `(beta_r, gamma)` grid, looked up bilinearly.
@@ -229,7 +292,9 @@ impl RftCoefficients {
         }
     }
 
-    fn alpha(&self, beta_r: f64, gamma: f64) -> (f64, f64) {
+    /// `(alpha_x, alpha_z)` in N/cm^3 for an element at attack angle `beta_r` moving at
+    /// `gamma` below the horizontal (in the direction of +x).
+    pub fn alpha(&self, beta_r: f64, gamma: f64) -> (f64, f64) {
         match self {
             RftCoefficients::Fit(f) => f.alpha(beta_r, gamma),
             RftCoefficients::Grid(g) => g.alpha(beta_r, gamma),
@@ -338,6 +403,63 @@ impl RftModel {
     }
 }
 
+/// RFT for a leg of any shape in the plane of rotation (a C-leg, say), element by element as
+/// [`RftModel`] integrates a plate. The leg's mid-line is the polyline `line` of points
+/// `(s, q)` in the leg's frame: `s` along the chord from the hip toward the tip, `q` toward the
+/// travel. At attack angle `beta_rad` of the chord, the chord points along
+/// `u = (-cos beta, -sin beta)` from the hip, the travel `n = (sin beta, -cos beta)`, and a point
+/// `s u + q n` moves along `s n - q u`. Each segment is cut into `per_segment` elements of
+/// width `width_m`; the hip is `hip_height_m` above the surface. An element that moves toward
+/// -x is mirrored into RFT's frame (motion toward +x) and back. Returns drag, lift and hip
+/// torque (N, N, N m) in the project's convention.
+pub fn rft_leg(
+    coefficients: &RftCoefficients,
+    line: &[(f64, f64)],
+    width_m: f64,
+    hip_height_m: f64,
+    beta_rad: f64,
+    per_segment: usize,
+) -> (f64, f64, f64) {
+    let (sin_b, cos_b) = beta_rad.sin_cos();
+    let (u, n) = ((-cos_b, -sin_b), (sin_b, -cos_b));
+    let world = |(s, q): (f64, f64)| (s * u.0 + q * n.0, s * u.1 + q * n.1);
+    let (mut drag, mut lift, mut torque) = (0.0, 0.0, 0.0);
+    for seg in line.windows(2) {
+        let (a, b) = (world(seg[0]), world(seg[1]));
+        for k in 0..per_segment.max(1) {
+            let t = (k as f64 + 0.5) / per_segment.max(1) as f64;
+            let (s, q) = (
+                seg[0].0 + t * (seg[1].0 - seg[0].0),
+                seg[0].1 + t * (seg[1].1 - seg[0].1),
+            );
+            let p = world((s, q));
+            let depth = -(hip_height_m + p.1);
+            if depth <= 0.0 {
+                continue;
+            }
+            let len =
+                ((b.0 - a.0).powi(2) + (b.1 - a.1).powi(2)).sqrt() / per_segment.max(1) as f64;
+            let (tx, tz) = (b.0 - a.0, b.1 - a.1);
+            let (vx, vz) = (s * n.0 - q * u.0, s * n.1 - q * u.1);
+            if vx == 0.0 && vz == 0.0 {
+                continue;
+            }
+            // Mirror x when the element moves toward -x.
+            let m = if vx < 0.0 { -1.0 } else { 1.0 };
+            let beta_r = wrap_half_pi((tz).atan2(m * tx));
+            let gamma = (-vz).atan2(m * vx);
+            let (ax, az) = coefficients.alpha(beta_r, gamma);
+            let k = N_CM3_TO_N_M3 * depth * width_m * len;
+            // alpha_x resists the motion's horizontal part: F_x = -m ax k.
+            let (fx, fz) = (-m * ax * k, az * k);
+            drag -= fx;
+            lift += fz;
+            torque += p.1 * fx - p.0 * fz;
+        }
+    }
+    (drag, lift, torque)
+}
+
 /// A line's angle folded into `[-pi/2, pi/2]` (a plate has no head or tail).
 /// Both ends, `-pi/2` and `pi/2`, are the same vertical plate and give the same stress.
 fn wrap_half_pi(angle: f64) -> f64 {
@@ -360,6 +482,46 @@ mod tests {
         let (ax, az) = fit.alpha(beta_r, FRAC_PI_2 - beta);
         let k = N_CM3_TO_N_M3 * 0.06 * beta.sin() * l_s * l_s / 2.0;
         (ax * k, az * k)
+    }
+
+    #[test]
+    fn rft_leg_of_a_straight_line_agrees_with_the_plate_model() {
+        let plate = plate();
+        let c = RftCoefficients::Fit(RftFit::POPPY_CP);
+        let m = RftModel::new(plate, c.clone(), 4000).unwrap();
+        for deg in [40.0f64, 60.0, 90.0, 110.0, 140.0] {
+            let beta = deg.to_radians();
+            let p = m.evaluate(beta).unwrap();
+            let (d, l, t) = rft_leg(&c, &[(0.0, 0.0), (0.25, 0.0)], 0.06, 0.15, beta, 4000);
+            for (a, b) in [(d, p.drag_n), (l, p.lift_n), (t, p.hip_torque_nm)] {
+                assert!(
+                    (a - b).abs() <= 2e-3 * p.drag_n.abs().max(1e-3),
+                    "{deg}: {a} vs {b}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn rft_coefficients_come_back_from_their_own_stresses_and_noise_stays_small() {
+        let truth = RftFit::POPPY_CP;
+        let mut pts = Vec::new();
+        let mut k = 0u32;
+        for b in [-60.0f64, -30.0, 0.0, 30.0, 60.0, 90.0] {
+            for g in [-90.0f64, -45.0, 0.0, 45.0, 90.0] {
+                let (ax, az) = truth.alpha(b.to_radians(), g.to_radians());
+                k += 1;
+                let wiggle = 0.002 * ((k * 7919 % 13) as f64 / 6.0 - 1.0);
+                pts.push((b.to_radians(), g.to_radians(), ax + wiggle, az - wiggle));
+            }
+        }
+        let fit = RftFit::fit_to_points(&pts).unwrap();
+        assert!((fit.a00 - truth.a00).abs() < 0.005, "{fit:?}");
+        assert!((fit.c01 - truth.c01).abs() < 0.005, "{fit:?}");
+        assert!(RftFit::fit_to_points(&pts[..4]).is_none());
+        // One attack angle only: cos 2b and the constant cannot be told apart.
+        let one: Vec<_> = pts.iter().copied().filter(|p| p.0 == 0.0).collect();
+        assert!(RftFit::fit_to_points(&one).is_none());
     }
 
     #[test]

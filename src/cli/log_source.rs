@@ -1,0 +1,151 @@
+//! The log a fitting command reads: a CSV with the leg's geometry and medium as flags, or a
+//! recorded session whose parameters carry them.
+
+use super::mcap_tools::read_file;
+use super::replay::reevaluation_config;
+use super::{MediumArgs, PlateArgs, terzaghi_model};
+use crate::dataset::read_samples_csv;
+use crate::ident::Sample;
+use crate::model::TerzaghiModel;
+use crate::record::read::IndexedFile;
+use crate::record::reevaluate::measured_samples;
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use std::path::PathBuf;
+
+#[derive(Debug, Args)]
+pub struct LogArgs {
+    /// CSV with a header naming at least beta_rad,drag_n,lift_n (and t_s for timing), or an MCAP
+    /// session with the node's parameters (recorded by `terzaghi node`, or `terzaghi import-dem`).
+    pub data: PathBuf,
+    /// Plate length from the hip axis to the tip (m) (CSV logs).
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
+    pub length_m: Option<f64>,
+    /// Plate width (m) (CSV logs).
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
+    pub width_m: Option<f64>,
+    /// Height of the hip axis above the free surface (m); 0 puts the axis on the surface (CSV
+    /// logs).
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
+    pub hip_height_m: Option<f64>,
+    #[command(flatten)]
+    pub medium: MediumArgs,
+    /// MCAP session: the leg (default: its only leg with an F/T topic).
+    #[arg(long, value_name = "NAME")]
+    pub leg: Option<String>,
+    /// MCAP session: node parameters to use instead of the recorded ones.
+    #[arg(long, value_name = "FILE")]
+    pub params_file: Option<PathBuf>,
+}
+
+impl LogArgs {
+    /// The leg's model (conventional: `b_k = a = 1`) and its measured samples.
+    pub fn load(&self) -> Result<(TerzaghiModel, Vec<Sample>)> {
+        if is_mcap(&self.data)? {
+            from_session(self)
+        } else {
+            from_csv(self)
+        }
+    }
+}
+
+fn is_mcap(path: &std::path::Path) -> Result<bool> {
+    use std::io::Read;
+    let mut magic = [0u8; 5];
+    let mut f =
+        std::fs::File::open(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let n = f.read(&mut magic).unwrap_or(0);
+    Ok(n == 5 && &magic == b"\x89MCAP")
+}
+
+fn from_csv(a: &LogArgs) -> Result<(TerzaghiModel, Vec<Sample>)> {
+    if a.leg.is_some() || a.params_file.is_some() {
+        bail!(
+            "{} is not an MCAP session: --leg and --params-file are for sessions",
+            a.data.display()
+        );
+    }
+    let (Some(length_m), Some(width_m), Some(hip_height_m)) =
+        (a.length_m, a.width_m, a.hip_height_m)
+    else {
+        bail!("a CSV log needs the leg's geometry: --length-m, --width-m and --hip-height-m");
+    };
+    let plate = PlateArgs {
+        length_m,
+        width_m,
+        hip_height_m,
+    }
+    .plate()?;
+    let chosen = a.medium.medium()?;
+    let samples = read_samples_csv(&a.data)?;
+    Ok((terzaghi_model(plate, &chosen, None), samples))
+}
+
+/// The leg's plate and medium from the session's parameters, its F/T samples matched with
+/// joint angles as the node matches them.
+fn from_session(a: &LogArgs) -> Result<(TerzaghiModel, Vec<Sample>)> {
+    if a.length_m.is_some() || a.width_m.is_some() || a.hip_height_m.is_some() {
+        bail!(
+            "{} is a session: its geometry and medium come from its parameters (change them with --params-file)",
+            a.data.display()
+        );
+    }
+    if a.medium.medium.is_some() || a.medium.unit_weight_n_m3.is_some() {
+        bail!(
+            "{} is a session: its medium comes from its parameters (change it with --params-file)",
+            a.data.display()
+        );
+    }
+    let file = IndexedFile::open(&a.data).with_context(|| a.data.display().to_string())?;
+    let Some(file) = file else {
+        // Cut off: no summary to read the parameters from.
+        let _ = read_file(&a.data)?;
+        bail!(
+            "{} is cut off: recover it first with `terzaghi recover {} -o FIXED.mcap`",
+            a.data.display(),
+            a.data.display()
+        );
+    };
+    let cfg = reevaluation_config(&a.params_file, file.head(), &a.data)?;
+    let with_ft: Vec<usize> = (0..cfg.legs.len())
+        .filter(|&i| cfg.legs[i].ft_topic.is_some())
+        .collect();
+    let names = || {
+        cfg.legs
+            .iter()
+            .map(|l| l.name.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let leg = match &a.leg {
+        Some(name) => match cfg.legs.iter().position(|l| &l.name == name) {
+            Some(i) if cfg.legs[i].ft_topic.is_some() => i,
+            Some(_) => bail!("leg {name:?} has no F/T topic in the parameters"),
+            None => bail!(
+                "no leg named {name:?} in the parameters (legs: {})",
+                names()
+            ),
+        },
+        None => match with_ft.as_slice() {
+            [one] => *one,
+            [] => bail!("no leg has an F/T topic in the parameters (set <leg>.ft_topic)"),
+            _ => bail!(
+                "the session has several legs with F/T topics ({}): choose one with --leg",
+                names()
+            ),
+        },
+    };
+    let l = &cfg.legs[leg];
+    let model = TerzaghiModel::conventional(l.plate, l.medium);
+    let (mut samples, read) =
+        measured_samples(&file, cfg.clone()).with_context(|| a.data.display().to_string())?;
+    if !read.complete {
+        bail!(
+            "{} is damaged ({}): recover it first with `terzaghi recover {} -o FIXED.mcap`",
+            a.data.display(),
+            read.stopped.as_deref().unwrap_or("reading stopped early"),
+            a.data.display()
+        );
+    }
+    Ok((model, std::mem::take(&mut samples[leg])))
+}

@@ -1,0 +1,912 @@
+#!/usr/bin/env python3
+"""The DEM testbed's campaign: a flat plate (and a C-shaped leg) rotating through a bed of
+polydisperse spheres simulated by LIGGGHTS, with the checks that make it believable, the RFT
+calibration from intrusions in the same medium, and controlled variations of the physics.
+
+Every run is an input to the engine (the .in scenes beside this file); this script only writes
+those inputs, runs the engine, and turns its outputs into the project's conventions (drag, lift
+and hip torque in the hip frame, the attack angle beta) as one CSV per run, which
+`terzaghi import-dem` turns into a ROS 2 MCAP session.
+
+    python3 tests/dem/campaign.py --out tests/dem/campaign           # the whole campaign
+    python3 tests/dem/campaign.py --out /tmp/small --scene small      # the small scene of the test
+
+Needs `liggghts` (Debian: apt-get install liggghts) and, for the sessions, the terzaghi binary
+(--terzaghi, default target/release/terzaghi). Standard library only.
+"""
+
+import argparse
+import concurrent.futures as cf
+import json
+import math
+import os
+import random
+import shutil
+import subprocess
+import sys
+import threading
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+G = 9.81
+
+# The grains and the contact law (material.in). Soft grains (E = 5 MPa) keep the time step
+# large; the checks below show what halving it does.
+MATERIAL = {
+    "E": 5e6,
+    "nu": 0.3,
+    "e_rest": 0.3,
+    "mu": 0.5,
+    "mu_wall": 0.35,
+    "mu_roll": 0.1,
+    "ced": 0.0,
+    "rho": 2500.0,
+}
+
+SCENES = {
+    # The campaign's scene.
+    "full": {
+        "r": 0.003,
+        "dt": 6e-5,
+        "length_m": 0.10,
+        "width_m": 0.03,
+        "hip_height_m": 0.04,
+        "widths_m": [0.02, 0.03, 0.04],
+        "hips_m": [0.04, 0.055],
+        "hx": 0.13,
+        "hy": 0.045,
+        "depth": 0.09,
+        "omega": 1.0,
+        "settle_s": 0.25,
+        "thickness": 0.003,
+    },
+    # The test's scene: big grains, a short plate, a fast stroke; about ten seconds.
+    "small": {
+        "r": 0.005,
+        "dt": 8e-5,
+        "length_m": 0.06,
+        "width_m": 0.03,
+        "hip_height_m": 0.02,
+        "widths_m": [0.03],
+        "hips_m": [0.02],
+        "hx": 0.08,
+        "hy": 0.04,
+        "depth": 0.06,
+        "omega": 4.0,
+        "settle_s": 0.15,
+        "thickness": 0.003,
+    },
+}
+
+SAMPLE_HZ = 500.0
+# A bed is settled when its kinetic energy is below this fraction of N m g d (every grain's
+# weight lifted by one diameter).
+SETTLED_KE_RATIO = 1e-4
+
+
+def engine_version():
+    try:
+        out = subprocess.run(
+            ["dpkg-query", "-W", "-f=${Version}", "liggghts"],
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout.strip()
+        return "LIGGGHTS-PUBLIC (Debian package liggghts %s)" % out
+    except (OSError, subprocess.CalledProcessError):
+        return "LIGGGHTS (version unknown)"
+
+
+# ---------------------------------------------------------------------------------------------
+# Meshes
+
+
+def panel(a, b_pt, width, thick):
+    """The 12 triangles of a thin box whose mid-line runs from a to b (points in the x-z plane),
+    `width` along y and `thick` across the line."""
+    ax, az = a
+    bx, bz = b_pt
+    lx, lz = bx - ax, bz - az
+    n = math.hypot(lx, lz)
+    nx, nz = -lz / n * thick / 2, lx / n * thick / 2
+    v = []
+    for (px, pz) in ((ax, az), (bx, bz)):
+        for s in (-1, 1):
+            for y in (-width / 2, width / 2):
+                v.append((px + s * nx, y, pz + s * nz))
+    # v index: end*4 + side*2 + y
+    quads = [
+        (0, 1, 3, 2),  # hip end
+        (4, 6, 7, 5),  # tip end
+        (0, 4, 5, 1),  # side -
+        (2, 3, 7, 6),  # side +
+        (0, 2, 6, 4),  # y -
+        (1, 5, 7, 3),  # y +
+    ]
+    tris = []
+    for q in quads:
+        tris.append((v[q[0]], v[q[1]], v[q[2]]))
+        tris.append((v[q[0]], v[q[2]], v[q[3]]))
+    return tris
+
+
+def write_stl(path, tris):
+    with open(path, "w") as f:
+        f.write("solid leg\n")
+        for t in tris:
+            f.write(" facet normal 0 0 0\n  outer loop\n")
+            for p in t:
+                f.write("   vertex %.9g %.9g %.9g\n" % p)
+            f.write("  endloop\n endfacet\n")
+        f.write("endsolid leg\n")
+
+
+def leg_polyline(shape, length, beta, hip_z):
+    """The leg's mid-line at attack angle beta, hip at (0, hip_z). A flat plate runs from the hip
+    along u = (-cos beta, -sin beta); a C-leg is a half circle on the chord u * length, its
+    convex side toward the travel n = (sin beta, -cos beta)."""
+    ux, uz = -math.cos(beta), -math.sin(beta)
+    nx, nz = math.sin(beta), -math.cos(beta)
+    if shape == "flat":
+        pts = [(0.0, 0.0), (length, 0.0)]
+    else:
+        k = 16
+        pts = [
+            (length / 2 * (1 - math.cos(math.pi * i / k)), length / 2 * math.sin(math.pi * i / k))
+            for i in range(k + 1)
+        ]
+    return [(s * ux + q * nx, hip_z + s * uz + q * nz) for (s, q) in pts]
+
+
+def leg_tris(shape, length, width, thick, beta, hip_z):
+    pts = leg_polyline(shape, length, beta, hip_z)
+    tris = []
+    for a, b_pt in zip(pts, pts[1:]):
+        tris += panel(a, b_pt, width, thick)
+    return tris
+
+
+# ---------------------------------------------------------------------------------------------
+# Running the engine
+
+
+class EngineError(Exception):
+    pass
+
+
+def run_engine(scene, variables, workdir, name, raw_lines=()):
+    """Writes `name`.in (the variables, then the scene) and runs LIGGGHTS on it. Returns the
+    lines its print commands wrote, as {KEY: value}."""
+    lines = ["variable dir string %s" % HERE]
+    for k, v in variables.items():
+        if isinstance(v, str):
+            lines.append("variable %s string %s" % (k, v))
+        else:
+            lines.append("variable %s equal %.12g" % (k, v))
+    lines += list(raw_lines)
+    with open(os.path.join(HERE, scene)) as f:
+        body = f.read()
+    path = os.path.join(workdir, name + ".in")
+    with open(path, "w") as f:
+        f.write("\n".join(lines) + "\n" + body)
+    log = os.path.join(workdir, name + ".log")
+    p = subprocess.run(
+        # Not `-screen none`: this build crashes in write_restart without a screen.
+        ["liggghts", "-in", path, "-log", log, "-echo", "none"],
+        cwd=workdir,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        errors="replace",
+    )
+    text = open(log, errors="replace").read() if os.path.exists(log) else ""
+    if p.returncode != 0 or "ERROR" in text:
+        err = [l for l in text.splitlines() if "ERROR" in l] or [p.stderr.strip()[-500:]]
+        raise EngineError("%s: LIGGGHTS failed: %s (log: %s)" % (name, err[0], log))
+    out = {}
+    for line in text.splitlines():
+        parts = line.split()
+        if len(parts) == 2 and parts[0].isupper() and "_" in parts[0]:
+            out[parts[0]] = parts[1]
+    return out
+
+
+def read_dump(path):
+    """id radius x y z ... rows of a LIGGGHTS custom dump."""
+    rows = []
+    with open(path) as f:
+        lines = f.read().splitlines()
+    i = lines.index(next(l for l in lines if l.startswith("ITEM: ATOMS")))
+    for l in lines[i + 1 :]:
+        if l.strip():
+            rows.append([float(x) for x in l.split()])
+    return rows
+
+
+def read_ave_time(path):
+    """Rows of a fix ave/time file: step, then the values."""
+    rows = []
+    with open(path) as f:
+        for l in f:
+            if l.startswith("#") or not l.strip():
+                continue
+            rows.append([float(x) for x in l.split()])
+    return rows
+
+
+# ---------------------------------------------------------------------------------------------
+# The bed
+
+
+def make_bed(cfg, name, workdir, hx=None, hy=None, depth=None, mu_fill=None):
+    hx = hx or cfg["hx"]
+    hy = hy or cfg["hy"]
+    depth = depth or cfg["depth"]
+    r = cfg["r"]
+    v = dict(MATERIAL)
+    v.update(
+        dt=cfg["dt"],
+        skin=0.5 * r,
+        r=r,
+        seed=86028121,
+        hx=hx,
+        hy=hy,
+        depth=depth,
+        fill_h=depth * 2.0,
+        # Room above the bed for a leg swinging back over the top between strokes.
+        zmax=max(depth * 2.1, depth + max(cfg["hips_m"]) + cfg["length_m"] + 0.03),
+        mu_fill=MATERIAL["mu"] if mu_fill is None else mu_fill,
+        settle_s=cfg["settle_s"],
+        out=name,
+    )
+    t0 = time.time()
+    printed = run_engine("bed.in", v, workdir, name)
+    grains = read_dump(os.path.join(workdir, name + ".grains"))
+    bed = measure_bed(grains, hx, hy, r)
+    ke = float(printed["BED_KE_J"])
+    n = len(grains)
+    mean_mass = sum(MATERIAL["rho"] * 4 / 3 * math.pi * g[1] ** 3 for g in grains) / n
+    bed.update(
+        name=name,
+        restart=os.path.join(workdir, name + ".restart"),
+        hx=hx,
+        hy=hy,
+        depth=depth,
+        mu_fill=v["mu_fill"],
+        grains=n,
+        kinetic_energy_j=ke,
+        settled_ke_ratio=ke / (n * mean_mass * G * 2 * r),
+        seconds=round(time.time() - t0, 1),
+    )
+    return bed
+
+
+def measure_bed(grains, hx, hy, r):
+    """Surface height (median over 1 cm cells of the highest grain top, away from the walls) and
+    the solid fraction of the interior (2 diameters from every wall, the floor and the surface)."""
+    cell = 0.01
+    tops = {}
+    for g in grains:
+        _, rad, x, y, z = g[:5]
+        if abs(x) > hx - 4 * r or abs(y) > hy - 4 * r:
+            continue
+        key = (int((x + hx) / cell), int((y + hy) / cell))
+        tops[key] = max(tops.get(key, -1.0), z + rad)
+    surf = sorted(tops.values())
+    surface_z = surf[len(surf) // 2]
+    m = 4 * r
+    x0, x1, y0, y1, z0, z1 = -hx + m, hx - m, -hy + m, hy - m, m, surface_z - m
+    vol = 0.0
+    for g in grains:
+        _, rad, x, y, z = g[:5]
+        if x0 < x < x1 and y0 < y < y1 and z0 < z < z1:
+            vol += 4 / 3 * math.pi * rad ** 3
+    frac = vol / ((x1 - x0) * (y1 - y0) * (z1 - z0))
+    return {
+        "surface_z_m": surface_z,
+        "surface_spread_m": surf[int(len(surf) * 0.9)] - surf[int(len(surf) * 0.1)],
+        "solid_fraction": frac,
+        "unit_weight_n_m3": MATERIAL["rho"] * G * frac,
+    }
+
+
+def make_repose(cfg, workdir):
+    """Angle of repose of a slumped column: the slope of the free surface between 20 % and 80 %
+    of the heap's height, fitted by least squares."""
+    r = cfg["r"]
+    v = dict(MATERIAL)
+    v.update(
+        dt=cfg["dt"],
+        skin=0.5 * r,
+        r=r,
+        seed=67867967,
+        col_w=0.08 if r < 0.004 else 0.1,
+        col_h=0.12 if r < 0.004 else 0.15,
+        len=0.30,
+        wy=max(0.03, 8 * r),
+        zmax=0.2,
+        settle_s=0.4,
+        flow_s=1.5,
+        out="repose",
+    )
+    t0 = time.time()
+    printed = run_engine("repose.in", v, workdir, "repose")
+    grains = read_dump(os.path.join(workdir, "repose.grains"))
+    bins = {}
+    w = 2 * r
+    for g in grains:
+        _, rad, x, _, z = g[:5]
+        k = int(x / w)
+        bins[k] = max(bins.get(k, 0.0), z + rad)
+    prof = sorted(bins.items())
+    top = max(h for _, h in prof)
+    pts = [((k + 0.5) * w, h) for k, h in prof if 0.2 * top < h < 0.8 * top]
+    n = len(pts)
+    mx = sum(p[0] for p in pts) / n
+    mz = sum(p[1] for p in pts) / n
+    slope = sum((p[0] - mx) * (p[1] - mz) for p in pts) / sum((p[0] - mx) ** 2 for p in pts)
+    return {
+        "angle_deg": math.degrees(math.atan(-slope)),
+        "profile_points": n,
+        "kinetic_energy_j": float(printed["REPOSE_KE_J"]),
+        "grains": len(grains),
+        "seconds": round(time.time() - t0, 1),
+    }
+
+
+def make_drain(cfg, workdir):
+    """The static angle of repose: a bed drained through a slot in the floor (the last 25 % of
+    the box's length); the slope of the grains left behind, fitted by least squares between
+    20 % and 80 % of their height."""
+    r = cfg["r"]
+    length, slot_x, wy = 0.24, 0.18, max(0.03, 8 * r)
+    write_stl(os.path.join(workdir, "drain_floor.stl"),
+              panel((0.0005, -0.0015), (slot_x, -0.0015), 0.9999 * wy, 0.003))
+    v = dict(MATERIAL)
+    v.update(
+        dt=cfg["dt"],
+        skin=0.5 * r,
+        r=r,
+        seed=67867967,
+        len=length,
+        hwy=wy / 2,
+        fill_h=0.2,
+        zmax=0.22,
+        floor_stl="drain_floor.stl",
+        settle_s=0.4,
+        drain_s=2.5,
+        out="drain",
+    )
+    t0 = time.time()
+    printed = run_engine("drain.in", v, workdir, "drain")
+    grains = [g for g in read_dump(os.path.join(workdir, "drain.grains")) if g[4] > 0.0]
+    bins = {}
+    w = 2 * r
+    for g in grains:
+        _, rad, x, _, z = g[:5]
+        k = int(x / w)
+        bins[k] = max(bins.get(k, 0.0), z + rad)
+    prof = sorted((k, h) for k, h in bins.items() if (k + 0.5) * w < slot_x)
+    top = max(h for _, h in prof)
+    pts = [((k + 0.5) * w, h) for k, h in prof if 0.2 * top < h < 0.8 * top]
+    n = len(pts)
+    mx = sum(p[0] for p in pts) / n
+    mz = sum(p[1] for p in pts) / n
+    slope = sum((p[0] - mx) * (p[1] - mz) for p in pts) / sum((p[0] - mx) ** 2 for p in pts)
+    return {
+        "angle_deg": math.degrees(math.atan(abs(slope))),
+        "profile_points": n,
+        "kinetic_energy_j": float(printed["DRAIN_KE_J"]),
+        "grains_left": len(grains),
+        "seconds": round(time.time() - t0, 1),
+    }
+
+
+# ---------------------------------------------------------------------------------------------
+# Strokes
+
+
+def stroke_schedule(h_actual, length, omega, strokes, margin=0.08, return_omega=10.0):
+    """The rotation: from just before the tip touches the surface to just after it leaves,
+    at omega; between strokes the leg swings back over the top at return_omega (as a wheel-leg
+    does), so that the next stroke passes through the same trough. Returns the start angle and
+    the segments (omega, duration)."""
+    b_in = math.asin(min(1.0, h_actual / length))
+    beta0 = b_in - margin
+    sweep = math.pi - 2 * b_in + 2 * margin
+    segs = []
+    for k in range(strokes):
+        if k:
+            segs.append((return_omega, (2 * math.pi - sweep) / return_omega))
+        segs.append((omega, sweep / omega))
+    return beta0, segs
+
+
+def run_stroke(cfg, name, workdir, bed, width_m, hip_height_m, omega, shape="flat",
+               strokes=1, overrides=None, hip_offset_m=0.0):
+    """One run: the leg's hip at hip_height_m + hip_offset_m above the measured surface
+    (hip_height_m is what the model is told). Returns the run's record and its samples."""
+    length = cfg["length_m"]
+    dt = cfg["dt"] * (overrides or {}).get("dt_factor", 1.0)
+    h_actual = hip_height_m + hip_offset_m
+    hip_z = bed["surface_z_m"] + h_actual
+    beta0, segs = stroke_schedule(h_actual, length, omega, strokes)
+    write_stl(os.path.join(workdir, name + ".stl"),
+              leg_tris(shape, length, width_m, cfg["thickness"], beta0, hip_z))
+    nav = max(1, round(1.0 / SAMPLE_HZ / dt))
+    lines = []
+    step_segments = []
+    for i, (w, dur) in enumerate(segs):
+        n = max(1, round(dur / dt))
+        lines += [
+            "fix rot%d all move/mesh mesh leg rotate origin 0.0 0.0 %.9g axis 0 -1 0 period %.9g"
+            % (i, hip_z, 2 * math.pi / w),
+            "run %d" % n,
+            "unfix rot%d" % i,
+        ]
+        step_segments.append((w, n))
+    seg_path = os.path.join(workdir, name + ".segments.in")
+    with open(seg_path, "w") as f:
+        f.write("\n".join(lines) + "\n")
+    v = dict(MATERIAL)
+    v.update((overrides or {}).get("material", {}))
+    v.update(
+        dt=dt,
+        skin=0.5 * cfg["r"],
+        bed=bed["restart"],
+        hx=bed["hx"],
+        hy=bed["hy"],
+        stl=name + ".stl",
+        hip_z=hip_z,
+        nav=nav,
+        segments=seg_path,
+        out=name,
+    )
+    t0 = time.time()
+    printed = run_engine("stroke.in", v, workdir, name)
+    start_step = int(printed["START_STEP"])
+    rows = read_ave_time(os.path.join(workdir, name + ".forces"))
+    samples = []
+    # The angle at the middle of each averaging window, from the schedule.
+    bounds = []
+    step0, ang0 = 0, beta0
+    for w, n in step_segments:
+        bounds.append((step0, step0 + n, ang0, w))
+        step0 += n
+        ang0 += w * n * dt
+    for row in rows:
+        step = row[0] - start_step - nav / 2.0
+        for (s0, s1, a0, w) in bounds:
+            if step <= s1:
+                beta = a0 + w * (step - s0) * dt
+                break
+        fx, fy, fz, tx, ty, tz = row[1:7]
+        # The hip frame: drag = -F_x, lift = F_z, hip torque = M_y about the hip (resisting a
+        # rotation that increases beta, which turns about -y).
+        samples.append((step * dt, beta, -fx, fz, ty))
+    run = {
+        "name": name,
+        "shape": shape,
+        "length_m": length,
+        "width_m": width_m,
+        "hip_height_m": hip_height_m,
+        "hip_offset_m": hip_offset_m,
+        "omega_rad_s": omega,
+        "strokes": strokes,
+        "dt_s": dt,
+        "sample_hz": 1.0 / (nav * dt),
+        "bed": bed["name"],
+        "material": {k: v[k] for k in MATERIAL},
+        "seconds": round(time.time() - t0, 1),
+    }
+    return run, samples
+
+
+def write_run_csv(path, run, bed, medium, samples, engine):
+    """The run as the project's DEM run CSV: '# key: value' lines, then
+    t_s,beta_rad,drag_n,lift_n,hip_torque_nm."""
+    meta = [
+        ("engine", engine),
+        ("run", run["name"]),
+        ("shape", run["shape"]),
+        ("length_m", run["length_m"]),
+        ("width_m", run["width_m"]),
+        ("hip_height_m", run["hip_height_m"]),
+        ("hip_offset_m", run["hip_offset_m"]),
+        ("omega_rad_s", run["omega_rad_s"]),
+        ("strokes", run["strokes"]),
+        ("unit_weight_n_m3", round(medium["unit_weight_n_m3"], 3)),
+        ("phi_deg", round(medium["phi_deg"], 3)),
+        ("delta_deg", round(medium["delta_deg"], 3)),
+        ("bed", bed["name"]),
+        ("bed_grains", bed["grains"]),
+        ("bed_solid_fraction", round(bed["solid_fraction"], 5)),
+        ("bed_surface_spread_m", round(bed["surface_spread_m"], 5)),
+        ("bed_settled_ke_ratio", "%.3g" % bed["settled_ke_ratio"]),
+        ("grain_radius_m", medium["grain_radius_m"]),
+        ("sample_hz", run["sample_hz"]),
+    ] + [(k, v) for k, v in run.get("sensor", {}).items()]
+    with open(path, "w") as f:
+        for k, v in meta:
+            f.write("# %s: %s\n" % (k, v))
+        f.write("t_s,beta_rad,drag_n,lift_n,hip_torque_nm\n")
+        for s in samples:
+            f.write("%.6f,%.6f,%.6g,%.6g,%.6g\n" % s)
+
+
+def sensor_variant(samples, kind, peak, seed=7):
+    """A sensor effect applied to the recorded signal: a constant bias of 10 % of the peak
+    drag and lift, a delay of 30 ms, or white noise of 2 % of the peak on every sample."""
+    rng = random.Random(seed)
+    if kind == "bias":
+        b = 0.1 * peak
+        return [(t, be, d + b, l + b, tq) for (t, be, d, l, tq) in samples], {"sensor_bias_n": round(b, 4)}
+    if kind == "delay":
+        dt = samples[1][0] - samples[0][0]
+        k = round(0.030 / dt)
+        out = []
+        for i, (t, be, d, l, tq) in enumerate(samples):
+            j = max(0, i - k)
+            out.append((t, be, samples[j][2], samples[j][3], samples[j][4]))
+        return out, {"sensor_delay_s": round(k * dt, 4)}
+    if kind == "noise":
+        s = 0.02 * peak
+        return [(t, be, d + rng.gauss(0, s), l + rng.gauss(0, s), tq + rng.gauss(0, s * 0.05))
+                for (t, be, d, l, tq) in samples], {"sensor_noise_n": round(s, 4)}
+    raise ValueError(kind)
+
+
+# ---------------------------------------------------------------------------------------------
+# RFT calibration
+
+
+def run_intrusion(cfg, name, workdir, bed, beta_r, gamma, plate_len=0.025, width=0.025,
+                  depth0=0.03, travel=0.015, speed=0.05):
+    """A plate element (plate_len x width) at attack angle beta_r, its centre buried at depth0,
+    moved `travel` in the direction gamma below the horizontal at `speed`. Returns
+    (alpha_x, alpha_z) in N/cm^3 from F = alpha |z| A, fitted over the travel after the first
+    quarter (depth |z| of the element's centre)."""
+    dt = cfg["dt"]
+    surface = bed["surface_z_m"]
+    cx, cz = 0.0, surface - depth0
+    tx, tz = math.cos(beta_r), math.sin(beta_r)
+    a = (cx - tx * plate_len / 2, cz - tz * plate_len / 2)
+    b_pt = (cx + tx * plate_len / 2, cz + tz * plate_len / 2)
+    write_stl(os.path.join(workdir, name + ".stl"), panel(a, b_pt, width, cfg["thickness"]))
+    vx, vz = speed * math.cos(gamma), -speed * math.sin(gamma)
+    # The hole: grains closer to the element's plane than their radius plus half its thickness,
+    # within its extent (plus a radius).
+    rmax = 1.2 * cfg["r"]
+    along = "((x-%.9g)*%.9g+(z-%.9g)*%.9g)" % (cx, tx, cz, tz)
+    across = "((x-%.9g)*%.9g-(z-%.9g)*%.9g)" % (cx, tz, cz, tx)
+    hole = "(abs(%s)<%.9g)*(abs(%s)<%.9g)*(abs(y)<%.9g)" % (
+        across, cfg["thickness"] / 2 + rmax, along, plate_len / 2 + rmax, width / 2 + rmax)
+    nav = max(1, round(1.0 / SAMPLE_HZ / dt))
+    v = dict(MATERIAL)
+    v.update(
+        dt=dt,
+        skin=0.5 * cfg["r"],
+        bed=bed["restart"],
+        hx=bed["hx"],
+        hy=bed["hy"],
+        stl=name + ".stl",
+        cx=cx,
+        cz=cz,
+        vx=vx,
+        vz=vz,
+        relax_steps=round(0.05 / dt),
+        move_steps=round(travel / speed / dt),
+        nav=nav,
+        out=name,
+    )
+    printed = run_engine("intrude.in", v, workdir, name, raw_lines=['variable inhole atom "%s"' % hole])
+    start_step = int(printed["START_STEP"])
+    rows = read_ave_time(os.path.join(workdir, name + ".forces"))
+    area = plate_len * width
+    sxz = szz = sxx = 0.0
+    for row in rows:
+        moved = (row[0] - start_step - nav / 2.0) * dt * speed
+        if moved < travel / 4:
+            continue
+        depth = surface - (cz + vz / speed * moved)
+        if depth <= 0:
+            continue
+        sxx += -row[1] * depth
+        sxz += row[3] * depth
+        szz += depth * depth
+    k = 1e-6 / (area * szz)  # N/m^3 -> N/cm^3
+    return {"name": name, "beta_rad": beta_r, "gamma_rad": gamma, "alpha_x": sxx * k,
+            "alpha_z": sxz * k}
+
+
+# ---------------------------------------------------------------------------------------------
+# The campaign
+
+
+def measure_friction(cfg, workdir):
+    """The internal friction angle: the static angle of repose of a drained bed (used as phi),
+    and, beside it, the run-out angle of a slumped column (a dynamic angle, lower)."""
+    drain = make_drain(cfg, workdir)
+    column = make_repose(cfg, workdir)
+    return {"phi_deg": drain["angle_deg"], "drained": drain, "slumped_column": column}
+
+
+def medium_of(base_bed, friction, cfg):
+    return {
+        "unit_weight_n_m3": base_bed["unit_weight_n_m3"],
+        "phi_deg": friction["phi_deg"],
+        "delta_deg": math.degrees(math.atan(MATERIAL["mu_wall"])),
+        "grain_radius_m": cfg["r"],
+    }
+
+
+class Campaign:
+    def __init__(self, args):
+        self.args = args
+        self.cfg = dict(SCENES[args.scene])
+        self.out = os.path.abspath(args.out)
+        self.work = os.path.join(self.out, "work")
+        os.makedirs(self.work, exist_ok=True)
+        os.makedirs(os.path.join(self.out, "runs"), exist_ok=True)
+        self.engine = engine_version()
+        self.lock = threading.Lock()
+        self.runs = []
+        self.beds = {}
+        self.refused = []
+        self.medium = None
+        self.terzaghi = args.terzaghi
+
+    def log(self, text):
+        with self.lock:
+            print("[%6.0f s] %s" % (time.time() - self.t0, text), flush=True)
+
+    def log_friction(self):
+        f = self.friction
+        self.log("friction: static angle of repose %.1f deg (drained, %d grains left, %.0f s); slumped column %.1f deg (%.0f s)"
+                 % (f["drained"]["angle_deg"], f["drained"]["grains_left"], f["drained"]["seconds"],
+                    f["slumped_column"]["angle_deg"], f["slumped_column"]["seconds"]))
+
+    def remeasure_medium(self):
+        """Measures the friction again and rewrites phi_deg in an existing campaign's runs and
+        manifest (the strokes do not depend on it: it is what the model is told)."""
+        self.t0 = time.time()
+        path = os.path.join(self.out, "campaign.json")
+        with open(path) as f:
+            manifest = json.load(f)
+        self.friction = measure_friction(self.cfg, self.work)
+        self.log_friction()
+        manifest.pop("repose", None)
+        manifest["friction"] = self.friction
+        manifest["medium"]["phi_deg"] = self.friction["phi_deg"]
+        runs = os.path.join(self.out, "runs")
+        for name in sorted(os.listdir(runs)):
+            if name.endswith(".csv"):
+                p = os.path.join(runs, name)
+                with open(p) as f:
+                    lines = f.read().splitlines(True)
+                lines = ["# phi_deg: %s\n" % round(self.friction["phi_deg"], 3) if l.startswith("# phi_deg:") else l
+                         for l in lines]
+                with open(p, "w") as f:
+                    f.writelines(lines)
+        with open(path, "w") as f:
+            json.dump(manifest, f, indent=1, sort_keys=True)
+        import_sessions(self.out, self.terzaghi, self.log)
+        if not self.args.keep_work:
+            shutil.rmtree(self.work, ignore_errors=True)
+
+    def bed(self, name, **kw):
+        b = make_bed(self.cfg, name, self.work, **kw)
+        ok = b["settled_ke_ratio"] < SETTLED_KE_RATIO
+        self.log("bed %s: %d grains, surface %.4f m (spread %.4f), solid fraction %.3f, KE ratio %.2g%s (%.0f s)"
+                 % (name, b["grains"], b["surface_z_m"], b["surface_spread_m"], b["solid_fraction"],
+                    b["settled_ke_ratio"], "" if ok else " NOT SETTLED", b["seconds"]))
+        b["settled"] = ok
+        with self.lock:
+            self.beds[name] = b
+        return b
+
+    def save(self, run, samples, bed):
+        """Writes the run's CSV (its session is written at the end, by import_sessions)."""
+        run = dict(run)
+        csv_path = os.path.join(self.out, "runs", run["name"] + ".csv")
+        write_run_csv(csv_path, run, bed, self.medium, samples, self.engine)
+        peak = max(abs(s[2]) for s in samples) if samples else 0.0
+        self.log("run %s: %d samples, peak drag %.2f N (%.0f s)"
+                 % (run["name"], len(samples), peak, run.get("seconds", 0)))
+        run["samples"] = len(samples)
+        run["peak_drag_n"] = round(peak, 4)
+        with self.lock:
+            self.runs.append(run)
+        return run
+
+    def run(self):
+        self.t0 = time.time()
+        c = self.cfg
+        small = self.args.scene == "small"
+        self.log("engine: %s; scene %s" % (self.engine, self.args.scene))
+        pool = cf.ThreadPoolExecutor(max_workers=self.args.jobs)
+
+        # The medium's own constants: packing of the baseline bed, internal friction from the
+        # static angle of repose (a drained bed); delta from the grain-plate contact friction
+        # (fitted where the model is fitted).
+        f_medium = None if small else pool.submit(measure_friction, c, self.work)
+        base = self.bed("bed_base")
+        self.friction = f_medium.result() if f_medium else {"phi_deg": 30.0, "note": "not measured in the small scene"}
+        if f_medium:
+            self.log_friction()
+        self.medium = medium_of(base, self.friction, c)
+        if not base["settled"]:
+            raise SystemExit("the baseline bed did not settle (KE ratio %.2g): no run is written" % base["settled_ke_ratio"])
+
+        jobs = []
+
+        def stroke(name, bed, **kw):
+            def go():
+                bd = self.beds[bed] if isinstance(bed, str) else bed
+                if not bd["settled"]:
+                    self.refused.append({"name": name, "reason": "bed %s did not settle" % bd["name"]})
+                    self.log("run %s refused: bed %s did not settle" % (name, bd["name"]))
+                    return None
+                run, samples = run_stroke(c, name, self.work, bd, **kw)
+                return self.save(run, samples, bd), samples
+            return go
+
+        b0, h0, w0 = c["width_m"], c["hip_height_m"], c["omega"]
+        base_name = "qs_b%03d_h%03d" % (round(b0 * 1000), round(h0 * 1000))
+        f_base = pool.submit(stroke(base_name, base, width_m=b0, hip_height_m=h0, omega=w0))
+        if small:
+            f_base.result()
+            pool.shutdown()
+            return self.finish()
+        std = dict(width_m=b0, hip_height_m=h0)
+
+        def bed_then(name, bed_kw, run_name, **kw):
+            def go():
+                bd = self.bed(name, **bed_kw)
+                return stroke(run_name, bd, **kw)()
+            return go
+
+        # Longest first, so that the two engine processes finish together.
+        jobs.append(pool.submit(bed_then("bed_big", {"hx": 1.5 * c["hx"], "hy": 1.5 * c["hy"]}, "check_big_box",
+                                         omega=w0, **std)))
+        jobs.append(pool.submit(bed_then("bed_deep", {"depth": 1.5 * c["depth"]}, "check_deep", omega=w0, **std)))
+        jobs.append(pool.submit(stroke("var_disturbed", base, omega=w0, strokes=2, **std)))
+        jobs.append(pool.submit(stroke("check_slow", base, omega=w0 / 2, **std)))
+        jobs.append(pool.submit(stroke("check_dt_half", base, omega=w0, overrides={"dt_factor": 0.5}, **std)))
+        for b in c["widths_m"]:
+            for h in c["hips_m"]:
+                name = "qs_b%03d_h%03d" % (round(b * 1000), round(h * 1000))
+                if name != base_name:
+                    jobs.append(pool.submit(stroke(name, base, width_m=b, hip_height_m=h, omega=w0)))
+        # Half the damping ratio: restitution 0.3 (ratio 0.358) -> 0.565 (ratio 0.179).
+        jobs.append(pool.submit(stroke("check_damping_half", base, omega=w0,
+                                       overrides={"material": {"e_rest": 0.565}}, **std)))
+        jobs.append(pool.submit(stroke("var_cohesive", base, omega=w0,
+                                       overrides={"material": {"ced": self.args.cohesion}}, **std)))
+        jobs.append(pool.submit(stroke("var_surface_10mm", base, omega=w0, hip_offset_m=-0.010, **std)))
+        jobs.append(pool.submit(bed_then("bed_dense", {"mu_fill": 0.05}, "var_dense", omega=w0, **std)))
+        jobs.append(pool.submit(stroke("cleg", base, omega=w0, shape="c", **std)))
+        jobs.append(pool.submit(stroke("var_fast", base, omega=10 * w0, **std)))
+
+        # RFT from the same medium: a smaller bed, a grid of intrusions.
+        def rft():
+            bd = self.bed("bed_rft", hx=0.06, hy=0.04, depth=0.08)
+            out = []
+            futs = []
+            for bd_deg in (-60, -30, 0, 30, 60, 90):
+                for g_deg in (-90, -45, 0, 45, 90):
+                    name = "rft_b%+03d_g%+03d" % (bd_deg, g_deg)
+                    futs.append((name, bd_deg, g_deg))
+            for name, bd_deg, g_deg in futs:
+                r = run_intrusion(c, name, self.work, bd, math.radians(bd_deg), math.radians(g_deg))
+                out.append(r)
+            self.log("RFT grid: %d intrusions" % len(out))
+            return out
+
+        f_rft = pool.submit(rft)
+        base_run, base_samples = f_base.result()
+        peak = max(max(abs(s[2]), abs(s[3])) for s in base_samples)
+        for kind in ("bias", "delay", "noise"):
+            samples, extra = sensor_variant(base_samples, kind, peak)
+            run = dict(base_run)
+            run["name"] = "var_sensor_" + kind
+            run["sensor"] = extra
+            run["seconds"] = 0
+            self.save(run, samples, base)
+        for j in jobs:
+            j.result()
+        self.rft = f_rft.result()
+        pool.shutdown()
+        return self.finish()
+
+    def finish(self):
+        ok = os.path.exists(self.terzaghi) and subprocess.run(
+            [self.terzaghi, "import-dem", "--help"], capture_output=True).returncode == 0
+        if ok:
+            self.refused += import_sessions(self.out, self.terzaghi, self.log)
+        else:
+            self.log("%s has no import-dem: sessions not written (rerun with --import-only)" % self.terzaghi)
+        grid = getattr(self, "rft", [])
+        if grid:
+            with open(os.path.join(self.out, "rft_grid.csv"), "w") as f:
+                f.write("# RFT stress per depth measured by intruding a 25 x 25 mm plate element in the DEM bed\n")
+                f.write("# (tests/dem/campaign.py). Units: alpha in N/cm^3; beta = attack angle, gamma = intrusion\n")
+                f.write("# angle below the horizontal (gamma > 0: moving down), radians; alpha_x resists the motion's\n")
+                f.write("# horizontal component, alpha_z is up.\n")
+                f.write("beta_rad,gamma_rad,alpha_x,alpha_z\n")
+                for r in sorted(grid, key=lambda r: (r["gamma_rad"], r["beta_rad"])):
+                    f.write("%.6f,%.6f,%.6g,%.6g\n" % (r["beta_rad"], r["gamma_rad"], r["alpha_x"], r["alpha_z"]))
+        manifest = {
+            "engine": self.engine,
+            "command": "python3 tests/dem/campaign.py --out %s --scene %s --jobs %d" % (
+                os.path.relpath(self.out, os.path.dirname(os.path.dirname(HERE))), self.args.scene, self.args.jobs),
+            "scene": self.cfg,
+            "material": MATERIAL,
+            "medium": self.medium,
+            "friction": getattr(self, "friction", None),
+            "beds": {k: {kk: vv for kk, vv in v.items() if kk != "restart"} for k, v in self.beds.items()},
+            "runs": sorted(self.runs, key=lambda r: r["name"]),
+            "refused": self.refused,
+            "seconds": round(time.time() - self.t0, 1),
+        }
+        with open(os.path.join(self.out, "campaign.json"), "w") as f:
+            json.dump(manifest, f, indent=1, sort_keys=True)
+        if not self.args.keep_work:
+            shutil.rmtree(self.work, ignore_errors=True)
+        self.log("campaign done in %.0f s (%.1f min): %d runs in %s"
+                 % (manifest["seconds"], manifest["seconds"] / 60, len(self.runs), self.out))
+        return manifest
+
+
+def import_sessions(out, terzaghi, log=print):
+    """Writes every run's CSV in out/runs as a ROS 2 MCAP session beside it, through
+    `terzaghi import-dem`, which refuses a run that made no contact, has a non-finite force or
+    whose bed did not settle. A refused run's CSV moves to out/refused. Returns the refusals."""
+    refused = []
+    runs = os.path.join(out, "runs")
+    for name in sorted(os.listdir(runs)):
+        if not name.endswith(".csv"):
+            continue
+        csv_path = os.path.join(runs, name)
+        mcap_path = csv_path[:-4] + ".mcap"
+        if os.path.exists(mcap_path):
+            os.remove(mcap_path)
+        p = subprocess.run([terzaghi, "import-dem", csv_path, "-o", mcap_path],
+                           capture_output=True, text=True)
+        if p.returncode != 0:
+            refused.append({"name": name[:-4], "reason": p.stderr.strip()})
+            log("run %s refused: %s" % (name[:-4], p.stderr.strip()))
+            os.makedirs(os.path.join(out, "refused"), exist_ok=True)
+            os.replace(csv_path, os.path.join(out, "refused", name))
+    return refused
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--out", required=True, help="directory for runs/, rft_grid.csv and campaign.json")
+    ap.add_argument("--scene", choices=sorted(SCENES), default="full")
+    ap.add_argument("--jobs", type=int, default=2, help="engine processes at once (default 2)")
+    ap.add_argument("--cohesion", type=float, default=1e5,
+                    help="cohesion energy density of the cohesive variation, J/m^3 (default 1e5)")
+    ap.add_argument("--terzaghi", default=os.path.join(os.path.dirname(os.path.dirname(HERE)), "target", "release", "terzaghi"))
+    ap.add_argument("--keep-work", action="store_true", help="keep the engine's inputs, logs and restarts")
+    ap.add_argument("--remeasure-medium", action="store_true",
+                    help="measure the friction angle again and rewrite it in the runs already in --out")
+    ap.add_argument("--import-only", action="store_true",
+                    help="only write the sessions of the CSV runs already in --out (no engine)")
+    args = ap.parse_args()
+    if args.import_only:
+        refused = import_sessions(os.path.abspath(args.out), args.terzaghi)
+        sys.exit(1 if refused else 0)
+    if shutil.which("liggghts") is None:
+        sys.exit("liggghts not found: install it with `apt-get install liggghts` (Debian)")
+    if args.jobs < 1:
+        sys.exit("--jobs must be at least 1")
+    if args.remeasure_medium:
+        Campaign(args).remeasure_medium()
+        return
+    Campaign(args).run()
+
+
+if __name__ == "__main__":
+    main()
