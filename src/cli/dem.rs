@@ -99,21 +99,24 @@ fn pct(x: f64) -> String {
 }
 
 fn render_change(s: &mut String, ch: &Change, limit: Option<f64>) {
+    let worst = ch.mean_drag_change.abs().max(ch.mean_lift_change.abs());
     let verdict = match limit {
-        Some(l) if ch.drag_change < l && ch.lift_change < l => "within".to_string(),
+        Some(l) if worst < l => format!("within {:.0} %", 100.0 * l),
         Some(l) => format!(
-            "MISSES by {:.1} points",
-            100.0 * (ch.drag_change.max(ch.lift_change) - l)
+            "MISSES {:.0} % by {:.1} points",
+            100.0 * l,
+            100.0 * (worst - l)
         ),
         None => String::new(),
     };
     *s += &format!(
-        "{:<20} {:>9.1} % {:>9.1} % {:>11} {:>5}  {}\n",
+        "{:<20} {:>9} {:>9} {:>9} {:>9} {:>10}  {}\n",
         ch.run,
-        100.0 * ch.drag_change,
-        100.0 * ch.lift_change,
+        pct(ch.mean_drag_change),
+        pct(ch.mean_lift_change),
+        format!("{:.1} %", 100.0 * ch.shape_drag_change),
+        format!("{:.1} %", 100.0 * ch.shape_lift_change),
         pct(ch.peak_drag_change),
-        ch.bins,
         verdict
     );
 }
@@ -150,12 +153,12 @@ fn render(m: &serde_json::Value, r: &CampaignReport) -> String {
         med["delta_deg"].as_f64().unwrap_or(f64::NAN)
     );
     s += &format!(
-        "checks against the baseline {} (RMS change of the 2-deg bin means over penetration):\n",
+        "checks against the baseline {} over penetration: change of the mean drag and lift (the criterion), RMS change of the 5-deg bins (shape), peak drag:\n",
         r.baseline
     );
     s += &format!(
-        "{:<20} {:>11} {:>11} {:>11} {:>5}  limit\n",
-        "run", "drag", "lift", "peak drag", "bins"
+        "{:<20} {:>9} {:>9} {:>9} {:>9} {:>10}  criterion\n",
+        "run", "mean D", "mean L", "shape D", "shape L", "peak D"
     );
     for ch in &r.checks {
         let limit = if ch.run.contains("dt") || ch.run.contains("damping") {

@@ -223,9 +223,9 @@ impl DemRun {
     }
 }
 
-/// Runs of one leg, geometry, medium and speed joined into one run of several strokes: each run
-/// starts one sample period after the previous one ends, its angle unwrapped to go on turning
-/// the same way (as a wheel-leg's joint does).
+/// Runs of one leg, geometry, medium and speed joined into one run of several strokes, as a
+/// wheel-leg turns: between two runs the leg swings on through the air at the run's speed (zero
+/// force, one sample per sample period) to where the next run starts, a turn later.
 pub fn join_runs(runs: Vec<DemRun>) -> Result<DemRun, DemError> {
     let mut it = runs.into_iter();
     let Some(mut out) = it.next() else {
@@ -258,9 +258,22 @@ pub fn join_runs(runs: Vec<DemRun>) -> Result<DemRun, DemError> {
             n if n >= 2 => last.t_s - out.samples[n - 2].t_s,
             _ => 1e-3,
         };
-        let dt = last.t_s + period - first.t_s;
         let turn = 2.0 * std::f64::consts::PI;
         let dbeta = ((last.beta_rad - first.beta_rad) / turn).ceil() * turn;
+        // The leg swings on through the air at the run's speed to where the next stroke starts:
+        // out of the bed, the force is zero.
+        let gap_rad = first.beta_rad + dbeta - last.beta_rad;
+        let steps = (gap_rad / (out.omega_rad_s.abs() * period)).ceil().max(1.0) as usize;
+        for k in 1..steps {
+            out.samples.push(DemSample {
+                t_s: last.t_s + k as f64 * period,
+                beta_rad: last.beta_rad + gap_rad * k as f64 / steps as f64,
+                drag_n: 0.0,
+                lift_n: 0.0,
+                hip_torque_nm: 0.0,
+            });
+        }
+        let dt = last.t_s + steps as f64 * period - first.t_s;
         out.samples.extend(r.samples.iter().map(|s| DemSample {
             t_s: s.t_s + dt,
             beta_rad: s.beta_rad + dbeta,
