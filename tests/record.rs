@@ -267,6 +267,7 @@ fn damaged_files_never_panic() {
                 file.as_os_str(),
                 "-o".as_ref(),
                 fixed.as_os_str(),
+                "--overwrite".as_ref(),
             ],
             vec![
                 "replay".as_ref(),
@@ -374,5 +375,139 @@ fn replay_over_dds_is_recorded_again_by_the_standalone_recorder() {
     assert!(
         worst_lag_s < 0.3,
         "a message arrived {worst_lag_s} s off its stamp"
+    );
+}
+
+/// Every command that writes a recording refuses a file that exists (exit 2, naming it) and
+/// leaves it byte for byte as it was, unless --overwrite is given; a CSV output is replaced.
+#[test]
+fn an_existing_recording_is_never_overwritten() {
+    let dir = tempfile::tempdir().unwrap();
+    let session = dir.path().join("session.mcap");
+    std::fs::write(&session, leg_session(600, 4_000_000, 50_000_000)).unwrap();
+    let params = dir.path().join("leg.yaml");
+    std::fs::write(&params, LEG_PARAMS).unwrap();
+    let existing = dir.path().join("existing.mcap");
+    let keep = b"an earlier recording, 18 MB in real life".to_vec();
+    let p = |x: &Path| x.to_str().unwrap().to_string();
+    let (s, e, prm) = (p(&session), p(&existing), p(&params));
+    let cases: Vec<(bool, Vec<String>)> = vec![
+        (
+            false,
+            vec!["recover".into(), s.clone(), "-o".into(), e.clone()],
+        ),
+        (
+            false,
+            vec![
+                "replay".into(),
+                s.clone(),
+                "--reevaluate".into(),
+                "--params-file".into(),
+                prm.clone(),
+                "-o".into(),
+                e.clone(),
+            ],
+        ),
+        // These two would open a DDS participant if they did not refuse first.
+        (
+            true,
+            vec![
+                "record".into(),
+                "--topics".into(),
+                "/joint_states".into(),
+                "-o".into(),
+                e.clone(),
+            ],
+        ),
+        (
+            true,
+            vec![
+                "node".into(),
+                "--record".into(),
+                e.clone(),
+                "--ros-args".into(),
+                "--params-file".into(),
+                prm.clone(),
+            ],
+        ),
+        (
+            true,
+            vec![
+                "node".into(),
+                "--ros-args".into(),
+                "--params-file".into(),
+                prm.clone(),
+                "-p".into(),
+                format!("record:={e}"),
+            ],
+        ),
+    ];
+    for (dds, args) in &cases {
+        std::fs::write(&existing, &keep).unwrap();
+        let mut c = if *dds {
+            isolated_command(&terzaghi())
+        } else {
+            Command::new(terzaghi())
+        };
+        let o = c.args(args).output().unwrap();
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(
+            stderr.contains("existing.mcap exists") && stderr.contains("--overwrite"),
+            "{args:?}: {stderr}"
+        );
+        assert_eq!(std::fs::read(&existing).unwrap(), keep, "{args:?}");
+    }
+    // With --overwrite, the offline commands replace it with a valid session.
+    for (_, args) in &cases[..2] {
+        std::fs::write(&existing, &keep).unwrap();
+        let o = Command::new(terzaghi())
+            .args(args)
+            .arg("--overwrite")
+            .output()
+            .unwrap();
+        assert!(
+            o.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        assert!(std::fs::read(&existing).unwrap().starts_with(b"\x89MCAP"));
+    }
+    // A CSV output is replaced, as --help says.
+    let csv = dir.path().join("out.csv");
+    std::fs::write(&csv, "old").unwrap();
+    let o = Command::new(terzaghi())
+        .args([
+            "replay",
+            s.as_str(),
+            "--reevaluate",
+            "--params-file",
+            prm.as_str(),
+            "-o",
+        ])
+        .arg(&csv)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        std::fs::read_to_string(&csv)
+            .unwrap()
+            .starts_with("t_s,leg")
+    );
+}
+
+#[test]
+fn a_recording_without_a_name_is_named_from_its_start_time() {
+    assert_eq!(
+        terzaghi::cli::recording_name(1_795_395_599).to_str(),
+        Some("terzaghi_2026_11_23-00_59_59.mcap")
+    );
+    assert_eq!(
+        terzaghi::cli::recording_name(0).to_str(),
+        Some("terzaghi_1970_01_01-00_00_00.mcap")
+    );
+    assert_eq!(
+        terzaghi::cli::recording_name(951_782_400).to_str(),
+        Some("terzaghi_2000_02_29-00_00_00.mcap")
     );
 }

@@ -25,12 +25,7 @@ pub struct ImportDemArgs {
 }
 
 pub fn import(a: ImportDemArgs) -> Result<()> {
-    if a.output.exists() && !a.overwrite {
-        bail!(
-            "{} exists: not overwritten (pass --overwrite to replace it)",
-            a.output.display()
-        );
-    }
+    super::refuse_existing_recording(&a.output, a.overwrite)?;
     let runs = a
         .runs
         .iter()

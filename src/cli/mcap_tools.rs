@@ -21,9 +21,12 @@ pub struct InfoArgs {
 pub struct RecoverArgs {
     /// A (possibly cut-off) MCAP file.
     pub input: PathBuf,
-    /// Where to write the mended file.
+    /// Where to write the mended file (an existing file is refused).
     #[arg(short, long, value_name = "FIXED.mcap")]
     pub output: PathBuf,
+    /// Replace the output file if it exists.
+    #[arg(long)]
+    pub overwrite: bool,
 }
 
 pub fn read_file(path: &Path) -> Result<Vec<u8>> {
@@ -113,6 +116,7 @@ pub fn recover_cmd(a: RecoverArgs) -> Result<()> {
     if a.input == a.output {
         bail!("the output must be another file than the input");
     }
+    super::refuse_existing_recording(&a.output, a.overwrite)?;
     let bytes = read_file(&a.input)?;
     let pb = progress(0, "recovering");
     let mut result = None;

@@ -262,6 +262,42 @@ pub fn print_out(text: &str) -> Result<()> {
     }
 }
 
+/// Refuses to replace an existing recording, as `ros2 bag record` does: data is never
+/// destroyed unless `--overwrite` asks for it.
+pub fn refuse_existing_recording(path: &std::path::Path, overwrite: bool) -> Result<()> {
+    if !overwrite && path.exists() {
+        bail!(
+            "{} exists: a recording is not overwritten (pass --overwrite to replace it)",
+            path.display()
+        );
+    }
+    Ok(())
+}
+
+/// A recording's name from its start time, as rosbag2 names one: `terzaghi_YYYY_MM_DD-HH_MM_SS.mcap`
+/// (UTC).
+pub fn recording_name(unix_s: u64) -> std::path::PathBuf {
+    // Days since 1970-01-01 to a civil date (Howard Hinnant's algorithm).
+    let days = (unix_s / 86_400) as i64;
+    let secs = unix_s % 86_400;
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    format!(
+        "terzaghi_{y:04}_{m:02}_{d:02}-{:02}_{:02}_{:02}.mcap",
+        secs / 3600,
+        secs / 60 % 60,
+        secs % 60
+    )
+    .into()
+}
+
 /// Writes a file through a temporary beside it and renames it into place, so that a failure
 /// leaves no partial file behind.
 pub fn write_atomically(

@@ -18,6 +18,10 @@ pub struct NodeArgs {
     /// Record the session (inputs and outputs) to this MCAP file (or the parameter `record`).
     #[arg(long, value_name = "FILE.mcap")]
     pub record: Option<PathBuf>,
+    /// Replace the recording (--record or the parameter `record`) if it exists; by default an
+    /// existing file is refused.
+    #[arg(long)]
+    pub overwrite: bool,
     /// Write the processing-time summary as JSON to this file at shutdown.
     #[arg(long, value_name = "FILE")]
     pub latency_report: Option<PathBuf>,
@@ -81,6 +85,9 @@ pub fn setup(a: &NodeArgs) -> Result<NodeSetup> {
         );
     }
     let config = NodeConfig::from_params(&params, &node_name, &namespace, &ros.remaps)?;
+    if let Some(path) = &config.record {
+        super::refuse_existing_recording(path, a.overwrite)?;
+    }
     let params = config.effective_params(&params);
     let (domain_id, localhost_only) = crate::node::dds::network_from_env()?;
     Ok(NodeSetup {

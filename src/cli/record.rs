@@ -20,9 +20,13 @@ pub struct RecordArgs {
     /// (joint_states, wrench or ft, predicted_wrench, leg_force, model_params, diagnostics).
     #[arg(long, num_args = 1.., required = true)]
     pub topics: Vec<String>,
-    /// The MCAP file to write.
+    /// The MCAP file to write (default: terzaghi_YYYY_MM_DD-HH_MM_SS.mcap from the start time,
+    /// UTC). An existing file is refused.
     #[arg(short, long, value_name = "FILE.mcap")]
-    pub output: PathBuf,
+    pub output: Option<PathBuf>,
+    /// Replace the output file if it exists.
+    #[arg(long)]
+    pub overwrite: bool,
     /// Stop after this many seconds (default: at Ctrl-C or SIGTERM).
     #[arg(long)]
     pub duration_s: Option<f64>,
@@ -99,9 +103,17 @@ pub fn run(a: RecordArgs) -> Result<()> {
     {
         bail!("--duration-s must be a positive number, got {d}");
     }
+    let output = a.output.clone().unwrap_or_else(|| {
+        super::recording_name(
+            std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| d.as_secs()),
+        )
+    });
+    super::refuse_existing_recording(&output, a.overwrite)?;
     let recorder = Arc::new(
-        Recorder::start(&a.output, RecordOptions::default(), 1 << 16)
-            .with_context(|| format!("cannot record to {}", a.output.display()))?,
+        Recorder::start(&output, RecordOptions::default(), 1 << 16)
+            .with_context(|| format!("cannot record to {}", output.display()))?,
     );
     let rt = super::runtime()?;
     rt.block_on(async {
@@ -122,7 +134,7 @@ pub fn run(a: RecordArgs) -> Result<()> {
         eprintln!(
             "recording {} topics to {} (Ctrl-C to stop)",
             topics.len(),
-            a.output.display()
+            output.display()
         );
         let wait = async {
             match a.duration_s {
@@ -161,11 +173,11 @@ pub fn run(a: RecordArgs) -> Result<()> {
         .dropped
         .load(std::sync::atomic::Ordering::Relaxed);
     if let Some(e) = rec.finish() {
-        bail!("recording to {} stopped: {e}", a.output.display());
+        bail!("recording to {} stopped: {e}", output.display());
     }
     eprintln!(
         "recorded {written} messages to {} ({dropped} dropped)",
-        a.output.display()
+        output.display()
     );
     Ok(())
 }

@@ -31,6 +31,10 @@ pub struct ReplayArgs {
     /// to measurements); default: CSV on standard output.
     #[arg(short, long, value_name = "OUT")]
     pub output: Option<PathBuf>,
+    /// --reevaluate -o OUT.mcap: replace OUT.mcap if it exists (an existing recording is
+    /// refused; a CSV output is replaced).
+    #[arg(long)]
+    pub overwrite: bool,
     /// Replay speed factor.
     #[arg(long, default_value_t = 1.0, conflicts_with = "as_fast_as_possible")]
     pub rate: f64,
@@ -288,6 +292,7 @@ fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
     match out_kind.as_deref() {
         Some("mcap") => {
             let path = a.output.clone().unwrap_or_default();
+            super::refuse_existing_recording(&path, a.overwrite)?;
             let mut result = None;
             write_atomically(&path, |w| {
                 // The parameters it was re-evaluated with, so that it can be re-run in turn.
