@@ -314,7 +314,7 @@ fn run_memory(
         if let Input::Joints(_) = input {
             view.after_joints(joints);
             joints += 1;
-            if joints % 250 == 0 {
+            if joints.is_multiple_of(250) {
                 for (i, e) in last.iter_mut().enumerate() {
                     *e = core.estimate(i);
                 }

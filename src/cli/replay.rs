@@ -324,7 +324,7 @@ fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
                         }
                         if let Output::Input(..) = o {
                             n += 1;
-                            if n % 50_000 == 0 {
+                            if n.is_multiple_of(50_000) {
                                 pb.set_position(n);
                             }
                         }
@@ -432,7 +432,7 @@ fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
                         |o| {
                             if let Output::Input(..) = o {
                                 n += 1;
-                                if n % 50_000 == 0 {
+                                if n.is_multiple_of(50_000) {
                                     pb.set_position(n);
                                 }
                             }

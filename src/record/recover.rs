@@ -55,7 +55,7 @@ pub fn recover<W: Write + Seek>(
         };
         result = writer.write_cdr(id, &t.topic, m.data, m.log_time_ns, m.publish_time_ns);
         written += 1;
-        if written % 10_000 == 0 {
+        if written.is_multiple_of(10_000) {
             progress(written);
         }
     })?;

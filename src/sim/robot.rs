@@ -47,7 +47,7 @@ pub struct Session {
 /// Tripod of a leg: legs 0, 2 and 4 of the configuration (front left, rear left, middle right
 /// in the shipped RHex parameters) turn together; the others half a turn apart.
 fn tripod_phase(leg: usize) -> f64 {
-    if leg % 2 == 0 { 0.0 } else { PI }
+    if leg.is_multiple_of(2) { 0.0 } else { PI }
 }
 
 pub fn simulate(cfg: &NodeConfig, truth: &Truth, gait: &Gait) -> Session {
