@@ -166,3 +166,114 @@ fn runs_that_never_touched_the_bed_have_a_non_finite_force_or_an_unsettled_bed_a
     assert!(text(&o).contains("exists"), "{}", text(&o));
     assert_eq!(std::fs::read(&output).unwrap(), before);
 }
+
+/// The committed campaign (tests/dem/campaign, made by `python3 tests/dem/campaign.py --out
+/// tests/dem/campaign`): the figures of the README's "Checked against DEM" section, computed
+/// again from the committed runs through the library.
+#[test]
+fn the_committed_campaign_holds_its_figures() {
+    const DT_LIMIT: f64 = 0.05;
+    const DAMPING_LIMIT: f64 = 0.05;
+    const IMPROVED_R2_DRAG: f64 = 0.85;
+    const IMPROVED_R2_LIFT: f64 = 0.65;
+    const RFT_GRID_R2: f64 = 0.8;
+    use terzaghi::dem::fidelity::campaign_report;
+    let dir = common::repo().join("tests/dem/campaign");
+    let c = terzaghi::dem::read_campaign(&dir).expect("the committed campaign reads");
+    let r = campaign_report(&c, "qs_b030_h040").unwrap();
+    let check = |name: &str| {
+        r.checks
+            .iter()
+            .find(|x| x.run == name)
+            .unwrap_or_else(|| panic!("no check {name}"))
+    };
+    let mean = |x: &terzaghi::dem::fidelity::Change| {
+        x.mean_drag_change.abs().max(x.mean_lift_change.abs())
+    };
+    // The testbed's checks, as the README states them.
+    assert!(
+        mean(check("check_slow")) < 0.10,
+        "{:?}",
+        check("check_slow")
+    );
+    assert!(
+        mean(check("check_deep")) < 0.10,
+        "{:?}",
+        check("check_deep")
+    );
+    let big = mean(check("check_big_box"));
+    assert!(
+        (0.09..0.12).contains(&big),
+        "the README says it misses by a little: {big}"
+    );
+    assert!(
+        mean(check("check_dt_half")) < DT_LIMIT,
+        "{:?}",
+        check("check_dt_half")
+    );
+    assert!(
+        mean(check("check_damping_half")) < DAMPING_LIMIT,
+        "{:?}",
+        check("check_damping_half")
+    );
+
+    // Fidelity: six quasi-static runs (three widths, two hip heights); the improved model
+    // fitted with delta describes the penetration phase, the conventional one does not.
+    assert_eq!(r.fidelity.len(), 6, "{:?}", r.fidelity);
+    for f in &r.fidelity {
+        assert!(f.samples > 300, "{f:?}");
+        assert!(f.improved.r2_drag > IMPROVED_R2_DRAG, "{f:?}");
+        assert!(f.improved.r2_lift > IMPROVED_R2_LIFT, "{f:?}");
+        assert!(f.conventional.r2_drag < 0.0, "{f:?}");
+        assert!(f.improved.rmse_drag_n < f.rft.rmse_drag_n, "{f:?}");
+    }
+    // RFT from 30 intrusions.
+    assert_eq!(r.rft_grid_points, 30);
+    let (rx, rz) = r.rft_grid_r2.unwrap();
+    assert!(rx > RFT_GRID_R2 && rz > RFT_GRID_R2, "{rx} {rz}");
+    // The width transfer: every pair at one hip height, both ways; drag carries over, lift
+    // at the higher hip less well.
+    assert_eq!(r.transfer.len(), 12);
+    for t in &r.transfer {
+        assert!(t.transferred.r2_drag > 0.8, "{t:?}");
+        assert!(t.transferred.r2_lift > 0.45, "{t:?}");
+        assert!(t.transferred.r2_drag <= t.own.r2_drag + 1e-9, "{t:?}");
+    }
+    // The C-leg: RFT from the DEM predicts it; the flat-plate model, fitted to it, does not
+    // describe its lift.
+    let cl = r.c_leg.as_ref().expect("the campaign has a C-leg run");
+    assert!(cl.samples > 300, "{cl:?}");
+    assert!(cl.rft.r2_drag > 0.75 && cl.rft.r2_lift > 0.85, "{cl:?}");
+    assert!(cl.flat_plate_fit.r2_lift < 0.0, "{cl:?}");
+    // Each controlled variation changes the forces by more than the testbed's own checks do.
+    for v in [
+        "var_cohesive",
+        "var_dense",
+        "var_fast",
+        "var_surface_10mm",
+        "var_disturbed",
+    ] {
+        let ch = r.variations.iter().find(|x| x.run == v).unwrap();
+        assert!(mean(ch) > 0.15, "{ch:?}");
+    }
+
+    // Every run has its session beside it, which fit reads to the same b_k as the library.
+    for run in &c.runs {
+        let mcap = dir.join(format!("runs/{}.mcap", run.name));
+        assert!(mcap.exists(), "{} has no session", run.name);
+    }
+    let base = r.fidelity.iter().find(|f| f.run == "qs_b030_h040").unwrap();
+    let o = terzaghi(&[
+        "fit",
+        dir.join("runs/qs_b030_h040.mcap").to_str().unwrap(),
+        "--fit-delta",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let f: Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(
+        (f["b_k"].as_f64().unwrap() - base.b_k).abs() < 1e-9 * base.b_k,
+        "{f}"
+    );
+    assert_eq!(f["samples"].as_u64().unwrap() as usize, base.samples);
+}

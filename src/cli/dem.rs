@@ -142,7 +142,7 @@ fn render(m: &serde_json::Value, r: &CampaignReport) -> String {
         base["settled_ke_ratio"].as_f64().unwrap_or(f64::NAN)
     );
     s += &format!(
-        "medium from the bed: unit weight {:.0} N/m^3, phi {:.1} deg (angle of repose), delta {:.1} deg (grain-plate contact friction)\n\n",
+        "medium from the bed: unit weight {:.0} N/m^3, phi {:.1} deg (static angle of repose, a drained bed), delta {:.1} deg (grain-plate contact friction)\n\n",
         med["unit_weight_n_m3"].as_f64().unwrap_or(f64::NAN),
         med["phi_deg"].as_f64().unwrap_or(f64::NAN),
         med["delta_deg"].as_f64().unwrap_or(f64::NAN)
