@@ -341,26 +341,13 @@ pub fn read_campaign(dir: &Path) -> Result<Campaign, DemError> {
 }
 
 fn parse_grid(text: &str, path: &str) -> Result<Vec<(f64, f64, f64, f64)>, DemError> {
-    let mut out = Vec::new();
-    for (i, line) in text.lines().enumerate() {
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') || line.starts_with("beta_rad") {
-            continue;
-        }
-        let v: Vec<f64> = line
-            .split(',')
-            .map(|c| c.trim().parse::<f64>())
-            .collect::<Result<_, _>>()
-            .ok()
-            .filter(|v: &Vec<f64>| v.len() == 4 && v.iter().all(|x| x.is_finite()))
-            .ok_or_else(|| DemError::Malformed {
-                path: path.to_string(),
-                line: i + 1,
-                message: "expected beta_rad,gamma_rad,alpha_x,alpha_z as 4 finite numbers".into(),
-            })?;
-        out.push((v[0], v[1], v[2], v[3]));
-    }
-    Ok(out)
+    crate::model::RftGrid::parse(text)
+        .map(|g| g.points())
+        .map_err(|message| DemError::Malformed {
+            path: path.to_string(),
+            line: 0,
+            message,
+        })
 }
 
 const COLUMNS: [&str; 5] = ["t_s", "beta_rad", "drag_n", "lift_n", "hip_torque_nm"];
@@ -465,6 +452,13 @@ pub fn parse_run(text: &str, path: &str) -> Result<DemRun, DemError> {
                 line: i + 1,
                 message: format!("{} = {cell:?} is not a number", COLUMNS[k]),
             })?;
+            if k == 0 && x < 0.0 {
+                return Err(DemError::Malformed {
+                    path: path.to_string(),
+                    line: i + 1,
+                    message: format!("t_s = {x} is before the run's start (0 s)"),
+                });
+            }
             if !x.is_finite() {
                 return Err(DemError::NonFinite {
                     path: path.to_string(),
@@ -561,6 +555,8 @@ mod tests {
         );
         let e = parse_run(&run_text("1e-6", "0.002,0.5,1,inf,0\n"), "t.csv").unwrap_err();
         assert!(matches!(e, DemError::NonFinite { .. }), "{e}");
+        let e = parse_run(&run_text("1e-6", "-0.002,0.5,1,1,0\n"), "t.csv").unwrap_err();
+        assert!(e.to_string().contains("before the run's start"), "{e}");
         let e = parse_run(&run_text("nan", "0.002,0.5,1,1,0\n"), "t.csv").unwrap_err();
         assert!(matches!(e, DemError::BadValue { .. }), "{e}");
         let text = run_text("1e-6", "0.002,0.5,1,1,0\n").replace("# phi_deg: 30\n", "");

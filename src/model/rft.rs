@@ -234,6 +234,17 @@ impl RftGrid {
         })
     }
 
+    /// Every grid point as `(beta_r, gamma, alpha_x, alpha_z)`.
+    pub fn points(&self) -> Vec<(f64, f64, f64, f64)> {
+        let mut out = Vec::with_capacity(self.betas.len() * self.gammas.len());
+        for (gi, &g) in self.gammas.iter().enumerate() {
+            for (bi, &b) in self.betas.iter().enumerate() {
+                out.push((b, g, self.alpha_x[gi][bi], self.alpha_z[gi][bi]));
+            }
+        }
+        out
+    }
+
     /// The measured grid for loosely packed poppy seeds shipped with the crate.
     pub fn poppy_lp() -> &'static RftGrid {
         static GRID: OnceLock<RftGrid> = OnceLock::new();
