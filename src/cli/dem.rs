@@ -33,13 +33,9 @@ pub fn import(a: ImportDemArgs) -> Result<()> {
         .collect::<Result<Vec<_>, _>>()?;
     let run = join_runs(runs)?;
     super::write_atomically(&a.output, |w| {
-        run.write_session(std::io::Cursor::new(Vec::new()))
-            .map_err(anyhow::Error::from)
-            .and_then(|c| {
-                use std::io::Write;
-                w.write_all(&c.into_inner())
-                    .with_context(|| format!("cannot write {}", a.output.display()))
-            })
+        run.write_session(w)
+            .with_context(|| format!("cannot write {}", a.output.display()))?;
+        Ok(())
     })?;
     eprintln!(
         "{} samples of run {} written to {}",
@@ -166,6 +162,12 @@ fn render(m: &serde_json::Value, r: &CampaignReport) -> String {
     s += "\nvariations against the baseline:\n";
     for ch in &r.variations {
         render_change(&mut s, ch, None);
+    }
+    if !r.not_compared.is_empty() {
+        s += &format!(
+            "not compared (no penetration force in common with the baseline): {}\n",
+            r.not_compared.join(", ")
+        );
     }
     if let Some(f) = &r.rft_fit {
         s += &format!(

@@ -39,6 +39,13 @@ pub fn submerged(samples: &[Sample], plate: &Plate) -> Vec<Sample> {
         .collect()
 }
 
+/// Drag and lift of a Terzaghi model at `beta` (NaN where it cannot be evaluated, which the
+/// goodness of fit then counts against it).
+fn terzaghi_at(m: &TerzaghiModel, beta: f64) -> (f64, f64) {
+    m.evaluate(beta)
+        .map_or((f64::NAN, f64::NAN), |f| (f.drag_n, f.lift_n))
+}
+
 fn score(pred: impl Fn(f64) -> (f64, f64), samples: &[Sample]) -> GoodnessOfFit {
     let p: Vec<(f64, f64)> = samples.iter().map(|s| pred(s.beta_rad)).collect();
     let m: Vec<(f64, f64)> = samples.iter().map(|s| (s.drag_n, s.lift_n)).collect();
@@ -79,11 +86,6 @@ pub fn run_fidelity(run: &DemRun, rft: &RftCoefficients) -> Result<RunFidelity, 
     let improved = fitted_model(run, &fit)?;
     let rft_model =
         RftModel::new(run.plate, rft.clone(), RFT_ELEMENTS).map_err(IdentError::from)?;
-    let eval_improved = |b: f64| {
-        improved
-            .evaluate(b)
-            .map_or((f64::NAN, f64::NAN), |f| (f.drag_n, f.lift_n))
-    };
     let eval_rft = |b: f64| {
         rft_model
             .evaluate(b)
@@ -100,7 +102,7 @@ pub fn run_fidelity(run: &DemRun, rft: &RftCoefficients) -> Result<RunFidelity, 
         improved: fit.improved,
         conventional: fit.conventional,
         rft: score(eval_rft, &pen),
-        improved_whole_stroke: score(eval_improved, &submerged(&all, &run.plate)),
+        improved_whole_stroke: score(|b| terzaghi_at(&improved, b), &submerged(&all, &run.plate)),
     })
 }
 
@@ -154,13 +156,7 @@ pub fn width_transfer(runs: &[&DemRun]) -> Result<Vec<Transfer>, IdentError> {
                 .map_err(IdentError::from)?;
             let width = FittingWidth::new(f.b_k, f.a).map_err(IdentError::from)?;
             let m = TerzaghiModel::new(test.plate, medium, width);
-            let transferred = score(
-                |b| {
-                    m.evaluate(b)
-                        .map_or((f64::NAN, f64::NAN), |f| (f.drag_n, f.lift_n))
-                },
-                &fits[j].0,
-            );
+            let transferred = score(|b| terzaghi_at(&m, b), &fits[j].0);
             out.push(Transfer {
                 train: train.name.clone(),
                 test: test.name.clone(),
@@ -206,8 +202,8 @@ fn binned(samples: &[Sample], plate: &Plate) -> std::collections::BTreeMap<i64, 
 }
 
 /// How much `run` differs from `base` (the same geometry told to the model), over the bins
-/// both have.
-pub fn change(base: &DemRun, run: &DemRun) -> Change {
+/// both have; `None` when they share no bin with force in it.
+pub fn change(base: &DemRun, run: &DemRun) -> Option<Change> {
     let a = binned(&base.samples(), &base.plate);
     let b = binned(&run.samples(), &base.plate);
     let (mut dd, mut dl, mut nd, mut nl, mut n) = (0.0, 0.0, 0.0, 0.0, 0);
@@ -230,7 +226,10 @@ pub fn change(base: &DemRun, run: &DemRun) -> Change {
         peak_b = peak_b.max(db);
         n += 1;
     }
-    Change {
+    if n == 0 || nd == 0.0 || nl == 0.0 || sum_da == 0.0 || sum_la == 0.0 || peak_a <= 0.0 {
+        return None;
+    }
+    Some(Change {
         run: run.name.clone(),
         mean_drag_change: sum_db / sum_da - 1.0,
         mean_lift_change: sum_lb / sum_la - 1.0,
@@ -238,7 +237,7 @@ pub fn change(base: &DemRun, run: &DemRun) -> Change {
         shape_lift_change: (dl / nl).sqrt(),
         peak_drag_change: peak_b / peak_a - 1.0,
         bins: n,
-    }
+    })
 }
 
 /// The C-leg's measured forces against RFT from the DEM, and against the flat-plate improved
@@ -325,6 +324,8 @@ pub struct CampaignReport {
     pub checks: Vec<Change>,
     /// `var_*` runs against the baseline.
     pub variations: Vec<Change>,
+    /// Runs that share no penetration bin with force with the baseline, so are not compared.
+    pub not_compared: Vec<String>,
     /// Quasi-static runs (`qs_*`).
     pub fidelity: Vec<RunFidelity>,
     pub transfer: Vec<Transfer>,
@@ -361,13 +362,27 @@ pub fn campaign_report(
         (Some(f), Some(r)) => Some(c_leg_fidelity(r, &RftCoefficients::Fit(f))?),
         _ => None,
     };
+    let mut not_compared = Vec::new();
+    let mut compare = |prefix: &'static str| {
+        let mut out = Vec::new();
+        for r in by_prefix(prefix) {
+            match change(base, r) {
+                Some(c) => out.push(c),
+                None => not_compared.push(r.name.clone()),
+            }
+        }
+        out
+    };
+    let checks = compare("check_");
+    let variations = compare("var_");
     Ok(CampaignReport {
         baseline: baseline.to_string(),
         rft_fit,
         rft_grid_points: c.rft_grid.len(),
         rft_grid_r2,
-        checks: by_prefix("check_").map(|r| change(base, r)).collect(),
-        variations: by_prefix("var_").map(|r| change(base, r)).collect(),
+        checks,
+        variations,
+        not_compared,
         fidelity,
         transfer: width_transfer(&qs)?,
         c_leg,
@@ -381,4 +396,28 @@ pub enum FidelityError {
     NoBaseline { name: String },
     #[error(transparent)]
     Ident(#[from] IdentError),
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dem::parse_run;
+
+    fn run(rows: &str) -> DemRun {
+        let text = format!(
+            "# run: r\n# length_m: 0.1\n# width_m: 0.03\n# hip_height_m: 0.04\n# omega_rad_s: 1\n# unit_weight_n_m3: 14000\n# phi_deg: 23\n# delta_deg: 19\n# bed_settled_ke_ratio: 1e-7\nt_s,beta_rad,drag_n,lift_n,hip_torque_nm\n{rows}"
+        );
+        parse_run(&text, "r.csv").unwrap()
+    }
+
+    #[test]
+    fn a_run_with_no_penetration_force_in_common_is_not_compared_rather_than_nan() {
+        let base = run("0.01,1.0,2.0,1.0,0.1\n0.02,1.2,3.0,1.5,0.1\n");
+        let same = change(&base, &base).unwrap();
+        assert_eq!((same.mean_drag_change, same.bins), (0.0, 2));
+        // Force only in extraction (beta > 90 deg): no penetration bin to compare.
+        let late = run("0.01,2.0,2.0,1.0,0.1\n0.02,2.1,3.0,1.5,0.1\n");
+        assert!(change(&base, &late).is_none());
+        assert!(change(&late, &base).is_none());
+    }
 }
