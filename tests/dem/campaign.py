@@ -243,11 +243,8 @@ def make_bed(cfg, name, workdir, hx=None, hy=None, depth=None, mu_fill=None):
     hy = hy or cfg["hy"]
     depth = depth or cfg["depth"]
     r = cfg["r"]
-    v = dict(MATERIAL)
-    v.update(
-        dt=cfg["dt"],
-        skin=0.5 * r,
-        r=r,
+    v = engine_vars(
+        cfg,
         seed=86028121,
         hx=hx,
         hy=hy,
@@ -310,15 +307,44 @@ def measure_bed(grains, hx, hy, r):
     }
 
 
+def surface_slope(grains, r, what, x_max=float("inf")):
+    """The slope of a heap's free surface: the highest grain top in columns two radii wide (left
+    of x_max), fitted by least squares between 20 % and 80 % of the heap's height. Returns the
+    slope and the number of columns fitted."""
+    bins = {}
+    w = 2 * r
+    for g in grains:
+        _, rad, x, _, z = g[:5]
+        k = int(x / w)
+        bins[k] = max(bins.get(k, 0.0), z + rad)
+    prof = sorted((k, h) for k, h in bins.items() if (k + 0.5) * w < x_max)
+    top = max((h for _, h in prof), default=0.0)
+    pts = [((k + 0.5) * w, h) for k, h in prof if 0.2 * top < h < 0.8 * top]
+    n = len(pts)
+    if n < 3:
+        raise EngineError("%s: only %d surface columns on its slope, too few to fit an angle" % (what, n))
+    mx = sum(p[0] for p in pts) / n
+    mz = sum(p[1] for p in pts) / n
+    slope = sum((p[0] - mx) * (p[1] - mz) for p in pts) / sum((p[0] - mx) ** 2 for p in pts)
+    return slope, n
+
+
+def engine_vars(cfg, dt=None, material=None, **scene):
+    """The variables of a scene: the grains' material (with overrides), the time step, the
+    neighbour skin, then the scene's own."""
+    v = dict(MATERIAL)
+    v.update(material or {})
+    v.update(dt=dt or cfg["dt"], skin=0.5 * cfg["r"], r=cfg["r"])
+    v.update(scene)
+    return v
+
+
 def make_repose(cfg, workdir):
     """Angle of repose of a slumped column: the slope of the free surface between 20 % and 80 %
     of the heap's height, fitted by least squares."""
     r = cfg["r"]
-    v = dict(MATERIAL)
-    v.update(
-        dt=cfg["dt"],
-        skin=0.5 * r,
-        r=r,
+    v = engine_vars(
+        cfg,
         seed=67867967,
         col_w=0.08 if r < 0.004 else 0.1,
         col_h=0.12 if r < 0.004 else 0.15,
@@ -332,21 +358,9 @@ def make_repose(cfg, workdir):
     t0 = time.time()
     printed = run_engine("repose.in", v, workdir, "repose")
     grains = read_dump(os.path.join(workdir, "repose.grains"))
-    bins = {}
-    w = 2 * r
-    for g in grains:
-        _, rad, x, _, z = g[:5]
-        k = int(x / w)
-        bins[k] = max(bins.get(k, 0.0), z + rad)
-    prof = sorted(bins.items())
-    top = max(h for _, h in prof)
-    pts = [((k + 0.5) * w, h) for k, h in prof if 0.2 * top < h < 0.8 * top]
-    n = len(pts)
-    mx = sum(p[0] for p in pts) / n
-    mz = sum(p[1] for p in pts) / n
-    slope = sum((p[0] - mx) * (p[1] - mz) for p in pts) / sum((p[0] - mx) ** 2 for p in pts)
+    slope, n = surface_slope(grains, r, "slumped column")
     return {
-        "angle_deg": math.degrees(math.atan(-slope)),
+        "angle_deg": math.degrees(math.atan(abs(slope))),
         "profile_points": n,
         "kinetic_energy_j": float(printed["REPOSE_KE_J"]),
         "grains": len(grains),
@@ -362,11 +376,8 @@ def make_drain(cfg, workdir):
     length, slot_x, wy = 0.24, 0.18, max(0.03, 8 * r)
     write_stl(os.path.join(workdir, "drain_floor.stl"),
               panel((0.0005, -0.0015), (slot_x, -0.0015), 0.9999 * wy, 0.003))
-    v = dict(MATERIAL)
-    v.update(
-        dt=cfg["dt"],
-        skin=0.5 * r,
-        r=r,
+    v = engine_vars(
+        cfg,
         seed=67867967,
         len=length,
         hwy=wy / 2,
@@ -380,19 +391,7 @@ def make_drain(cfg, workdir):
     t0 = time.time()
     printed = run_engine("drain.in", v, workdir, "drain")
     grains = [g for g in read_dump(os.path.join(workdir, "drain.grains")) if g[4] > 0.0]
-    bins = {}
-    w = 2 * r
-    for g in grains:
-        _, rad, x, _, z = g[:5]
-        k = int(x / w)
-        bins[k] = max(bins.get(k, 0.0), z + rad)
-    prof = sorted((k, h) for k, h in bins.items() if (k + 0.5) * w < slot_x)
-    top = max(h for _, h in prof)
-    pts = [((k + 0.5) * w, h) for k, h in prof if 0.2 * top < h < 0.8 * top]
-    n = len(pts)
-    mx = sum(p[0] for p in pts) / n
-    mz = sum(p[1] for p in pts) / n
-    slope = sum((p[0] - mx) * (p[1] - mz) for p in pts) / sum((p[0] - mx) ** 2 for p in pts)
+    slope, n = surface_slope(grains, r, "drained bed", x_max=slot_x)
     return {
         "angle_deg": math.degrees(math.atan(abs(slope))),
         "profile_points": n,
@@ -448,11 +447,10 @@ def run_stroke(cfg, name, workdir, bed, width_m, hip_height_m, omega, shape="fla
     seg_path = os.path.join(workdir, name + ".segments.in")
     with open(seg_path, "w") as f:
         f.write("\n".join(lines) + "\n")
-    v = dict(MATERIAL)
-    v.update((overrides or {}).get("material", {}))
-    v.update(
+    v = engine_vars(
+        cfg,
         dt=dt,
-        skin=0.5 * cfg["r"],
+        material=(overrides or {}).get("material"),
         bed=bed["restart"],
         hx=bed["hx"],
         hy=bed["hy"],
@@ -582,10 +580,9 @@ def run_intrusion(cfg, name, workdir, bed, beta_r, gamma, plate_len=0.025, width
     hole = "(abs(%s)<%.9g)*(abs(%s)<%.9g)*(abs(y)<%.9g)" % (
         across, cfg["thickness"] / 2 + rmax, along, plate_len / 2 + rmax, width / 2 + rmax)
     nav = max(1, round(1.0 / SAMPLE_HZ / dt))
-    v = dict(MATERIAL)
-    v.update(
+    v = engine_vars(
+        cfg,
         dt=dt,
-        skin=0.5 * cfg["r"],
         bed=bed["restart"],
         hx=bed["hx"],
         hy=bed["hy"],
