@@ -1,26 +1,67 @@
-//! `terzaghi`: forces on flat legs rotating through sand and other granular media.
+//! `terzaghi`: forces on flat legs rotating through sand and other granular media, as a ROS 2
+//! node, a library and a command line.
+//!
+//! The modules, lowest first; each uses only those above it in this list:
 //!
 //! - [`model`]: the improved and conventional Terzaghi models and RFT (pure).
 //! - [`ident`]: identification of the fitting width `b_k, a` (and `delta`) from measured
-//!   forces, and goodness of fit (pure).
-//! - [`diagnose`]: the analysis of the sim-to-real gap (pure).
-//! - [`dataset`]: reading force logs (CSV) into samples (I/O adapter).
+//!   forces, batch and online, and goodness of fit (pure).
+//! - [`msgs`]: the ROS 2 messages the node reads and writes, and their CDR encoding.
+//! - [`config`]: node parameters as ROS gives them (params files, `--ros-args`, environment)
+//!   validated into a node configuration, and the node's topic names.
+//! - [`dataset`]: force logs (CSV) read into samples.
+//! - [`sim`]: synthetic sessions: one leg, the six-legged robot, and the generator of hidden
+//!   effects (pure).
+//! - [`diagnose`]: the analysis of the sim-to-real gap of one leg's samples (pure).
+//! - [`record`]: sessions as ROS 2 MCAP files: writing, the recorder thread, reading, recovery.
+//! - [`node`]: the node: its core (each message, without DDS or clock), its DDS adapter, its
+//!   in-memory transport, the client of a node's parameters.
+//! - [`session`]: operations on a session as a user runs them: re-evaluate a recording,
+//!   diagnose its legs, identify a leg's medium, record and replay topics; with the writers of
+//!   their results.
+//! - [`withheld`]: the check of the diagnosis on generated sessions whose effect it is not told.
 //! - [`dem`]: runs of the DEM testbed (reading, checking, writing as sessions) and the models'
-//!   fidelity against a campaign (pure).
-//! - [`sim`]: synthetic sessions (rotation, forces, sensor noise) for tests and the demo.
-//! - [`withheld`]: sessions with a hidden effect from an independent generator, and the check of
-//!   the diagnosis on them.
-//! - [`cli`]: the `terzaghi` command line.
+//!   fidelity against a campaign.
+//! - [`demo`]: the six-legged robot walking through the node, for `terzaghi demo`.
+//! - [`cli`]: the `terzaghi` command line, over all of the above.
+//!
+//! Re-evaluating and diagnosing a recording from Rust, without the command line:
+//!
+//! ```no_run
+//! use terzaghi::session::diagnose::{DiagnoseFileOptions, diagnose_file};
+//! use terzaghi::session::reevaluate::{ReevaluateOptions, reevaluate_file};
+//! use std::path::Path;
+//!
+//! # fn main() -> anyhow::Result<()> {
+//! let log = Path::new("session.mcap");
+//! let mut worst_n = 0.0f64;
+//! let done = reevaluate_file(log, ReevaluateOptions::default(), |row| {
+//!     if let Some(drag_n) = row.measured_drag_n {
+//!         worst_n = worst_n.max((row.predicted_drag_n - drag_n).abs());
+//!     }
+//! })?;
+//! println!("{} rows, largest drag error {worst_n:.2} N", done.summary.rows);
+//! for leg in diagnose_file(log, &DiagnoseFileOptions::default())?.legs {
+//!     match leg.result {
+//!         Ok(d) => println!("{}: {}", leg.leg, d.report.verdict.effect),
+//!         Err(e) => println!("{}: not diagnosed ({e})", leg.leg),
+//!     }
+//! }
+//! # Ok(())
+//! # }
+//! ```
 
 pub mod cli;
 pub mod config;
 pub mod dataset;
 pub mod dem;
+pub mod demo;
 pub mod diagnose;
 pub mod ident;
 pub mod model;
 pub mod msgs;
 pub mod node;
 pub mod record;
+pub mod session;
 pub mod sim;
 pub mod withheld;

@@ -152,7 +152,6 @@ fn help_for_every_command() {
         vec!["predict", "--help"],
         vec!["fit", "--help"],
         vec!["media", "--help"],
-        vec!["bench", "--help"],
     ] {
         let out = terzaghi(&cmd);
         assert!(out.status.success(), "{cmd:?}");
@@ -163,6 +162,18 @@ fn help_for_every_command() {
     }
     let out = terzaghi(&["media"]);
     assert!(String::from_utf8_lossy(&out.stdout).contains("glass_spheres_cp"));
+    for cmd in [vec!["--help"], vec!["model", "--help"]] {
+        let out = bench(&cmd);
+        assert!(out.status.success(), "terzaghi-bench {cmd:?}");
+        assert!(String::from_utf8_lossy(&out.stdout).contains("Usage"));
+    }
+}
+
+fn bench(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_terzaghi-bench"))
+        .args(args)
+        .output()
+        .expect("run terzaghi-bench")
 }
 
 #[test]
@@ -370,7 +381,7 @@ fn usage_errors_exit_2() {
     assert_eq!(out.status.code(), Some(2));
     let out = terzaghi(&["nonsense"]);
     assert_eq!(out.status.code(), Some(2));
-    let out = terzaghi(&["bench", "--seconds", "-1"]);
+    let out = bench(&["model", "--seconds", "-1"]);
     assert_eq!(out.status.code(), Some(2));
 }
 
@@ -378,7 +389,7 @@ fn usage_errors_exit_2() {
 /// the same run (a ratio, so machine load cancels out).
 #[test]
 fn bench_reports_rft_at_least_20x_slower_than_improved() {
-    let out = terzaghi(&["bench", "--seconds", "0.3", "--json"]);
+    let out = bench(&["model", "--seconds", "0.3", "--json"]);
     assert!(out.status.success());
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let ratio = v["ratio_rft_to_improved"].as_f64().unwrap();

@@ -130,9 +130,9 @@ fn a_cpu_that_does_not_exist_is_refused() {
 /// 64 MB, and it stops cleanly on SIGINT.
 #[test]
 fn a_10_khz_flood_is_absorbed_with_drops_counted_and_memory_flat() {
-    let out = isolated_command(&terzaghi())
+    let out = isolated_command(std::path::Path::new(env!("CARGO_BIN_EXE_terzaghi-bench")))
         .args([
-            "bench-node",
+            "node",
             "--load",
             "--rate-hz",
             "10000",
@@ -142,7 +142,7 @@ fn a_10_khz_flood_is_absorbed_with_drops_counted_and_memory_flat() {
         ])
         .env("ROS_DOMAIN_ID", "13")
         .output()
-        .expect("run bench-node --load");
+        .expect("run terzaghi-bench node --load");
     let stdout = String::from_utf8_lossy(&out.stdout);
     eprintln!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
     assert!(out.status.success());

@@ -151,18 +151,22 @@ fn a_csv_log_gives_a_report_that_names_the_hidden_effect() {
     }
 }
 
-/// Writes a short six-legged session (hidden surcharge) through bench-diagnose's simulation.
+/// Writes a short six-legged session (hidden surcharge) through the diagnosis benchmark's
+/// simulation.
 fn six_legged_session(path: &Path) -> Value {
-    let out = ok(&terzaghi(&[
-        "bench-diagnose",
-        "--minutes",
-        "1.5",
-        "--rate-hz",
-        "250",
-        "--keep",
-        path.to_str().unwrap(),
-        "--json",
-    ]));
+    let out = ok(&Command::new(env!("CARGO_BIN_EXE_terzaghi-bench"))
+        .args([
+            "diagnose",
+            "--minutes",
+            "1.5",
+            "--rate-hz",
+            "250",
+            "--keep",
+            path.to_str().unwrap(),
+            "--json",
+        ])
+        .output()
+        .unwrap());
     serde_json::from_str(&out).unwrap()
 }
 

@@ -6,7 +6,7 @@ use terzaghi::model::{
 };
 
 fn finite_or_overflow(
-    r: Result<terzaghi::model::LegForce, ModelError>,
+    r: Result<terzaghi::model::TerzaghiForce, ModelError>,
 ) -> Result<(), TestCaseError> {
     match r {
         Ok(f) => {

@@ -499,15 +499,15 @@ fn an_existing_recording_is_never_overwritten() {
 #[test]
 fn a_recording_without_a_name_is_named_from_its_start_time() {
     assert_eq!(
-        terzaghi::cli::recording_name(1_795_395_599).to_str(),
+        terzaghi::session::files::recording_name(1_795_395_599).to_str(),
         Some("terzaghi_2026_11_23-00_59_59.mcap")
     );
     assert_eq!(
-        terzaghi::cli::recording_name(0).to_str(),
+        terzaghi::session::files::recording_name(0).to_str(),
         Some("terzaghi_1970_01_01-00_00_00.mcap")
     );
     assert_eq!(
-        terzaghi::cli::recording_name(951_782_400).to_str(),
+        terzaghi::session::files::recording_name(951_782_400).to_str(),
         Some("terzaghi_2000_02_29-00_00_00.mcap")
     );
 }

@@ -3,9 +3,9 @@
 
 use super::print_out;
 use crate::dem::fidelity::{CampaignReport, Change, campaign_report};
-use crate::dem::{join_runs, read_campaign, read_run};
+use crate::dem::{default_baseline, import_runs, read_campaign};
 use crate::ident::GoodnessOfFit;
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use clap::Args;
 use std::path::PathBuf;
 
@@ -25,18 +25,7 @@ pub struct ImportDemArgs {
 }
 
 pub fn import(a: ImportDemArgs) -> Result<()> {
-    super::refuse_existing_recording(&a.output, a.overwrite)?;
-    let runs = a
-        .runs
-        .iter()
-        .map(|p| read_run(p))
-        .collect::<Result<Vec<_>, _>>()?;
-    let run = join_runs(runs)?;
-    super::write_atomically(&a.output, |w| {
-        run.write_session(w)
-            .with_context(|| format!("cannot write {}", a.output.display()))?;
-        Ok(())
-    })?;
+    let run = import_runs(&a.runs, &a.output, a.overwrite)?;
     eprintln!(
         "{} samples of run {} written to {}",
         run.samples.len(),
@@ -63,20 +52,8 @@ pub fn report(a: DemReportArgs) -> Result<()> {
     let c = read_campaign(&a.campaign)?;
     let baseline = match &a.baseline {
         Some(b) => b.clone(),
-        None => {
-            let s = &c.manifest["scene"];
-            let (Some(w), Some(h)) = (s["width_m"].as_f64(), s["hip_height_m"].as_f64()) else {
-                bail!(
-                    "{}: campaign.json names no scene width_m and hip_height_m; pass --baseline",
-                    a.campaign.display()
-                );
-            };
-            format!(
-                "qs_b{:03}_h{:03}",
-                (w * 1000.0).round() as i64,
-                (h * 1000.0).round() as i64
-            )
-        }
+        None => default_baseline(&c)
+            .with_context(|| format!("{}: pass --baseline", a.campaign.display()))?,
     };
     let r = campaign_report(&c, &baseline)?;
     if a.json {

@@ -36,7 +36,11 @@ pub struct DiagnoseEvalArgs {
 
 pub fn run_cmd(a: DiagnoseEvalArgs) -> Result<()> {
     if let (Some(i), Some(dir)) = (a.export_case, &a.export_dir) {
-        return export(i, a.seed, dir);
+        crate::withheld::export_case(i, a.seed, dir)?;
+        return print_out(&format!(
+            "wrote {} and case.json\n",
+            dir.join("session.csv").display()
+        ));
     }
     if a.cases == 0 {
         bail!("--cases must be at least 1");
@@ -142,44 +146,6 @@ pub fn render(s: &Summary, seconds: f64) -> String {
         s.gap_cases, s.gap_error_mean_pts, s.gap_error_median_pts, s.gap_within_10_pts_pct
     );
     out
-}
-
-fn export(i: usize, seed: u64, dir: &std::path::Path) -> Result<()> {
-    use std::io::Write;
-    let (case, samples) = crate::withheld::case_session(i, seed);
-    std::fs::create_dir_all(dir)?;
-    let csv = crate::sim::to_csv(&samples);
-    super::write_atomically(&dir.join("session.csv"), |w| {
-        Ok(w.write_all(csv.as_bytes())?)
-    })?;
-    let m = case.medium;
-    let p = case.plate;
-    let flags: Vec<String> = [
-        ("--length-m", p.length_m()),
-        ("--width-m", p.width_m()),
-        ("--hip-height-m", p.hip_height_m()),
-        ("--unit-weight-n-m3", m.unit_weight_n_m3()),
-        ("--phi-deg", m.phi_deg()),
-        ("--delta-deg", m.delta_deg()),
-    ]
-    .iter()
-    .flat_map(|(k, v)| [k.to_string(), v.to_string()])
-    .collect();
-    let doc = serde_json::json!({
-        "truth": case.effects.iter().map(|e| e.name()).collect::<Vec<_>>(),
-        "b_k": case.b_k,
-        "a": case.a,
-        "flags": flags,
-    });
-    let body = serde_json::to_string_pretty(&doc)? + "\n";
-    super::write_atomically(
-        &dir.join("case.json"),
-        |w| Ok(w.write_all(body.as_bytes())?),
-    )?;
-    print_out(&format!(
-        "wrote {} and case.json\n",
-        dir.join("session.csv").display()
-    ))
 }
 
 fn abbreviate(name: &str) -> String {

@@ -1,15 +1,13 @@
 //! The log a fitting command reads: a CSV with the leg's geometry and medium as flags, or a
 //! recorded session whose parameters carry them.
 
-use super::mcap_tools::read_file;
-use super::replay::reevaluation_config;
 use super::{MediumArgs, PlateArgs, terzaghi_model};
 use crate::dataset::read_samples_csv;
 use crate::ident::Sample;
 use crate::model::TerzaghiModel;
-use crate::record::read::IndexedFile;
-use crate::record::reevaluate::measured_samples;
-use anyhow::{Context, Result, bail};
+use crate::session::files::is_mcap;
+use crate::session::legs::{LegsFrom, one_leg};
+use anyhow::{Result, bail};
 use clap::Args;
 use std::path::PathBuf;
 
@@ -47,15 +45,6 @@ impl LogArgs {
             from_csv(self)
         }
     }
-}
-
-fn is_mcap(path: &std::path::Path) -> Result<bool> {
-    use std::io::Read;
-    let mut magic = [0u8; 5];
-    let mut f =
-        std::fs::File::open(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let n = f.read(&mut magic).unwrap_or(0);
-    Ok(n == 5 && &magic == b"\x89MCAP")
 }
 
 fn from_csv(a: &LogArgs) -> Result<(TerzaghiModel, Vec<Sample>)> {
@@ -96,56 +85,10 @@ fn from_session(a: &LogArgs) -> Result<(TerzaghiModel, Vec<Sample>)> {
             a.data.display()
         );
     }
-    let file = IndexedFile::open(&a.data).with_context(|| a.data.display().to_string())?;
-    let Some(file) = file else {
-        // Cut off: no summary to read the parameters from.
-        let _ = read_file(&a.data)?;
-        bail!(
-            "{} is cut off: recover it first with `terzaghi recover {} -o FIXED.mcap`",
-            a.data.display(),
-            a.data.display()
-        );
+    let from = match &a.params_file {
+        Some(p) => LegsFrom::ParamsFile(p.clone()),
+        None => LegsFrom::Recorded,
     };
-    let cfg = reevaluation_config(&a.params_file, file.head(), &a.data)?;
-    let with_ft: Vec<usize> = (0..cfg.legs.len())
-        .filter(|&i| cfg.legs[i].ft_topic.is_some())
-        .collect();
-    let names = || {
-        cfg.legs
-            .iter()
-            .map(|l| l.name.as_str())
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
-    let leg = match &a.leg {
-        Some(name) => match cfg.legs.iter().position(|l| &l.name == name) {
-            Some(i) if cfg.legs[i].ft_topic.is_some() => i,
-            Some(_) => bail!("leg {name:?} has no F/T topic in the parameters"),
-            None => bail!(
-                "no leg named {name:?} in the parameters (legs: {})",
-                names()
-            ),
-        },
-        None => match with_ft.as_slice() {
-            [one] => *one,
-            [] => bail!("no leg has an F/T topic in the parameters (set <leg>.ft_topic)"),
-            _ => bail!(
-                "the session has several legs with F/T topics ({}): choose one with --leg",
-                names()
-            ),
-        },
-    };
-    let l = &cfg.legs[leg];
-    let model = TerzaghiModel::conventional(l.plate, l.medium);
-    let (mut samples, read) =
-        measured_samples(&file, cfg.clone()).with_context(|| a.data.display().to_string())?;
-    if !read.complete {
-        bail!(
-            "{} is damaged ({}): recover it first with `terzaghi recover {} -o FIXED.mcap`",
-            a.data.display(),
-            read.stopped.as_deref().unwrap_or("reading stopped early"),
-            a.data.display()
-        );
-    }
-    Ok((model, std::mem::take(&mut samples[leg])))
+    let leg = one_leg(&a.data, &from, a.leg.as_deref())?;
+    Ok((leg.model, leg.samples))
 }

@@ -2,11 +2,12 @@
 
 use super::print_out;
 use crate::record::{read::scan, recover};
+use crate::session::files::read_file;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 #[derive(Debug, Args)]
 pub struct InfoArgs {
@@ -27,10 +28,6 @@ pub struct RecoverArgs {
     /// Replace the output file if it exists.
     #[arg(long)]
     pub overwrite: bool,
-}
-
-pub fn read_file(path: &Path) -> Result<Vec<u8>> {
-    std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))
 }
 
 /// A progress bar on stderr when it is a terminal, hidden otherwise.
@@ -116,11 +113,11 @@ pub fn recover_cmd(a: RecoverArgs) -> Result<()> {
     if a.input == a.output {
         bail!("the output must be another file than the input");
     }
-    super::refuse_existing_recording(&a.output, a.overwrite)?;
+    crate::session::files::refuse_existing_recording(&a.output, a.overwrite)?;
     let bytes = read_file(&a.input)?;
     let pb = progress(0, "recovering");
     let mut result = None;
-    super::write_atomically(&a.output, |w| {
+    crate::session::files::write_atomically(&a.output, |w| {
         let (_, r) = recover(&bytes, w, |n| {
             pb.set_position(n);
         })

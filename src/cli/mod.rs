@@ -1,14 +1,10 @@
-//! The `terzaghi` command line: flags are parsed and validated here, then handed to the pure core.
+//! The `terzaghi` command line: each command parses its flags, calls the library (mostly
+//! [`crate::session`]), prints what it returns, and maps errors to the exit code 2.
 
-mod bench;
-mod bench_diagnose;
-mod bench_node;
-mod bench_record;
 mod dem;
 mod demo;
 mod diagnose;
 mod diagnose_eval;
-mod diagnose_report;
 mod fit;
 mod identify;
 mod log_source;
@@ -69,19 +65,6 @@ pub enum Command {
     Media(media::MediaArgs),
     /// Write a synthetic session (one leg in continuous rotation, with sensor noise) as CSV.
     Simulate(simulate::SimulateArgs),
-    /// Measure the node's latency for 6 legs at 1 kHz against a bare DDS echo (run it inside a
-    /// private network namespace or on a network you may load).
-    BenchNode(bench_node::BenchNodeArgs),
-    /// Measure writing sessions and re-evaluating them: messages per second, file size per
-    /// minute, and replay --reevaluate against real time.
-    BenchRecord(bench_record::BenchRecordArgs),
-    /// A bare DDS echo node, for bench-node.
-    #[command(hide = true)]
-    Echo(bench_node::EchoArgs),
-    /// Measure the speed of the models on this machine.
-    Bench(bench::BenchArgs),
-    /// Measure how long the diagnosis of a long six-legged session takes on this machine.
-    BenchDiagnose(bench_diagnose::BenchDiagnoseArgs),
     /// Diagnose the sim-to-real gap of a session: where model and measurement part, which
     /// unmodelled effect causes it, how far the gap shrinks with it (report.json, report.html).
     Diagnose(diagnose::DiagnoseArgs),
@@ -107,11 +90,6 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Node(a) => node::run(a),
         Command::Param(a) => param::run(a),
         Command::Simulate(a) => simulate::run(a),
-        Command::Bench(a) => bench::run(a),
-        Command::BenchNode(a) => bench_node::run(a),
-        Command::BenchRecord(a) => bench_record::run(a),
-        Command::Echo(a) => bench_node::run_echo(a),
-        Command::BenchDiagnose(a) => bench_diagnose::run(a),
         Command::Diagnose(a) => diagnose::run(a),
         Command::DiagnoseEval(a) => diagnose_eval::run_cmd(a),
     }
@@ -260,116 +238,4 @@ pub fn print_out(text: &str) -> Result<()> {
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
         r => r.context("cannot write to standard output"),
     }
-}
-
-/// Refuses to replace an existing recording, as `ros2 bag record` does: data is never
-/// destroyed unless `--overwrite` asks for it.
-pub fn refuse_existing_recording(path: &std::path::Path, overwrite: bool) -> Result<()> {
-    if !overwrite && path.exists() {
-        bail!(
-            "{} exists: a recording is not overwritten (pass --overwrite to replace it)",
-            path.display()
-        );
-    }
-    Ok(())
-}
-
-/// A recording's name from its start time, as rosbag2 names one: `terzaghi_YYYY_MM_DD-HH_MM_SS.mcap`
-/// (UTC).
-pub fn recording_name(unix_s: u64) -> std::path::PathBuf {
-    // Days since 1970-01-01 to a civil date (Howard Hinnant's algorithm).
-    let days = (unix_s / 86_400) as i64;
-    let secs = unix_s % 86_400;
-    let z = days + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z - era * 146_097;
-    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let d = doy - (153 * mp + 2) / 5 + 1;
-    let m = if mp < 10 { mp + 3 } else { mp - 9 };
-    let y = yoe + era * 400 + i64::from(m <= 2);
-    format!(
-        "terzaghi_{y:04}_{m:02}_{d:02}-{:02}_{:02}_{:02}.mcap",
-        secs / 3600,
-        secs / 60 % 60,
-        secs % 60
-    )
-    .into()
-}
-
-/// Writes a file through a temporary beside it and renames it into place, so that a failure
-/// leaves no partial file behind.
-pub fn write_atomically(
-    path: &std::path::Path,
-    write: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> Result<()>,
-) -> Result<()> {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => std::path::PathBuf::from("."),
-    };
-    let name = path
-        .file_name()
-        .with_context(|| format!("{} is not a file path", path.display()))?;
-    let tmp = dir.join(format!(
-        ".{}.tmp{}",
-        name.to_string_lossy(),
-        std::process::id()
-    ));
-    let result = (|| {
-        let file = std::fs::File::create(&tmp)
-            .with_context(|| format!("cannot create {}", path.display()))?;
-        let mut w = std::io::BufWriter::new(file);
-        write(&mut w)?;
-        use std::io::Write;
-        w.flush()
-            .with_context(|| format!("cannot write {}", path.display()))?;
-        std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
-}
-
-/// The async runtime of the DDS tools: two worker threads, for a two-core robot computer.
-/// Pins the calling thread, and the threads it starts afterwards, to `cpus`.
-pub fn pin_to_cpus(cpus: &[usize]) -> Result<()> {
-    #[cfg(target_os = "linux")]
-    {
-        let online = std::thread::available_parallelism().map_or(1, |n| n.get());
-        // SAFETY: a zeroed cpu_set_t is a valid empty set; CPU_SET writes inside it (each cpu
-        // is checked against CPU_SETSIZE); sched_setaffinity reads it and changes only this
-        // thread.
-        let rc = unsafe {
-            let mut set: libc::cpu_set_t = std::mem::zeroed();
-            for &cpu in cpus {
-                if cpu >= libc::CPU_SETSIZE as usize {
-                    bail!("CPU {cpu} does not exist (this machine has {online} CPUs online)");
-                }
-                libc::CPU_SET(cpu, &mut set);
-            }
-            libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set)
-        };
-        if rc != 0 {
-            bail!(
-                "cannot run on CPU {cpus:?}: {} (this machine has {online} CPUs online)",
-                std::io::Error::last_os_error()
-            );
-        }
-        Ok(())
-    }
-    #[cfg(not(target_os = "linux"))]
-    {
-        let _ = cpus;
-        bail!("pinning to a CPU is supported on Linux only")
-    }
-}
-
-pub fn runtime() -> Result<tokio::runtime::Runtime> {
-    tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
-        .enable_all()
-        .build()
-        .context("cannot start the async runtime")
 }

@@ -22,9 +22,6 @@ pub struct NodeArgs {
     /// existing file is refused.
     #[arg(long)]
     pub overwrite: bool,
-    /// Write the processing-time summary as JSON to this file at shutdown.
-    #[arg(long, value_name = "FILE")]
-    pub latency_report: Option<PathBuf>,
     /// Run the message handling under SCHED_FIFO with this priority (1-99), as real-time
     /// control nodes do, so that other threads do not preempt it (needs CAP_SYS_NICE or root).
     #[arg(long, value_name = "PRIORITY")]
@@ -44,7 +41,7 @@ pub struct NodeArgs {
 }
 
 /// Resolves when SIGINT or SIGTERM arrives.
-async fn shutdown_signal() {
+pub async fn shutdown_signal() {
     #[cfg(unix)]
     {
         use tokio::signal::unix::{SignalKind, signal};
@@ -86,7 +83,7 @@ pub fn setup(a: &NodeArgs) -> Result<NodeSetup> {
     }
     let config = NodeConfig::from_params(&params, &node_name, &namespace, &ros.remaps)?;
     if let Some(path) = &config.record {
-        super::refuse_existing_recording(path, a.overwrite)?;
+        crate::session::files::refuse_existing_recording(path, a.overwrite)?;
     }
     let params = config.effective_params(&params);
     let (domain_id, localhost_only) = crate::node::dds::network_from_env()?;
@@ -95,7 +92,6 @@ pub fn setup(a: &NodeArgs) -> Result<NodeSetup> {
         config,
         domain_id,
         localhost_only,
-        latency_report: a.latency_report.clone(),
     })
 }
 
@@ -129,10 +125,10 @@ pub fn run(a: NodeArgs) -> Result<()> {
         .context("cannot start the async runtime")?;
     // Before DDS starts its threads, so that they inherit both.
     if let Some(cpu) = a.cpu {
-        super::pin_to_cpus(&[cpu]).context("--cpu")?;
+        crate::node::realtime::pin_to_cpus(&[cpu]).context("--cpu")?;
     }
     if let Some(priority) = a.realtime_priority {
-        set_realtime(priority)?;
+        crate::node::realtime::set_realtime(priority).context("--realtime-priority")?;
     }
     let summary = rt.block_on(run_node(setup, shutdown_signal()))?;
     eprintln!(
@@ -146,30 +142,4 @@ pub fn run(a: NodeArgs) -> Result<()> {
     );
     rt.shutdown_timeout(std::time::Duration::from_secs(2));
     Ok(())
-}
-
-/// Puts the calling thread (the one the node's messages are handled on) under SCHED_FIFO.
-fn set_realtime(priority: i32) -> Result<()> {
-    if !(1..=99).contains(&priority) {
-        bail!("--realtime-priority must be from 1 to 99, got {priority}");
-    }
-    #[cfg(target_os = "linux")]
-    {
-        let param = libc::sched_param {
-            sched_priority: priority,
-        };
-        // SAFETY: sched_setscheduler reads `param` and changes only this thread's policy.
-        let rc = unsafe { libc::sched_setscheduler(0, libc::SCHED_FIFO, &param) };
-        if rc != 0 {
-            bail!(
-                "cannot run under SCHED_FIFO priority {priority}: {} (needs CAP_SYS_NICE or root)",
-                std::io::Error::last_os_error()
-            );
-        }
-        Ok(())
-    }
-    #[cfg(not(target_os = "linux"))]
-    {
-        bail!("--realtime-priority is supported on Linux only")
-    }
 }

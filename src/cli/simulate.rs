@@ -1,6 +1,7 @@
 //! `terzaghi simulate`: a synthetic session of one leg in continuous rotation, as CSV.
 
-use super::{MediumArgs, PlateArgs, WidthArgs, print_out, terzaghi_model, write_atomically};
+use super::{MediumArgs, PlateArgs, WidthArgs, print_out, terzaghi_model};
+use crate::session::files::write_atomically;
 use crate::sim;
 use anyhow::{Result, bail};
 use clap::Args;

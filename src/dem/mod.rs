@@ -507,6 +507,42 @@ pub fn parse_run(text: &str, path: &str) -> Result<DemRun, DemError> {
     })
 }
 
+/// Reads the runs `paths`, joins them in order and writes them as one session to `output`
+/// (refused if it exists, unless `overwrite`); returns the joined run.
+pub fn import_runs(
+    paths: &[std::path::PathBuf],
+    output: &Path,
+    overwrite: bool,
+) -> anyhow::Result<DemRun> {
+    use anyhow::Context as _;
+    crate::session::files::refuse_existing_recording(output, overwrite)?;
+    let runs = paths
+        .iter()
+        .map(|p| read_run(p))
+        .collect::<Result<Vec<_>, _>>()?;
+    let run = join_runs(runs)?;
+    crate::session::files::write_atomically(output, |w| {
+        run.write_session(w)
+            .with_context(|| format!("cannot write {}", output.display()))?;
+        Ok(())
+    })?;
+    Ok(run)
+}
+
+/// The run a campaign's checks and variations are compared with: the scene's plate width and
+/// hip height, `qs_bWWW_hHHH` (mm).
+pub fn default_baseline(c: &Campaign) -> anyhow::Result<String> {
+    let s = &c.manifest["scene"];
+    let (Some(w), Some(h)) = (s["width_m"].as_f64(), s["hip_height_m"].as_f64()) else {
+        anyhow::bail!("campaign.json names no scene width_m and hip_height_m");
+    };
+    Ok(format!(
+        "qs_b{:03}_h{:03}",
+        (w * 1000.0).round() as i64,
+        (h * 1000.0).round() as i64
+    ))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -564,3 +600,4 @@ mod tests {
         assert!(e.to_string().contains("phi_deg"), "{e}");
     }
 }
+

@@ -19,7 +19,7 @@ pub mod terzaghi;
 pub use medium::{FittingWidth, Medium, MediumPreset, Provenance};
 pub use plate::{Plate, wrap_beta_rad};
 pub use rft::{RftCoefficients, RftFit, RftGrid, RftModel, rft_leg};
-pub use terzaghi::{LegForce, Terms, TerzaghiModel};
+pub use terzaghi::{Terms, TerzaghiForce, TerzaghiModel};
 
 use serde::Serialize;
 
@@ -107,6 +107,11 @@ impl Regime {
         self as u8
     }
 
+    /// The regime a ROS message's code stands for; `None` for a code no regime has.
+    pub fn from_code(code: u8) -> Option<Regime> {
+        Regime::ALL.get(usize::from(code)).copied()
+    }
+
     pub fn is_extraction(self) -> bool {
         matches!(
             self,
@@ -154,5 +159,18 @@ impl ForceModel {
             ForceModel::Terzaghi(m) => m.plate(),
             ForceModel::Rft(m) => m.plate(),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Regime;
+
+    #[test]
+    fn a_regime_code_reads_back_as_its_regime() {
+        for r in Regime::ALL {
+            assert_eq!(Regime::from_code(r.code()), Some(r));
+        }
+        assert_eq!(Regime::from_code(Regime::ALL.len() as u8), None);
     }
 }

@@ -39,7 +39,7 @@ pub struct Terms {
 
 /// The full output of the Terzaghi model at one attack angle.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct LegForce {
+pub struct TerzaghiForce {
     /// Attack angle after wrapping to `[0, 2pi)`.
     pub beta_rad: f64,
     pub submerged_m: f64,
@@ -58,7 +58,7 @@ pub struct LegForce {
     pub terms: Terms,
 }
 
-impl LegForce {
+impl TerzaghiForce {
     pub fn prediction(&self) -> Prediction {
         Prediction {
             beta_rad: self.beta_rad,
@@ -184,7 +184,7 @@ impl TerzaghiModel {
     /// assert!((f.drag_n - 39.674130).abs() < 1e-5);
     /// assert!((f.lift_n - 45.639865).abs() < 1e-5);
     /// ```
-    pub fn evaluate(&self, beta_rad: f64) -> Result<LegForce, ModelError> {
+    pub fn evaluate(&self, beta_rad: f64) -> Result<TerzaghiForce, ModelError> {
         let beta = wrap_beta_rad(finite("attack angle beta (rad)", beta_rad)?);
         let f = self.evaluate_wrapped(beta);
         if f.hip_torque_nm.is_finite() && f.drag_n.is_finite() && f.lift_n.is_finite() {
@@ -198,7 +198,7 @@ impl TerzaghiModel {
     }
 
     /// [`TerzaghiModel::evaluate`] for an angle already wrapped to `[0, 2pi)`.
-    fn evaluate_wrapped(&self, beta: f64) -> LegForce {
+    fn evaluate_wrapped(&self, beta: f64) -> TerzaghiForce {
         let (lo, hi) = self.submerged_rad;
         let (sin_b, cos_b) = if (lo..=hi).contains(&beta) {
             beta.sin_cos()
@@ -207,7 +207,7 @@ impl TerzaghiModel {
         };
         let l_s = self.plate.submerged_length_at_sin_m(sin_b);
         if l_s <= 0.0 {
-            return LegForce {
+            return TerzaghiForce {
                 beta_rad: beta,
                 submerged_m: 0.0,
                 depth_m: 0.0,
@@ -279,7 +279,7 @@ impl TerzaghiModel {
             terms.g_t_n * terms.d_tg_m + terms.f_l_n * terms.d_l_m + terms.g_lg_n * terms.d_lg_m;
         let normal = moment / d_perp; // Eq. (21)
         let tangential = normal * c.tan_delta; // Eq. (22a)
-        LegForce {
+        TerzaghiForce {
             beta_rad: beta,
             submerged_m: l_s,
             depth_m: l_s * sin_b,

@@ -2,19 +2,16 @@
 //! wrenches out; measured wrenches in, identified parameters out. The DDS adapter and the
 //! in-memory demo both drive this same code.
 
-use crate::config::{FtFrame, ModelKind, NodeConfig};
+use super::matcher::{FtMatcher, Match, NoAngle};
+use crate::config::{ModelKind, NodeConfig};
 use crate::ident::{Estimate, OnlineEstimator, Sample};
-use crate::model::{FittingWidth, ForceModel, TerzaghiModel, wrap_beta_rad};
+use crate::model::{FittingWidth, ForceModel, TerzaghiModel};
 use crate::msgs::{
     DiagnosticArray, DiagnosticStatus, Header, JointState, KeyValue, LegForce, ModelParams, Time,
     Vector3, Wrench, WrenchStamped,
 };
-use std::collections::VecDeque;
 
-/// Joint angles kept per leg for matching F/T samples by time.
-const ANGLE_HISTORY: usize = 1024;
-/// F/T samples held per leg until a joint angle at or after their stamp arrives.
-const PENDING_WRENCHES: usize = 64;
+pub use super::matcher::Matched;
 
 /// Counters of one leg, since start.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
@@ -49,28 +46,23 @@ struct Leg {
     estimator: Option<OnlineEstimator>,
     /// The estimate currently used for predictions (converged and `use_identified`).
     identified: Option<Estimate>,
-    history: VecDeque<(i64, f64)>,
-    last_stamp_ns: Option<i64>,
-    joint_index: usize,
     last_params_ns: Option<i64>,
-    /// F/T samples newer than the newest joint angle, waiting for it.
-    pending: VecDeque<WrenchStamped>,
-    /// F/T samples matched with a joint angle, in the hip frame, kept when asked for
-    /// ([`NodeCore::keep_matches`]) until taken.
-    matches: Vec<Matched>,
-    record_matches: bool,
     counters: LegCounters,
     /// Counters at the last diagnostics, for rates.
     at_last_diag: LegCounters,
 }
 
-/// A measured wrench matched with a joint angle: drag and lift in the hip frame.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Matched {
-    pub t_ns: i64,
-    pub beta_rad: f64,
-    pub drag_n: f64,
-    pub lift_n: f64,
+/// What the core is run for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CoreMode {
+    /// The node: every leg's outputs for each JointState.
+    Node,
+    /// An offline re-evaluation into a new session: every leg's outputs, and every matched F/T
+    /// sample kept for [`NodeCore::take_matches`] (predictions are put next to them).
+    Reevaluation,
+    /// An offline re-evaluation into rows: outputs only for the legs without F/T (the rows of
+    /// the others are predictions at their matched samples), matched samples kept.
+    ReevaluationRows,
 }
 
 /// The outputs of one leg for one JointState.
@@ -89,23 +81,30 @@ pub struct NodeCore {
     params_out: Vec<(usize, ModelParams)>,
     counters: NodeCounters,
     last_diag_ns: Option<i64>,
-    /// False: only match F/T samples with joint angles (no predictions, no estimator).
-    modelling: bool,
-    /// False: [`NodeCore::on_joint_state`] makes no output messages for legs with F/T, whose
-    /// predictions an offline re-evaluation takes at the matched samples instead.
-    outputs_for_ft_legs: bool,
+    matcher: FtMatcher,
+    mode: CoreMode,
+    /// F/T samples decided by the matcher, waiting to be used.
+    decided: Vec<Match>,
+    /// Matched F/T samples kept for [`NodeCore::take_matches`] ([`CoreMode::Reevaluation`]).
+    matches: Vec<(usize, Matched)>,
 }
 
 impl NodeCore {
     pub fn new(cfg: NodeConfig) -> NodeCore {
+        NodeCore::with_mode(cfg, CoreMode::Node)
+    }
+
+    pub fn with_mode(cfg: NodeConfig, mode: CoreMode) -> NodeCore {
         let mut core = NodeCore {
             legs: Vec::new(),
             params_out: Vec::new(),
+            matcher: FtMatcher::new(&cfg),
             cfg,
             counters: NodeCounters::default(),
             last_diag_ns: None,
-            modelling: true,
-            outputs_for_ft_legs: true,
+            mode,
+            decided: Vec::new(),
+            matches: Vec::new(),
         };
         core.legs = (0..core.cfg.legs.len()).map(|i| core.new_leg(i)).collect();
         core
@@ -133,13 +132,7 @@ impl NodeCore {
             hip_frame: format!("{}_hip", lc.name),
             estimator,
             identified: None,
-            history: VecDeque::with_capacity(ANGLE_HISTORY),
-            last_stamp_ns: None,
-            joint_index: 0,
             last_params_ns: None,
-            pending: VecDeque::new(),
-            matches: Vec::new(),
-            record_matches: false,
             counters: LegCounters::default(),
             at_last_diag: LegCounters::default(),
         }
@@ -194,6 +187,7 @@ impl NodeCore {
     /// Takes a new configuration (a parameter change): models are rebuilt; a leg whose plate,
     /// medium or estimator options changed starts its identification again.
     pub fn set_config(&mut self, cfg: NodeConfig) {
+        self.matcher.set_config(&cfg);
         let old = std::mem::replace(&mut self.cfg, cfg);
         for i in 0..self.legs.len().min(self.cfg.legs.len()) {
             let (o, n) = (&old.legs[i], &self.cfg.legs[i]);
@@ -226,44 +220,26 @@ impl NodeCore {
         }
         let stamp_ns = msg.header.stamp.to_nanos();
         for i in 0..self.legs.len() {
-            let lc = &self.cfg.legs[i];
-            let leg = &mut self.legs[i];
-            leg.counters.joint_states += 1;
-            // The joint's index is usually where it was last time.
-            let idx = if msg.name.get(leg.joint_index) == Some(&lc.joint) {
-                Some(leg.joint_index)
-            } else {
-                msg.name.iter().position(|n| *n == lc.joint)
+            self.legs[i].counters.joint_states += 1;
+            let mut decided = std::mem::take(&mut self.decided);
+            let angle = self.matcher.on_angle(i, msg, stamp_ns, |m| decided.push(m));
+            for m in decided.drain(..) {
+                self.use_match(i, m);
+            }
+            self.decided = decided;
+            let beta = match angle {
+                Ok(beta) => beta,
+                Err(e) => {
+                    let c = &mut self.legs[i].counters;
+                    match e {
+                        NoAngle::MissingJoint => c.missing_joint += 1,
+                        NoAngle::InvalidPosition => c.invalid_position += 1,
+                        NoAngle::StampBackwards => c.stamps_backwards += 1,
+                    }
+                    continue;
+                }
             };
-            let Some(idx) = idx else {
-                leg.counters.missing_joint += 1;
-                continue;
-            };
-            leg.joint_index = idx;
-            let position = msg.position[idx];
-            if !position.is_finite() {
-                leg.counters.invalid_position += 1;
-                continue;
-            }
-            if leg.last_stamp_ns.is_some_and(|last| stamp_ns < last) {
-                leg.counters.stamps_backwards += 1;
-                continue;
-            }
-            leg.last_stamp_ns = Some(stamp_ns);
-            let beta = wrap_beta_rad(lc.direction * (position - lc.angle_offset_rad));
-            if leg.history.len() == ANGLE_HISTORY {
-                leg.history.pop_front();
-            }
-            leg.history.push_back((stamp_ns, beta));
-            if leg
-                .pending
-                .front()
-                .is_some_and(|w| w.header.stamp.to_nanos() <= stamp_ns)
-            {
-                self.resolve_pending(i, stamp_ns);
-            }
-            if !self.modelling || (!self.outputs_for_ft_legs && self.cfg.legs[i].ft_topic.is_some())
-            {
+            if self.mode == CoreMode::ReevaluationRows && self.cfg.legs[i].ft_topic.is_some() {
                 continue;
             }
             let (lc, leg) = (&self.cfg.legs[i], &mut self.legs[i]);
@@ -338,36 +314,26 @@ impl NodeCore {
             l.counters.ft_invalid += 1;
             return;
         }
-        let t_ns = msg.header.stamp.to_nanos();
-        let newest = l.history.back().map(|h| h.0);
-        if newest.is_none_or(|n| n < t_ns) {
-            l.pending.push_back(msg.clone());
-            if l.pending.len() > PENDING_WRENCHES {
-                // Joint angles stopped coming: match the oldest with what there is.
-                if let Some(old) = l.pending.pop_front()
-                    && let Some(p) = self.match_wrench(leg, &old)
-                {
-                    self.params_out.push((leg, p));
-                }
-            }
-            return;
+        let mut decided = std::mem::take(&mut self.decided);
+        self.matcher.on_wrench(leg, msg, |m| decided.push(m));
+        for m in decided.drain(..) {
+            self.use_match(leg, m);
         }
-        if let Some(p) = self.match_wrench(leg, msg) {
-            self.params_out.push((leg, p));
-        }
+        self.decided = decided;
     }
 
-    /// Handles the waiting wrenches of `leg` whose stamp is at or before `upto_ns`.
-    fn resolve_pending(&mut self, leg: usize, upto_ns: i64) {
-        while let Some(w) = self.legs[leg].pending.front() {
-            if w.header.stamp.to_nanos() > upto_ns {
-                break;
-            }
-            let Some(w) = self.legs[leg].pending.pop_front() else {
-                break;
-            };
-            if let Some(p) = self.match_wrench(leg, &w) {
-                self.params_out.push((leg, p));
+    /// An F/T sample of `leg` the matcher decided on: counted if unmatched, else fed to the
+    /// leg's estimator (and kept, when re-evaluating).
+    fn use_match(&mut self, leg: usize, m: Match) {
+        match m {
+            Match::Unmatched => self.legs[leg].counters.ft_unmatched += 1,
+            Match::Matched(mt) => {
+                if self.mode != CoreMode::Node {
+                    self.matches.push((leg, mt));
+                }
+                if let Some(p) = self.learn(leg, &mt) {
+                    self.params_out.push((leg, p));
+                }
             }
         }
     }
@@ -377,43 +343,21 @@ impl NodeCore {
         out.append(&mut self.params_out);
     }
 
-    fn match_wrench(&mut self, leg: usize, msg: &WrenchStamped) -> Option<ModelParams> {
-        let max_dt_ns = (self.cfg.max_match_dt_s * 1e9) as i64;
+    /// Updates the estimator of `leg` with a matched sample; the parameters to publish when
+    /// they are due (at most `model_params_rate_hz`, and at once on convergence or a detected
+    /// change).
+    fn learn(&mut self, leg: usize, mt: &Matched) -> Option<ModelParams> {
         let period_ns = (1e9 / self.cfg.model_params_rate_hz) as i64;
-        let frame = self.cfg.legs.get(leg)?.ft_frame;
+        let stamp = Time::from_nanos(mt.t_ns).unwrap_or_default();
+        let t_ns = mt.t_ns;
         let l = self.legs.get_mut(leg)?;
-        let f = &msg.wrench.force;
-        let t_ns = msg.header.stamp.to_nanos();
-        let Some(beta) = nearest(&l.history, t_ns, max_dt_ns) else {
-            l.counters.ft_unmatched += 1;
-            return None;
-        };
-        // The force on the leg in the hip frame: drag = -F_x, lift = F_z.
-        let (fx, fz) = match frame {
-            FtFrame::Hip => (f.x, f.z),
-            FtFrame::Leg => {
-                let (s, c) = beta.sin_cos();
-                (f.x * s + f.z * c, -f.x * c + f.z * s)
-            }
-        };
-        if l.record_matches {
-            l.matches.push(Matched {
-                t_ns,
-                beta_rad: beta,
-                drag_n: -fx,
-                lift_n: fz,
-            });
-        }
-        if !self.modelling {
-            return None;
-        }
         let est = l.estimator.as_mut()?;
         let before = *est.estimate();
         let _ = est.update(&Sample {
-            t_s: Some(msg.header.stamp.to_secs()),
-            beta_rad: beta,
-            drag_n: -fx,
-            lift_n: fz,
+            t_s: Some(stamp.to_secs()),
+            beta_rad: mt.beta_rad,
+            drag_n: mt.drag_n,
+            lift_n: mt.lift_n,
         });
         let e = *est.estimate();
         let event =
@@ -438,7 +382,7 @@ impl NodeCore {
         l.last_params_ns = Some(t_ns);
         Some(ModelParams {
             header: Header {
-                stamp: msg.header.stamp,
+                stamp,
                 frame_id: format!("{}_hip", self.cfg.legs[leg].name),
             },
             b_k: e.b_k,
@@ -459,34 +403,10 @@ impl NodeCore {
         })
     }
 
-    /// A core that only matches F/T samples with joint angles (for [`NodeCore::take_matches`]):
-    /// no predictions, no estimator. What offline analysis of the measurements needs.
-    pub fn matching_only(cfg: NodeConfig) -> NodeCore {
-        let mut core = NodeCore::new(cfg);
-        core.modelling = false;
-        core.keep_matches(true);
-        core
-    }
-
-    /// Whether [`NodeCore::on_joint_state`] makes output messages for legs with F/T (it does by
-    /// default; an offline re-evaluation that wants only rows turns it off).
-    pub fn outputs_for_ft_legs(&mut self, on: bool) {
-        self.outputs_for_ft_legs = on;
-    }
-
-    /// Keep every F/T sample matched with a joint angle, for [`NodeCore::take_matches`] (offline
-    /// re-evaluation puts predictions next to them).
-    pub fn keep_matches(&mut self, keep: bool) {
-        for l in &mut self.legs {
-            l.record_matches = keep;
-        }
-    }
-
-    /// Takes the F/T samples of `leg` matched since the previous call.
-    pub fn take_matches(&mut self, leg: usize, out: &mut Vec<Matched>) {
-        if let Some(l) = self.legs.get_mut(leg) {
-            out.append(&mut l.matches);
-        }
+    /// Takes the F/T samples matched since the previous call, with their leg (none in
+    /// [`CoreMode::Node`]).
+    pub fn take_matches(&mut self, out: &mut Vec<(usize, Matched)>) {
+        out.append(&mut self.matches);
     }
 
     /// The prediction of `leg`'s current model at `beta_rad`.
@@ -633,27 +553,6 @@ impl NodeCore {
     }
 }
 
-/// The angle whose stamp is nearest `t_ns`, if within `max_dt_ns`. History is in time order.
-fn nearest(history: &VecDeque<(i64, f64)>, t_ns: i64, max_dt_ns: i64) -> Option<f64> {
-    // Where `t_ns` goes in the (sorted) history. A sample is nearly always matched against the
-    // last angles, so look there before searching the whole history.
-    let n = history.len();
-    let i = match (n.checked_sub(2).map(|j| history[j].0), history.back()) {
-        (Some(before_last), Some(&(last, _))) if before_last < t_ns => {
-            n - usize::from(last >= t_ns)
-        }
-        _ => history.partition_point(|&(t, _)| t < t_ns),
-    };
-    let before = i.checked_sub(1).map(|j| history[j]);
-    let (t, beta) = match (before, history.get(i)) {
-        (Some(b), Some(&a)) if (a.0 - t_ns).abs() < (b.0 - t_ns).abs() => a,
-        (Some(b), _) => b,
-        (None, Some(&a)) => a,
-        (None, None) => return None,
-    };
-    ((t - t_ns).abs() <= max_dt_ns).then_some(beta)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -795,31 +694,5 @@ mod tests {
             (e.b_k * e.a.powf(-beta) - 2.0 * 1.5f64.powf(-beta)).abs() < 0.2,
             "{e:?}"
         );
-    }
-
-    #[test]
-    fn nearest_angle_by_stamp() {
-        let h: VecDeque<(i64, f64)> = [(10, 1.0), (20, 2.0), (30, 3.0)].into();
-        assert_eq!(nearest(&h, 24, 5), Some(2.0));
-        assert_eq!(nearest(&h, 26, 5), Some(3.0));
-        assert_eq!(nearest(&h, 100, 5), None);
-        assert_eq!(nearest(&VecDeque::new(), 1, 5), None);
-        // Against every entry of the history: the nearest stamp, the earlier one on a tie.
-        for h in [
-            vec![10],
-            vec![10, 20],
-            vec![10, 20, 20, 30],
-            vec![10, 20, 30, 40],
-        ] {
-            let h: VecDeque<(i64, f64)> = h.iter().map(|&t| (t, t as f64)).collect();
-            for t in 0..=50 {
-                let brute = h
-                    .iter()
-                    .min_by_key(|&&(s, _)| (s - t).abs())
-                    .filter(|&&(s, _)| (s - t).abs() <= 4)
-                    .map(|&(_, b)| b);
-                assert_eq!(nearest(&h, t, 4), brute, "{h:?} at {t}");
-            }
-        }
     }
 }

@@ -19,10 +19,11 @@ use ros2_client::{
 use std::collections::HashMap;
 use std::future::Future;
 use std::net::{IpAddr, Ipv4Addr};
-use std::path::PathBuf;
+
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use tokio::sync::watch;
 
 /// Everything the node needs to start.
 pub struct NodeSetup {
@@ -30,8 +31,6 @@ pub struct NodeSetup {
     pub config: NodeConfig,
     pub domain_id: u16,
     pub localhost_only: bool,
-    /// Write the processing-time summary here as JSON at shutdown (for benchmarks).
-    pub latency_report: Option<PathBuf>,
 }
 
 /// What a run did, printed at shutdown.
@@ -45,33 +44,30 @@ pub struct RunSummary {
     pub processing_p99_ns: u64,
     pub processing_max_ns: u64,
     pub processing_count: u64,
-    /// Peak resident memory of the process (kB), if the OS tells.
-    pub peak_rss_kb: Option<u64>,
 }
 
 /// What the message tasks share.
 struct Shared {
-    core: Mutex<NodeCore>,
+    core: Mutex<Core>,
     hist: Mutex<Histogram>,
     dropped: AtomicU64,
-    seen_version: AtomicU64,
+}
+
+/// The node's core and the parameters it follows.
+struct Core {
+    core: NodeCore,
+    live: watch::Receiver<Live>,
 }
 
 impl Shared {
     /// The core, with the latest accepted parameters applied.
-    fn lock_core(
-        &self,
-        live: &LiveParams,
-        cfg: &Mutex<NodeConfig>,
-    ) -> std::sync::MutexGuard<'_, NodeCore> {
-        let mut core = self.core.lock().unwrap_or_else(|p| p.into_inner());
-        let v = live.version.load(Ordering::SeqCst);
-        if self.seen_version.swap(v, Ordering::SeqCst) != v
-            && let Ok(c) = cfg.lock()
-        {
-            core.set_config(c.clone());
+    fn lock_core(&self) -> std::sync::MutexGuard<'_, Core> {
+        let mut c = self.core.lock().unwrap_or_else(|p| p.into_inner());
+        if c.live.has_changed().unwrap_or(false) {
+            let cfg = c.live.borrow_and_update().config.clone();
+            c.core.set_config(cfg);
         }
-        core
+        c
     }
 }
 
@@ -224,47 +220,32 @@ pub fn from_ros(v: &ParameterValue) -> Option<ParamValue> {
     })
 }
 
-/// Parameters as they stand, with a version bumped on every accepted change.
-struct LiveParams {
-    map: Mutex<ParamMap>,
-    version: AtomicU64,
+/// The parameters in force and the configuration made from them. A change of a parameter is
+/// validated as a whole configuration, then sent on a watch channel to the message tasks.
+#[derive(Clone)]
+struct Live {
+    params: ParamMap,
+    config: NodeConfig,
 }
 
-fn candidate(
-    live: &LiveParams,
-    cfg: &NodeConfig,
-    name: &str,
-    value: &ParameterValue,
-) -> Result<NodeConfig, String> {
+/// The parameters and configuration after setting `name` to `value`, or why not.
+fn candidate(live: &Live, name: &str, value: &ParameterValue) -> Result<Live, String> {
     let v = from_ros(value).ok_or_else(|| format!("{name}: unsupported parameter type"))?;
     // Declaring a parameter (and setting it to what it is) changes nothing.
-    if live
-        .map
-        .lock()
-        .map_err(|_| "parameters unavailable".to_string())?
-        .get(name)
-        == Some(&v)
-    {
-        return Ok(cfg.clone());
+    if live.params.get(name) == Some(&v) {
+        return Ok(live.clone());
     }
-    if STARTUP_ONLY.contains(&name) {
+    if STARTUP_ONLY.contains(&name) || name.ends_with(".ft_topic") {
         return Err(format!(
             "{name} takes effect at start-up only: restart the node"
         ));
     }
-    if name.ends_with(".ft_topic") {
-        return Err(format!(
-            "{name} takes effect at start-up only: restart the node"
-        ));
-    }
-    let mut map = live
-        .map
-        .lock()
-        .map_err(|_| "parameters unavailable".to_string())?
-        .clone();
-    map.insert(name.to_string(), v);
-    NodeConfig::from_params(&map, &cfg.node_name, &cfg.namespace, &cfg.remaps)
-        .map_err(|e| e.to_string())
+    let mut params = live.params.clone();
+    params.insert(name.to_string(), v);
+    let cfg = &live.config;
+    let config = NodeConfig::from_params(&params, &cfg.node_name, &cfg.namespace, &cfg.remaps)
+        .map_err(|e| e.to_string())?;
+    Ok(Live { params, config })
 }
 
 /// Adds the recorder's state to the diagnostics values; returns its error, if it failed.
@@ -348,12 +329,13 @@ fn unix_now_ns() -> i64 {
         .unwrap_or(0)
 }
 
-/// Peak resident set size from /proc (Linux), in kB.
-pub fn peak_rss_kb() -> Option<u64> {
-    let s = std::fs::read_to_string("/proc/self/status").ok()?;
-    s.lines()
-        .find_map(|l| l.strip_prefix("VmHWM:"))
-        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse().ok())
+/// The async runtime of the DDS tools: two worker threads, for a two-core robot computer.
+pub fn runtime() -> Result<tokio::runtime::Runtime> {
+    tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .context("cannot start the async runtime")
 }
 
 /// Runs the node until `shutdown` resolves; then leaves the network cleanly and returns what
@@ -362,40 +344,26 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
     let cfg = setup.config.clone();
     let context = dds_context(setup.domain_id, setup.localhost_only)?;
 
-    let live = Arc::new(LiveParams {
-        map: Mutex::new(setup.params.clone()),
-        version: AtomicU64::new(0),
+    let (live_tx, live_rx) = watch::channel(Live {
+        params: setup.params.clone(),
+        config: cfg.clone(),
     });
+    let live_tx = Arc::new(live_tx);
     let mut opts = NodeOptions::new().enable_rosout(true);
     for (name, value) in &setup.params {
         opts = opts.declare_parameter(name, to_ros(value));
     }
-    let cfg_for_check = Arc::new(Mutex::new(cfg.clone()));
     {
-        let (live, cfgc) = (live.clone(), cfg_for_check.clone());
+        let live = live_tx.clone();
         opts = opts.parameter_validator(Box::new(move |name, value| {
-            let cfg = cfgc
-                .lock()
-                .map_err(|_| "configuration unavailable".to_string())?
-                .clone();
-            candidate(&live, &cfg, name, value).map(|_| ())
+            candidate(&live.borrow(), name, value).map(|_| ())
         }));
     }
     {
-        let (live, cfgc) = (live.clone(), cfg_for_check.clone());
+        let live = live_tx.clone();
         opts = opts.parameter_set_action(Box::new(move |name, value| {
-            let cfg = cfgc
-                .lock()
-                .map_err(|_| "configuration unavailable".to_string())?
-                .clone();
-            let new_cfg = candidate(&live, &cfg, name, value)?;
-            if let (Ok(mut map), Some(v)) = (live.map.lock(), from_ros(value)) {
-                map.insert(name.to_string(), v);
-            }
-            if let Ok(mut c) = cfgc.lock() {
-                *c = new_cfg;
-            }
-            live.version.fetch_add(1, Ordering::SeqCst);
+            let next = candidate(&live.borrow(), name, value)?;
+            live.send_replace(next);
             Ok(())
         }));
     }
@@ -407,36 +375,28 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
     let spinner = node.spinner().context("cannot start the node's spinner")?;
     let spin_task = tokio::spawn(spinner.spin());
 
-    let resolve =
-        |rel: &str| crate::config::resolve_topic(rel, &cfg.namespace, &cfg.node_name, &cfg.remaps);
+    let topics = crate::config::OutputTopics::of(&cfg, &cfg.remaps);
     let mut wrench_pubs = Vec::new();
     let mut force_pubs = Vec::new();
     let mut param_pubs = Vec::new();
-    for leg in &cfg.legs {
-        wrench_pubs.push(publisher::<WrenchStamped>(
-            &mut node,
-            &resolve(&format!("{}/predicted_wrench", leg.name)),
-        )?);
-        force_pubs.push(publisher::<LegForce>(
-            &mut node,
-            &resolve(&format!("{}/leg_force", leg.name)),
-        )?);
-        param_pubs.push(publisher::<ModelParams>(
-            &mut node,
-            &resolve(&format!("{}/model_params", leg.name)),
-        )?);
+    for leg in &topics.legs {
+        wrench_pubs.push(publisher::<WrenchStamped>(&mut node, &leg.wrench)?);
+        force_pubs.push(publisher::<LegForce>(&mut node, &leg.force)?);
+        param_pubs.push(publisher::<ModelParams>(&mut node, &leg.params)?);
     }
-    let diag_pub = publisher::<DiagnosticArray>(&mut node, &resolve("/diagnostics"))?;
+    let diag_pub = publisher::<DiagnosticArray>(&mut node, &topics.diagnostics)?;
 
     // Each message is handled in the task that takes it off DDS (no hand-off, which would add a
     // thread wake-up to every JointState). The DDS reader's KeepLast history is the bounded
     // queue: under a flood the oldest samples go, and the gaps in the writers' sequence numbers
     // count them.
     let shared = Arc::new(Shared {
-        core: Mutex::new(NodeCore::new(cfg.clone())),
+        core: Mutex::new(Core {
+            core: NodeCore::new(cfg.clone()),
+            live: live_rx,
+        }),
         hist: Mutex::new(Histogram::default()),
         dropped: AtomicU64::new(0),
-        seen_version: AtomicU64::new(0),
     });
     let depth = cfg.queue_depth;
     let js_sub = subscription_with_depth::<JointState>(&mut node, &cfg.joint_states_topic, depth)?;
@@ -479,12 +439,7 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
     {
         let sub = js_sub;
         let (rec, rt) = (recorder.clone(), rt_topics.clone());
-        let (sh, pubs, live, cfgc) = (
-            shared.clone(),
-            pubs.clone(),
-            live.clone(),
-            cfg_for_check.clone(),
-        );
+        let (sh, pubs) = (shared.clone(), pubs.clone());
         tasks.push(tokio::spawn(async move {
             let mut gaps = SequenceGaps::default();
             let mut outputs: Vec<LegOutput> = Vec::new();
@@ -494,7 +449,7 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
                 let received = Instant::now();
                 let log_ns = unix_now_ns() as u64;
                 {
-                    let mut core = sh.lock_core(&live, &cfgc);
+                    let core = &mut sh.lock_core().core;
                     core.on_joint_state(&msg, &mut outputs);
                     core.take_params(&mut params_out);
                 }
@@ -516,12 +471,7 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
     }
     for (i, sub) in ft_subs {
         let (rec, rt) = (recorder.clone(), rt_topics.clone());
-        let (sh, pubs, live, cfgc) = (
-            shared.clone(),
-            pubs.clone(),
-            live.clone(),
-            cfg_for_check.clone(),
-        );
+        let (sh, pubs) = (shared.clone(), pubs.clone());
         tasks.push(tokio::spawn(async move {
             let mut gaps = SequenceGaps::default();
             let mut params_out = Vec::new();
@@ -529,7 +479,7 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
                 let msg = next_sample(&sub, &mut gaps, &sh.dropped).await;
                 let log_ns = unix_now_ns() as u64;
                 {
-                    let mut core = sh.lock_core(&live, &cfgc);
+                    let core = &mut sh.lock_core().core;
                     core.on_wrench(i, &msg);
                     core.take_params(&mut params_out);
                 }
@@ -557,7 +507,8 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
                 let mut lat = lat;
                 let rec_error = recording_state(&recorder, &record_error, &mut lat);
                 let mut d = shared
-                    .lock_core(&live, &cfg_for_check)
+                    .lock_core()
+                    .core
                     .diagnostics(unix_now_ns(), shared.dropped.load(Ordering::Relaxed), &lat);
                 if let (Some(e), Some(node_status)) = (rec_error, d.status.first_mut()) {
                     node_status.level = crate::msgs::DiagnosticStatus::ERROR;
@@ -577,7 +528,8 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
     node.stop_spinner();
     let _ = tokio::time::timeout(Duration::from_secs(2), spin_task).await;
     let summary = {
-        let core = shared.core.lock().unwrap_or_else(|p| p.into_inner());
+        let guard = shared.core.lock().unwrap_or_else(|p| p.into_inner());
+        let core = &guard.core;
         let hist = shared.hist.lock().unwrap_or_else(|p| p.into_inner());
         RunSummary {
             joint_states: core.counters().joint_states,
@@ -590,7 +542,6 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
             processing_p99_ns: hist.quantile_ns(0.99),
             processing_max_ns: hist.max_ns(),
             processing_count: hist.count(),
-            peak_rss_kb: peak_rss_kb(),
         }
     };
     // Dropping the node and context tells DDS peers that we left.
@@ -609,10 +560,5 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
     }
     drop(node);
     drop(context);
-    if let Some(path) = &setup.latency_report {
-        let text = serde_json::to_string_pretty(&summary)?;
-        std::fs::write(path, text + "\n")
-            .with_context(|| format!("cannot write {}", path.display()))?;
-    }
     Ok(summary)
 }

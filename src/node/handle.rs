@@ -28,14 +28,9 @@ pub struct Topics {
 
 impl Topics {
     pub fn new(cfg: &NodeConfig) -> Topics {
-        let resolve = |rel: &str| {
-            crate::config::resolve_topic(rel, &cfg.namespace, &cfg.node_name, &cfg.remaps)
-        };
-        let per_leg = |suffix: &str| -> Vec<Arc<str>> {
-            cfg.legs
-                .iter()
-                .map(|l| resolve(&format!("{}/{suffix}", l.name)).into())
-                .collect()
+        let out = crate::config::OutputTopics::of(cfg, &cfg.remaps);
+        let per_leg = |f: fn(&crate::config::LegTopics) -> &String| -> Vec<Arc<str>> {
+            out.legs.iter().map(|l| f(l).as_str().into()).collect()
         };
         Topics {
             joints: cfg.joint_states_topic.as_str().into(),
@@ -44,10 +39,10 @@ impl Topics {
                 .iter()
                 .map(|l| l.ft_topic.clone().unwrap_or_default().into())
                 .collect(),
-            wrench: per_leg("predicted_wrench"),
-            force: per_leg("leg_force"),
-            params: per_leg("model_params"),
-            diagnostics: resolve("/diagnostics").into(),
+            wrench: per_leg(|l| &l.wrench),
+            force: per_leg(|l| &l.force),
+            params: per_leg(|l| &l.params),
+            diagnostics: out.diagnostics.as_str().into(),
         }
     }
 }

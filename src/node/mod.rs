@@ -7,6 +7,9 @@ pub mod core;
 pub mod dds;
 pub mod handle;
 pub mod latency;
+pub mod matcher;
 pub mod memory;
+pub mod param_client;
+pub mod realtime;
 
 pub use core::{LegOutput, NodeCore};

@@ -14,7 +14,6 @@
 pub mod read;
 pub mod recorder;
 pub mod recover;
-pub mod reevaluate;
 
 use crate::msgs::RosMessage;
 use std::collections::{BTreeMap, HashMap};

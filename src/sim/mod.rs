@@ -2,6 +2,7 @@
 //! model plus Gaussian sensor noise. Used by tests, benchmarks and the demo. The random generator
 //! is passed in, so a seed reproduces a session.
 
+pub mod generator;
 pub mod robot;
 
 use crate::ident::Sample;

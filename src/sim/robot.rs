@@ -2,12 +2,12 @@
 //! whose legs turn together, the stride speed varying from stride to stride and within a
 //! stride. Each leg's F/T sensor reads a truth that the node does not see: its own `b_k, a`,
 //! sensor noise, and hidden effects written by the independent generator of
-//! [`crate::withheld::generator`]. Pure: the session is built in memory.
+//! [`crate::sim::generator`]. Pure: the session is built in memory.
 
 use crate::config::{FtFrame, NodeConfig};
 use crate::ident::Sample;
 use crate::msgs::{Header, JointState, Time, Vector3, Wrench, WrenchStamped};
-use crate::withheld::generator::{Case, Hidden, MotionSample, measure};
+use crate::sim::generator::{Case, Hidden, MotionSample, measure};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use std::f64::consts::{PI, TAU};
@@ -169,4 +169,18 @@ pub fn wrench(cfg: &NodeConfig, s: &Session, leg: usize, k: usize, t0_ns: i64) -
             torque: Vector3::default(),
         },
     }
+}
+
+/// The shipped six-legged robot (`launch_configs/rhex.yaml`): its parameters and its
+/// configuration.
+pub fn rhex() -> Result<(crate::config::ParamMap, NodeConfig), crate::config::ConfigError> {
+    let mut params = crate::config::defaults();
+    params.extend(crate::config::parse_params_yaml(
+        include_str!("../../launch_configs/rhex.yaml"),
+        "rhex.yaml",
+        "terzaghi",
+        "/",
+    )?);
+    let cfg = NodeConfig::from_params(&params, "terzaghi", "/", &[])?;
+    Ok((params, cfg))
 }

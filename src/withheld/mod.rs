@@ -1,4 +1,4 @@
-//! The check of the diagnosis on withheld effects: sessions from an independent [`generator`]
+//! The check of the diagnosis on withheld effects: sessions from an independent [`crate::sim::generator`]
 //! with a hidden effect chosen at random (every library effect, none, pairs, and effects outside
 //! the library), handed to [`crate::diagnose`] without the label, and scored.
 //!
@@ -6,11 +6,9 @@
 //! motion, same noise) leaves a baseline gap; the true share closed is
 //! `1 - (mse_without - noise^2) / (mse_with - noise^2)`, with the generator's own noise level.
 
-pub mod generator;
-
 use crate::diagnose::{DiagnoseOptions, baseline_heldout_mse, diagnose};
 use crate::model::TerzaghiModel;
-use generator::{Hidden, IN_LIBRARY, OUTSIDE, draw_case, generate};
+use crate::sim::generator::{Hidden, IN_LIBRARY, OUTSIDE, draw_case, generate};
 use std::collections::BTreeMap;
 
 /// What a case was and what the diagnosis said.
@@ -79,7 +77,10 @@ pub fn effects_of_case(i: usize, seed: u64) -> Vec<Hidden> {
 }
 
 /// Case `i` of a run seeded with `seed`: the case and its session.
-pub fn case_session(i: usize, seed: u64) -> (generator::Case, Vec<crate::ident::Sample>) {
+pub fn case_session(
+    i: usize,
+    seed: u64,
+) -> (crate::sim::generator::Case, Vec<crate::ident::Sample>) {
     let case_seed = seed.wrapping_mul(1_000_003).wrapping_add(i as u64);
     let case = draw_case(case_seed, effects_of_case(i, case_seed));
     let (samples, _) = generate(&case, &[]);
@@ -145,7 +146,7 @@ pub fn run_case(i: usize, seed: u64, opts: &DiagnoseOptions) -> Outcome {
     out
 }
 
-/// Runs `n` cases on `threads` threads.
+/// Runs `n` cases on `threads` threads; `progress` gets the number of cases done.
 pub fn run(
     n: usize,
     seed: u64,
@@ -153,28 +154,26 @@ pub fn run(
     opts: &DiagnoseOptions,
     progress: impl Fn(usize) + Sync,
 ) -> Vec<Outcome> {
-    let next = std::sync::atomic::AtomicUsize::new(0);
+    use rayon::prelude::*;
     let done = std::sync::atomic::AtomicUsize::new(0);
-    let mut out: Vec<Option<Outcome>> = vec![None; n];
-    let slots: Vec<std::sync::Mutex<&mut Option<Outcome>>> =
-        out.iter_mut().map(std::sync::Mutex::new).collect();
-    std::thread::scope(|s| {
-        for _ in 0..threads.max(1) {
-            s.spawn(|| {
-                loop {
-                    let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                    if i >= n {
-                        break;
-                    }
-                    let o = run_case(i, seed, opts);
-                    **slots[i].lock().expect("a slot is locked by one thread") = Some(o);
-                    progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1);
-                }
-            });
-        }
-    });
-    drop(slots);
-    out.into_iter().flatten().collect()
+    let cases = || {
+        (0..n)
+            .into_par_iter()
+            .map(|i| {
+                let o = run_case(i, seed, opts);
+                progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1);
+                o
+            })
+            .collect()
+    };
+    match rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.max(1))
+        .build()
+    {
+        Ok(pool) => pool.install(cases),
+        // No pool of that size (the system refused threads): rayon's global pool.
+        Err(_) => cases(),
+    }
 }
 
 pub fn summarize(outcomes: &[Outcome]) -> Summary {
@@ -233,4 +232,40 @@ pub fn summarize(outcomes: &[Outcome]) -> Summary {
         gap_cases: errors.len(),
         confusion,
     }
+}
+/// Writes case `i` of the run `seed` to `dir` as `session.csv` and `case.json` (the hidden
+/// effects, the true fitting width, and the flags that give `terzaghi diagnose` its plate and
+/// medium), for a look at one case by hand.
+pub fn export_case(i: usize, seed: u64, dir: &std::path::Path) -> anyhow::Result<()> {
+    use std::io::Write;
+    let (case, samples) = case_session(i, seed);
+    std::fs::create_dir_all(dir)?;
+    let csv = crate::sim::to_csv(&samples);
+    crate::session::files::write_atomically(&dir.join("session.csv"), |w| {
+        Ok(w.write_all(csv.as_bytes())?)
+    })?;
+    let m = case.medium;
+    let p = case.plate;
+    let flags: Vec<String> = [
+        ("--length-m", p.length_m()),
+        ("--width-m", p.width_m()),
+        ("--hip-height-m", p.hip_height_m()),
+        ("--unit-weight-n-m3", m.unit_weight_n_m3()),
+        ("--phi-deg", m.phi_deg()),
+        ("--delta-deg", m.delta_deg()),
+    ]
+    .iter()
+    .flat_map(|(k, v)| [k.to_string(), v.to_string()])
+    .collect();
+    let doc = serde_json::json!({
+        "truth": case.effects.iter().map(|e| e.name()).collect::<Vec<_>>(),
+        "b_k": case.b_k,
+        "a": case.a,
+        "flags": flags,
+    });
+    let body = serde_json::to_string_pretty(&doc)? + "\n";
+    crate::session::files::write_atomically(&dir.join("case.json"), |w| {
+        Ok(w.write_all(body.as_bytes())?)
+    })?;
+    Ok(())
 }

@@ -9,12 +9,12 @@
 //!
 //! `terzaghi echo` (hidden) is the bare echo: JointState in, the same JointState out.
 
-use super::print_out;
-use crate::msgs::{Header, JointState, Time, WrenchStamped};
-use crate::node::dds::{RunSummary, publisher, subscription, tool_node};
-use crate::node::latency::Histogram;
+use crate::print_out;
 use anyhow::{Context as _, Result, anyhow, bail};
 use clap::Args;
+use terzaghi::msgs::{Header, JointState, Time, WrenchStamped};
+use terzaghi::node::dds::{RunSummary, publisher, subscription, tool_node};
+use terzaghi::node::latency::Histogram;
 
 use std::collections::HashMap;
 use std::process::{Child, Command, Stdio};
@@ -62,9 +62,9 @@ pub struct BenchNodeArgs {
 /// Runs the bare echo until SIGINT/SIGTERM.
 pub fn run_echo(a: EchoArgs) -> Result<()> {
     if let Some(cpu) = a.cpu {
-        super::pin_to_cpus(&[cpu]).context("--cpu")?;
+        terzaghi::node::realtime::pin_to_cpus(&[cpu]).context("--cpu")?;
     }
-    let rt = super::runtime()?;
+    let rt = terzaghi::node::dds::runtime()?;
     rt.block_on(async move {
         let mut node = tool_node("terzaghi_echo").context("cannot create the echo node")?;
         let out = publisher::<JointState>(&mut node, &a.output)?;
@@ -144,11 +144,12 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
     if a.seconds == 0 {
         bail!("--seconds must be at least 1");
     }
-    let exe = std::env::current_exe().context("cannot find the terzaghi executable")?;
+    let exe = crate::terzaghi_exe()?;
+    let bench_exe = std::env::current_exe().context("cannot find the terzaghi-bench executable")?;
     let dir = tempdir()?;
     let params = dir.join("rhex.yaml");
     std::fs::write(&params, include_str!("../../launch_configs/rhex.yaml"))?;
-    let report_path = dir.join("node_report.json");
+    let node_log = dir.join("node.log");
     let legs = [
         "front_left",
         "middle_left",
@@ -161,8 +162,6 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
     children.0.push(
         Command::new(&exe)
             .arg("node")
-            .arg("--latency-report")
-            .arg(&report_path)
             .args(
                 a.node_realtime_priority
                     .map(|p| format!("--realtime-priority={p}")),
@@ -170,13 +169,13 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
             .args(a.node_cpu.map(|c| format!("--cpu={c}")))
             .args(["--ros-args", "--params-file"])
             .arg(&params)
-            .stderr(Stdio::null())
+            .stderr(std::fs::File::create(&node_log)?)
             .spawn()
             .context("cannot start terzaghi node")?,
     );
     if !a.load {
         children.0.push(
-            Command::new(&exe)
+            Command::new(&bench_exe)
                 .arg("echo")
                 .args(a.node_cpu.map(|c| format!("--cpu={c}")))
                 .stderr(Stdio::null())
@@ -191,16 +190,18 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
         if others.is_empty() {
             bail!("--node-cpu needs a second CPU for the client; this machine has {online}");
         }
-        super::pin_to_cpus(&others)?;
+        terzaghi::node::realtime::pin_to_cpus(&others)?;
     }
 
-    let rt = super::runtime()?;
+    let rt = terzaghi::node::dds::runtime()?;
     let (node_rt, echo_rt, lost_node, lost_echo, load) = rt.block_on(client(
         &legs,
         a.rate_hz,
         a.seconds,
         a.load.then_some(node_pid),
     ))?;
+    // The node's peak memory, read before it is asked to stop.
+    let node_peak_rss_kb = peak_rss_kb(node_pid);
     for c in children.0.iter_mut() {
         sigint(c);
     }
@@ -216,13 +217,10 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
             }
         }
     };
-    let deadline = Instant::now() + Duration::from_secs(10);
-    while Instant::now() < deadline && !report_path.exists() {
-        std::thread::sleep(Duration::from_millis(50));
-    }
-    std::thread::sleep(Duration::from_millis(100));
-    let text = std::fs::read_to_string(&report_path).context("the node wrote no latency report")?;
-    let summary: RunSummary = serde_json::from_str(&text)?;
+    let text = std::fs::read_to_string(&node_log).context("the node's log is missing")?;
+    let summary = stop_line(&text).with_context(|| {
+        format!("the node did not report its run at shutdown; its log:\n{text}")
+    })?;
     let _ = std::fs::remove_dir_all(&dir);
 
     if a.load {
@@ -234,7 +232,7 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
             node_joint_states: summary.joint_states,
             node_dropped_counted: summary.dropped,
             node_predictions: summary.predictions,
-            node_peak_rss_kb: summary.peak_rss_kb,
+            node_peak_rss_kb,
             node_rss_kb_per_second: load.rss_kb,
             node_exit_clean,
         };
@@ -498,4 +496,62 @@ struct LoadReport {
     node_peak_rss_kb: Option<u64>,
     node_rss_kb_per_second: Vec<u64>,
     node_exit_clean: bool,
+}
+
+/// What the node said of its run when it stopped (its last line on stderr: "terzaghi node
+/// stopped: J joint states, P predictions, D inputs dropped; processing p50 X us, p99 Y us,
+/// max Z us").
+fn stop_line(log: &str) -> Option<RunSummary> {
+    let line = log
+        .lines()
+        .rev()
+        .find(|l| l.starts_with("terzaghi node stopped:"))?;
+    let numbers: Vec<f64> = line
+        .split(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .filter_map(|w| w.trim_matches('.').parse().ok())
+        .collect();
+    // "p50" and "p99" carry numbers of their own.
+    let [js, pred, dropped, _, p50, _, p99, max] = numbers[..] else {
+        return None;
+    };
+    Some(RunSummary {
+        joint_states: js as u64,
+        predictions: pred as u64,
+        dropped: dropped as u64,
+        processing_p50_ns: (p50 * 1e3) as u64,
+        processing_p99_ns: (p99 * 1e3) as u64,
+        processing_max_ns: (max * 1e3) as u64,
+        processing_count: js as u64,
+    })
+}
+
+/// Peak resident memory of process `pid` (kB), from /proc (Linux).
+fn peak_rss_kb(pid: u32) -> Option<u64> {
+    let s = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
+    s.lines()
+        .find_map(|l| l.strip_prefix("VmHWM:"))
+        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse().ok())
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn the_node_stop_line_reads_back() {
+        let s = super::stop_line(
+            "noise\nterzaghi node stopped: 10000 joint states, 60000 predictions, 3 inputs dropped; processing p50 16.4 us, p99 45.1 us, max 120.0 us\n",
+        )
+        .unwrap();
+        assert_eq!(
+            (s.joint_states, s.predictions, s.dropped),
+            (10_000, 60_000, 3)
+        );
+        assert_eq!(
+            (
+                s.processing_p50_ns,
+                s.processing_p99_ns,
+                s.processing_max_ns
+            ),
+            (16_400, 45_100, 120_000)
+        );
+    }
 }

@@ -1,13 +1,15 @@
 //! `terzaghi bench`: how long one model evaluation takes on this machine, and the ratio of RFT
 //! to the improved model measured in the same run.
 
-use super::print_out;
-use crate::model::{FittingWidth, Medium, Plate, RftCoefficients, RftFit, RftModel, TerzaghiModel};
+use crate::print_out;
 use anyhow::Result;
 use clap::Args;
 use serde::Serialize;
 use std::hint::black_box;
 use std::time::{Duration, Instant};
+use terzaghi::model::{
+    FittingWidth, Medium, Plate, RftCoefficients, RftFit, RftModel, TerzaghiModel,
+};
 
 #[derive(Debug, Args)]
 pub struct BenchArgs {
@@ -97,7 +99,7 @@ pub fn measure(seconds: f64) -> Result<BenchReport> {
 
 /// Per-update times (ns) of the online estimator fed penetration samples of the model, noisy.
 fn time_online_updates(model: &TerzaghiModel, budget: Duration) -> Result<Vec<f64>> {
-    use crate::ident::{OnlineEstimator, OnlineOptions, Sample};
+    use terzaghi::ident::{OnlineEstimator, OnlineOptions, Sample};
     let samples: Vec<Sample> = (0..256)
         .map(|i| {
             let beta = 0.7 + 0.85 * i as f64 / 255.0;

@@ -6,14 +6,14 @@
 //! writer on one thread, timing it; then it runs `terzaghi replay --reevaluate` (this
 //! executable) on the file and times that.
 
-use super::print_out;
-use crate::msgs::{Header, JointState, Time, Vector3, Wrench, WrenchStamped};
-use crate::node::NodeCore;
-use crate::record::{OfferedQos, RecordOptions, SessionWriter};
+use crate::print_out;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use std::io::BufWriter;
 use std::time::Instant;
+use terzaghi::msgs::{Header, JointState, Time, Vector3, Wrench, WrenchStamped};
+use terzaghi::node::NodeCore;
+use terzaghi::record::{OfferedQos, RecordOptions, SessionWriter};
 
 #[derive(Debug, Args)]
 pub struct BenchRecordArgs {
@@ -73,7 +73,7 @@ pub fn run(a: BenchRecordArgs) -> Result<()> {
     if !(1..=100).contains(&a.runs) {
         bail!("--runs must be in 1..=100, got {}", a.runs);
     }
-    let (params, cfg) = super::bench_diagnose::rhex()?;
+    let (params, cfg) = terzaghi::sim::robot::rhex()?;
     let legs = cfg.legs.len();
     let dir = std::env::temp_dir().join(format!("terzaghi-bench-record-{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
@@ -172,7 +172,7 @@ pub fn run(a: BenchRecordArgs) -> Result<()> {
             // The leg's F/T: the predicted force with a little noise, as the leg's sensor reads
             // it (in its configured frame).
             let wobble = ((k * 7919 + o.leg as u64 * 104_729) % 1000) as f64 * 1e-3 - 0.5;
-            let (fx, fz) = crate::sim::robot::ft_components(
+            let (fx, fz) = terzaghi::sim::robot::ft_components(
                 cfg.legs[o.leg].ft_frame,
                 o.wrench.wrench.force.x + wobble,
                 o.wrench.wrench.force.z - wobble,
@@ -215,7 +215,7 @@ pub fn run(a: BenchRecordArgs) -> Result<()> {
     let write_s = start.elapsed().as_secs_f64();
     let file_bytes = std::fs::metadata(&path)?.len();
 
-    let exe = std::env::current_exe()?;
+    let exe = crate::terzaghi_exe()?;
     let csv = dir.join("reevaluated.csv");
     let mut times_s = Vec::new();
     let mut cpu_s = Vec::new();

@@ -5,15 +5,14 @@
 //! every leg's F/T, with the node parameters as metadata), then times `terzaghi diagnose` (this
 //! executable) on the file, every leg.
 
-use super::print_out;
-use crate::config::{NodeConfig, defaults, parse_params_yaml};
-use crate::record::{OfferedQos, RecordOptions, SessionWriter};
-use crate::sim::robot::{Gait, Truth, joint_state, simulate, stamp_ns, wrench};
-use crate::withheld::generator::Hidden;
+use crate::print_out;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use std::io::BufWriter;
 use std::time::Instant;
+use terzaghi::record::{OfferedQos, RecordOptions, SessionWriter};
+use terzaghi::sim::generator::Hidden;
+use terzaghi::sim::robot::{Gait, Truth, joint_state, simulate, stamp_ns, wrench};
 
 #[derive(Debug, Args)]
 pub struct BenchDiagnoseArgs {
@@ -31,19 +30,6 @@ pub struct BenchDiagnoseArgs {
     pub json: bool,
 }
 
-/// The shipped RHex parameters, as a map and a configuration.
-pub fn rhex() -> Result<(crate::config::ParamMap, NodeConfig)> {
-    let mut params = defaults();
-    params.extend(parse_params_yaml(
-        include_str!("../../launch_configs/rhex.yaml"),
-        "rhex.yaml",
-        "terzaghi",
-        "/",
-    )?);
-    let cfg = NodeConfig::from_params(&params, "terzaghi", "/", &[])?;
-    Ok((params, cfg))
-}
-
 pub fn run(a: BenchDiagnoseArgs) -> Result<()> {
     if !(a.minutes.is_finite() && a.minutes > 0.0 && a.minutes <= 120.0) {
         bail!("--minutes must be in (0, 120], got {}", a.minutes);
@@ -51,7 +37,7 @@ pub fn run(a: BenchDiagnoseArgs) -> Result<()> {
     if !(a.rate_hz.is_finite() && (10.0..=10_000.0).contains(&a.rate_hz)) {
         bail!("--rate-hz must be in [10, 10000], got {}", a.rate_hz);
     }
-    let (params, cfg) = rhex()?;
+    let (params, cfg) = terzaghi::sim::robot::rhex()?;
     let dir = std::env::temp_dir().join(format!("terzaghi-bench-diagnose-{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
     let path = a.keep.clone().unwrap_or_else(|| dir.join("session.mcap"));
@@ -115,7 +101,7 @@ pub fn run(a: BenchDiagnoseArgs) -> Result<()> {
     let write_s = start.elapsed().as_secs_f64();
     let out = dir.join("report");
     let start = Instant::now();
-    let result = std::process::Command::new(std::env::current_exe()?)
+    let result = std::process::Command::new(crate::terzaghi_exe()?)
         .arg("diagnose")
         .arg(&path)
         .arg("--out")

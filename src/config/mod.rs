@@ -1,0 +1,223 @@
+//! Node parameters as a ROS user gives them: a params YAML file (`/**:` or the node's name, then
+//! `ros__parameters:`, nested keys flattened with dots) and `--ros-args` (`-p name:=value`,
+//! `--params-file FILE`, `-r __node:=NAME`, `-r __ns:=/NS`, `-r from:=to`). Parsed and validated
+//! here, once, into a [`NodeConfig`]; every error names the parameter and its value.
+//!
+//! - [`params`]: parameter values as ROS 2 types them.
+//! - [`ros_args`]: the `--ros-args` command line.
+//! - [`yaml`]: params files, and the parameters of one node from defaults, files and `-p`.
+//! - [`node`]: the node's configuration ([`NodeConfig`]), validated from parameters.
+//! - [`names`]: ROS names: topic resolution and remapping, and the node's output topics.
+//! - [`env`]: the ROS 2 environment variables the node honours.
+
+pub mod env;
+pub mod names;
+pub mod node;
+pub mod params;
+pub mod ros_args;
+pub mod yaml;
+
+pub use env::*;
+pub use names::*;
+pub use node::*;
+pub use params::*;
+pub use ros_args::*;
+pub use yaml::*;
+
+use crate::model::ModelError;
+
+/// What is wrong with the parameters or the command line; names the culprit.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    #[error("parameter {name} = {value}: {reason}")]
+    Invalid {
+        name: String,
+        value: String,
+        reason: String,
+    },
+    #[error("parameter {name} is required: {hint}")]
+    Missing { name: String, hint: String },
+    #[error("parameter {name}: {error}")]
+    Model { name: String, error: ModelError },
+    #[error("cannot read params file {path}: {error}")]
+    ReadFile { path: String, error: std::io::Error },
+    #[error("params file {path}: {reason}")]
+    BadFile { path: String, reason: String },
+    #[error("--ros-args: {0}")]
+    RosArgs(String),
+    #[error("{name}={value}: {reason}")]
+    Env {
+        name: &'static str,
+        value: String,
+        reason: &'static str,
+    },
+}
+
+fn invalid(name: &str, value: &impl std::fmt::Display, reason: impl Into<String>) -> ConfigError {
+    ConfigError::Invalid {
+        name: name.to_string(),
+        value: value.to_string(),
+        reason: reason.into(),
+    }
+}
+
+fn model_err(name: &str) -> impl Fn(ModelError) -> ConfigError + '_ {
+    move |error| ConfigError::Model {
+        name: name.to_string(),
+        error,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::PathBuf;
+
+    fn args(s: &str) -> Vec<String> {
+        s.split_whitespace().map(String::from).collect()
+    }
+
+    const YAML: &str = "
+/**:
+  ros__parameters:
+    model: improved
+    legs: [left, right]
+    left:
+      length_m: 0.25
+      width_m: 0.06
+      hip_height_m: 0.15
+      medium: hit_sand
+      ft_topic: left/ft
+    right:
+      length_m: 0.25
+      width_m: 0.04
+      hip_height_m: 0.15
+      unit_weight_n_m3: 16170
+      phi_deg: 32.0
+      delta_deg: 19.0
+      b_k: 4.45
+      a: 1.61
+      direction: -1
+    estimator:
+      fit_delta: true
+other_node:
+  ros__parameters:
+    model: rft
+";
+
+    fn load(extra: &str) -> Result<NodeConfig, ConfigError> {
+        let mut p = defaults();
+        p.extend(parse_params_yaml(YAML, "t.yaml", "terzaghi", "/").unwrap());
+        let (_, ros) = parse_ros_args(&args(&format!("--ros-args {extra}")))?;
+        for (k, v) in ros.params {
+            p.insert(k, v);
+        }
+        NodeConfig::from_params(
+            &p,
+            ros.node_name.as_deref().unwrap_or("terzaghi"),
+            ros.namespace.as_deref().unwrap_or("/"),
+            &ros.remaps,
+        )
+    }
+
+    #[test]
+    fn params_file_and_overrides() {
+        let c = load("-p left.b_k:=3 -p left.a:=1.2 -r __ns:=/robot -r left/ft:=/sensors/left")
+            .unwrap();
+        assert_eq!(c.legs.len(), 2);
+        assert_eq!(c.namespace, "/robot");
+        assert_eq!(c.joint_states_topic, "/robot/joint_states");
+        assert_eq!(c.legs[0].ft_topic.as_deref(), Some("/sensors/left"));
+        assert_eq!((c.legs[0].width.b_k(), c.legs[0].width.a()), (3.0, 1.2));
+        assert_eq!(c.legs[1].direction, -1.0);
+        assert_eq!(c.legs[1].joint, "right");
+        assert!(c.estimator.fit_delta);
+        // The preset's Table 1 fit for a 60 mm plate when no b_k is given.
+        let c = load("").unwrap();
+        assert_eq!(c.legs[0].width.b_k(), 22.40);
+    }
+
+    #[test]
+    fn bad_values_name_parameter_and_value() {
+        let cases = [
+            ("-p left.width_m:=-1", "left.width_m"),
+            ("-p model:=fancy", "fancy"),
+            ("-p right.direction:=2", "right.direction"),
+            ("-p left.medium:=mud", "mud"),
+            ("-p left.ft_frame:=base", "base"),
+            ("-p left.lenght_m:=1", "left.lenght_m"),
+            ("-p queue_depth:=0", "queue_depth"),
+            ("-p estimator.forgetting_factor:=1.5", "forgetting"),
+            ("-p right.phi_deg:=95", "95"),
+            ("-p left.length_m:=abc", "abc"),
+            ("-r __node:=9bad", "9bad"),
+        ];
+        for (extra, needle) in cases {
+            let e = load(extra).unwrap_err().to_string();
+            assert!(e.contains(needle), "{extra}: {e}");
+        }
+        let e = parse_ros_args(&args("--ros-args -p nonsense"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("name:=value"), "{e}");
+        let e = parse_ros_args(&args("--ros-args --frobnicate"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("frobnicate"), "{e}");
+    }
+
+    #[test]
+    fn ros_args_split_from_own_args() {
+        let (own, ros) = parse_ros_args(&args(
+            "--record x.mcap --ros-args -p a:=1 --params-file f.yaml -- --other",
+        ))
+        .unwrap();
+        assert_eq!(own, args("--record x.mcap --other"));
+        assert_eq!(ros.params, vec![("a".to_string(), ParamValue::Int(1))]);
+        assert_eq!(ros.params_files, vec![PathBuf::from("f.yaml")]);
+        assert_eq!(
+            parse_value("[a, b]"),
+            ParamValue::StringArray(vec!["a".into(), "b".into()])
+        );
+        assert_eq!(parse_value("0.5"), ParamValue::Double(0.5));
+        assert_eq!(parse_value("hip"), ParamValue::String("hip".into()));
+    }
+
+    #[test]
+    fn node_sections_and_names() {
+        let y = "terzaghi:\n  ros__parameters:\n    legs: [a]\n";
+        assert!(
+            parse_params_yaml(y, "f", "terzaghi", "/")
+                .unwrap()
+                .contains_key("legs")
+        );
+        let y2 = "/robot/terzaghi:\n  ros__parameters:\n    legs: [a]\n";
+        assert!(parse_params_yaml(y2, "f", "terzaghi", "/robot").is_ok());
+        let e =
+            parse_params_yaml("other:\n  ros__parameters: {}\n", "f", "terzaghi", "/").unwrap_err();
+        assert!(e.to_string().contains("no section"), "{e}");
+        assert!(parse_params_yaml("- 1\n", "f", "terzaghi", "/").is_err());
+        assert!(parse_params_yaml(":\n  :", "f", "terzaghi", "/").is_err());
+        assert_eq!(resolve_topic("~/x", "/r", "n", &[]), "/r/n/x");
+        assert_eq!(
+            resolve_topic("x", "/", "n", &[("/x".into(), "y".into())]),
+            "/y"
+        );
+    }
+
+    #[test]
+    fn environment() {
+        assert_eq!(domain_id_from_env(None).unwrap(), 0);
+        assert_eq!(domain_id_from_env(Some("42")).unwrap(), 42);
+        assert!(
+            domain_id_from_env(Some("300"))
+                .unwrap_err()
+                .to_string()
+                .contains("300")
+        );
+        assert!(localhost_only_from_env(Some("LOCALHOST"), None).unwrap());
+        assert!(localhost_only_from_env(None, Some("1")).unwrap());
+        assert!(!localhost_only_from_env(Some("SUBNET"), None).unwrap());
+        assert!(localhost_only_from_env(Some("MOON"), None).is_err());
+    }
+}

@@ -1,0 +1,560 @@
+//! The node's configuration, validated once from its parameters; every error names the
+//! parameter and its value.
+
+use super::names::{check_name, resolve_topic};
+use super::{ConfigError, ParamMap, ParamValue, invalid, model_err};
+use crate::ident::OnlineOptions;
+use crate::ident::online::Forgetting;
+use crate::model::medium::{self, MediumPreset, RftSet};
+use crate::model::{
+    FittingWidth, ForceModel, Medium, ModelError, Plate, RftCoefficients, RftModel, TerzaghiModel,
+};
+use std::path::PathBuf;
+
+/// Which model the node evaluates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ModelKind {
+    Improved,
+    Conventional,
+    Rft,
+}
+
+impl ModelKind {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            ModelKind::Improved => "improved",
+            ModelKind::Conventional => "conventional",
+            ModelKind::Rft => "rft",
+        }
+    }
+}
+
+/// The frame a leg's F/T sensor reports in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FtFrame {
+    /// The hip frame: x along the tip's travel, z up.
+    Hip,
+    /// The leg frame, turning with the joint: x normal to the plate along its travel, z along the
+    /// plate from tip to hip; it equals the hip frame when the leg is vertical.
+    Leg,
+}
+
+/// One leg, validated.
+#[derive(Debug, Clone)]
+pub struct LegConfig {
+    pub name: String,
+    /// `ft_topic` as given (before resolution), and the RFT set's name ("" for none).
+    pub ft_topic_given: String,
+    pub rft_name: String,
+    pub joint: String,
+    /// `+1` or `-1`: `beta = direction * (position - angle_offset_rad)`.
+    pub direction: f64,
+    pub angle_offset_rad: f64,
+    pub plate: Plate,
+    pub medium: Medium,
+    pub preset: Option<&'static MediumPreset>,
+    /// The configured fitting width (used until identification converges).
+    pub width: FittingWidth,
+    /// Resolved F/T topic, if the leg has a sensor.
+    pub ft_topic: Option<String>,
+    pub ft_frame: FtFrame,
+    pub rft: Option<RftCoefficients>,
+}
+
+impl LegConfig {
+    /// A leg of `plate` in `medium`, turned by `joint` (`beta` = the joint's position), with the
+    /// conventional fitting width and no F/T sensor.
+    pub fn new(name: &str, joint: &str, plate: Plate, medium: Medium) -> LegConfig {
+        LegConfig {
+            name: name.to_string(),
+            ft_topic_given: String::new(),
+            rft_name: String::new(),
+            joint: joint.to_string(),
+            direction: 1.0,
+            angle_offset_rad: 0.0,
+            plate,
+            medium,
+            preset: None,
+            width: FittingWidth::CONVENTIONAL,
+            ft_topic: None,
+            ft_frame: FtFrame::Hip,
+            rft: None,
+        }
+    }
+}
+
+/// The whole node, validated.
+#[derive(Debug, Clone)]
+pub struct NodeConfig {
+    pub node_name: String,
+    pub namespace: String,
+    pub model: ModelKind,
+    /// Resolved JointState topic.
+    pub joint_states_topic: String,
+    pub use_identified: bool,
+    pub legs: Vec<LegConfig>,
+    pub estimator: OnlineOptions,
+    pub rft_elements: usize,
+    pub diagnostics_period_s: f64,
+    /// Largest time between an F/T sample and the joint angle it is matched with.
+    pub max_match_dt_s: f64,
+    /// Bound of the input queue: beyond it the oldest message is dropped and counted.
+    pub queue_depth: usize,
+    pub model_params_rate_hz: f64,
+    /// MCAP file to record the session to, if any.
+    pub record: Option<PathBuf>,
+    /// `-r from:=to`, resolved.
+    pub remaps: Vec<(String, String)>,
+}
+
+/// Parameters whose change needs a restart (subscriptions and the recorder are made once).
+pub const STARTUP_ONLY: [&str; 5] = [
+    "legs",
+    "joint_states_topic",
+    "queue_depth",
+    "record",
+    "rft_elements",
+];
+
+/// Names of the per-leg parameters (`<leg>.<name>`).
+pub const LEG_KEYS: [&str; 16] = [
+    "joint",
+    "direction",
+    "angle_offset_rad",
+    "length_m",
+    "width_m",
+    "hip_height_m",
+    "medium",
+    "unit_weight_n_m3",
+    "phi_deg",
+    "delta_deg",
+    "b_k",
+    "a",
+    "ft_topic",
+    "ft_frame",
+    "rft_coeffs",
+    "rft_zeta",
+];
+
+/// Global parameters and their defaults.
+pub fn defaults() -> ParamMap {
+    let d = OnlineOptions::default();
+    let mut m = ParamMap::new();
+    let mut put = |k: &str, v: ParamValue| {
+        m.insert(k.to_string(), v);
+    };
+    put("model", ParamValue::String("improved".into()));
+    put(
+        "joint_states_topic",
+        ParamValue::String("joint_states".into()),
+    );
+    put("use_identified", ParamValue::Bool(true));
+    put("rft_elements", ParamValue::Int(100));
+    put("diagnostics_period_s", ParamValue::Double(1.0));
+    put("max_match_dt_s", ParamValue::Double(0.02));
+    put("queue_depth", ParamValue::Int(2000));
+    put("model_params_rate_hz", ParamValue::Double(10.0));
+    put("record", ParamValue::String(String::new()));
+    put("estimator.fit_delta", ParamValue::Bool(d.fit_delta));
+    let mem = match d.forgetting {
+        Forgetting::Strokes(m) => m,
+        Forgetting::PerSample(_) => 3.0,
+    };
+    put("estimator.memory_strokes", ParamValue::Double(mem));
+    put("estimator.forgetting_factor", ParamValue::Double(0.0));
+    put(
+        "estimator.min_unit_force_n",
+        ParamValue::Double(d.min_unit_force_n),
+    );
+    put("estimator.huber_k", ParamValue::Double(d.huber_k));
+    put(
+        "estimator.converge_rel_std",
+        ParamValue::Double(d.converge_rel_std),
+    );
+    put("estimator.cusum_alarm", ParamValue::Double(d.cusum_alarm));
+    m
+}
+
+struct Get<'a>(&'a ParamMap);
+
+impl Get<'_> {
+    fn str(&self, name: &str) -> Result<Option<String>, ConfigError> {
+        match self.0.get(name) {
+            None => Ok(None),
+            Some(ParamValue::String(s)) => Ok(Some(s.clone())),
+            Some(v) => Err(invalid(name, v, "expected a string")),
+        }
+    }
+    fn f64(&self, name: &str) -> Result<Option<f64>, ConfigError> {
+        match self.0.get(name) {
+            None => Ok(None),
+            Some(ParamValue::Double(x)) if x.is_finite() => Ok(Some(*x)),
+            Some(ParamValue::Int(x)) => Ok(Some(*x as f64)),
+            Some(v) => Err(invalid(name, v, "expected a finite number")),
+        }
+    }
+    fn bool(&self, name: &str) -> Result<Option<bool>, ConfigError> {
+        match self.0.get(name) {
+            None => Ok(None),
+            Some(ParamValue::Bool(b)) => Ok(Some(*b)),
+            Some(v) => Err(invalid(name, v, "expected true or false")),
+        }
+    }
+    fn need_f64(&self, name: &str, hint: &str) -> Result<f64, ConfigError> {
+        self.f64(name)?.ok_or_else(|| ConfigError::Missing {
+            name: name.to_string(),
+            hint: hint.to_string(),
+        })
+    }
+    fn count(&self, name: &str, lo: i64, hi: i64) -> Result<usize, ConfigError> {
+        match self.0.get(name) {
+            Some(ParamValue::Int(x)) if (lo..=hi).contains(x) => Ok(*x as usize),
+            Some(v) => Err(invalid(
+                name,
+                v,
+                format!("expected a whole number from {lo} to {hi}"),
+            )),
+            None => Err(ConfigError::Missing {
+                name: name.into(),
+                hint: "no default".into(),
+            }),
+        }
+    }
+}
+
+impl NodeConfig {
+    /// Validates `params` (defaults already merged) for a node called `node_name` in `namespace`.
+    pub fn from_params(
+        params: &ParamMap,
+        node_name: &str,
+        namespace: &str,
+        remaps: &[(String, String)],
+    ) -> Result<NodeConfig, ConfigError> {
+        check_name("node name", node_name, false)?;
+        let namespace = if namespace.starts_with('/') {
+            namespace.to_string()
+        } else {
+            format!("/{namespace}")
+        };
+        if namespace != "/" {
+            check_name("namespace", namespace.trim_start_matches('/'), true)?;
+        }
+        let g = Get(params);
+        let model = match g.str("model")?.as_deref().unwrap_or("improved") {
+            "improved" => ModelKind::Improved,
+            "conventional" => ModelKind::Conventional,
+            "rft" => ModelKind::Rft,
+            other => {
+                return Err(invalid(
+                    "model",
+                    &other,
+                    "expected improved, conventional or rft",
+                ));
+            }
+        };
+        let leg_names = match params.get("legs") {
+            Some(ParamValue::StringArray(v)) if !v.is_empty() => v.clone(),
+            Some(ParamValue::String(s)) if !s.is_empty() => vec![s.clone()],
+            Some(v) => return Err(invalid("legs", v, "expected a non-empty list of leg names")),
+            None => {
+                return Err(ConfigError::Missing {
+                    name: "legs".into(),
+                    hint: "list the legs, e.g. legs: [front_left] in a params file, with <leg>.length_m and so on".into(),
+                });
+            }
+        };
+        for (i, n) in leg_names.iter().enumerate() {
+            check_name("leg name", n, false).map_err(|_| {
+                invalid(
+                    "legs",
+                    &format!("{leg_names:?}"),
+                    format!("leg name {n:?}: use letters, digits and _"),
+                )
+            })?;
+            if leg_names[..i].contains(n) {
+                return Err(invalid(
+                    "legs",
+                    &format!("{leg_names:?}"),
+                    format!("{n} appears twice"),
+                ));
+            }
+        }
+        for key in params.keys() {
+            if let Some((leg, k)) = key.split_once('.')
+                && leg != "estimator"
+                && leg_names.iter().any(|l| l == leg)
+                && !LEG_KEYS.contains(&k)
+            {
+                return Err(invalid(
+                    key,
+                    &params[key],
+                    format!("unknown leg parameter; known: {}", LEG_KEYS.join(", ")),
+                ));
+            }
+        }
+        let rft_elements = g.count("rft_elements", 1, RftModel::MAX_ELEMENTS as i64)?;
+        let mut legs = Vec::new();
+        for name in &leg_names {
+            legs.push(leg_config(&g, name, model, &namespace, node_name, remaps)?);
+        }
+        Self::globals(&g, node_name, &namespace, remaps, model, legs, rft_elements)
+    }
+
+    /// The node-wide part of the configuration from `g`, with `legs` already made.
+    fn globals(
+        g: &Get,
+        node_name: &str,
+        namespace: &str,
+        remaps: &[(String, String)],
+        model: ModelKind,
+        legs: Vec<LegConfig>,
+        rft_elements: usize,
+    ) -> Result<NodeConfig, ConfigError> {
+        let positive = |name: &str| -> Result<f64, ConfigError> {
+            let v = g.need_f64(name, "no default")?;
+            if v > 0.0 {
+                Ok(v)
+            } else {
+                Err(invalid(name, &v, "must be > 0"))
+            }
+        };
+        let mut est = OnlineOptions {
+            fit_delta: g.bool("estimator.fit_delta")?.unwrap_or(false),
+            ..Default::default()
+        };
+        let factor = g.f64("estimator.forgetting_factor")?.unwrap_or(0.0);
+        est.forgetting = if factor > 0.0 {
+            Forgetting::PerSample(factor)
+        } else {
+            Forgetting::Strokes(positive("estimator.memory_strokes")?)
+        };
+        est.min_unit_force_n = g.need_f64("estimator.min_unit_force_n", "no default")?;
+        est.huber_k = positive("estimator.huber_k")?;
+        est.converge_rel_std = positive("estimator.converge_rel_std")?;
+        est.cusum_alarm = positive("estimator.cusum_alarm")?;
+        est.validate()
+            .map_err(|e| invalid("estimator", &e, "the estimator options are out of range"))?;
+        let record = g
+            .str("record")?
+            .filter(|s| !s.is_empty())
+            .map(PathBuf::from);
+        let topic = g
+            .str("joint_states_topic")?
+            .unwrap_or_else(|| "joint_states".into());
+        if topic.is_empty() {
+            return Err(invalid("joint_states_topic", &topic, "must not be empty"));
+        }
+        Ok(NodeConfig {
+            node_name: node_name.to_string(),
+            namespace: namespace.to_string(),
+            model,
+            joint_states_topic: resolve_topic(&topic, namespace, node_name, remaps),
+            use_identified: g.bool("use_identified")?.unwrap_or(true),
+            legs,
+            estimator: est,
+            rft_elements,
+            diagnostics_period_s: positive("diagnostics_period_s")?,
+            max_match_dt_s: positive("max_match_dt_s")?,
+            queue_depth: g.count("queue_depth", 1, 1_000_000)?,
+            model_params_rate_hz: positive("model_params_rate_hz")?,
+            record,
+            remaps: remaps.to_vec(),
+        })
+    }
+
+    /// The node with its default parameters and these legs, reading joint angles from
+    /// `joint_states_topic`: for a session recorded by another ROS 2 tool, whose legs are
+    /// described by flags rather than by parameters.
+    pub fn with_legs(
+        legs: Vec<LegConfig>,
+        joint_states_topic: &str,
+    ) -> Result<NodeConfig, ConfigError> {
+        if legs.is_empty() {
+            return Err(ConfigError::Missing {
+                name: "legs".into(),
+                hint: "give at least one leg".into(),
+            });
+        }
+        if joint_states_topic.is_empty() {
+            return Err(invalid(
+                "joint_states_topic",
+                &joint_states_topic,
+                "must not be empty",
+            ));
+        }
+        let params = defaults();
+        let g = Get(&params);
+        let mut cfg = Self::globals(&g, "terzaghi", "/", &[], ModelKind::Improved, legs, 100)?;
+        cfg.joint_states_topic = resolve_topic(joint_states_topic, "/", "terzaghi", &[]);
+        Ok(cfg)
+    }
+
+    /// `given` completed with the value in force of every leg parameter, so that each can be
+    /// read and set through the parameter services.
+    pub fn effective_params(&self, given: &ParamMap) -> ParamMap {
+        let mut m = given.clone();
+        for l in &self.legs {
+            let mut put = |key: &str, v: ParamValue| {
+                m.entry(format!("{}.{key}", l.name)).or_insert(v);
+            };
+            put("joint", ParamValue::String(l.joint.clone()));
+            put("direction", ParamValue::Double(l.direction));
+            put("angle_offset_rad", ParamValue::Double(l.angle_offset_rad));
+            put("length_m", ParamValue::Double(l.plate.length_m()));
+            put("width_m", ParamValue::Double(l.plate.width_m()));
+            put("hip_height_m", ParamValue::Double(l.plate.hip_height_m()));
+            let preset = l.preset.map(|p| p.name.to_string()).unwrap_or_default();
+            put("medium", ParamValue::String(preset));
+            put(
+                "unit_weight_n_m3",
+                ParamValue::Double(l.medium.unit_weight_n_m3()),
+            );
+            put("phi_deg", ParamValue::Double(l.medium.phi_deg()));
+            put("delta_deg", ParamValue::Double(l.medium.delta_deg()));
+            put("b_k", ParamValue::Double(l.width.b_k()));
+            put("a", ParamValue::Double(l.width.a()));
+            put("ft_topic", ParamValue::String(l.ft_topic_given.clone()));
+            let frame = match l.ft_frame {
+                FtFrame::Hip => "hip",
+                FtFrame::Leg => "leg",
+            };
+            put("ft_frame", ParamValue::String(frame.into()));
+            put("rft_coeffs", ParamValue::String(l.rft_name.clone()));
+            put("rft_zeta", ParamValue::Double(0.0));
+        }
+        m
+    }
+
+    /// The model of leg `i` with fitting width `width` (and plate friction `delta_deg`).
+    pub fn leg_model(
+        &self,
+        i: usize,
+        width: FittingWidth,
+        delta_deg: Option<f64>,
+    ) -> Result<ForceModel, ModelError> {
+        let leg = &self.legs[i];
+        let medium = match delta_deg {
+            Some(d) => leg.medium.with_delta_deg(d)?,
+            None => leg.medium,
+        };
+        Ok(match self.model {
+            ModelKind::Improved => {
+                ForceModel::Terzaghi(TerzaghiModel::new(leg.plate, medium, width))
+            }
+            ModelKind::Conventional => {
+                ForceModel::Terzaghi(TerzaghiModel::conventional(leg.plate, medium))
+            }
+            ModelKind::Rft => match &leg.rft {
+                Some(c) => ForceModel::Rft(RftModel::new(leg.plate, c.clone(), self.rft_elements)?),
+                None => ForceModel::Terzaghi(TerzaghiModel::new(leg.plate, medium, width)),
+            },
+        })
+    }
+}
+
+fn leg_config(
+    g: &Get,
+    leg: &str,
+    model: ModelKind,
+    namespace: &str,
+    node: &str,
+    remaps: &[(String, String)],
+) -> Result<LegConfig, ConfigError> {
+    let k = |s: &str| format!("{leg}.{s}");
+    let geom_hint = "each leg needs length_m, width_m and hip_height_m";
+    let length = g.need_f64(&k("length_m"), geom_hint)?;
+    let width = g.need_f64(&k("width_m"), geom_hint)?;
+    let height = g.need_f64(&k("hip_height_m"), geom_hint)?;
+    let plate = Plate::new(length, width, height).map_err(|e| {
+        let which = match &e {
+            ModelError::NegativeHipHeight { .. } => "hip_height_m",
+            ModelError::NotPositive { name, .. } | ModelError::NotFinite { name, .. }
+                if name.contains("width") =>
+            {
+                "width_m"
+            }
+            ModelError::NotFinite { name, .. } if name.contains("hip") => "hip_height_m",
+            _ => "length_m",
+        };
+        model_err(&k(which))(e)
+    })?;
+    let direction = g.f64(&k("direction"))?.unwrap_or(1.0);
+    if direction != 1.0 && direction != -1.0 {
+        return Err(invalid(&k("direction"), &direction, "expected 1 or -1"));
+    }
+    let (medium, preset) = match g.str(&k("medium"))? {
+        Some(name) if !name.is_empty() => {
+            let p = medium::preset(&name).map_err(model_err(&k("medium")))?;
+            // Explicit soil values override the preset's.
+            let m = Medium::new(
+                g.f64(&k("unit_weight_n_m3"))?.unwrap_or(p.unit_weight_n_m3),
+                g.f64(&k("phi_deg"))?.unwrap_or(p.phi_deg),
+                g.f64(&k("delta_deg"))?.unwrap_or(p.delta_deg),
+            )
+            .map_err(model_err(&k("medium")))?;
+            (m, Some(p))
+        }
+        _ => {
+            let hint = "give <leg>.medium (a preset) or unit_weight_n_m3, phi_deg and delta_deg";
+            let m = Medium::new(
+                g.need_f64(&k("unit_weight_n_m3"), hint)?,
+                g.need_f64(&k("phi_deg"), hint)?,
+                g.need_f64(&k("delta_deg"), hint)?,
+            )
+            .map_err(model_err(&k("medium")))?;
+            (m, None)
+        }
+    };
+    let fit = preset.and_then(|p| p.fitting_width_for(width));
+    let b_k = g.f64(&k("b_k"))?.or(fit.map(|f| f.b_k())).unwrap_or(1.0);
+    let a = g.f64(&k("a"))?.or(fit.map(|f| f.a())).unwrap_or(1.0);
+    let width_fit = FittingWidth::new(b_k, a).map_err(model_err(&k("b_k")))?;
+    let ft_topic = g
+        .str(&k("ft_topic"))?
+        .filter(|t| !t.is_empty())
+        .map(|t| resolve_topic(&t, namespace, node, remaps));
+    let ft_frame = match g.str(&k("ft_frame"))?.as_deref().unwrap_or("hip") {
+        "hip" => FtFrame::Hip,
+        "leg" => FtFrame::Leg,
+        other => return Err(invalid(&k("ft_frame"), &other, "expected hip or leg")),
+    };
+    let rft_name = g
+        .str(&k("rft_coeffs"))?
+        .filter(|s| !s.is_empty())
+        .or_else(|| {
+            preset.and_then(|p| p.rft).map(|s| match s {
+                RftSet::PoppyLp => "poppy_lp".to_string(),
+                RftSet::PoppyCp => "poppy_cp".to_string(),
+            })
+        });
+    let zeta = g.f64(&k("rft_zeta"))?.filter(|z| *z != 0.0); // 0: not set
+    let rft = match rft_name.clone() {
+        Some(n) => Some(RftCoefficients::by_name(&n, zeta).map_err(model_err(&k("rft_coeffs")))?),
+        None if model == ModelKind::Rft => {
+            return Err(ConfigError::Missing {
+                name: k("rft_coeffs"),
+                hint: "model rft needs RFT coefficients (poppy_lp, poppy_cp, poppy_lp_grid, generic with rft_zeta) or a medium that has them".into(),
+            });
+        }
+        None => None,
+    };
+    let joint = g
+        .str(&k("joint"))?
+        .filter(|j| !j.is_empty())
+        .unwrap_or_else(|| leg.to_string());
+    Ok(LegConfig {
+        name: leg.to_string(),
+        ft_topic_given: g.str(&k("ft_topic"))?.unwrap_or_default(),
+        rft_name: rft_name.unwrap_or_default(),
+        joint,
+        direction,
+        angle_offset_rad: g.f64(&k("angle_offset_rad"))?.unwrap_or(0.0),
+        plate,
+        medium,
+        preset,
+        width: width_fit,
+        ft_topic,
+        ft_frame,
+        rft,
+    })
+}

@@ -1,0 +1,92 @@
+//! `--ros-args`: `-p name:=value`, `--params-file FILE`, `-r __node:=NAME`, `-r __ns:=/NS`,
+//! `-r from:=to`, as `ros2 run` passes them.
+
+use super::{ConfigError, ParamValue, parse_value};
+use std::path::PathBuf;
+
+/// What `--ros-args` said.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RosArgs {
+    /// `-p name:=value`, in order (later wins).
+    pub params: Vec<(String, ParamValue)>,
+    pub params_files: Vec<PathBuf>,
+    pub node_name: Option<String>,
+    pub namespace: Option<String>,
+    /// `-r from:=to` topic remappings.
+    pub remaps: Vec<(String, String)>,
+}
+
+/// Splits `args` into the program's own arguments and what `--ros-args ... [--]` says.
+pub fn parse_ros_args(args: &[String]) -> Result<(Vec<String>, RosArgs), ConfigError> {
+    let mut own = Vec::new();
+    let mut ros = RosArgs::default();
+    let mut i = 0;
+    let mut in_ros = false;
+    let need = |i: usize, flag: &str| -> Result<String, ConfigError> {
+        args.get(i + 1)
+            .cloned()
+            .ok_or_else(|| ConfigError::RosArgs(format!("{flag} needs a value")))
+    };
+    while i < args.len() {
+        let a = args[i].as_str();
+        if !in_ros {
+            if a == "--ros-args" {
+                in_ros = true;
+            } else {
+                own.push(args[i].clone());
+            }
+            i += 1;
+            continue;
+        }
+        match a {
+            "--" => in_ros = false,
+            "--ros-args" => {}
+            "-p" | "--param" => {
+                let v = need(i, a)?;
+                let (name, value) = v.split_once(":=").ok_or_else(|| {
+                    ConfigError::RosArgs(format!("{a} {v:?}: expected name:=value"))
+                })?;
+                if name.is_empty() {
+                    return Err(ConfigError::RosArgs(format!(
+                        "{a} {v:?}: empty parameter name"
+                    )));
+                }
+                ros.params.push((name.to_string(), parse_value(value)));
+                i += 1;
+            }
+            "--params-file" => {
+                ros.params_files.push(PathBuf::from(need(i, a)?));
+                i += 1;
+            }
+            "-r" | "--remap" => {
+                let v = need(i, a)?;
+                let (from, to) = v
+                    .split_once(":=")
+                    .ok_or_else(|| ConfigError::RosArgs(format!("{a} {v:?}: expected from:=to")))?;
+                // `node:from:=to` targets one node; we are the only node in this process.
+                let from = from.rsplit_once(':').map(|(_, f)| f).unwrap_or(from);
+                match from {
+                    "__node" | "__name" => ros.node_name = Some(to.to_string()),
+                    "__ns" => ros.namespace = Some(to.to_string()),
+                    _ if from.is_empty() || to.is_empty() => {
+                        return Err(ConfigError::RosArgs(format!("{a} {v:?}: empty name")));
+                    }
+                    _ => ros.remaps.push((from.to_string(), to.to_string())),
+                }
+                i += 1;
+            }
+            "--log-level" | "-e" | "--enclave" => i += 1, // accepted; nothing to configure
+            "--disable-rosout-logs"
+            | "--disable-stdout-logs"
+            | "--enable-rosout-logs"
+            | "--enable-stdout-logs" => {}
+            other => {
+                return Err(ConfigError::RosArgs(format!(
+                    "unknown argument {other:?} (known: -p, --param, --params-file, -r, --remap, --log-level, --)"
+                )));
+            }
+        }
+        i += 1;
+    }
+    Ok((own, ros))
+}

@@ -1,0 +1,63 @@
+//! Real-time habits of control nodes: a thread pinned to CPUs of its own, and the message
+//! handling under SCHED_FIFO so that other threads do not preempt it.
+
+use anyhow::{Result, bail};
+
+/// Pins the calling thread, and the threads it starts afterwards, to `cpus`.
+pub fn pin_to_cpus(cpus: &[usize]) -> Result<()> {
+    #[cfg(target_os = "linux")]
+    {
+        let online = std::thread::available_parallelism().map_or(1, |n| n.get());
+        // SAFETY: a zeroed cpu_set_t is a valid empty set; CPU_SET writes inside it (each cpu
+        // is checked against CPU_SETSIZE); sched_setaffinity reads it and changes only this
+        // thread.
+        let rc = unsafe {
+            let mut set: libc::cpu_set_t = std::mem::zeroed();
+            for &cpu in cpus {
+                if cpu >= libc::CPU_SETSIZE as usize {
+                    bail!("CPU {cpu} does not exist (this machine has {online} CPUs online)");
+                }
+                libc::CPU_SET(cpu, &mut set);
+            }
+            libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set)
+        };
+        if rc != 0 {
+            bail!(
+                "cannot run on CPU {cpus:?}: {} (this machine has {online} CPUs online)",
+                std::io::Error::last_os_error()
+            );
+        }
+        Ok(())
+    }
+    #[cfg(not(target_os = "linux"))]
+    {
+        let _ = cpus;
+        bail!("pinning to a CPU is supported on Linux only")
+    }
+}
+
+/// Puts the calling thread (the one the node's messages are handled on) under SCHED_FIFO.
+pub fn set_realtime(priority: i32) -> Result<()> {
+    if !(1..=99).contains(&priority) {
+        bail!("priority {priority}: must be from 1 to 99");
+    }
+    #[cfg(target_os = "linux")]
+    {
+        let param = libc::sched_param {
+            sched_priority: priority,
+        };
+        // SAFETY: sched_setscheduler reads `param` and changes only this thread's policy.
+        let rc = unsafe { libc::sched_setscheduler(0, libc::SCHED_FIFO, &param) };
+        if rc != 0 {
+            bail!(
+                "cannot run under SCHED_FIFO priority {priority}: {} (needs CAP_SYS_NICE or root)",
+                std::io::Error::last_os_error()
+            );
+        }
+        Ok(())
+    }
+    #[cfg(not(target_os = "linux"))]
+    {
+        bail!("SCHED_FIFO is supported on Linux only")
+    }
+}

@@ -1,0 +1,177 @@
+//! Diagnosis of a session on disk: its legs are read ([`super::legs`]), diagnosed in parallel
+//! by the pure analysis ([`crate::diagnose`]), and their reports written as `report.json` and
+//! `report.html` (one directory per leg, with an index, when there are several).
+
+use super::Opened;
+use super::files::write_text;
+use super::legs::{LegLog, LegsFrom, choose_legs, csv_leg, session_legs};
+use crate::diagnose::{DiagnoseOptions, Diagnosis, Report, diagnose};
+use crate::model::{Medium, Plate};
+use anyhow::{Context as _, Result, bail};
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
+
+/// What to diagnose in a log, and how.
+#[derive(Debug, Clone, Default)]
+pub struct DiagnoseFileOptions {
+    /// Where the legs of an MCAP session are described.
+    pub legs_from: LegsFrom,
+    /// Only this leg (default: every leg with an F/T topic). For a CSV log, the leg's name
+    /// (default: the file's stem).
+    pub leg: Option<String>,
+    /// A CSV log's plate and medium (a CSV log carries neither).
+    pub csv_leg: Option<(Plate, Medium)>,
+    /// Options of the analysis (folds of whole strokes, thresholds).
+    pub analysis: DiagnoseOptions,
+}
+
+/// One leg's diagnosis, or why it could not be made.
+#[derive(Debug)]
+pub struct LegDiagnosis {
+    pub leg: String,
+    pub result: Result<Diagnosis, String>,
+}
+
+/// The diagnosis of a log, leg by leg.
+#[derive(Debug)]
+pub struct Diagnosed {
+    pub log: PathBuf,
+    pub legs: Vec<LegDiagnosis>,
+}
+
+/// Reads `log` (a ROS 2 MCAP session, or a CSV log of one leg) and diagnoses its legs, several
+/// at a time.
+pub fn diagnose_file(log: &Path, opts: &DiagnoseFileOptions) -> Result<Diagnosed> {
+    if opts.analysis.folds < 2 {
+        bail!("folds of strokes: at least 2, got {}", opts.analysis.folds);
+    }
+    let legs = match Opened::mcap(log)? {
+        Some(opened) => {
+            let cfg = opts.legs_from.config(&opened, log)?;
+            let chosen = choose_legs(&cfg, opts.leg.as_deref())?;
+            session_legs(log, &opened, &cfg, &chosen)?
+        }
+        None => {
+            let Some((plate, medium)) = opts.csv_leg else {
+                bail!(
+                    "{} is a CSV log: give the leg's geometry (--length-m, --width-m, --hip-height-m) and medium (--medium, or --unit-weight-n-m3 --phi-deg --delta-deg)",
+                    log.display()
+                );
+            };
+            let name = opts.leg.clone().unwrap_or_else(|| {
+                log.file_stem()
+                    .map_or("leg".to_string(), |s| s.to_string_lossy().into_owned())
+            });
+            vec![csv_leg(log, &name, plate, medium)?]
+        }
+    };
+    Ok(Diagnosed {
+        log: log.to_path_buf(),
+        legs: diagnose_legs(&legs, &opts.analysis),
+    })
+}
+
+/// Diagnoses every leg, in parallel.
+pub fn diagnose_legs(legs: &[LegLog], opts: &DiagnoseOptions) -> Vec<LegDiagnosis> {
+    legs.par_iter()
+        .map(|leg| LegDiagnosis {
+            leg: leg.name.clone(),
+            result: diagnose(&leg.model, &leg.samples, opts).map_err(|e| e.to_string()),
+        })
+        .collect()
+}
+
+/// A leg's `report.json`: the leg, the log, and the report's fields.
+#[derive(serde::Serialize)]
+pub struct LegReport<'a> {
+    pub leg: &'a str,
+    pub log: &'a str,
+    #[serde(flatten)]
+    pub report: &'a Report,
+}
+
+/// What [`write_reports`] wrote.
+#[derive(Debug, Clone)]
+pub struct Written {
+    /// Whether the log had one leg (its report is in the directory itself).
+    pub single: bool,
+    /// Each diagnosed leg's directory and `report.json` value, in the order of the legs.
+    pub reports: Vec<(PathBuf, serde_json::Value)>,
+    /// The legs that could not be diagnosed, with the reason.
+    pub failed: Vec<String>,
+}
+
+/// Writes `report.json` and `report.html` of each diagnosed leg into `out` (into `out/<leg>/`
+/// when there are several legs, with an index of them in `out`).
+pub fn write_reports(d: &Diagnosed, out: &Path) -> Result<Written> {
+    std::fs::create_dir_all(out)
+        .with_context(|| format!("cannot create the output directory {}", out.display()))?;
+    let single = d.legs.len() == 1;
+    let log = d.log.display().to_string();
+    let mut written = Written {
+        single,
+        reports: Vec::new(),
+        failed: Vec::new(),
+    };
+    for leg in &d.legs {
+        let dir = if single {
+            out.to_path_buf()
+        } else {
+            out.join(&leg.leg)
+        };
+        match &leg.result {
+            Ok(diag) => {
+                std::fs::create_dir_all(&dir)
+                    .with_context(|| format!("cannot create {}", dir.display()))?;
+                let doc = LegReport {
+                    leg: &leg.leg,
+                    log: &log,
+                    report: &diag.report,
+                };
+                write_text(
+                    &dir.join("report.json"),
+                    &(serde_json::to_string_pretty(&doc)? + "\n"),
+                )?;
+                write_text(
+                    &dir.join("report.html"),
+                    &super::report_html::html(&leg.leg, diag)?,
+                )?;
+                written.reports.push((dir, serde_json::to_value(&doc)?));
+            }
+            Err(e) => written.failed.push(format!("leg {}: {e}", leg.leg)),
+        }
+    }
+    if !single && !written.reports.is_empty() {
+        write_index(out, d.legs.len(), &written.reports)?;
+    }
+    Ok(written)
+}
+
+fn write_index(out: &Path, legs: usize, reports: &[(PathBuf, serde_json::Value)]) -> Result<()> {
+    let index: Vec<serde_json::Value> = reports
+        .iter()
+        .map(|(_, r)| {
+            serde_json::json!({
+                "leg": r["leg"],
+                "verdict": r["verdict"],
+                "report": format!("{}/report.json", r["leg"].as_str().unwrap_or("")),
+            })
+        })
+        .collect();
+    write_text(
+        &out.join("report.json"),
+        &(serde_json::to_string_pretty(&serde_json::json!({ "legs": index }))? + "\n"),
+    )?;
+    let mut page = String::from(
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>terzaghi diagnosis</title></head><body style=\"font-family:sans-serif\">\n<h1>Sim-to-real gap, every leg</h1>\n<ul>\n",
+    );
+    for (_, r) in reports {
+        let leg = r["leg"].as_str().unwrap_or("");
+        page += &format!(
+            "<li><a href=\"{leg}/report.html\">{leg}</a>: {}</li>\n",
+            r["verdict"]["effect"].as_str().unwrap_or("")
+        );
+    }
+    page += &format!("</ul><p>{legs} legs.</p></body></html>\n");
+    write_text(&out.join("report.html"), &page)
+}

@@ -1,0 +1,96 @@
+//! Files on disk as a ROS 2 user expects them: a recording is never overwritten unless asked,
+//! a new recording is named from its start time as rosbag2 names one, and an output file is
+//! either whole or absent.
+
+use anyhow::{Context as _, Result, bail};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// Reads a whole file, naming it in the error.
+pub fn read_file(path: &Path) -> Result<Vec<u8>> {
+    std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))
+}
+
+/// Refuses to replace an existing recording, as `ros2 bag record` does: data is never
+/// destroyed unless `overwrite` asks for it.
+pub fn refuse_existing_recording(path: &Path, overwrite: bool) -> Result<()> {
+    if !overwrite && path.exists() {
+        bail!(
+            "{} exists: a recording is not overwritten (pass --overwrite to replace it)",
+            path.display()
+        );
+    }
+    Ok(())
+}
+
+/// A recording's name from its start time, as rosbag2 names one: `terzaghi_YYYY_MM_DD-HH_MM_SS.mcap`
+/// (UTC).
+pub fn recording_name(unix_s: u64) -> PathBuf {
+    // Days since 1970-01-01 to a civil date (Howard Hinnant's algorithm).
+    let days = (unix_s / 86_400) as i64;
+    let secs = unix_s % 86_400;
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    format!(
+        "terzaghi_{y:04}_{m:02}_{d:02}-{:02}_{:02}_{:02}.mcap",
+        secs / 3600,
+        secs / 60 % 60,
+        secs % 60
+    )
+    .into()
+}
+
+/// Writes a file through a temporary beside it and renames it into place, so that a failure
+/// leaves no partial file behind.
+pub fn write_atomically(
+    path: &Path,
+    write: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> Result<()>,
+) -> Result<()> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let name = path
+        .file_name()
+        .with_context(|| format!("{} is not a file path", path.display()))?;
+    let tmp = dir.join(format!(
+        ".{}.tmp{}",
+        name.to_string_lossy(),
+        std::process::id()
+    ));
+    let result = (|| {
+        let file = std::fs::File::create(&tmp)
+            .with_context(|| format!("cannot create {}", path.display()))?;
+        let mut w = std::io::BufWriter::new(file);
+        write(&mut w)?;
+        w.flush()
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+/// Writes `text` to `path` whole or not at all.
+pub fn write_text(path: &Path, text: &str) -> Result<()> {
+    write_atomically(path, |w| Ok(w.write_all(text.as_bytes())?))
+}
+
+/// Whether `path` begins as an MCAP file does.
+pub fn is_mcap(path: &Path) -> Result<bool> {
+    use std::io::Read;
+    let mut magic = [0u8; 5];
+    let mut f =
+        std::fs::File::open(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let n = f.read(&mut magic).unwrap_or(0);
+    Ok(n == 5 && &magic == b"\x89MCAP")
+}

@@ -1,0 +1,71 @@
+//! Operations on a whole session on disk, as a user runs them: re-evaluate a recording through
+//! the model and the estimator ([`reevaluate`]), diagnose the gap of its legs ([`diagnose`]),
+//! identify a leg's medium from it ([`identify`]); with the writers of their results beside
+//! them (CSV and MCAP in [`reevaluate`], JSON and HTML in [`diagnose`] and [`report_html`]).
+//! Each takes typed options and returns a value; the command line only parses flags and
+//! prints.
+//!
+//! A session is a ROS 2 MCAP file (recorded by `terzaghi node` or any ROS 2 tool) or, for one
+//! leg, a CSV log of `t_s,beta_rad,drag_n,lift_n` ([`legs`]).
+
+mod csv_rows;
+pub mod diagnose;
+pub mod files;
+pub mod identify;
+pub mod legs;
+pub mod record;
+pub mod reevaluate;
+pub mod replay;
+pub mod report_html;
+
+use crate::record::read::{IndexedFile, Scan, Source, scan};
+use anyhow::{Context as _, Result};
+use std::path::Path;
+
+/// An MCAP session opened for reading: a finished file by its summary (its chunks are read as
+/// they are wanted), a cut-off one whole.
+pub struct Opened {
+    indexed: Option<IndexedFile>,
+    whole: Vec<u8>,
+    head: Scan,
+}
+
+impl Opened {
+    /// Opens `path`; `None` when it is not an MCAP file.
+    pub fn mcap(path: &Path) -> Result<Option<Opened>> {
+        let indexed =
+            IndexedFile::open(path).with_context(|| format!("cannot read {}", path.display()))?;
+        if let Some(f) = indexed {
+            let head = f.head().clone();
+            return Ok(Some(Opened {
+                indexed: Some(f),
+                whole: Vec::new(),
+                head,
+            }));
+        }
+        let whole = files::read_file(path)?;
+        if !whole.starts_with(b"\x89MCAP") {
+            return Ok(None);
+        }
+        // Cut off (no summary): scanned for its topics and parameters.
+        let head = scan(&whole, |_, _| {}).with_context(|| path.display().to_string())?;
+        Ok(Some(Opened {
+            indexed: None,
+            whole,
+            head,
+        }))
+    }
+
+    /// Topics, counts, metadata and whether the file is complete.
+    pub fn head(&self) -> &Scan {
+        &self.head
+    }
+
+    /// The messages, for [`crate::record::read::scan_topics`].
+    pub fn source(&self) -> Source<'_> {
+        match &self.indexed {
+            Some(f) => f.into(),
+            None => (&self.whole).into(),
+        }
+    }
+}

@@ -1,0 +1,656 @@
+//! Offline re-evaluation of a session: the recorded joint states and F/T samples go through the
+//! node's own core (model and estimator), as fast as possible, with the recorded parameters or
+//! new ones; predictions come out next to the measurements.
+
+use super::Opened;
+use super::csv_rows::{CSV_HEADER, CsvRows};
+use super::files::{refuse_existing_recording, write_atomically};
+use crate::config::{NodeConfig, ParamMap, RosArgs, defaults, load_params, parse_value};
+use crate::ident::Estimate;
+use crate::ident::Sample;
+use crate::model::Regime;
+use crate::msgs::{DecodeInto, JointState, LegForce, ModelParams, RosMessage, WrenchStamped};
+use crate::node::core::{CoreMode, LegOutput, Matched, NodeCore};
+use crate::node::matcher::{FtMatcher, Match};
+use crate::record::read::{MessageView, Scan, Source, TopicInfo, same_type, scan_topics};
+use crate::record::{OfferedQos, RecordError, RecordOptions, SessionWriter};
+use anyhow::{Context as _, Result, anyhow, bail};
+use std::path::{Path, PathBuf};
+
+/// One prediction, with the measurement it is next to (if the leg has F/T).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Row {
+    pub t_s: f64,
+    pub leg: usize,
+    pub beta_rad: f64,
+    pub regime: Regime,
+    pub measured_drag_n: Option<f64>,
+    pub measured_lift_n: Option<f64>,
+    pub predicted_drag_n: f64,
+    pub predicted_lift_n: f64,
+    pub predicted_hip_torque_nm: f64,
+    pub b_k: f64,
+    pub a: f64,
+    pub identified: bool,
+}
+
+/// What the re-evaluation produces besides rows, for an MCAP output.
+pub enum Output<'a> {
+    /// A recorded input, as it was.
+    Input(&'a Scan, &'a MessageView<'a>),
+    Prediction(u64, &'a LegOutput),
+    Params(u64, usize, &'a ModelParams),
+}
+
+#[derive(Debug, Clone, Default, serde::Serialize)]
+pub struct Summary {
+    pub joint_states: u64,
+    pub ft_samples: u64,
+    pub rows: u64,
+    /// Topics of the file that the configuration does not use.
+    pub skipped_topics: Vec<String>,
+    /// Messages that did not decode (counted, skipped).
+    pub undecodable: u64,
+    pub complete: bool,
+    pub stopped: Option<String>,
+    /// Final estimate per leg with F/T.
+    pub estimates: Vec<Option<Estimate>>,
+}
+
+/// The node parameters recorded in a session, if any (`terzaghi_params` metadata), with the
+/// node's name and namespace.
+pub fn recorded_params(s: &Scan) -> Option<(ParamMap, String, String)> {
+    let md = s.metadata.get("terzaghi_params")?;
+    let mut p = defaults();
+    let (mut node, mut ns) = ("terzaghi".to_string(), "/".to_string());
+    for (k, v) in md {
+        match k.as_str() {
+            "__node" => node = v.trim_matches('"').to_string(),
+            "__ns" => ns = v.trim_matches('"').to_string(),
+            _ => {
+                p.insert(k.clone(), parse_value(v));
+            }
+        }
+    }
+    Some((p, node, ns))
+}
+
+/// Runs the session in `bytes` through a node with `cfg`. `on_row` gets every prediction next
+/// to its measurement; `on_output` gets inputs and outputs for an MCAP copy.
+pub fn reevaluate<'a>(
+    source: impl Into<Source<'a>>,
+    cfg: NodeConfig,
+    on_row: impl FnMut(&Row),
+    on_output: impl FnMut(Output),
+) -> Result<Summary, RecordError> {
+    modelled(source.into(), cfg, true, on_row, on_output)
+}
+
+/// [`reevaluate`] for rows only: the node's output messages of legs with F/T are not made
+/// (their rows come from the matched samples either way), which saves a model evaluation and
+/// two messages per leg and joint state. `on_output` then gets the inputs, the parameters and
+/// the predictions of legs without F/T.
+pub fn reevaluate_rows<'a>(
+    source: impl Into<Source<'a>>,
+    cfg: NodeConfig,
+    on_row: impl FnMut(&Row),
+    on_output: impl FnMut(Output),
+) -> Result<Summary, RecordError> {
+    modelled(source.into(), cfg, false, on_row, on_output)
+}
+
+fn modelled(
+    source: Source,
+    cfg: NodeConfig,
+    outputs_for_ft_legs: bool,
+    on_row: impl FnMut(&Row),
+    on_output: impl FnMut(Output),
+) -> Result<Summary, RecordError> {
+    let mode = if outputs_for_ft_legs {
+        CoreMode::Reevaluation
+    } else {
+        CoreMode::ReevaluationRows
+    };
+    run_core(source, NodeCore::with_mode(cfg, mode), on_row, on_output)
+}
+
+/// What a topic of a session is to a configuration.
+#[derive(Clone, Copy, PartialEq)]
+enum Role {
+    Joints,
+    Ft(usize),
+    Skip,
+}
+
+/// The role of each topic: the configuration's JointState topic, a leg's F/T topic (of the
+/// right types), or neither.
+fn role_of(cfg: &NodeConfig) -> impl Fn(&TopicInfo) -> Role + '_ {
+    move |t: &TopicInfo| {
+        if t.topic == cfg.joint_states_topic && same_type(&t.type_name, &JointState::type_name()) {
+            Role::Joints
+        } else if let Some(i) = cfg
+            .legs
+            .iter()
+            .position(|l| l.ft_topic.as_deref() == Some(t.topic.as_str()))
+            && same_type(&t.type_name, &WrenchStamped::type_name())
+        {
+            Role::Ft(i)
+        } else {
+            Role::Skip
+        }
+    }
+}
+
+/// The measured F/T samples of every leg, each with the joint angle nearest in time (as the
+/// node matches them, [`FtMatcher`]; F/T in the leg frame turned into the hip frame), without
+/// running the model: what the diagnosis and the fits read. Legs without F/T get none.
+pub fn measured_samples<'a>(
+    source: impl Into<Source<'a>>,
+    cfg: NodeConfig,
+) -> Result<(Vec<Vec<Sample>>, Summary), RecordError> {
+    let legs = cfg.legs.len();
+    let mut out = vec![Vec::new(); legs];
+    let mut sum = Summary {
+        estimates: vec![None; legs],
+        ..Default::default()
+    };
+    let mut matcher = FtMatcher::new(&cfg);
+    let role = role_of(&cfg);
+    let mut roles: Vec<Option<Role>> = Vec::new();
+    let mut js = JointState::default();
+    let mut ws = vec![WrenchStamped::default(); legs];
+    let keep = |leg: usize, m: Match, out: &mut Vec<Vec<Sample>>, rows: &mut u64| {
+        if let Match::Matched(mt) = m {
+            *rows += 1;
+            out[leg].push(Sample {
+                t_s: Some(mt.t_ns as f64 * 1e-9),
+                beta_rad: mt.beta_rad,
+                drag_n: mt.drag_n,
+                lift_n: mt.lift_n,
+            });
+        }
+    };
+    let scan_result = scan_topics(
+        source.into(),
+        |t| role(t) != Role::Skip,
+        |scan, m| {
+            if roles.len() < scan.topics.len() {
+                roles.resize(scan.topics.len(), None);
+            }
+            match *roles[m.topic].get_or_insert_with(|| role(&scan.topics[m.topic])) {
+                Role::Joints => {
+                    if js.decode_into(m.data).is_err() {
+                        sum.undecodable += 1;
+                        return;
+                    }
+                    sum.joint_states += 1;
+                    if js.name.len() != js.position.len() || !js.header.stamp.is_valid() {
+                        return;
+                    }
+                    let stamp_ns = js.header.stamp.to_nanos();
+                    for leg in 0..legs {
+                        let _ = matcher.on_angle(leg, &js, stamp_ns, |mt| {
+                            keep(leg, mt, &mut out, &mut sum.rows)
+                        });
+                    }
+                }
+                Role::Ft(leg) => {
+                    let w = &mut ws[leg];
+                    if w.decode_into(m.data).is_err() {
+                        sum.undecodable += 1;
+                        return;
+                    }
+                    sum.ft_samples += 1;
+                    let f = &w.wrench.force;
+                    if w.header.stamp.is_valid() && f.x.is_finite() && f.z.is_finite() {
+                        matcher.on_wrench(leg, w, |mt| keep(leg, mt, &mut out, &mut sum.rows));
+                    }
+                }
+                Role::Skip => {}
+            }
+        },
+    )?;
+    sum.complete = scan_result.complete;
+    sum.stopped = scan_result.stopped.clone();
+    sum.skipped_topics = scan_result
+        .topics
+        .iter()
+        .filter(|t| role(t) == Role::Skip)
+        .map(|t| t.topic.clone())
+        .collect();
+    Ok((out, sum))
+}
+
+fn run_core(
+    source: Source,
+    mut core: NodeCore,
+    mut on_row: impl FnMut(&Row),
+    mut on_output: impl FnMut(Output),
+) -> Result<Summary, RecordError> {
+    let cfg = core.config().clone();
+    let legs = cfg.legs.len();
+    let has_ft: Vec<bool> = cfg.legs.iter().map(|l| l.ft_topic.is_some()).collect();
+    let mut sum = Summary {
+        estimates: vec![None; legs],
+        ..Default::default()
+    };
+    let role_of = role_of(&cfg);
+    let mut roles: Vec<Option<Role>> = Vec::new();
+    let mut outputs: Vec<LegOutput> = Vec::new();
+    let mut params = Vec::new();
+    let mut matches: Vec<(usize, Matched)> = Vec::new();
+    let wanted = |t: &TopicInfo| role_of(t) != Role::Skip;
+    // Decoded into, message after message; one F/T message per leg, so that its frame is
+    // the one already held.
+    let mut js = JointState::default();
+    let mut ws = vec![WrenchStamped::default(); legs];
+    let scan_result = scan_topics(source, wanted, |scan, m| {
+        if roles.len() < scan.topics.len() {
+            roles.resize(scan.topics.len(), None);
+        }
+        let role = *roles[m.topic].get_or_insert_with(|| role_of(&scan.topics[m.topic]));
+        let log = m.log_time_ns;
+        match role {
+            Role::Joints => {
+                if js.decode_into(m.data).is_err() {
+                    sum.undecodable += 1;
+                    return;
+                }
+                on_output(Output::Input(scan, &m));
+                sum.joint_states += 1;
+                outputs.clear();
+                core.on_joint_state(&js, &mut outputs);
+                for o in &outputs {
+                    on_output(Output::Prediction(log, o));
+                    if !has_ft[o.leg] {
+                        let f = &o.force;
+                        sum.rows += 1;
+                        on_row(&Row {
+                            t_s: f.header.stamp.to_secs(),
+                            leg: o.leg,
+                            beta_rad: f.attack_angle_rad,
+                            regime: regime_of(f),
+                            measured_drag_n: None,
+                            measured_lift_n: None,
+                            predicted_drag_n: f.drag_n,
+                            predicted_lift_n: f.lift_n,
+                            predicted_hip_torque_nm: f.hip_torque_nm,
+                            b_k: f.b_k,
+                            a: f.a,
+                            identified: f.identified,
+                        });
+                    }
+                }
+            }
+            Role::Ft(leg) => {
+                let w = &mut ws[leg];
+                if w.decode_into(m.data).is_err() {
+                    sum.undecodable += 1;
+                    return;
+                }
+                on_output(Output::Input(scan, &m));
+                sum.ft_samples += 1;
+                core.on_wrench(leg, w);
+            }
+            Role::Skip => return,
+        }
+        core.take_params(&mut params);
+        for (leg, p) in params.drain(..) {
+            on_output(Output::Params(log, leg, &p));
+        }
+        core.take_matches(&mut matches);
+        for (leg, mt) in matches.drain(..) {
+            {
+                let Some(p) = core.predict(leg, mt.beta_rad) else {
+                    continue;
+                };
+                let (b_k, a, identified) = core.width_in_use(leg).unwrap_or((0.0, 0.0, false));
+                sum.rows += 1;
+                on_row(&Row {
+                    t_s: mt.t_ns as f64 * 1e-9,
+                    leg,
+                    beta_rad: mt.beta_rad,
+                    regime: p.regime,
+                    measured_drag_n: Some(mt.drag_n),
+                    measured_lift_n: Some(mt.lift_n),
+                    predicted_drag_n: p.drag_n,
+                    predicted_lift_n: p.lift_n,
+                    predicted_hip_torque_nm: p.hip_torque_nm,
+                    b_k,
+                    a,
+                    identified,
+                });
+            }
+        }
+    })?;
+    sum.complete = scan_result.complete;
+    sum.stopped = scan_result.stopped.clone();
+    sum.skipped_topics = scan_result
+        .topics
+        .iter()
+        .filter(|t| role_of(t) == Role::Skip)
+        .map(|t| t.topic.clone())
+        .collect();
+    sum.estimates = (0..legs).map(|i| core.estimate(i)).collect();
+    Ok(sum)
+}
+
+/// The regime of a leg force message (an unknown code as extraction, the last regime).
+fn regime_of(f: &LegForce) -> Regime {
+    Regime::from_code(f.regime).unwrap_or(Regime::Extraction)
+}
+
+/// How to re-evaluate a recording.
+#[derive(Default)]
+pub struct ReevaluateOptions {
+    /// Node parameters (a ROS 2 parameter file) to use instead of the recorded ones.
+    pub params_file: Option<PathBuf>,
+    /// Called now and then with the inputs (joint states and F/T) read so far and in all.
+    pub progress: Option<Box<dyn FnMut(u64, u64)>>,
+}
+
+/// What a re-evaluation of a file did.
+#[derive(Debug, Clone)]
+pub struct Reevaluation {
+    pub summary: Summary,
+    /// The configuration it ran with.
+    pub config: NodeConfig,
+    /// The topics of the file.
+    pub topics: Vec<String>,
+}
+
+impl Reevaluation {
+    /// An error naming the topics when no JointState of the configuration was in the file
+    /// (the usual cause: another `joint_states_topic`).
+    pub fn check_inputs_found(&self, file: &Path) -> Result<()> {
+        if self.summary.joint_states == 0 {
+            bail!(
+                "{}: no JointState on {} (topics: {}); check the parameters (joint_states_topic)",
+                file.display(),
+                self.config.joint_states_topic,
+                self.topics.join(", ")
+            );
+        }
+        Ok(())
+    }
+}
+
+/// The configuration to re-evaluate a session with: `params_file`, else the parameters
+/// recorded in it. Also gives the parameters it was made from.
+pub fn session_config(
+    params_file: Option<&Path>,
+    head: &Scan,
+    file: &Path,
+) -> Result<(NodeConfig, ParamMap)> {
+    let recorded = recorded_params(head);
+    let (node, ns) = recorded
+        .as_ref()
+        .map(|r| (r.1.clone(), r.2.clone()))
+        .unwrap_or(("terzaghi".into(), "/".into()));
+    let params = match (params_file, recorded) {
+        (Some(path), _) => {
+            let ros = RosArgs {
+                params_files: vec![path.to_path_buf()],
+                ..Default::default()
+            };
+            load_params(&ros, &node, &ns)?
+        }
+        (None, Some((p, _, _))) => p,
+        (None, None) => bail!(
+            "{} has no recorded node parameters (it was not recorded by terzaghi node): pass --params-file",
+            file.display()
+        ),
+    };
+    let cfg = NodeConfig::from_params(&params, &node, &ns, &[])?;
+    Ok((cfg, params))
+}
+
+/// A session opened for re-evaluation, with its configuration.
+struct Prepared {
+    opened: Opened,
+    cfg: NodeConfig,
+    params: ParamMap,
+    inputs: u64,
+}
+
+fn prepare(file: &Path, opts: &ReevaluateOptions) -> Result<Prepared> {
+    let Some(opened) = Opened::mcap(file)? else {
+        bail!("{} is not an MCAP file", file.display());
+    };
+    let (cfg, params) = session_config(opts.params_file.as_deref(), opened.head(), file)?;
+    // Progress counts the inputs read (joint states and F/T), which is what takes the time.
+    let inputs = opened
+        .head()
+        .topics
+        .iter()
+        .filter(|t| {
+            t.topic == cfg.joint_states_topic
+                || cfg
+                    .legs
+                    .iter()
+                    .any(|l| l.ft_topic.as_deref() == Some(&t.topic))
+        })
+        .map(|t| t.count)
+        .sum();
+    Ok(Prepared {
+        opened,
+        cfg,
+        params,
+        inputs,
+    })
+}
+
+impl Prepared {
+    fn done(self, summary: Summary) -> Reevaluation {
+        Reevaluation {
+            summary,
+            config: self.cfg,
+            topics: self
+                .opened
+                .head()
+                .topics
+                .iter()
+                .map(|t| t.topic.clone())
+                .collect(),
+        }
+    }
+}
+
+/// Counts inputs and reports progress every 50,000 of them.
+struct Progress<'a> {
+    n: u64,
+    total: u64,
+    report: Option<&'a mut Box<dyn FnMut(u64, u64)>>,
+}
+
+impl Progress<'_> {
+    fn input(&mut self) {
+        self.n += 1;
+        if self.n.is_multiple_of(50_000)
+            && let Some(f) = self.report.as_mut()
+        {
+            f(self.n, self.total);
+        }
+    }
+}
+
+/// Re-evaluates the recording `file` and hands every prediction, next to its measurement, to
+/// `on_row`.
+pub fn reevaluate_file(
+    file: &Path,
+    mut opts: ReevaluateOptions,
+    on_row: impl FnMut(&Row),
+) -> Result<Reevaluation> {
+    let p = prepare(file, &opts)?;
+    let mut progress = Progress {
+        n: 0,
+        total: p.inputs,
+        report: opts.progress.as_mut(),
+    };
+    let s = reevaluate_rows(p.opened.source(), p.cfg.clone(), on_row, |o| {
+        if let Output::Input(..) = o {
+            progress.input();
+        }
+    })
+    .with_context(|| file.display().to_string())?;
+    Ok(p.done(s))
+}
+
+/// Re-evaluates the recording `file` into CSV rows on `w` (header [`CSV_HEADER`]), written as
+/// they come: a 10-minute session makes half a gigabyte of CSV. Rows are formatted on a second
+/// thread in batches, formatting being about as much work as the re-evaluation itself.
+pub fn reevaluate_to_csv(
+    file: &Path,
+    mut opts: ReevaluateOptions,
+    w: &mut (dyn std::io::Write + Send),
+) -> Result<Reevaluation> {
+    const BATCH: usize = 4096;
+    let p = prepare(file, &opts)?;
+    let legs: Vec<String> = p.cfg.legs.iter().map(|l| l.name.clone()).collect();
+    let mut rows = CsvRows::new(&legs)?;
+    let mut progress = Progress {
+        n: 0,
+        total: p.inputs,
+        report: opts.progress.as_mut(),
+    };
+    let s = std::thread::scope(|scope| {
+        let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<Row>>(8);
+        let writer = scope.spawn(move || -> std::io::Result<()> {
+            let mut text = Vec::with_capacity(BATCH * 256);
+            w.write_all(CSV_HEADER.as_bytes())?;
+            for batch in rx {
+                text.clear();
+                for r in &batch {
+                    rows.push(&mut text, r);
+                }
+                w.write_all(&text)?;
+            }
+            w.flush()
+        });
+        let mut batch = Vec::with_capacity(BATCH);
+        let send = |batch: &mut Vec<Row>| {
+            // A writer that failed has hung up; its error is reported below.
+            let _ = tx.send(std::mem::replace(batch, Vec::with_capacity(BATCH)));
+        };
+        let s = reevaluate_rows(
+            p.opened.source(),
+            p.cfg.clone(),
+            |r| {
+                batch.push(*r);
+                if batch.len() == BATCH {
+                    send(&mut batch);
+                }
+            },
+            |o| {
+                if let Output::Input(..) = o {
+                    progress.input();
+                }
+            },
+        );
+        send(&mut batch);
+        drop(tx);
+        let written = writer
+            .join()
+            .map_err(|_| anyhow!("the CSV writer thread failed"))?;
+        let s = s.with_context(|| file.display().to_string())?;
+        written?;
+        anyhow::Ok(s)
+    })?;
+    Ok(p.done(s))
+}
+
+/// Re-evaluates the recording `file` into a new session at `out`: its inputs as they were and
+/// the node's outputs made anew, with the parameters it was re-evaluated with, so that it can
+/// be re-run in turn. An existing `out` is refused unless `overwrite`.
+pub fn reevaluate_to_mcap(
+    file: &Path,
+    out: &Path,
+    overwrite: bool,
+    mut opts: ReevaluateOptions,
+) -> Result<Reevaluation> {
+    refuse_existing_recording(out, overwrite)?;
+    let p = prepare(file, &opts)?;
+    let cfg = &p.cfg;
+    let topics = crate::config::names::OutputTopics::of(cfg, &[]);
+    let mut progress = Progress {
+        n: 0,
+        total: p.inputs,
+        report: opts.progress.as_mut(),
+    };
+    let mut result = None;
+    write_atomically(out, |w| {
+        let ropts = RecordOptions::with_node_params(&p.params, &cfg.node_name, &cfg.namespace);
+        let mut writer = SessionWriter::new(w, ropts)?;
+        let mut err: Option<RecordError> = None;
+        let s = reevaluate(
+            p.opened.source(),
+            cfg.clone(),
+            |_| {},
+            |o| {
+                if err.is_some() {
+                    return;
+                }
+                let r = match o {
+                    Output::Input(scan, m) => {
+                        progress.input();
+                        let t = &scan.topics[m.topic];
+                        writer
+                            .channel_with_metadata(
+                                &t.topic,
+                                &t.type_name,
+                                &t.schema_text,
+                                OfferedQos::BEST_EFFORT,
+                                t.channel_metadata.clone(),
+                            )
+                            .and_then(|id| {
+                                writer.write_cdr(
+                                    id,
+                                    &t.topic,
+                                    m.data,
+                                    m.log_time_ns,
+                                    m.publish_time_ns,
+                                )
+                            })
+                    }
+                    Output::Prediction(log, o) => {
+                        let stamp = o.wrench.header.stamp.to_nanos().max(0) as u64;
+                        let leg = &topics.legs[o.leg];
+                        writer
+                            .write_output(&leg.wrench, OfferedQos::RELIABLE, &o.wrench, log, stamp)
+                            .and_then(|_| {
+                                writer.write_output(
+                                    &leg.force,
+                                    OfferedQos::RELIABLE,
+                                    &o.force,
+                                    log,
+                                    stamp,
+                                )
+                            })
+                    }
+                    Output::Params(log, leg, m) => {
+                        let stamp = m.header.stamp.to_nanos().max(0) as u64;
+                        writer.write_output(
+                            &topics.legs[leg].params,
+                            OfferedQos::RELIABLE,
+                            m,
+                            log,
+                            stamp,
+                        )
+                    }
+                };
+                if let Err(e) = r {
+                    err = Some(e);
+                }
+            },
+        )
+        .with_context(|| file.display().to_string())?;
+        if let Some(e) = err {
+            return Err(anyhow::Error::new(e).context(format!("cannot write {}", out.display())));
+        }
+        writer.finish()?;
+        result = Some(s);
+        Ok(())
+    })?;
+    let s = result.ok_or_else(|| anyhow!("nothing re-evaluated"))?;
+    Ok(p.done(s))
+}

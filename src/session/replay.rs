@@ -1,0 +1,136 @@
+//! Republishing a session over DDS with its recorded timing, as `ros2 bag play` does.
+
+use crate::msgs::{DiagnosticArray, JointState, LegForce, ModelParams, RosMessage, WrenchStamped};
+use crate::node::dds::{publisher, tool_node};
+use crate::record::read::{read_session, same_type};
+use crate::session::files::read_file;
+use anyhow::{Context as _, Result};
+use ros2_client::Publisher;
+use std::future::Future;
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+/// How to replay.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReplayOptions {
+    /// Speed against the recorded timing (2 plays twice as fast).
+    pub rate: f64,
+    /// Publish without waiting.
+    pub as_fast_as_possible: bool,
+    /// Only these topics (all when empty).
+    pub topics: Vec<String>,
+    /// Start again at the end, until stopped.
+    pub repeat: bool,
+}
+
+impl Default for ReplayOptions {
+    fn default() -> Self {
+        ReplayOptions {
+            rate: 1.0,
+            as_fast_as_possible: false,
+            topics: Vec::new(),
+            repeat: false,
+        }
+    }
+}
+
+/// What a replay published.
+#[derive(Debug, Clone, Default)]
+pub struct Replayed {
+    pub sent: u64,
+    pub undecodable: u64,
+    /// Topics of the file not replayed (unknown type or encoding), with their type.
+    pub skipped: Vec<String>,
+}
+
+enum AnyPub {
+    Joints(Publisher<JointState>),
+    Wrench(Publisher<WrenchStamped>),
+    Force(Publisher<LegForce>),
+    Params(Publisher<ModelParams>),
+    Diag(Publisher<DiagnosticArray>),
+}
+
+/// Publishes the messages of `file` in log-time order with their recorded timing until the end
+/// (or, with `repeat`, until `stop` resolves). `progress` gets the messages sent so far and in
+/// all. Runs on the calling thread's tokio runtime.
+pub async fn replay(
+    file: &Path,
+    opts: &ReplayOptions,
+    stop: impl Future<Output = ()>,
+    mut progress: impl FnMut(u64, u64),
+) -> Result<Replayed> {
+    let bytes = read_file(file)?;
+    let mut session = read_session(&bytes).with_context(|| file.display().to_string())?;
+    // Played in log-time order: chunks may overlap in time (the node's outputs are in chunks of
+    // their own, and other tools interleave too). Stable, so ties keep the file's order.
+    session.messages.sort_by_key(|m| m.log_time_ns);
+    let wanted = |t: &str| opts.topics.is_empty() || opts.topics.iter().any(|w| w == t);
+    let mut node = tool_node(&format!("terzaghi_replay_{}", std::process::id()))
+        .context("cannot create the replay node")?;
+    let mut pubs: Vec<Option<AnyPub>> = Vec::new();
+    let mut out = Replayed::default();
+    for t in &session.topics {
+        let p = if !wanted(&t.topic) || t.encoding != "cdr" {
+            None
+        } else if same_type(&t.type_name, &JointState::type_name()) {
+            Some(AnyPub::Joints(publisher(&mut node, &t.topic)?))
+        } else if same_type(&t.type_name, &WrenchStamped::type_name()) {
+            Some(AnyPub::Wrench(publisher(&mut node, &t.topic)?))
+        } else if same_type(&t.type_name, &LegForce::type_name()) {
+            Some(AnyPub::Force(publisher(&mut node, &t.topic)?))
+        } else if same_type(&t.type_name, &ModelParams::type_name()) {
+            Some(AnyPub::Params(publisher(&mut node, &t.topic)?))
+        } else if same_type(&t.type_name, &DiagnosticArray::type_name()) {
+            Some(AnyPub::Diag(publisher(&mut node, &t.topic)?))
+        } else {
+            None
+        };
+        if p.is_none() && wanted(&t.topic) {
+            out.skipped.push(format!("{} ({})", t.topic, t.type_name));
+        }
+        pubs.push(p);
+    }
+    let spin = tokio::spawn(node.spinner()?.spin());
+    // Let subscribers discover the publishers before the first message.
+    tokio::time::sleep(Duration::from_secs(2)).await;
+    let total = session.messages.len() as u64;
+    tokio::pin!(stop);
+    'outer: loop {
+        let t0 = session.messages.first().map(|m| m.log_time_ns).unwrap_or(0);
+        let start = Instant::now();
+        for (i, m) in session.messages.iter().enumerate() {
+            let Some(p) = &pubs[m.topic] else { continue };
+            if !opts.as_fast_as_possible {
+                let due = start
+                    + Duration::from_secs_f64(
+                        m.log_time_ns.saturating_sub(t0) as f64 * 1e-9 / opts.rate,
+                    );
+                tokio::select! {
+                    _ = tokio::time::sleep_until(due.into()) => {}
+                    _ = &mut stop => break 'outer,
+                }
+            }
+            let ok = match p {
+                AnyPub::Joints(p) => session.decode(m).map(|x| p.publish(x).is_ok()),
+                AnyPub::Wrench(p) => session.decode(m).map(|x| p.publish(x).is_ok()),
+                AnyPub::Force(p) => session.decode(m).map(|x| p.publish(x).is_ok()),
+                AnyPub::Params(p) => session.decode(m).map(|x| p.publish(x).is_ok()),
+                AnyPub::Diag(p) => session.decode(m).map(|x| p.publish(x).is_ok()),
+            };
+            match ok {
+                Ok(_) => out.sent += 1,
+                Err(_) => out.undecodable += 1,
+            }
+            if i % 1000 == 0 {
+                progress(i as u64, total);
+            }
+        }
+        if !opts.repeat {
+            break;
+        }
+    }
+    node.stop_spinner();
+    let _ = tokio::time::timeout(Duration::from_secs(1), spin).await;
+    Ok(out)
+}
