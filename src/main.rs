@@ -2,7 +2,7 @@ use clap::Parser;
 use std::process::ExitCode;
 
 // The node's messages are allocated on its thread and freed on the DDS threads; glibc's malloc
-// takes an arena lock for such frees, which showed in the processing-time tail. mimalloc frees
+// takes an arena lock for such frees, a wait in the processing-time tail. mimalloc frees
 // across threads without a lock.
 #[global_allocator]
 static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;

@@ -600,4 +600,3 @@ mod tests {
         assert!(e.to_string().contains("phi_deg"), "{e}");
     }
 }
-

@@ -504,19 +504,21 @@ pub fn scan_topics<'a>(
                     break;
                 }
             };
-            if let Err(e) = messages_in(&records, |channel, log_time_ns, publish_time_ns, data| {
-                if let Some(Some(topic)) = route.get(channel as usize) {
-                    visit(
-                        &s,
-                        MessageView {
-                            topic: *topic,
-                            log_time_ns,
-                            publish_time_ns,
-                            data,
-                        },
-                    );
-                }
-            }) {
+            if let Err(e) =
+                message_records(&records, |channel, log_time_ns, publish_time_ns, data| {
+                    if let Some(Some(topic)) = route.get(channel as usize) {
+                        visit(
+                            &s,
+                            MessageView {
+                                topic: *topic,
+                                log_time_ns,
+                                publish_time_ns,
+                                data,
+                            },
+                        );
+                    }
+                })
+            {
                 stopped = Some(e);
                 break;
             }
@@ -618,12 +620,17 @@ fn chunk_records(record: &[u8]) -> Result<Vec<u8>, String> {
 }
 
 /// Calls `f(channel, log_time, publish_time, data)` for every message record in the
-/// decompressed records of a chunk; other records (schemas, channels) are passed over.
+/// decompressed records of a chunk; other records (schemas, channels) are passed over. Every
+/// length is checked against the buffer.
 ///
-/// Hand-written rather than mcap's record reader: a message record is a fixed 22-byte header and
-/// its data, and reading it here takes a fraction of the time the generic parser does, which
-/// was a fifth of a re-evaluation. Every length is checked against the buffer.
-fn messages_in(records: &[u8], mut f: impl FnMut(u16, u64, u64, &[u8])) -> Result<(), String> {
+/// Hand-written beside mcap's record reader because a message record is a fixed 22-byte header
+/// and its data, which needs no generic parse: `cargo bench --bench session` measures the two on
+/// the same chunk (README, Benchmarks), and a property test (`tests/properties.rs`) checks that
+/// they read the same messages.
+pub fn message_records(
+    records: &[u8],
+    mut f: impl FnMut(u16, u64, u64, &[u8]),
+) -> Result<(), String> {
     const MESSAGE: u8 = 0x05;
     let damaged = || "a record in a chunk runs past the chunk's end: damaged".to_string();
     let mut rest = records;

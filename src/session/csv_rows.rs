@@ -8,10 +8,13 @@ use anyhow::{Result, anyhow};
 /// The CSV header of `replay --reevaluate`.
 pub const CSV_HEADER: &str = "t_s,leg,beta_rad,regime,measured_drag_n,measured_lift_n,predicted_drag_n,predicted_lift_n,predicted_hip_torque_nm,b_k,a,identified\n";
 
-/// Rows of `replay --reevaluate` as CSV. Written by hand rather than with the csv crate: every
-/// field but the leg's name is a number, a fixed word or empty, and the csv crate's per-field
-/// quoting checks and ryu were two thirds of the time of a long re-evaluation. Floats are in
-/// their shortest exact form (zmij); legs' names are quoted by the csv crate, once.
+/// Rows of a re-evaluation as CSV, written by hand beside the csv crate: every field but the
+/// leg's name is a number, a fixed word or empty, so no field needs the crate's quoting checks,
+/// and the floats of a session repeat from row to row, so their text is looked up rather than
+/// formatted again. Floats are in their shortest exact form (zmij); legs' names are quoted by
+/// the csv crate, once. `cargo bench --bench session` measures it against the csv crate
+/// (README, Benchmarks); the unit tests below and a property test (`tests/properties.rs`) read
+/// its rows back with the csv crate, field for field.
 pub struct CsvRows {
     /// Each leg's field, quoted as needed, with its comma.
     legs: Vec<Field>,
@@ -42,8 +45,8 @@ impl Field {
 }
 
 /// Copies the first `len` bytes of `text` to `out`. A text of at most [`PIECE`] bytes is copied
-/// as a fixed-size block and the excess cut off again: a copy of constant size is a few moves,
-/// where one of variable size is a call to memmove, which was a tenth of a re-evaluation's time.
+/// as a fixed-size block and the excess cut off again: a copy of constant size compiles to a few
+/// moves, where one of variable size is a call to memmove.
 fn put(out: &mut Vec<u8>, text: &[u8], len: usize) {
     match text.first_chunk::<PIECE>() {
         Some(block) if len <= PIECE => {

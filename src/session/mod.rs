@@ -8,7 +8,7 @@
 //! A session is a ROS 2 MCAP file (recorded by `terzaghi node` or any ROS 2 tool) or, for one
 //! leg, a CSV log of `t_s,beta_rad,drag_n,lift_n` ([`legs`]).
 
-mod csv_rows;
+pub mod csv_rows;
 pub mod diagnose;
 pub mod files;
 pub mod identify;
