@@ -25,31 +25,8 @@
 //! - [`demo`]: the six-legged robot walking through the node, for `terzaghi demo`.
 //! - [`cli`]: the `terzaghi` command line, over all of the above.
 //!
-//! Re-evaluating and diagnosing a recording from Rust, without the command line:
-//!
-//! ```no_run
-//! use terzaghi::session::diagnose::{DiagnoseFileOptions, diagnose_file};
-//! use terzaghi::session::reevaluate::{ReevaluateOptions, reevaluate_file};
-//! use std::path::Path;
-//!
-//! # fn main() -> anyhow::Result<()> {
-//! let log = Path::new("session.mcap");
-//! let mut worst_n = 0.0f64;
-//! let done = reevaluate_file(log, ReevaluateOptions::default(), |row| {
-//!     if let Some(drag_n) = row.measured_drag_n {
-//!         worst_n = worst_n.max((row.predicted_drag_n - drag_n).abs());
-//!     }
-//! })?;
-//! println!("{} rows, largest drag error {worst_n:.2} N", done.summary.rows);
-//! for leg in diagnose_file(log, &DiagnoseFileOptions::default())?.legs {
-//!     match leg.result {
-//!         Ok(d) => println!("{}: {}", leg.leg, d.report.verdict.effect),
-//!         Err(e) => println!("{}: not diagnosed ({e})", leg.leg),
-//!     }
-//! }
-//! # Ok(())
-//! # }
-//! ```
+//! Re-evaluating and diagnosing a recording from Rust, without the command line: see
+//! [`session`].
 
 pub mod cli;
 pub mod config;

@@ -161,3 +161,28 @@ fn check_demo(dir: &Path, python: &Path) {
     }
     assert!(dir.join("diagnosis/report.html").exists());
 }
+
+/// The README's Rust example is the doctest of `terzaghi::session` (which `cargo test` runs on a
+/// recording of the simulated robot): the two say the same, line for line.
+#[test]
+fn the_readme_rust_example_is_the_tested_one() {
+    let repo = common::repo();
+    let readme = std::fs::read_to_string(repo.join("README.md")).unwrap();
+    let start = readme
+        .find("```rust\n")
+        .expect("the README has a rust block")
+        + 8;
+    let example = &readme[start..start + readme[start..].find("```").unwrap()];
+    let module = std::fs::read_to_string(repo.join("src/session/mod.rs")).unwrap();
+    let doc: String = module
+        .lines()
+        .filter_map(|l| l.strip_prefix("//!"))
+        .map(|l| l.strip_prefix(' ').unwrap_or(l))
+        .filter(|l| !l.starts_with("# ") && *l != "#")
+        .map(|l| format!("{l}\n"))
+        .collect();
+    assert!(
+        doc.contains(example),
+        "the README's rust block is not the doctest of src/session/mod.rs:\n{example}"
+    );
+}

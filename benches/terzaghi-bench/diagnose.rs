@@ -10,9 +10,8 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use std::io::BufWriter;
 use std::time::Instant;
-use terzaghi::record::{OfferedQos, RecordOptions, SessionWriter};
 use terzaghi::sim::generator::Hidden;
-use terzaghi::sim::robot::{Gait, Truth, joint_state, simulate, stamp_ns, wrench};
+use terzaghi::sim::robot::{Gait, Truth, simulate, write_recording};
 
 #[derive(Debug, Args)]
 pub struct BenchDiagnoseArgs {
@@ -59,45 +58,15 @@ pub fn run(a: BenchDiagnoseArgs) -> Result<()> {
     let simulate_s = start.elapsed().as_secs_f64();
     let file = std::fs::File::create(&path)
         .with_context(|| format!("cannot create {}", path.display()))?;
-    let mut w = SessionWriter::new(
-        BufWriter::with_capacity(1 << 20, file),
-        RecordOptions {
-            params: params
-                .iter()
-                .map(|(k, v)| (k.clone(), v.to_string()))
-                .collect(),
-            ..Default::default()
-        },
-    )?;
     let t0: i64 = 1_700_000_000_000_000_000;
-    let ft_topics: Vec<String> = cfg
-        .legs
-        .iter()
-        .map(|l| l.ft_topic.clone().unwrap_or_default())
-        .collect();
     let start = Instant::now();
-    let mut messages = 0u64;
-    for k in 0..session.t_s.len() {
-        let t = stamp_ns(t0, session.t_s[k]) as u64;
-        w.write(
-            "/joint_states",
-            OfferedQos::BEST_EFFORT,
-            &joint_state(&cfg, &session, k, t0),
-            t,
-            t,
-        )?;
-        for (leg, topic) in ft_topics.iter().enumerate() {
-            w.write(
-                topic,
-                OfferedQos::BEST_EFFORT,
-                &wrench(&cfg, &session, leg, k, t0),
-                t + 5_000,
-                t,
-            )?;
-        }
-        messages += 1 + ft_topics.len() as u64;
-    }
-    w.finish()?;
+    let messages = write_recording(
+        BufWriter::with_capacity(1 << 20, file),
+        &params,
+        &cfg,
+        &session,
+        t0,
+    )?;
     let write_s = start.elapsed().as_secs_f64();
     let out = dir.join("report");
     let start = Instant::now();

@@ -7,6 +7,49 @@
 //!
 //! A session is a ROS 2 MCAP file (recorded by `terzaghi node` or any ROS 2 tool) or, for one
 //! leg, a CSV log of `t_s,beta_rad,drag_n,lift_n` ([`legs`]).
+//!
+//! Re-evaluating and diagnosing a recording through the library (the README's example):
+//!
+//! ```
+//! use std::path::Path;
+//! use terzaghi::session::diagnose::{DiagnoseFileOptions, diagnose_file, write_reports};
+//! use terzaghi::session::reevaluate::{ReevaluateOptions, reevaluate_file};
+//!
+//! /// Re-evaluates a recording with its recorded parameters, then diagnoses its legs.
+//! fn check(log: &Path, out: &Path) -> anyhow::Result<()> {
+//!     // Every prediction next to its measurement.
+//!     let mut worst_drag_n = 0.0f64;
+//!     let done = reevaluate_file(log, ReevaluateOptions::default(), |row| {
+//!         if let Some(drag_n) = row.measured_drag_n {
+//!             worst_drag_n = worst_drag_n.max((row.predicted_drag_n - drag_n).abs());
+//!         }
+//!     })?;
+//!     println!("{} rows; largest drag error {worst_drag_n:.1} N", done.summary.rows);
+//!     // The gap of every leg with F/T; report.json and report.html of each in `out`.
+//!     let diagnosed = diagnose_file(log, &DiagnoseFileOptions::default())?;
+//!     for leg in &diagnosed.legs {
+//!         match &leg.result {
+//!             Ok(d) => println!("{}: {}", leg.leg, d.report.verdict.effect),
+//!             Err(e) => println!("{}: not diagnosed: {e}", leg.leg),
+//!         }
+//!     }
+//!     write_reports(&diagnosed, out)?;
+//!     Ok(())
+//! }
+//! # fn main() -> anyhow::Result<()> {
+//! # use terzaghi::sim::robot::{Gait, Truth, rhex, simulate, write_recording};
+//! # let dir = tempfile::tempdir()?;
+//! # let log = dir.path().join("walk.mcap");
+//! # let (params, cfg) = rhex()?;
+//! # let truth = Truth { b_k: 30.0, a: 2.2, effects: vec![], magnitude: 0.0, noise_frac: 0.015 };
+//! # let gait = Gait { seconds: 20.0, rate_hz: 200.0, mean_speed_rad_s: 4.0, seed: 3 };
+//! # let walk = simulate(&cfg, &truth, &gait);
+//! # write_recording(std::fs::File::create(&log)?, &params, &cfg, &walk, 1_700_000_000_000_000_000)?;
+//! check(&log, &dir.path().join("diagnosis"))?;
+//! # assert!(dir.path().join("diagnosis/front_left/report.json").exists());
+//! # Ok(())
+//! # }
+//! ```
 
 pub mod csv_rows;
 pub mod diagnose;

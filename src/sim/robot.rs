@@ -184,3 +184,55 @@ pub fn rhex() -> Result<(crate::config::ParamMap, NodeConfig), crate::config::Co
     let cfg = NodeConfig::from_params(&params, "terzaghi", "/", &[])?;
     Ok((params, cfg))
 }
+
+/// Writes `session` as the robot's own recording would hold it: JointState on
+/// `/joint_states` and every leg's F/T on its topic, stamped from `t0_ns`, with the node's
+/// parameters `params` as metadata (so that `terzaghi diagnose` and `replay --reevaluate` find
+/// the legs). Returns the number of messages written.
+pub fn write_recording<W: std::io::Write + std::io::Seek>(
+    w: W,
+    params: &crate::config::ParamMap,
+    cfg: &NodeConfig,
+    session: &Session,
+    t0_ns: i64,
+) -> Result<u64, crate::record::RecordError> {
+    use crate::record::{OfferedQos, RecordOptions, SessionWriter};
+    let mut w = SessionWriter::new(
+        w,
+        RecordOptions {
+            params: params
+                .iter()
+                .map(|(k, v)| (k.clone(), v.to_string()))
+                .collect(),
+            ..Default::default()
+        },
+    )?;
+    let ft_topics: Vec<String> = cfg
+        .legs
+        .iter()
+        .map(|l| l.ft_topic.clone().unwrap_or_default())
+        .collect();
+    let mut messages = 0u64;
+    for k in 0..session.t_s.len() {
+        let t = stamp_ns(t0_ns, session.t_s[k]) as u64;
+        w.write(
+            &cfg.joint_states_topic,
+            OfferedQos::BEST_EFFORT,
+            &joint_state(cfg, session, k, t0_ns),
+            t,
+            t,
+        )?;
+        for (leg, topic) in ft_topics.iter().enumerate() {
+            w.write(
+                topic,
+                OfferedQos::BEST_EFFORT,
+                &wrench(cfg, session, leg, k, t0_ns),
+                t + 5_000,
+                t,
+            )?;
+        }
+        messages += 1 + ft_topics.len() as u64;
+    }
+    w.finish()?;
+    Ok(messages)
+}
