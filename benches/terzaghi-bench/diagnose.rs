@@ -1,9 +1,9 @@
-//! `terzaghi bench-diagnose`: how long the diagnosis of a long session takes on this machine.
+//! `terzaghi-bench diagnose`: how long the diagnosis of a long session takes on this machine.
 //!
 //! It simulates the shipped six-legged robot (launch_configs/rhex.yaml) walking with a hidden
 //! surcharge effect, writes the session as the robot's recording would hold it (JointState and
-//! every leg's F/T, with the node parameters as metadata), then times `terzaghi diagnose` (this
-//! executable) on the file, every leg.
+//! every leg's F/T, with the node parameters as metadata), then times `terzaghi diagnose` (the
+//! `terzaghi` binary beside this one) on the file, every leg.
 
 use crate::print_out;
 use anyhow::{Context, Result, bail};

@@ -1,4 +1,4 @@
-//! `terzaghi bench`: how long one model evaluation takes on this machine, and the ratio of RFT
+//! `terzaghi-bench model`: how long one model evaluation takes on this machine, and the ratio of RFT
 //! to the improved model measured in the same run.
 
 use crate::print_out;

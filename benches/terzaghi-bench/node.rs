@@ -1,13 +1,14 @@
-//! `terzaghi bench-node`: the node's latency on this machine, for 6 legs at 1 kHz.
+//! `terzaghi-bench node`: the node's latency on this machine, for 6 legs at 1 kHz.
 //!
 //! It starts `terzaghi node` (the RHex launch configuration) and a bare echo node over the same
 //! DDS, then, as an external client, publishes JointStates at the given rate in alternating
 //! blocks to each: the round trip to the node is from publishing a JointState to receiving the
 //! last leg's predicted wrench; to the echo, from publishing to receiving the echo. The node's
 //! own processing time (from taking the JointState off DDS to having published every leg's
-//! outputs) comes from its report at shutdown. Run it inside a private network namespace.
+//! outputs) comes from what it prints when it stops; its peak memory from /proc. Run it inside
+//! a private network namespace.
 //!
-//! `terzaghi echo` (hidden) is the bare echo: JointState in, the same JointState out.
+//! `terzaghi-bench echo` (hidden) is the bare echo: JointState in, the same JointState out.
 
 use crate::print_out;
 use anyhow::{Context as _, Result, anyhow, bail};
@@ -150,14 +151,17 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
     let params = dir.join("rhex.yaml");
     std::fs::write(&params, include_str!("../../launch_configs/rhex.yaml"))?;
     let node_log = dir.join("node.log");
-    let legs = [
-        "front_left",
-        "middle_left",
-        "rear_left",
-        "front_right",
-        "middle_right",
-        "rear_right",
-    ];
+    // The node's legs, joints and output topics, as it reads them from the same file.
+    let (_, cfg) = terzaghi::sim::robot::rhex()?;
+    let legs = RobotTopics {
+        joint_states: cfg.joint_states_topic.clone(),
+        joints: cfg.legs.iter().map(|l| l.joint.clone()).collect(),
+        wrenches: terzaghi::config::OutputTopics::of(&cfg, &cfg.remaps)
+            .legs
+            .into_iter()
+            .map(|l| l.wrench)
+            .collect(),
+    };
     let mut children = Killer(Vec::new());
     children.0.push(
         Command::new(&exe)
@@ -225,7 +229,7 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
 
     if a.load {
         let r = LoadReport {
-            legs: legs.len(),
+            legs: legs.joints.len(),
             rate_hz: a.rate_hz,
             seconds: a.seconds,
             sent: load.sent,
@@ -262,7 +266,7 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
     let nr = Figures::from(&node_rt);
     let er = Figures::from(&echo_rt);
     let report = Report {
-        legs: legs.len(),
+        legs: legs.joints.len(),
         rate_hz: a.rate_hz,
         seconds_each: a.seconds,
         node_processing: Figures {
@@ -322,22 +326,27 @@ type Sent = Arc<Mutex<HashMap<i64, Instant>>>;
 
 /// Publishes to the node and to the echo in alternating one-second blocks; returns the round
 /// trips and how many replies never came.
+/// What the client publishes to and listens on.
+struct RobotTopics {
+    joint_states: String,
+    joints: Vec<String>,
+    /// Each leg's predicted wrench.
+    wrenches: Vec<String>,
+}
+
 async fn client(
-    legs: &[&str],
+    legs: &RobotTopics,
     rate_hz: f64,
     seconds: u32,
     load: Option<u32>,
 ) -> Result<(Histogram, Histogram, u64, u64, LoadFigures)> {
     let mut node = tool_node("terzaghi_bench_client").context("cannot create the client node")?;
-    let to_node = publisher::<JointState>(&mut node, "/joint_states")?;
+    let to_node = publisher::<JointState>(&mut node, &legs.joint_states)?;
     let to_echo = publisher::<JointState>(&mut node, "/bench/echo_in")?;
     let from_echo = subscription::<JointState>(&mut node, "/bench/echo_out")?;
     let mut wrench_subs = Vec::new();
-    for leg in legs {
-        wrench_subs.push(subscription::<WrenchStamped>(
-            &mut node,
-            &format!("/{leg}/predicted_wrench"),
-        )?);
+    for topic in &legs.wrenches {
+        wrench_subs.push(subscription::<WrenchStamped>(&mut node, topic)?);
     }
     let spin = tokio::spawn(node.spinner()?.spin());
 
@@ -347,7 +356,7 @@ async fn client(
     let echo_hist = Arc::new(Mutex::new(Histogram::default()));
     // Per stamp, how many legs answered so far.
     let answers: Arc<Mutex<HashMap<i64, usize>>> = Arc::default();
-    let n_legs = legs.len();
+    let n_legs = legs.joints.len();
     let mut tasks = Vec::new();
     for sub in wrench_subs {
         let (sent, hist, answers) = (node_sent.clone(), node_hist.clone(), answers.clone());
@@ -393,7 +402,7 @@ async fn client(
 
     // Discovery, then a warm-up second to each target.
     tokio::time::sleep(Duration::from_secs(3)).await;
-    let names: Vec<String> = legs.iter().map(|l| format!("{l}_hip")).collect();
+    let names: Vec<String> = legs.joints.clone();
     let period = Duration::from_secs_f64(1.0 / rate_hz);
     let mut stamp_ns: i64 = 1_000_000_000_000;
     let mut k: u64 = 0;

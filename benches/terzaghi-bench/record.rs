@@ -1,10 +1,10 @@
-//! `terzaghi bench-record`: how fast sessions are written and re-evaluated on this machine.
+//! `terzaghi-bench record`: how fast sessions are written and re-evaluated on this machine.
 //!
 //! It writes a synthetic session of the node's traffic for the RHex configuration (6 legs,
 //! JointState and F/T at `--rate-hz`, with every leg's predicted wrench, leg force, and model
 //! parameters at 10 Hz; with `--inputs-only`, JointState and F/T alone) through the recorder's
-//! writer on one thread, timing it; then it runs `terzaghi replay --reevaluate` (this
-//! executable) on the file and times that.
+//! writer on one thread, timing it; then it runs `terzaghi replay --reevaluate` (the `terzaghi`
+//! binary beside this one) on the file and times that.
 
 use crate::print_out;
 use anyhow::{Context, Result, bail};
@@ -100,17 +100,12 @@ pub fn run(a: BenchRecordArgs) -> Result<()> {
         .iter()
         .map(|l| l.ft_topic.clone().unwrap_or_default())
         .collect();
-    let out_topics: Vec<(String, String, String)> = cfg
-        .legs
-        .iter()
-        .map(|l| {
-            (
-                format!("/{}/predicted_wrench", l.name),
-                format!("/{}/leg_force", l.name),
-                format!("/{}/model_params", l.name),
-            )
-        })
-        .collect();
+    let out_topics: Vec<(String, String, String)> =
+        terzaghi::config::OutputTopics::of(&cfg, &cfg.remaps)
+            .legs
+            .into_iter()
+            .map(|l| (l.wrench, l.force, l.params))
+            .collect();
     let n = (a.minutes * 60.0 * a.rate_hz) as u64;
     let dt_ns = (1e9 / a.rate_hz) as u64;
     let t0: u64 = 1_700_000_000_000_000_000;

@@ -251,12 +251,12 @@ fn candidate(live: &Live, name: &str, value: &ParameterValue) -> Result<Live, St
 /// Adds the recorder's state to the diagnostics values; returns its error, if it failed.
 fn recording_state(
     recorder: &Option<Arc<Recorder>>,
-    start_error: &Mutex<Option<String>>,
+    start_error: Option<&str>,
     kv: &mut Vec<(String, String)>,
 ) -> Option<String> {
-    if let Some(e) = start_error.lock().ok().and_then(|e| e.clone()) {
+    if let Some(e) = start_error {
         kv.push(("recording".into(), "failed".into()));
-        return Some(e);
+        return Some(e.to_string());
     }
     let r = recorder.as_ref()?;
     kv.push(("recording".into(), r.path.display().to_string()));
@@ -343,48 +343,18 @@ pub fn runtime() -> Result<tokio::runtime::Runtime> {
 pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result<RunSummary> {
     let cfg = setup.config.clone();
     let context = dds_context(setup.domain_id, setup.localhost_only)?;
-
     let (live_tx, live_rx) = watch::channel(Live {
         params: setup.params.clone(),
         config: cfg.clone(),
     });
-    let live_tx = Arc::new(live_tx);
-    let mut opts = NodeOptions::new().enable_rosout(true);
-    for (name, value) in &setup.params {
-        opts = opts.declare_parameter(name, to_ros(value));
-    }
-    {
-        let live = live_tx.clone();
-        opts = opts.parameter_validator(Box::new(move |name, value| {
-            candidate(&live.borrow(), name, value).map(|_| ())
-        }));
-    }
-    {
-        let live = live_tx.clone();
-        opts = opts.parameter_set_action(Box::new(move |name, value| {
-            let next = candidate(&live.borrow(), name, value)?;
-            live.send_replace(next);
-            Ok(())
-        }));
-    }
     let node_name = NodeName::new(&cfg.namespace, &cfg.node_name)
         .map_err(|e| anyhow!("bad node name {}/{}: {e:?}", cfg.namespace, cfg.node_name))?;
     let mut node = context
-        .new_node(node_name, opts)
+        .new_node(node_name, node_options(&setup.params, Arc::new(live_tx)))
         .context("cannot create the ROS 2 node")?;
     let spinner = node.spinner().context("cannot start the node's spinner")?;
     let spin_task = tokio::spawn(spinner.spin());
-
-    let topics = crate::config::OutputTopics::of(&cfg, &cfg.remaps);
-    let mut wrench_pubs = Vec::new();
-    let mut force_pubs = Vec::new();
-    let mut param_pubs = Vec::new();
-    for leg in &topics.legs {
-        wrench_pubs.push(publisher::<WrenchStamped>(&mut node, &leg.wrench)?);
-        force_pubs.push(publisher::<LegForce>(&mut node, &leg.force)?);
-        param_pubs.push(publisher::<ModelParams>(&mut node, &leg.params)?);
-    }
-    let diag_pub = publisher::<DiagnosticArray>(&mut node, &topics.diagnostics)?;
+    let (wrench, force, params, diagnostics) = publishers(&mut node, &cfg)?;
 
     // Each message is handled in the task that takes it off DDS (no hand-off, which would add a
     // thread wake-up to every JointState). The DDS reader's KeepLast history is the bounded
@@ -411,81 +381,33 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
     }
     // From here on the node is shared: the message tasks ask it who subscribes.
     let node = Arc::new(node);
-    let record_error: Mutex<Option<String>> = Mutex::new(None);
     let publish_errors = Arc::new(AtomicU64::new(0));
     let pubs = Arc::new(Pubs {
-        wrench: wrench_pubs,
-        force: force_pubs,
-        params: param_pubs,
-        diagnostics: diag_pub,
+        wrench,
+        force,
+        params,
+        diagnostics,
         errors: publish_errors.clone(),
         node: node.clone(),
     });
-    // The recorder, if asked for: a failure to start is reported, and the node runs on.
-    let recorder: Option<Arc<Recorder>> = cfg.record.as_ref().and_then(|path| {
-        let opts = RecordOptions::with_node_params(&setup.params, &cfg.node_name, &cfg.namespace);
-        match Recorder::start(path, opts, 1 << 16) {
-            Ok(r) => Some(Arc::new(r)),
-            Err(e) => {
-                let msg = format!("cannot record to {}: {e}", path.display());
-                eprintln!("error: {msg}; the node runs without recording");
-                *record_error.lock().unwrap_or_else(|p| p.into_inner()) = Some(msg);
-                None
-            }
-        }
-    });
-    let rt_topics = Arc::new(Topics::new(&cfg));
-    let mut tasks = Vec::new();
-    {
-        let sub = js_sub;
-        let (rec, rt) = (recorder.clone(), rt_topics.clone());
-        let (sh, pubs) = (shared.clone(), pubs.clone());
-        tasks.push(tokio::spawn(async move {
-            let mut gaps = SequenceGaps::default();
-            let mut outputs: Vec<LegOutput> = Vec::new();
-            let mut params_out = Vec::new();
-            loop {
-                let msg = next_sample(&sub, &mut gaps, &sh.dropped).await;
-                let received = Instant::now();
-                let log_ns = unix_now_ns() as u64;
-                {
-                    let core = &mut sh.lock_core().core;
-                    core.on_joint_state(&msg, &mut outputs);
-                    core.take_params(&mut params_out);
-                }
-                joint_state_done(
-                    rec.as_deref(),
-                    &rt,
-                    msg,
-                    &mut outputs,
-                    &mut params_out,
-                    log_ns,
-                    &*pubs,
-                    || {
-                        let ns = received.elapsed().as_nanos() as u64;
-                        sh.hist.lock().unwrap_or_else(|p| p.into_inner()).record(ns);
-                    },
-                );
-            }
-        }));
-    }
+    let (recorder, record_error) = start_recorder(&cfg, &setup.params);
+    let topics = Arc::new(Topics::new(&cfg));
+    let mut tasks = vec![tokio::spawn(joint_states_task(
+        js_sub,
+        shared.clone(),
+        pubs.clone(),
+        recorder.clone(),
+        topics.clone(),
+    ))];
     for (i, sub) in ft_subs {
-        let (rec, rt) = (recorder.clone(), rt_topics.clone());
-        let (sh, pubs) = (shared.clone(), pubs.clone());
-        tasks.push(tokio::spawn(async move {
-            let mut gaps = SequenceGaps::default();
-            let mut params_out = Vec::new();
-            loop {
-                let msg = next_sample(&sub, &mut gaps, &sh.dropped).await;
-                let log_ns = unix_now_ns() as u64;
-                {
-                    let core = &mut sh.lock_core().core;
-                    core.on_wrench(i, &msg);
-                    core.take_params(&mut params_out);
-                }
-                wrench_done(rec.as_deref(), &rt, i, msg, &mut params_out, log_ns, &*pubs);
-            }
-        }));
+        tasks.push(tokio::spawn(wrench_task(
+            i,
+            sub,
+            shared.clone(),
+            pubs.clone(),
+            recorder.clone(),
+            topics.clone(),
+        )));
     }
 
     let mut diag_tick = tokio::time::interval(Duration::from_secs_f64(cfg.diagnostics_period_s));
@@ -495,26 +417,8 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
         tokio::select! {
             _ = &mut shutdown => break,
             _ = diag_tick.tick() => {
-                let lat = {
-                    let h = shared.hist.lock().unwrap_or_else(|p| p.into_inner());
-                    vec![
-                        ("processing_p50_us".to_string(), format!("{:.1}", h.quantile_ns(0.5) as f64 / 1e3)),
-                        ("processing_p99_us".to_string(), format!("{:.1}", h.quantile_ns(0.99) as f64 / 1e3)),
-                        ("processing_max_us".to_string(), format!("{:.1}", h.max_ns() as f64 / 1e3)),
-                        ("publish_errors".to_string(), publish_errors.load(Ordering::Relaxed).to_string()),
-                    ]
-                };
-                let mut lat = lat;
-                let rec_error = recording_state(&recorder, &record_error, &mut lat);
-                let mut d = shared
-                    .lock_core()
-                    .core
-                    .diagnostics(unix_now_ns(), shared.dropped.load(Ordering::Relaxed), &lat);
-                if let (Some(e), Some(node_status)) = (rec_error, d.status.first_mut()) {
-                    node_status.level = crate::msgs::DiagnosticStatus::ERROR;
-                    node_status.message = format!("recording stopped: {e}");
-                }
-                diagnostics_done(recorder.as_deref(), &rt_topics, d, unix_now_ns() as u64, &*pubs);
+                let d = node_status(&shared, &publish_errors, &recorder, record_error.as_deref());
+                diagnostics_done(recorder.as_deref(), &topics, d, unix_now_ns() as u64, &*pubs);
             }
         }
     }
@@ -527,38 +431,204 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
     }
     node.stop_spinner();
     let _ = tokio::time::timeout(Duration::from_secs(2), spin_task).await;
-    let summary = {
-        let guard = shared.core.lock().unwrap_or_else(|p| p.into_inner());
-        let core = &guard.core;
-        let hist = shared.hist.lock().unwrap_or_else(|p| p.into_inner());
-        RunSummary {
-            joint_states: core.counters().joint_states,
-            predictions: (0..cfg.legs.len())
-                .filter_map(|i| core.leg_counters(i))
-                .map(|c| c.predictions)
-                .sum(),
-            dropped: shared.dropped.load(Ordering::Relaxed),
-            processing_p50_ns: hist.quantile_ns(0.5),
-            processing_p99_ns: hist.quantile_ns(0.99),
-            processing_max_ns: hist.max_ns(),
-            processing_count: hist.count(),
-        }
-    };
+    let summary = run_summary(&shared, cfg.legs.len());
     // Dropping the node and context tells DDS peers that we left.
     drop(pubs);
     if let Some(r) = recorder.and_then(|r| Arc::try_unwrap(r).ok()) {
-        let path = r.path.clone();
-        let written = r.status.written.load(Ordering::Relaxed);
-        let dropped = r.status.dropped.load(Ordering::Relaxed);
-        match r.finish() {
-            None => eprintln!(
-                "recorded {written} messages to {} ({dropped} dropped)",
-                path.display()
-            ),
-            Some(e) => eprintln!("error: recording to {} stopped: {e}", path.display()),
-        }
+        finish_recording(r);
     }
     drop(node);
     drop(context);
     Ok(summary)
+}
+
+/// The node's options: rosout, its parameters declared, and a change of a parameter validated
+/// as a whole configuration before it is sent to the message tasks on `live`.
+fn node_options(params: &ParamMap, live: Arc<watch::Sender<Live>>) -> NodeOptions {
+    let mut opts = NodeOptions::new().enable_rosout(true);
+    for (name, value) in params {
+        opts = opts.declare_parameter(name, to_ros(value));
+    }
+    let check = live.clone();
+    opts.parameter_validator(Box::new(move |name, value| {
+        candidate(&check.borrow(), name, value).map(|_| ())
+    }))
+    .parameter_set_action(Box::new(move |name, value| {
+        let next = candidate(&live.borrow(), name, value)?;
+        live.send_replace(next);
+        Ok(())
+    }))
+}
+
+type Publishers = (
+    Vec<Publisher<WrenchStamped>>,
+    Vec<Publisher<LegForce>>,
+    Vec<Publisher<ModelParams>>,
+    Publisher<DiagnosticArray>,
+);
+
+/// Every leg's publishers (predicted wrench, leg force, model parameters) and `/diagnostics`.
+fn publishers(node: &mut Node, cfg: &NodeConfig) -> Result<Publishers> {
+    let topics = crate::config::OutputTopics::of(cfg, &cfg.remaps);
+    let (mut wrench, mut force, mut params) = (Vec::new(), Vec::new(), Vec::new());
+    for leg in &topics.legs {
+        wrench.push(publisher::<WrenchStamped>(node, &leg.wrench)?);
+        force.push(publisher::<LegForce>(node, &leg.force)?);
+        params.push(publisher::<ModelParams>(node, &leg.params)?);
+    }
+    let diagnostics = publisher::<DiagnosticArray>(node, &topics.diagnostics)?;
+    Ok((wrench, force, params, diagnostics))
+}
+
+/// The recorder, if the configuration asks for one; a failure to start is reported (and shown
+/// on `/diagnostics`), and the node runs on.
+fn start_recorder(cfg: &NodeConfig, params: &ParamMap) -> (Option<Arc<Recorder>>, Option<String>) {
+    let Some(path) = &cfg.record else {
+        return (None, None);
+    };
+    let opts = RecordOptions::with_node_params(params, &cfg.node_name, &cfg.namespace);
+    match Recorder::start(path, opts, 1 << 16) {
+        Ok(r) => (Some(Arc::new(r)), None),
+        Err(e) => {
+            let msg = format!("cannot record to {}: {e}", path.display());
+            eprintln!("error: {msg}; the node runs without recording");
+            (None, Some(msg))
+        }
+    }
+}
+
+/// Takes joint states off DDS, predicts, publishes and records, timing each from its arrival
+/// to the last leg's predicted wrench.
+async fn joint_states_task(
+    sub: Subscription<JointState>,
+    sh: Arc<Shared>,
+    pubs: Arc<Pubs>,
+    rec: Option<Arc<Recorder>>,
+    topics: Arc<Topics>,
+) {
+    let mut gaps = SequenceGaps::default();
+    let mut outputs: Vec<LegOutput> = Vec::new();
+    let mut params_out = Vec::new();
+    loop {
+        let msg = next_sample(&sub, &mut gaps, &sh.dropped).await;
+        let received = Instant::now();
+        let log_ns = unix_now_ns() as u64;
+        {
+            let core = &mut sh.lock_core().core;
+            core.on_joint_state(&msg, &mut outputs);
+            core.take_params(&mut params_out);
+        }
+        joint_state_done(
+            rec.as_deref(),
+            &topics,
+            msg,
+            &mut outputs,
+            &mut params_out,
+            log_ns,
+            &*pubs,
+            || {
+                let ns = received.elapsed().as_nanos() as u64;
+                sh.hist.lock().unwrap_or_else(|p| p.into_inner()).record(ns);
+            },
+        );
+    }
+}
+
+/// Takes leg `leg`'s measured wrenches off DDS into its estimator; publishes and records the
+/// parameters that come of them, and records the wrench.
+async fn wrench_task(
+    leg: usize,
+    sub: Subscription<WrenchStamped>,
+    sh: Arc<Shared>,
+    pubs: Arc<Pubs>,
+    rec: Option<Arc<Recorder>>,
+    topics: Arc<Topics>,
+) {
+    let mut gaps = SequenceGaps::default();
+    let mut params_out = Vec::new();
+    loop {
+        let msg = next_sample(&sub, &mut gaps, &sh.dropped).await;
+        let log_ns = unix_now_ns() as u64;
+        {
+            let core = &mut sh.lock_core().core;
+            core.on_wrench(leg, &msg);
+            core.take_params(&mut params_out);
+        }
+        wrench_done(
+            rec.as_deref(),
+            &topics,
+            leg,
+            msg,
+            &mut params_out,
+            log_ns,
+            &*pubs,
+        );
+    }
+}
+
+/// The node's `/diagnostics`: the core's status with the processing time, publish errors and
+/// the recorder's state; an error status when recording stopped.
+fn node_status(
+    shared: &Shared,
+    publish_errors: &AtomicU64,
+    recorder: &Option<Arc<Recorder>>,
+    record_error: Option<&str>,
+) -> DiagnosticArray {
+    let mut values = {
+        let h = shared.hist.lock().unwrap_or_else(|p| p.into_inner());
+        let us = |ns: u64| format!("{:.1}", ns as f64 / 1e3);
+        vec![
+            ("processing_p50_us".to_string(), us(h.quantile_ns(0.5))),
+            ("processing_p99_us".to_string(), us(h.quantile_ns(0.99))),
+            ("processing_max_us".to_string(), us(h.max_ns())),
+            (
+                "publish_errors".to_string(),
+                publish_errors.load(Ordering::Relaxed).to_string(),
+            ),
+        ]
+    };
+    let rec_error = recording_state(recorder, record_error, &mut values);
+    let mut d = shared.lock_core().core.diagnostics(
+        unix_now_ns(),
+        shared.dropped.load(Ordering::Relaxed),
+        &values,
+    );
+    if let (Some(e), Some(node_status)) = (rec_error, d.status.first_mut()) {
+        node_status.level = crate::msgs::DiagnosticStatus::ERROR;
+        node_status.message = format!("recording stopped: {e}");
+    }
+    d
+}
+
+/// What the run did, from the core's counters and the processing-time histogram.
+fn run_summary(shared: &Shared, legs: usize) -> RunSummary {
+    let guard = shared.core.lock().unwrap_or_else(|p| p.into_inner());
+    let core = &guard.core;
+    let hist = shared.hist.lock().unwrap_or_else(|p| p.into_inner());
+    RunSummary {
+        joint_states: core.counters().joint_states,
+        predictions: (0..legs)
+            .filter_map(|i| core.leg_counters(i))
+            .map(|c| c.predictions)
+            .sum(),
+        dropped: shared.dropped.load(Ordering::Relaxed),
+        processing_p50_ns: hist.quantile_ns(0.5),
+        processing_p99_ns: hist.quantile_ns(0.99),
+        processing_max_ns: hist.max_ns(),
+        processing_count: hist.count(),
+    }
+}
+
+/// Closes the recording and says what it holds.
+fn finish_recording(r: Recorder) {
+    let path = r.path.clone();
+    let written = r.status.written.load(Ordering::Relaxed);
+    let dropped = r.status.dropped.load(Ordering::Relaxed);
+    match r.finish() {
+        None => eprintln!(
+            "recorded {written} messages to {} ({dropped} dropped)",
+            path.display()
+        ),
+        Some(e) => eprintln!("error: recording to {} stopped: {e}", path.display()),
+    }
 }

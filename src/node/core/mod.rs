@@ -2,13 +2,14 @@
 //! wrenches out; measured wrenches in, identified parameters out. The DDS adapter and the
 //! in-memory demo both drive this same code.
 
+mod status;
+
 use super::matcher::{FtMatcher, Match, NoAngle};
 use crate::config::{ModelKind, NodeConfig};
 use crate::ident::{Estimate, OnlineEstimator, Sample};
 use crate::model::{FittingWidth, ForceModel, TerzaghiModel};
 use crate::msgs::{
-    DiagnosticArray, DiagnosticStatus, Header, JointState, KeyValue, LegForce, ModelParams, Time,
-    Vector3, Wrench, WrenchStamped,
+    Header, JointState, LegForce, ModelParams, Time, Vector3, Wrench, WrenchStamped,
 };
 
 pub use super::matcher::Matched;
@@ -442,121 +443,13 @@ impl NodeCore {
             .as_ref()
             .map(|e| *e.estimate())
     }
-
-    /// One status per leg plus one for the node, with rates since the previous call.
-    /// `dropped` is what the transport dropped from its bounded queues, `latency` the node's
-    /// processing-time summary, both reported as they are.
-    pub fn diagnostics(
-        &mut self,
-        now_ns: i64,
-        dropped: u64,
-        latency: &[(String, String)],
-    ) -> DiagnosticArray {
-        let dt_s = self
-            .last_diag_ns
-            .map(|t| ((now_ns - t) as f64 * 1e-9).max(1e-9))
-            .unwrap_or(self.cfg.diagnostics_period_s);
-        self.last_diag_ns = Some(now_ns);
-        let kv = |k: &str, v: String| KeyValue {
-            key: k.to_string(),
-            value: v,
-        };
-        let mut status = Vec::new();
-        let mut node_values = vec![
-            kv("joint_states", self.counters.joint_states.to_string()),
-            kv(
-                "invalid_joint_states",
-                self.counters.invalid_joint_states.to_string(),
-            ),
-            kv("dropped_queue_full", dropped.to_string()),
-            kv("model", self.cfg.model.as_str().to_string()),
-        ];
-        node_values.extend(latency.iter().map(|(k, v)| kv(k, v.clone())));
-        status.push(DiagnosticStatus {
-            level: if dropped > 0 || self.counters.invalid_joint_states > 0 {
-                DiagnosticStatus::WARN
-            } else {
-                DiagnosticStatus::OK
-            },
-            name: format!("{}: node", self.cfg.node_name),
-            message: if dropped > 0 {
-                format!("{dropped} inputs dropped (queue full)")
-            } else {
-                "running".into()
-            },
-            hardware_id: String::new(),
-            values: node_values,
-        });
-        for (i, l) in self.legs.iter_mut().enumerate() {
-            let c = l.counters;
-            let p = l.at_last_diag;
-            l.at_last_diag = c;
-            let rate = |now: u64, before: u64| format!("{:.1}", (now - before) as f64 / dt_s);
-            let mut values = vec![
-                kv("joint_state_rate_hz", rate(c.predictions, p.predictions)),
-                kv("predictions", c.predictions.to_string()),
-                kv("missing_joint", c.missing_joint.to_string()),
-                kv("invalid_position", c.invalid_position.to_string()),
-                kv("stamps_backwards", c.stamps_backwards.to_string()),
-                kv("ft_rate_hz", rate(c.ft_received, p.ft_received)),
-                kv("ft_unmatched", c.ft_unmatched.to_string()),
-                kv("ft_invalid", c.ft_invalid.to_string()),
-            ];
-            let mut message = String::from("predicting");
-            if let Some(e) = l.estimator.as_ref().map(|e| *e.estimate()) {
-                values.extend([
-                    kv("b_k", format!("{:.6}", e.b_k)),
-                    kv("a", format!("{:.6}", e.a)),
-                    kv("delta_deg", format!("{:.4}", e.delta_deg)),
-                    kv("std_b_k", format!("{:.6}", e.std_b_k)),
-                    kv("std_a", format!("{:.6}", e.std_a)),
-                    kv("samples_used", e.samples_used.to_string()),
-                    kv("converged", e.converged.to_string()),
-                    kv("changes_detected", e.changes_detected.to_string()),
-                ]);
-                message = if e.converged {
-                    "identified".into()
-                } else {
-                    "identifying".into()
-                };
-            }
-            let bad_now = c.invalid_position > p.invalid_position
-                || c.missing_joint > p.missing_joint
-                || c.stamps_backwards > p.stamps_backwards
-                || c.ft_invalid > p.ft_invalid;
-            let silent = c.predictions == p.predictions;
-            let level = if silent {
-                DiagnosticStatus::STALE
-            } else if bad_now {
-                DiagnosticStatus::WARN
-            } else {
-                DiagnosticStatus::OK
-            };
-            if silent {
-                message = "no joint angles".into();
-            }
-            status.push(DiagnosticStatus {
-                level,
-                name: format!("{}: leg {}", self.cfg.node_name, self.cfg.legs[i].name),
-                message,
-                hardware_id: self.cfg.legs[i].joint.clone(),
-                values,
-            });
-        }
-        DiagnosticArray {
-            header: Header {
-                stamp: Time::from_nanos(now_ns).unwrap_or_default(),
-                frame_id: String::new(),
-            },
-            status,
-        }
-    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::config::{defaults, parse_params_yaml};
+    use crate::msgs::DiagnosticStatus;
 
     fn config(extra: &str) -> NodeConfig {
         let yaml = format!(
