@@ -310,3 +310,101 @@ pub fn summarize(
         }),
     }
 }
+
+/// A demo walk, simulated and ready to run through the node.
+pub struct Demo {
+    pub params: ParamMap,
+    /// The shipped six-legged robot, recording to `<out>/session.mcap`.
+    pub cfg: NodeConfig,
+    pub truth: Truth,
+    pub session: Session,
+    pub out: std::path::PathBuf,
+}
+
+/// What the walk through the node gave.
+pub struct Walked {
+    pub estimates: Estimates,
+    /// Messages in the recording.
+    pub recorded: u64,
+    pub run_s: f64,
+}
+
+impl Demo {
+    /// Simulates `seconds` of walking (seed `seed`) into the directory `out` (created).
+    pub fn new(seconds: f64, seed: u64, out: &Path) -> Result<Demo> {
+        std::fs::create_dir_all(out)
+            .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", out.display()))?;
+        let (params, mut cfg) = crate::sim::robot::rhex()?;
+        cfg.record = Some(out.join("session.mcap"));
+        let truth = truth();
+        let gait = crate::sim::robot::Gait {
+            seconds,
+            rate_hz: RATE_HZ,
+            mean_speed_rad_s: 4.0,
+            seed,
+        };
+        let session = crate::sim::robot::simulate(&cfg, &truth, &gait);
+        Ok(Demo {
+            params,
+            cfg,
+            truth,
+            session,
+            out: out.to_path_buf(),
+        })
+    }
+
+    /// Plays the walk through the node at `speed` times the robot's clock, over DDS or in
+    /// memory, with `view` watching.
+    pub fn walk(&self, dds: bool, speed: f64, view: &impl Watch) -> Result<Walked> {
+        let t0_ns = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map(|d| d.as_nanos() as i64)
+            .unwrap_or(0);
+        let started = Instant::now();
+        let (estimates, recorded) = if dds {
+            run_dds(&self.cfg, &self.params, &self.session, t0_ns, speed, view)?
+        } else {
+            run_memory(&self.cfg, &self.params, &self.session, t0_ns, speed, view)?
+        };
+        let run_s = started.elapsed().as_secs_f64();
+        // What the recording holds, from its summary (without reading the whole file).
+        let session_path = self.out.join("session.mcap");
+        let recorded = crate::record::read::IndexedFile::open(&session_path)?
+            .map_or(recorded, |f| f.head().messages);
+        Ok(Walked {
+            estimates,
+            recorded,
+            run_s,
+        })
+    }
+
+    /// Diagnoses the recording into `<out>/diagnosis` and writes `<out>/summary.json`.
+    pub fn diagnose(&self, walked: &Walked) -> Result<Summary> {
+        use crate::session::diagnose::{DiagnoseFileOptions, diagnose_file, write_reports};
+        let started = Instant::now();
+        let diagnosed = diagnose_file(
+            &self.out.join("session.mcap"),
+            &DiagnoseFileOptions::default(),
+        )?;
+        let done = write_reports(&diagnosed, &self.out.join("diagnosis"))?;
+        if !done.failed.is_empty() {
+            bail!("the diagnosis failed: {}", done.failed.join("; "));
+        }
+        let reports: Vec<serde_json::Value> = done.reports.iter().map(|(_, r)| r.clone()).collect();
+        let summary = summarize(
+            &self.cfg,
+            &self.truth,
+            &walked.estimates,
+            &reports,
+            &self.out,
+            walked.recorded,
+            walked.run_s,
+            started.elapsed().as_secs_f64(),
+        );
+        crate::session::files::write_text(
+            &self.out.join("summary.json"),
+            &(serde_json::to_string_pretty(&summary.json)? + "\n"),
+        )?;
+        Ok(summary)
+    }
+}

@@ -6,13 +6,10 @@
 
 use super::print_out;
 use crate::config::NodeConfig;
-use crate::demo::{RATE_HZ, Watch, run_dds, run_memory, summarize, truth};
-use crate::diagnose::DiagnoseOptions;
+use crate::demo::{Demo, RATE_HZ, Watch};
 use crate::msgs::{DiagnosticArray, LegForce, ModelParams, WrenchStamped};
 use crate::node::handle::Publish;
-use crate::session::diagnose::{DiagnoseFileOptions, diagnose_file, write_reports};
-use crate::session::files::write_text;
-use crate::sim::robot::{Gait, Session, Truth, rhex, simulate};
+use crate::sim::robot::{Session, Truth};
 use anyhow::{Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -48,27 +45,11 @@ pub fn run(a: DemoArgs) -> Result<()> {
     if !(a.speed.is_finite() && a.speed > 0.0 && a.speed <= 20.0) {
         bail!("--speed must be in (0, 20], got {}", a.speed);
     }
-    std::fs::create_dir_all(&a.out)
-        .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", a.out.display()))?;
-    let session_path = a.out.join("session.mcap");
-    let (params, mut cfg) = rhex()?;
-    cfg.record = Some(session_path.clone());
-    let truth = truth();
-    let gait = Gait {
-        seconds: a.seconds,
-        rate_hz: RATE_HZ,
-        mean_speed_rad_s: 4.0,
-        seed: a.seed,
-    };
-    let session = simulate(&cfg, &truth, &gait);
-    let t0_ns = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map(|d| d.as_nanos() as i64)
-        .unwrap_or(0);
+    let demo = Demo::new(a.seconds, a.seed, &a.out)?;
     eprintln!(
         "a six-legged robot walks {:.0} s on {} ({} Hz joint states and F/T, {} playback); the node {}:",
         a.seconds,
-        cfg.legs[0].preset.map_or("its medium", |p| p.name),
+        demo.cfg.legs[0].preset.map_or("its medium", |p| p.name),
         RATE_HZ,
         format_args!("{}x", a.speed),
         if a.dds {
@@ -77,42 +58,11 @@ pub fn run(a: DemoArgs) -> Result<()> {
             "runs in memory"
         }
     );
-    let view = LiveView::new(&cfg, &session, &truth);
-    let started = Instant::now();
-    let (estimates, recorded) = if a.dds {
-        run_dds(&cfg, &params, &session, t0_ns, a.speed, &view)?
-    } else {
-        run_memory(&cfg, &params, &session, t0_ns, a.speed, &view)?
-    };
+    let view = LiveView::new(&demo.cfg, &demo.session, &demo.truth);
+    let walked = demo.walk(a.dds, a.speed, &view)?;
     view.finish();
-    let run_s = started.elapsed().as_secs_f64();
-    // What the recording holds, from its summary (without reading the whole file).
-    let recorded = crate::record::read::IndexedFile::open(&session_path)?
-        .map_or(recorded, |f| f.head().messages);
-
     eprintln!("diagnosing the recording...");
-    let started = Instant::now();
-    let diag_dir = a.out.join("diagnosis");
-    let diagnosed = diagnose_file(
-        &session_path,
-        &DiagnoseFileOptions {
-            analysis: DiagnoseOptions::default(),
-            ..Default::default()
-        },
-    )?;
-    let done = write_reports(&diagnosed, &diag_dir)?;
-    if !done.failed.is_empty() {
-        bail!("the diagnosis failed: {}", done.failed.join("; "));
-    }
-    let reports: Vec<serde_json::Value> = done.reports.iter().map(|(_, r)| r.clone()).collect();
-    let diagnose_s = started.elapsed().as_secs_f64();
-    let summary = summarize(
-        &cfg, &truth, &estimates, &reports, &a.out, recorded, run_s, diagnose_s,
-    );
-    write_text(
-        &a.out.join("summary.json"),
-        &(serde_json::to_string_pretty(&summary.json)? + "\n"),
-    )?;
+    let summary = demo.diagnose(&walked)?;
     print_out(&summary.text)
 }
 
