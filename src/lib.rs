@@ -10,10 +10,10 @@
 //! - [`config`]: node parameters as ROS gives them (params files, `--ros-args`, environment)
 //!   validated into a node configuration, and the node's topic names.
 //! - [`dataset`]: force logs (CSV) read into samples.
+//! - [`record`]: sessions as ROS 2 MCAP files: writing, the recorder thread, reading, recovery.
 //! - [`sim`]: synthetic sessions: one leg, the six-legged robot, and the generator of hidden
 //!   effects (pure).
 //! - [`diagnose`]: the analysis of the sim-to-real gap of one leg's samples (pure).
-//! - [`record`]: sessions as ROS 2 MCAP files: writing, the recorder thread, reading, recovery.
 //! - [`node`]: the node: its core (each message, without DDS or clock), its DDS adapter, its
 //!   in-memory transport, the client of a node's parameters.
 //! - [`session`]: operations on a session as a user runs them: re-evaluate a recording,

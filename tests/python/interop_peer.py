@@ -82,6 +82,24 @@ def main():
         if not wait_matched([js_w, wr_r] + ([ft_w, mp_r] if args.identify else [])):
             raise SystemExit("the node's topics never matched (discovery failed)")
 
+        # Discovery is not symmetric: this reader can match the node's writer before the node's
+        # writer has matched this reader, and what the node writes before that reaches nobody
+        # (volatile durability), as for any ROS 2 subscriber. So joint states go out (stamped
+        # before every checked one) until a prediction comes back.
+        answered = False
+        end = time.time() + 20
+        i = 0
+        while not answered and time.time() < end:
+            js_w.write(JointState(header=Header(stamp=stamp(500.0 + 0.01 * i)), name=[args.joint],
+                                  position=[math.radians(60)]))
+            i += 1
+            time.sleep(0.05)
+            answered = any(isinstance(s, WrenchStamped) for s in wr_r.take(N=100))
+        if not answered:
+            raise SystemExit("the node never answered a joint state (discovery failed)")
+        time.sleep(0.3)
+        wr_r.take(N=1000)  # the answers to the other warm-up joint states
+
         # 1. Predictions against `terzaghi predict` for the same angles.
         def check_predictions(flags, t0, label):
             expected = predict_table(args.terzaghi, flags, "40:140:5")
