@@ -19,9 +19,10 @@ use std::process::ExitCode;
 #[global_allocator]
 static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
-/// Measures terzaghi on this machine.
+/// Measures terzaghi on this machine: the model, the node, the recorder and the diagnosis, as the
+/// README's Benchmarks table reports them.
 #[derive(Debug, Parser)]
-#[command(name = "terzaghi-bench", version, about, long_about = None)]
+#[command(name = "terzaghi-bench", version)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
