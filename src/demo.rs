@@ -48,7 +48,7 @@ fn pace(start: Instant, t_s: f64, speed: f64) {
 /// Per leg: the latest online estimate (b_k, a, converged) the node published.
 pub type Estimates = Vec<Option<(f64, f64, bool)>>;
 
-pub fn run_memory(
+fn run_memory(
     cfg: &NodeConfig,
     params: &ParamMap,
     session: &Session,
@@ -111,7 +111,7 @@ pub fn run_memory(
     ))
 }
 
-pub fn run_dds(
+fn run_dds(
     cfg: &NodeConfig,
     params: &ParamMap,
     session: &Session,
@@ -332,6 +332,9 @@ pub struct Walked {
 impl Demo {
     /// Simulates `seconds` of walking (seed `seed`) into the directory `out` (created).
     pub fn new(seconds: f64, seed: u64, out: &Path) -> Result<Demo> {
+        if !(seconds.is_finite() && seconds > 0.0) {
+            bail!("demo walk of {seconds} s: must be a positive number of seconds");
+        }
         std::fs::create_dir_all(out)
             .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", out.display()))?;
         let (params, mut cfg) = crate::sim::robot::rhex()?;
@@ -356,6 +359,9 @@ impl Demo {
     /// Plays the walk through the node at `speed` times the robot's clock, over DDS or in
     /// memory, with `view` watching.
     pub fn walk(&self, dds: bool, speed: f64, view: &impl Watch) -> Result<Walked> {
+        if !(speed.is_finite() && speed > 0.0) {
+            bail!("demo speed {speed}: must be a positive number");
+        }
         let t0_ns = std::time::SystemTime::now()
             .duration_since(std::time::UNIX_EPOCH)
             .map(|d| d.as_nanos() as i64)

@@ -8,6 +8,7 @@ use crate::model::Plate;
 use crate::session::diagnose::{
     DiagnoseFileOptions, Diagnosed, Written, diagnose_file, write_reports,
 };
+use crate::session::files::is_mcap;
 use crate::session::legs::{JointLeg, LegsFrom};
 use anyhow::{Result, bail};
 use clap::Args;
@@ -87,12 +88,7 @@ fn options(a: &DiagnoseArgs) -> Result<DiagnoseFileOptions> {
     if a.folds < 2 {
         bail!("--folds must be at least 2, got {}", a.folds);
     }
-    let is_mcap = std::fs::File::open(&a.log)
-        .and_then(|mut f| {
-            let mut magic = [0u8; 5];
-            std::io::Read::read(&mut f, &mut magic).map(|n| n == 5 && &magic == b"\x89MCAP")
-        })
-        .unwrap_or(false);
+    let is_mcap = is_mcap(&a.log)?;
     let geometry_given = a.length_m.is_some() || a.width_m.is_some() || a.hip_height_m.is_some();
     let mut opts = DiagnoseFileOptions {
         leg: a.leg.clone(),
@@ -109,17 +105,13 @@ fn options(a: &DiagnoseArgs) -> Result<DiagnoseFileOptions> {
                 a.log.display()
             );
         }
-        if std::fs::metadata(&a.log).is_ok() {
-            opts.csv_leg = Some((plate_from_flags(a)?, a.medium.medium()?.medium));
-        }
+        opts.csv_leg = Some((plate_from_flags(a)?, a.medium.medium()?.medium));
         return Ok(opts);
     }
     opts.legs_from = match (&a.joint, &a.params_file) {
         (Some(joint), _) => {
-            let ft_frame = match a.ft_frame.as_str() {
-                "hip" => FtFrame::Hip,
-                "leg" => FtFrame::Leg,
-                other => bail!("--ft-frame {other:?}: expected hip or leg"),
+            let Some(ft_frame) = FtFrame::from_name(&a.ft_frame) else {
+                bail!("--ft-frame {:?}: expected hip or leg", a.ft_frame);
             };
             LegsFrom::Joint(Box::new(JointLeg {
                 name: a.leg.clone().unwrap_or_else(|| "leg".to_string()),

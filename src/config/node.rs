@@ -39,6 +39,23 @@ pub enum FtFrame {
     Leg,
 }
 
+impl FtFrame {
+    /// The frame's name in the parameters: `hip` or `leg`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            FtFrame::Hip => "hip",
+            FtFrame::Leg => "leg",
+        }
+    }
+
+    /// The frame a parameter value names; `None` for another word.
+    pub fn from_name(name: &str) -> Option<FtFrame> {
+        [FtFrame::Hip, FtFrame::Leg]
+            .into_iter()
+            .find(|f| f.as_str() == name)
+    }
+}
+
 /// One leg, validated.
 #[derive(Debug, Clone)]
 pub struct LegConfig {
@@ -414,11 +431,7 @@ impl NodeConfig {
             put("b_k", ParamValue::Double(l.width.b_k()));
             put("a", ParamValue::Double(l.width.a()));
             put("ft_topic", ParamValue::String(l.ft_topic_given.clone()));
-            let frame = match l.ft_frame {
-                FtFrame::Hip => "hip",
-                FtFrame::Leg => "leg",
-            };
-            put("ft_frame", ParamValue::String(frame.into()));
+            put("ft_frame", ParamValue::String(l.ft_frame.as_str().into()));
             put("rft_coeffs", ParamValue::String(l.rft_name.clone()));
             put("rft_zeta", ParamValue::Double(0.0));
         }
@@ -513,11 +526,10 @@ fn leg_config(
         .str(&k("ft_topic"))?
         .filter(|t| !t.is_empty())
         .map(|t| resolve_topic(&t, namespace, node, remaps));
-    let ft_frame = match g.str(&k("ft_frame"))?.as_deref().unwrap_or("hip") {
-        "hip" => FtFrame::Hip,
-        "leg" => FtFrame::Leg,
-        other => return Err(invalid(&k("ft_frame"), &other, "expected hip or leg")),
-    };
+    let frame = g.str(&k("ft_frame"))?;
+    let frame = frame.as_deref().unwrap_or("hip");
+    let ft_frame = FtFrame::from_name(frame)
+        .ok_or_else(|| invalid(&k("ft_frame"), &frame, "expected hip or leg"))?;
     let rft_name = g
         .str(&k("rft_coeffs"))?
         .filter(|s| !s.is_empty())

@@ -8,7 +8,7 @@ use super::latency::Histogram;
 use crate::config::{NodeConfig, ParamMap, ParamValue, STARTUP_ONLY};
 use crate::msgs::{DiagnosticArray, JointState, LegForce, ModelParams, RosMessage, WrenchStamped};
 use crate::record::RecordOptions;
-use crate::record::recorder::Recorder;
+use crate::record::recorder::{Recorder, now_ns};
 use anyhow::{Context as _, Result, anyhow};
 use ros2_client::dds::rustdds::DomainParticipantBuilder;
 use ros2_client::{
@@ -22,7 +22,7 @@ use std::net::{IpAddr, Ipv4Addr};
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
-use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use std::time::{Duration, Instant};
 use tokio::sync::watch;
 
 /// Everything the node needs to start.
@@ -322,13 +322,6 @@ pub fn tool_node(name: &str) -> Result<Node> {
         .context("cannot create a ROS 2 node")
 }
 
-fn unix_now_ns() -> i64 {
-    SystemTime::now()
-        .duration_since(UNIX_EPOCH)
-        .map(|d| d.as_nanos() as i64)
-        .unwrap_or(0)
-}
-
 /// The async runtime of the DDS tools: two worker threads, for a two-core robot computer.
 pub fn runtime() -> Result<tokio::runtime::Runtime> {
     tokio::runtime::Builder::new_multi_thread()
@@ -418,7 +411,7 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
             _ = &mut shutdown => break,
             _ = diag_tick.tick() => {
                 let d = node_status(&shared, &publish_errors, &recorder, record_error.as_deref());
-                diagnostics_done(recorder.as_deref(), &topics, d, unix_now_ns() as u64, &*pubs);
+                diagnostics_done(recorder.as_deref(), &topics, d, now_ns(), &*pubs);
             }
         }
     }
@@ -512,7 +505,7 @@ async fn joint_states_task(
     loop {
         let msg = next_sample(&sub, &mut gaps, &sh.dropped).await;
         let received = Instant::now();
-        let log_ns = unix_now_ns() as u64;
+        let log_ns = now_ns();
         {
             let core = &mut sh.lock_core().core;
             core.on_joint_state(&msg, &mut outputs);
@@ -548,7 +541,7 @@ async fn wrench_task(
     let mut params_out = Vec::new();
     loop {
         let msg = next_sample(&sub, &mut gaps, &sh.dropped).await;
-        let log_ns = unix_now_ns() as u64;
+        let log_ns = now_ns();
         {
             let core = &mut sh.lock_core().core;
             core.on_wrench(leg, &msg);
@@ -589,7 +582,7 @@ fn node_status(
     };
     let rec_error = recording_state(recorder, record_error, &mut values);
     let mut d = shared.lock_core().core.diagnostics(
-        unix_now_ns(),
+        now_ns() as i64,
         shared.dropped.load(Ordering::Relaxed),
         &values,
     );

@@ -122,8 +122,8 @@ impl FtMatcher {
         }
     }
 
-    /// Takes the angle of `leg` from `msg` (whose stamp is `stamp_ns`, valid, and whose arrays
-    /// have equal lengths) and keeps it; then hands the leg's waiting F/T samples at or before
+    /// Takes the angle of `leg` from `msg` (a usable JointState, [`usable_stamp_ns`], whose
+    /// stamp is `stamp_ns`) and keeps it; then hands the leg's waiting F/T samples at or before
     /// it to `matched`, in order.
     pub fn on_angle(
         &mut self,
@@ -145,7 +145,7 @@ impl FtMatcher {
                 .ok_or(NoAngle::MissingJoint)?
         };
         m.joint_index = idx;
-        let position = msg.position[idx];
+        let position = msg.position.get(idx).copied().unwrap_or(f64::NAN);
         if !position.is_finite() {
             return Err(NoAngle::InvalidPosition);
         }
@@ -170,14 +170,23 @@ impl FtMatcher {
         Ok(beta)
     }
 
-    /// Takes a measured wrench of `leg` (stamp valid, force finite). One newer than the leg's
-    /// newest angle waits for the angle after it, so that the nearest angle in time is used;
-    /// when too many wait (the angles stopped), the oldest is matched with what there is. What
-    /// is decided now goes to `matched`.
-    pub fn on_wrench(&mut self, leg: usize, msg: &WrenchStamped, mut matched: impl FnMut(Match)) {
+    /// Takes a measured wrench of `leg`; `false` (and nothing taken) if its stamp is invalid or
+    /// its force not finite. One newer than the leg's newest angle waits for the angle after it,
+    /// so that the nearest angle in time is used; when too many wait (the angles stopped), the
+    /// oldest is matched with what there is. What is decided now goes to `matched`.
+    pub fn on_wrench(
+        &mut self,
+        leg: usize,
+        msg: &WrenchStamped,
+        mut matched: impl FnMut(Match),
+    ) -> bool {
+        let f = &msg.wrench.force;
+        if !(msg.header.stamp.is_valid() && f.x.is_finite() && f.z.is_finite()) {
+            return false;
+        }
         let max_dt_ns = self.max_dt_ns;
         let Some(m) = self.legs.get_mut(leg) else {
-            return;
+            return true;
         };
         let t_ns = msg.header.stamp.to_nanos();
         let newest = m.history.back().map(|h| h.0);
@@ -188,10 +197,18 @@ impl FtMatcher {
             {
                 matched(m.matched(&old, max_dt_ns));
             }
-            return;
+            return true;
         }
         matched(m.matched(msg, max_dt_ns));
+        true
     }
+}
+
+/// The stamp (ns) of a JointState the matcher can use: its names and positions pair up and its
+/// stamp is valid. `None` for one that is refused.
+pub fn usable_stamp_ns(msg: &JointState) -> Option<i64> {
+    (msg.name.len() == msg.position.len() && msg.header.stamp.is_valid())
+        .then(|| msg.header.stamp.to_nanos())
 }
 
 /// The angle whose stamp is nearest `t_ns`, if within `max_dt_ns`. History is in time order.

@@ -77,8 +77,21 @@ impl ParamClient {
         })
     }
 
-    fn qos() -> QosProfile {
-        QosProfile::publisher_default().history(History::KeepLast { depth: 1 })
+    /// A client of the service `service` (type `rcl_interfaces/<type_name>`) of node `target`.
+    fn client<Req: Message + Clone + 'static, Resp: Message + 'static>(
+        &mut self,
+        target: &str,
+        service: &str,
+        type_name: &str,
+    ) -> Result<Client<Req, Resp>> {
+        let qos = QosProfile::publisher_default().history(History::KeepLast { depth: 1 });
+        Ok(self.node.create_client::<Req, Resp>(
+            ServiceMapping::Enhanced,
+            &service_name(target, service)?,
+            &ServiceTypeName::new("rcl_interfaces", type_name),
+            qos.clone(),
+            qos,
+        )?)
     }
 
     /// The values of `names` on the node `target` (e.g. `/terzaghi`); `None` for a parameter
@@ -87,15 +100,11 @@ impl ParamClient {
         if names.is_empty() {
             bail!("name at least one parameter");
         }
-        let client = self
-            .node
-            .create_client::<GetParametersRequest, GetParametersResponse>(
-                ServiceMapping::Enhanced,
-                &service_name(target, "get_parameters")?,
-                &ServiceTypeName::new("rcl_interfaces", "GetParameters"),
-                Self::qos(),
-                Self::qos(),
-            )?;
+        let client = self.client::<GetParametersRequest, GetParametersResponse>(
+            target,
+            "get_parameters",
+            "GetParameters",
+        )?;
         let request = GetParametersRequest {
             names: names.to_vec(),
         };
@@ -122,15 +131,11 @@ impl ParamClient {
         if let (Some(ParamValue::Double(_)), ParamValue::Int(i)) = (&current, &new_value) {
             new_value = ParamValue::Double(*i as f64);
         }
-        let client = self
-            .node
-            .create_client::<SetParametersRequest, SetParametersResponse>(
-                ServiceMapping::Enhanced,
-                &service_name(target, "set_parameters")?,
-                &ServiceTypeName::new("rcl_interfaces", "SetParameters"),
-                Self::qos(),
-                Self::qos(),
-            )?;
+        let client = self.client::<SetParametersRequest, SetParametersResponse>(
+            target,
+            "set_parameters",
+            "SetParameters",
+        )?;
         let p = Parameter {
             name: name.to_string(),
             value: to_ros(&new_value),

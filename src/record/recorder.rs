@@ -39,7 +39,8 @@ pub struct Recorder {
     pub path: PathBuf,
 }
 
-fn now_ns() -> u64 {
+/// Now on the wall clock (ns since the Unix epoch): the log time of what is recorded.
+pub fn now_ns() -> u64 {
     SystemTime::now()
         .duration_since(UNIX_EPOCH)
         .map(|d| d.as_nanos() as u64)

@@ -47,8 +47,14 @@ pub fn diagnose_file(log: &Path, opts: &DiagnoseFileOptions) -> Result<Diagnosed
     }
     let legs = match Opened::mcap(log)? {
         Some(opened) => {
+            opened.refuse_cut_off(log)?;
             let cfg = opts.legs_from.config(&opened, log)?;
             let chosen = choose_legs(&cfg, opts.leg.as_deref())?;
+            if chosen.is_empty() {
+                bail!(
+                    "no leg to diagnose has an F/T topic in the parameters (set <leg>.ft_topic, or use --joint and --wrench-topic)"
+                );
+            }
             session_legs(log, &opened, &cfg, &chosen)?
         }
         None => {

@@ -87,8 +87,8 @@ impl LegsFrom {
     }
 }
 
-/// The legs named `leg`, or else every leg with an F/T topic; an error names the legs there are
-/// when `leg` is not one of them or has no F/T.
+/// The leg named `leg`, or else every leg with an F/T topic (none, if none has one); an error
+/// names the legs there are when `leg` is not one of them or has no F/T.
 pub fn choose_legs(cfg: &NodeConfig, leg: Option<&str>) -> Result<Vec<usize>> {
     let names = || {
         cfg.legs
@@ -110,17 +110,12 @@ pub fn choose_legs(cfg: &NodeConfig, leg: Option<&str>) -> Result<Vec<usize>> {
             .filter(|&i| cfg.legs[i].ft_topic.is_some())
             .collect(),
     };
-    if chosen.is_empty() {
-        bail!(
-            "no leg to diagnose has an F/T topic in the parameters (set <leg>.ft_topic, or use --joint and --wrench-topic)"
-        );
-    }
     Ok(chosen)
 }
 
-/// The measured samples of the legs `chosen` of the session `file`, with `cfg`. A cut-off or
-/// damaged file is refused with the command that mends it; a leg without a matched sample is
-/// refused with the topics the file has.
+/// The measured samples of the legs `chosen` of the complete session `file`
+/// ([`Opened::refuse_cut_off`]), with `cfg`. A damaged file is refused with the command that
+/// mends it; a leg without a matched sample is refused with the topics the file has.
 pub fn session_legs(
     file: &Path,
     opened: &Opened,
@@ -128,14 +123,6 @@ pub fn session_legs(
     chosen: &[usize],
 ) -> Result<Vec<LegLog>> {
     let head = opened.head();
-    if !head.complete {
-        bail!(
-            "{} is cut off ({}): recover it first with `terzaghi recover {} -o FIXED.mcap`",
-            file.display(),
-            head.stopped.as_deref().unwrap_or("no footer"),
-            file.display()
-        );
-    }
     let (mut samples, read) = measured_samples(opened.source(), cfg.clone())
         .with_context(|| file.display().to_string())?;
     if !read.complete {
@@ -185,21 +172,12 @@ pub fn one_leg(file: &Path, legs_from: &LegsFrom, leg: Option<&str>) -> Result<L
     let Some(opened) = Opened::mcap(file)? else {
         bail!("{} is not an MCAP file", file.display());
     };
-    if !opened.head().complete {
-        bail!(
-            "{} is cut off: recover it first with `terzaghi recover {} -o FIXED.mcap`",
-            file.display(),
-            file.display()
-        );
-    }
+    opened.refuse_cut_off(file)?;
     let cfg = legs_from.config(&opened, file)?;
-    let chosen = match choose_legs(&cfg, leg) {
-        Ok(c) => c,
-        Err(_) if leg.is_none() => {
-            bail!("no leg has an F/T topic in the parameters (set <leg>.ft_topic)")
-        }
-        Err(e) => return Err(e),
-    };
+    let chosen = choose_legs(&cfg, leg)?;
+    if chosen.is_empty() {
+        bail!("no leg has an F/T topic in the parameters (set <leg>.ft_topic)");
+    }
     if chosen.len() > 1 {
         bail!(
             "the session has several legs with F/T topics ({}): choose one with --leg",

@@ -76,6 +76,10 @@ pub struct Opened {
 impl Opened {
     /// Opens `path`; `None` when it is not an MCAP file.
     pub fn mcap(path: &Path) -> Result<Option<Opened>> {
+        // Told by its first bytes, so that a CSV log is not read here as well.
+        if !files::is_mcap(path)? {
+            return Ok(None);
+        }
         let indexed =
             IndexedFile::open(path).with_context(|| format!("cannot read {}", path.display()))?;
         if let Some(f) = indexed {
@@ -87,9 +91,6 @@ impl Opened {
             }));
         }
         let whole = files::read_file(path)?;
-        if !whole.starts_with(b"\x89MCAP") {
-            return Ok(None);
-        }
         // Cut off (no summary): scanned for its topics and parameters.
         let head = scan(&whole, |_, _| {}).with_context(|| path.display().to_string())?;
         Ok(Some(Opened {
@@ -97,6 +98,20 @@ impl Opened {
             whole,
             head,
         }))
+    }
+
+    /// An error, with the command that mends it, when the file is cut off (it has no summary);
+    /// what is read from a session is read from a complete one.
+    pub fn refuse_cut_off(&self, file: &Path) -> Result<()> {
+        if !self.head.complete {
+            anyhow::bail!(
+                "{} is cut off ({}): recover it first with `terzaghi recover {} -o FIXED.mcap`",
+                file.display(),
+                self.head.stopped.as_deref().unwrap_or("no footer"),
+                file.display()
+            );
+        }
+        Ok(())
     }
 
     /// Topics, counts, metadata and whether the file is complete.

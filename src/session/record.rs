@@ -4,13 +4,13 @@
 use crate::msgs::{DiagnosticArray, JointState, LegForce, ModelParams, RosMessage, WrenchStamped};
 use crate::node::dds::{subscription, tool_node};
 use crate::record::RecordOptions;
-use crate::record::recorder::{Record, Recorder};
+use crate::record::recorder::{Record, Recorder, now_ns};
 use anyhow::{Context as _, Result, anyhow, bail};
 use ros2_client::Node;
 use std::future::Future;
 use std::path::Path;
 use std::sync::Arc;
-use std::time::{Duration, SystemTime, UNIX_EPOCH};
+use std::time::Duration;
 
 /// The message types the recorder knows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -55,13 +55,6 @@ pub fn kind_of(spec: &str) -> Result<(String, Kind)> {
         }
     };
     Ok((topic, kind))
-}
-
-fn now_ns() -> u64 {
-    SystemTime::now()
-        .duration_since(UNIX_EPOCH)
-        .map(|d| d.as_nanos() as u64)
-        .unwrap_or(0)
 }
 
 fn spawn<M: RosMessage + Sync>(

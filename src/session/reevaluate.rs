@@ -6,12 +6,11 @@ use super::Opened;
 use super::csv_rows::{CSV_HEADER, CsvRows};
 use super::files::{refuse_existing_recording, write_atomically};
 use crate::config::{NodeConfig, ParamMap, RosArgs, defaults, load_params, parse_value};
-use crate::ident::Estimate;
-use crate::ident::Sample;
+use crate::ident::{Estimate, Sample};
 use crate::model::Regime;
 use crate::msgs::{DecodeInto, JointState, LegForce, ModelParams, RosMessage, WrenchStamped};
 use crate::node::core::{CoreMode, LegOutput, Matched, NodeCore};
-use crate::node::matcher::{FtMatcher, Match};
+use crate::node::matcher::{FtMatcher, Match, usable_stamp_ns};
 use crate::record::read::{MessageView, Scan, Source, TopicInfo, same_type, scan_topics};
 use crate::record::{OfferedQos, RecordError, RecordOptions, SessionWriter};
 use anyhow::{Context as _, Result, anyhow, bail};
@@ -83,7 +82,12 @@ pub fn reevaluate<'a>(
     on_row: impl FnMut(&Row),
     on_output: impl FnMut(Output),
 ) -> Result<Summary, RecordError> {
-    modelled(source.into(), cfg, true, on_row, on_output)
+    run_core(
+        source.into(),
+        NodeCore::with_mode(cfg, CoreMode::Reevaluation),
+        on_row,
+        on_output,
+    )
 }
 
 /// [`reevaluate`] for rows only: the node's output messages of legs with F/T are not made
@@ -96,22 +100,12 @@ pub fn reevaluate_rows<'a>(
     on_row: impl FnMut(&Row),
     on_output: impl FnMut(Output),
 ) -> Result<Summary, RecordError> {
-    modelled(source.into(), cfg, false, on_row, on_output)
-}
-
-fn modelled(
-    source: Source,
-    cfg: NodeConfig,
-    outputs_for_ft_legs: bool,
-    on_row: impl FnMut(&Row),
-    on_output: impl FnMut(Output),
-) -> Result<Summary, RecordError> {
-    let mode = if outputs_for_ft_legs {
-        CoreMode::Reevaluation
-    } else {
-        CoreMode::ReevaluationRows
-    };
-    run_core(source, NodeCore::with_mode(cfg, mode), on_row, on_output)
+    run_core(
+        source.into(),
+        NodeCore::with_mode(cfg, CoreMode::ReevaluationRows),
+        on_row,
+        on_output,
+    )
 }
 
 /// What a topic of a session is to a configuration.
@@ -141,37 +135,34 @@ fn role_of(cfg: &NodeConfig) -> impl Fn(&TopicInfo) -> Role + '_ {
     }
 }
 
-/// The measured F/T samples of every leg, each with the joint angle nearest in time (as the
-/// node matches them, [`FtMatcher`]; F/T in the leg frame turned into the hip frame), without
-/// running the model: what the diagnosis and the fits read. Legs without F/T get none.
-pub fn measured_samples<'a>(
-    source: impl Into<Source<'a>>,
-    cfg: NodeConfig,
-) -> Result<(Vec<Vec<Sample>>, Summary), RecordError> {
+/// A decoded input of a session.
+enum Input<'m> {
+    Joints(&'m JointState),
+    Wrench(usize, &'m WrenchStamped),
+}
+
+/// Reads the inputs of `cfg` in `source` (its JointState topic and the legs' F/T topics), each
+/// decoded into a reused message and handed to `on_input` with the record it came from; a
+/// message that does not decode is counted and skipped. The summary gives the counts, whether
+/// the file is complete and the topics passed over; its rows and estimates are the caller's.
+fn scan_inputs(
+    source: Source,
+    cfg: &NodeConfig,
+    mut on_input: impl FnMut(Input, &Scan, &MessageView),
+) -> Result<Summary, RecordError> {
     let legs = cfg.legs.len();
-    let mut out = vec![Vec::new(); legs];
     let mut sum = Summary {
         estimates: vec![None; legs],
         ..Default::default()
     };
-    let mut matcher = FtMatcher::new(&cfg);
-    let role = role_of(&cfg);
+    let role = role_of(cfg);
     let mut roles: Vec<Option<Role>> = Vec::new();
+    // Decoded into, message after message; one F/T message per leg, so that its frame is the
+    // one already held.
     let mut js = JointState::default();
     let mut ws = vec![WrenchStamped::default(); legs];
-    let keep = |leg: usize, m: Match, out: &mut Vec<Vec<Sample>>, rows: &mut u64| {
-        if let Match::Matched(mt) = m {
-            *rows += 1;
-            out[leg].push(Sample {
-                t_s: Some(mt.t_ns as f64 * 1e-9),
-                beta_rad: mt.beta_rad,
-                drag_n: mt.drag_n,
-                lift_n: mt.lift_n,
-            });
-        }
-    };
     let scan_result = scan_topics(
-        source.into(),
+        source,
         |t| role(t) != Role::Skip,
         |scan, m| {
             if roles.len() < scan.topics.len() {
@@ -184,15 +175,7 @@ pub fn measured_samples<'a>(
                         return;
                     }
                     sum.joint_states += 1;
-                    if js.name.len() != js.position.len() || !js.header.stamp.is_valid() {
-                        return;
-                    }
-                    let stamp_ns = js.header.stamp.to_nanos();
-                    for leg in 0..legs {
-                        let _ = matcher.on_angle(leg, &js, stamp_ns, |mt| {
-                            keep(leg, mt, &mut out, &mut sum.rows)
-                        });
-                    }
+                    on_input(Input::Joints(&js), scan, &m);
                 }
                 Role::Ft(leg) => {
                     let w = &mut ws[leg];
@@ -201,10 +184,7 @@ pub fn measured_samples<'a>(
                         return;
                     }
                     sum.ft_samples += 1;
-                    let f = &w.wrench.force;
-                    if w.header.stamp.is_valid() && f.x.is_finite() && f.z.is_finite() {
-                        matcher.on_wrench(leg, w, |mt| keep(leg, mt, &mut out, &mut sum.rows));
-                    }
+                    on_input(Input::Wrench(leg, w), scan, &m);
                 }
                 Role::Skip => {}
             }
@@ -218,9 +198,47 @@ pub fn measured_samples<'a>(
         .filter(|t| role(t) == Role::Skip)
         .map(|t| t.topic.clone())
         .collect();
+    Ok(sum)
+}
+
+/// The measured F/T samples of every leg, each with the joint angle nearest in time (as the
+/// node matches them, [`FtMatcher`]; F/T in the leg frame turned into the hip frame), without
+/// running the model: what the diagnosis and the fits read. Legs without F/T get none.
+pub fn measured_samples<'a>(
+    source: impl Into<Source<'a>>,
+    cfg: NodeConfig,
+) -> Result<(Vec<Vec<Sample>>, Summary), RecordError> {
+    let legs = cfg.legs.len();
+    let mut out = vec![Vec::new(); legs];
+    let mut matcher = FtMatcher::new(&cfg);
+    let mut keep = |leg: usize, m: Match| {
+        if let Match::Matched(mt) = m {
+            out[leg].push(Sample {
+                t_s: Some(mt.t_ns as f64 * 1e-9),
+                beta_rad: mt.beta_rad,
+                drag_n: mt.drag_n,
+                lift_n: mt.lift_n,
+            });
+        }
+    };
+    let mut sum = scan_inputs(source.into(), &cfg, |input, _, _| match input {
+        Input::Joints(js) => {
+            if let Some(stamp_ns) = usable_stamp_ns(js) {
+                for leg in 0..legs {
+                    let _ = matcher.on_angle(leg, js, stamp_ns, |m| keep(leg, m));
+                }
+            }
+        }
+        Input::Wrench(leg, w) => {
+            matcher.on_wrench(leg, w, |m| keep(leg, m));
+        }
+    })?;
+    sum.rows = out.iter().map(|s| s.len() as u64).sum();
     Ok((out, sum))
 }
 
+/// Runs the inputs of `source` through `core`: `on_row` gets every prediction next to its
+/// measurement, `on_output` every input, prediction and parameter message.
 fn run_core(
     source: Source,
     mut core: NodeCore,
@@ -228,43 +246,23 @@ fn run_core(
     mut on_output: impl FnMut(Output),
 ) -> Result<Summary, RecordError> {
     let cfg = core.config().clone();
-    let legs = cfg.legs.len();
     let has_ft: Vec<bool> = cfg.legs.iter().map(|l| l.ft_topic.is_some()).collect();
-    let mut sum = Summary {
-        estimates: vec![None; legs],
-        ..Default::default()
-    };
-    let role_of = role_of(&cfg);
-    let mut roles: Vec<Option<Role>> = Vec::new();
+    let mut rows = 0u64;
     let mut outputs: Vec<LegOutput> = Vec::new();
     let mut params = Vec::new();
     let mut matches: Vec<(usize, Matched)> = Vec::new();
-    let wanted = |t: &TopicInfo| role_of(t) != Role::Skip;
-    // Decoded into, message after message; one F/T message per leg, so that its frame is
-    // the one already held.
-    let mut js = JointState::default();
-    let mut ws = vec![WrenchStamped::default(); legs];
-    let scan_result = scan_topics(source, wanted, |scan, m| {
-        if roles.len() < scan.topics.len() {
-            roles.resize(scan.topics.len(), None);
-        }
-        let role = *roles[m.topic].get_or_insert_with(|| role_of(&scan.topics[m.topic]));
+    let mut sum = scan_inputs(source, &cfg, |input, scan, m| {
         let log = m.log_time_ns;
-        match role {
-            Role::Joints => {
-                if js.decode_into(m.data).is_err() {
-                    sum.undecodable += 1;
-                    return;
-                }
-                on_output(Output::Input(scan, &m));
-                sum.joint_states += 1;
+        on_output(Output::Input(scan, m));
+        match input {
+            Input::Joints(js) => {
                 outputs.clear();
-                core.on_joint_state(&js, &mut outputs);
+                core.on_joint_state(js, &mut outputs);
                 for o in &outputs {
                     on_output(Output::Prediction(log, o));
                     if !has_ft[o.leg] {
                         let f = &o.force;
-                        sum.rows += 1;
+                        rows += 1;
                         on_row(&Row {
                             t_s: f.header.stamp.to_secs(),
                             leg: o.leg,
@@ -282,17 +280,7 @@ fn run_core(
                     }
                 }
             }
-            Role::Ft(leg) => {
-                let w = &mut ws[leg];
-                if w.decode_into(m.data).is_err() {
-                    sum.undecodable += 1;
-                    return;
-                }
-                on_output(Output::Input(scan, &m));
-                sum.ft_samples += 1;
-                core.on_wrench(leg, w);
-            }
-            Role::Skip => return,
+            Input::Wrench(leg, w) => core.on_wrench(leg, w),
         }
         core.take_params(&mut params);
         for (leg, p) in params.drain(..) {
@@ -300,38 +288,29 @@ fn run_core(
         }
         core.take_matches(&mut matches);
         for (leg, mt) in matches.drain(..) {
-            {
-                let Some(p) = core.predict(leg, mt.beta_rad) else {
-                    continue;
-                };
-                let (b_k, a, identified) = core.width_in_use(leg).unwrap_or((0.0, 0.0, false));
-                sum.rows += 1;
-                on_row(&Row {
-                    t_s: mt.t_ns as f64 * 1e-9,
-                    leg,
-                    beta_rad: mt.beta_rad,
-                    regime: p.regime,
-                    measured_drag_n: Some(mt.drag_n),
-                    measured_lift_n: Some(mt.lift_n),
-                    predicted_drag_n: p.drag_n,
-                    predicted_lift_n: p.lift_n,
-                    predicted_hip_torque_nm: p.hip_torque_nm,
-                    b_k,
-                    a,
-                    identified,
-                });
-            }
+            let Some(p) = core.predict(leg, mt.beta_rad) else {
+                continue;
+            };
+            let (b_k, a, identified) = core.width_in_use(leg).unwrap_or((0.0, 0.0, false));
+            rows += 1;
+            on_row(&Row {
+                t_s: mt.t_ns as f64 * 1e-9,
+                leg,
+                beta_rad: mt.beta_rad,
+                regime: p.regime,
+                measured_drag_n: Some(mt.drag_n),
+                measured_lift_n: Some(mt.lift_n),
+                predicted_drag_n: p.drag_n,
+                predicted_lift_n: p.lift_n,
+                predicted_hip_torque_nm: p.hip_torque_nm,
+                b_k,
+                a,
+                identified,
+            });
         }
     })?;
-    sum.complete = scan_result.complete;
-    sum.stopped = scan_result.stopped.clone();
-    sum.skipped_topics = scan_result
-        .topics
-        .iter()
-        .filter(|t| role_of(t) == Role::Skip)
-        .map(|t| t.topic.clone())
-        .collect();
-    sum.estimates = (0..legs).map(|i| core.estimate(i)).collect();
+    sum.rows = rows;
+    sum.estimates = (0..cfg.legs.len()).map(|i| core.estimate(i)).collect();
     Ok(sum)
 }
 
@@ -419,19 +398,16 @@ fn prepare(file: &Path, opts: &ReevaluateOptions) -> Result<Prepared> {
     };
     let (cfg, params) = session_config(opts.params_file.as_deref(), opened.head(), file)?;
     // Progress counts the inputs read (joint states and F/T), which is what takes the time.
-    let inputs = opened
-        .head()
-        .topics
-        .iter()
-        .filter(|t| {
-            t.topic == cfg.joint_states_topic
-                || cfg
-                    .legs
-                    .iter()
-                    .any(|l| l.ft_topic.as_deref() == Some(&t.topic))
-        })
-        .map(|t| t.count)
-        .sum();
+    let inputs = {
+        let role = role_of(&cfg);
+        opened
+            .head()
+            .topics
+            .iter()
+            .filter(|t| role(t) != Role::Skip)
+            .map(|t| t.count)
+            .sum()
+    };
     Ok(Prepared {
         opened,
         cfg,

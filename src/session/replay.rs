@@ -60,6 +60,9 @@ pub async fn replay(
     stop: impl Future<Output = ()>,
     mut progress: impl FnMut(u64, u64),
 ) -> Result<Replayed> {
+    if !(opts.rate.is_finite() && opts.rate > 0.0) {
+        anyhow::bail!("replay rate {}: must be a positive number", opts.rate);
+    }
     let bytes = read_file(file)?;
     let mut session = read_session(&bytes).with_context(|| file.display().to_string())?;
     // Played in log-time order: chunks may overlap in time (the node's outputs are in chunks of

@@ -4,7 +4,7 @@
 
 mod status;
 
-use super::matcher::{FtMatcher, Match, NoAngle};
+use super::matcher::{FtMatcher, Match, NoAngle, usable_stamp_ns};
 use crate::config::{ModelKind, NodeConfig};
 use crate::ident::{Estimate, OnlineEstimator, Sample};
 use crate::model::{FittingWidth, ForceModel, TerzaghiModel};
@@ -215,11 +215,10 @@ impl NodeCore {
     /// Predicts every configured leg found in `msg`; appends one output per leg predicted.
     pub fn on_joint_state(&mut self, msg: &JointState, out: &mut Vec<LegOutput>) {
         self.counters.joint_states += 1;
-        if msg.name.len() != msg.position.len() || !msg.header.stamp.is_valid() {
+        let Some(stamp_ns) = usable_stamp_ns(msg) else {
             self.counters.invalid_joint_states += 1;
             return;
-        }
-        let stamp_ns = msg.header.stamp.to_nanos();
+        };
         for i in 0..self.legs.len() {
             self.legs[i].counters.joint_states += 1;
             let mut decided = std::mem::take(&mut self.decided);
@@ -310,13 +309,10 @@ impl NodeCore {
             return;
         };
         l.counters.ft_received += 1;
-        let f = &msg.wrench.force;
-        if !(msg.header.stamp.is_valid() && f.x.is_finite() && f.z.is_finite()) {
-            l.counters.ft_invalid += 1;
-            return;
-        }
         let mut decided = std::mem::take(&mut self.decided);
-        self.matcher.on_wrench(leg, msg, |m| decided.push(m));
+        if !self.matcher.on_wrench(leg, msg, |m| decided.push(m)) {
+            self.legs[leg].counters.ft_invalid += 1;
+        }
         for m in decided.drain(..) {
             self.use_match(leg, m);
         }
