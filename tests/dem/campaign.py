@@ -238,14 +238,18 @@ def read_ave_time(path):
 # The bed
 
 
-def make_bed(cfg, name, workdir, hx=None, hy=None, depth=None, mu_fill=None):
+# The fill seed of the campaign's beds; the diagnosis part levels the bed again with others.
+BED_SEED = 86028121
+
+
+def make_bed(cfg, name, workdir, hx=None, hy=None, depth=None, mu_fill=None, seed=BED_SEED):
     hx = hx or cfg["hx"]
     hy = hy or cfg["hy"]
     depth = depth or cfg["depth"]
     r = cfg["r"]
     v = engine_vars(
         cfg,
-        seed=86028121,
+        seed=seed,
         hx=hx,
         hy=hy,
         depth=depth,
@@ -270,6 +274,7 @@ def make_bed(cfg, name, workdir, hx=None, hy=None, depth=None, mu_fill=None):
         hy=hy,
         depth=depth,
         mu_fill=v["mu_fill"],
+        seed=seed,
         grains=n,
         kinetic_energy_j=ke,
         settled_ke_ratio=ke / (n * mean_mass * G * 2 * r),
@@ -855,14 +860,112 @@ class Campaign:
         return manifest
 
 
-def import_sessions(out, terzaghi, log=print):
-    """Writes every run's CSV in out/runs as a ROS 2 MCAP session beside it, through
-    `terzaghi import-dem`, which refuses a run that made no contact, has a non-finite force or
-    whose bed did not settle. A refused run's CSV moves to out/refused. Returns the refusals."""
+# The diagnosis part: the same bed levelled again from other fill seeds (LIGGGHTS takes primes
+# above 10,000), so that every condition has several independent strokes, as a testbed's sand
+# differs a little each time it is levelled. Seed 0 is the campaign's own bed (BED_SEED).
+DIAGNOSIS_SEEDS = [BED_SEED, 86028157, 86028221, 86028223]
+
+
+def diagnosis_plan(cohesion):
+    """The diagnosis part's runs: (name, bed kind, seed index, stroke keywords). Runs the
+    campaign already has (the baseline stroke, var_cohesive, var_dense, var_fast on seed 0)
+    are not run again."""
+    plan = []
+    for k in (1, 2, 3):
+        plan.append(("dx_base_s%d" % k, "base", k, {}))
+        plan.append(("dx_cohesive_s%d" % k, "base", k, {"overrides": {"material": {"ced": cohesion}}}))
+    for k in (1, 2):
+        plan.append(("dx_dense_s%d" % k, "dense", k, {}))
+    # A robot that speeds up: strokes at 2.5, 5 and 7.5 rad/s (var_fast is 10 rad/s).
+    for k, w in ((1, 2.5), (2, 5.0), (3, 7.5)):
+        plan.append(("dx_fast_w%03d_s%d" % (round(w * 10), k), "base", k, {"omega": w}))
+    # Four passes through the same trough, never levelled between them.
+    plan.append(("dx_disturbed_s1", "base", 1, {"strokes": 4}))
+    return plan
+
+
+def run_diagnosis_part(args):
+    """Adds the diagnosis part's runs to an existing campaign (its manifest gives the medium),
+    writes their sessions, and records them in the manifest under `diagnosis`."""
+    out = os.path.abspath(args.out)
+    path = os.path.join(out, "campaign.json")
+    with open(path) as f:
+        manifest = json.load(f)
+    camp = Campaign(args)
+    camp.t0 = time.time()
+    camp.medium = manifest["medium"]
+    c = camp.cfg
+    b0, h0, w0 = c["width_m"], c["hip_height_m"], c["omega"]
+    plan = diagnosis_plan(args.cohesion)
+    beds = {}
+    bed_lock = threading.Lock()
+    bed_events = {}
+
+    def bed(kind, k):
+        # Each bed is built once, by whichever run needs it first; the other runs wait for it.
+        key = (kind, k)
+        with bed_lock:
+            ev = bed_events.get(key)
+            first = ev is None
+            if first:
+                ev = bed_events[key] = threading.Event()
+        if first:
+            name = "bed_%s_s%d" % (kind, k)
+            kw = {"mu_fill": 0.05} if kind == "dense" else {}
+            beds[key] = camp.bed(name, seed=DIAGNOSIS_SEEDS[k], **kw)
+            ev.set()
+        ev.wait()
+        return beds[key]
+
+    def go(name, kind, k, kw):
+        bd = bed(kind, k)
+        if not bd["settled"]:
+            camp.refused.append({"name": name, "reason": "bed %s did not settle" % bd["name"]})
+            return
+        kw = dict(kw)
+        run, samples = run_stroke(c, name, camp.work, bd, width_m=b0, hip_height_m=h0,
+                                  omega=kw.pop("omega", w0), **kw)
+        run["seed"] = DIAGNOSIS_SEEDS[k]
+        camp.save(run, samples, bd)
+
+    camp.log("engine: %s; diagnosis part, %d runs" % (camp.engine, len(plan)))
+    # Longest first, so that the engine processes finish together.
+    order = sorted(plan, key=lambda r: -r[3].get("strokes", 1) / r[3].get("omega", w0))
+    with cf.ThreadPoolExecutor(max_workers=args.jobs) as pool:
+        for f in [pool.submit(go, *r) for r in order]:
+            f.result()
+    names = {r["name"] for r in camp.runs}
+    refused = import_sessions(out, camp.terzaghi, camp.log, only=names)
+    manifest["runs"] = sorted([r for r in manifest["runs"] if r["name"] not in names] + camp.runs,
+                              key=lambda r: r["name"])
+    for k, v in camp.beds.items():
+        manifest["beds"][k] = {kk: vv for kk, vv in v.items() if kk != "restart"}
+    manifest["refused"] = manifest.get("refused", []) + camp.refused + refused
+    manifest["diagnosis"] = {
+        "command": "python3 tests/dem/campaign.py --out %s --diagnosis --jobs %d" % (
+            os.path.relpath(out, os.path.dirname(os.path.dirname(HERE))), args.jobs),
+        "engine": camp.engine,
+        "seeds": DIAGNOSIS_SEEDS,
+        "runs": sorted(names),
+        "seconds": round(time.time() - camp.t0, 1),
+    }
+    with open(path, "w") as f:
+        json.dump(manifest, f, indent=1, sort_keys=True)
+    if not args.keep_work:
+        shutil.rmtree(camp.work, ignore_errors=True)
+    camp.log("diagnosis part done in %.0f s (%.1f min): %d runs"
+             % (manifest["diagnosis"]["seconds"], manifest["diagnosis"]["seconds"] / 60, len(names)))
+
+
+def import_sessions(out, terzaghi, log=print, only=None):
+    """Writes every run's CSV in out/runs (or those named in `only`) as a ROS 2 MCAP session
+    beside it, through `terzaghi import-dem`, which refuses a run that made no contact, has a
+    non-finite force or whose bed did not settle. A refused run's CSV moves to out/refused.
+    Returns the refusals."""
     refused = []
     runs = os.path.join(out, "runs")
     for name in sorted(os.listdir(runs)):
-        if not name.endswith(".csv"):
+        if not name.endswith(".csv") or (only is not None and name[:-4] not in only):
             continue
         csv_path = os.path.join(runs, name)
         mcap_path = csv_path[:-4] + ".mcap"
@@ -889,6 +992,8 @@ def main():
     ap.add_argument("--keep-work", action="store_true", help="keep the engine's inputs, logs and restarts")
     ap.add_argument("--remeasure-medium", action="store_true",
                     help="measure the friction angle again and rewrite it in the runs already in --out")
+    ap.add_argument("--diagnosis", action="store_true",
+                    help="add the diagnosis part (independent beds and strokes per condition) to the campaign in --out")
     ap.add_argument("--import-only", action="store_true",
                     help="only write the sessions of the CSV runs already in --out (no engine)")
     args = ap.parse_args()
@@ -901,6 +1006,9 @@ def main():
         sys.exit("--jobs must be at least 1")
     if args.remeasure_medium:
         Campaign(args).remeasure_medium()
+        return
+    if args.diagnosis:
+        run_diagnosis_part(args)
         return
     Campaign(args).run()
 
