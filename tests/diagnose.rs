@@ -279,7 +279,7 @@ fn bad_logs_are_refused_with_exit_2() {
         },
         1200,
     );
-    refused(&diag(&p("short.csv"), &geom), &["strokes", "at least 6"]);
+    refused(&diag(&p("short.csv"), &geom), &["strokes", "at least 4"]);
     // A real session, but the configured hip is higher than the leg is long: never in the medium.
     ok(&terzaghi(&[
         "simulate",
@@ -388,9 +388,110 @@ fn diagnose_eval_meets_its_targets_on_withheld_effects() {
         f("gap_error_mean_pts")
     );
     assert!(f("gap_error_median_pts") <= 10.0);
+    // Pairs of effects: both reported as significant effects.
+    assert!(
+        f("pair_both_ok_pct") >= 80.0,
+        "pairs both found {}",
+        f("pair_both_ok_pct")
+    );
     // The verdicts really come from the sessions: no case is labelled from the truth.
     let cases = v["cases"].as_array().unwrap();
     assert_eq!(cases.len(), 208);
     assert!(cases.iter().any(|c| c["verdict"] == "unexplained"));
     assert!(cases.iter().any(|c| c["verdict"] == "none"));
+}
+
+/// The diagnosis on the committed DEM campaign (LIGGGHTS; physics the project did not write):
+/// every case is a session built from the campaign's runs with sensor noise, handed to the
+/// diagnosis without its label.
+#[test]
+fn on_the_dem_campaign_the_varied_effect_is_reported() {
+    let campaign = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/dem/campaign");
+    let out = ok(&terzaghi(&[
+        "diagnose-eval",
+        "--cases",
+        "0",
+        "--dem",
+        campaign.to_str().unwrap(),
+        "--json",
+    ]));
+    let v: Value = serde_json::from_str(&out).unwrap();
+    let dem = v["dem"].as_array().unwrap();
+    let case = |name: &str| {
+        dem.iter()
+            .find(|c| c["case"] == name)
+            .unwrap_or_else(|| panic!("no DEM case {name}"))
+    };
+    for c in dem {
+        eprintln!(
+            "{:<20} verdict {:<12} effects {} found {} reported {} measured {}",
+            c["case"].as_str().unwrap(),
+            c["verdict"].as_str().unwrap(),
+            c["effects"],
+            c["found"],
+            c["reported_pct"],
+            c["measured_pct"]
+        );
+    }
+    // The varied effect is the verdict or one of the significant effects: speed, cohesion, a
+    // bed that gets denser, a surface higher than configured, a trough passed through again,
+    // and the sensor's offset (beside the flat-plate model's large misfit on a C-leg too) and
+    // delay. The one the README says is missed: a delay at one speed on the C-leg.
+    for name in [
+        "speed",
+        "cohesion",
+        "density",
+        "surface_level",
+        "disturbed",
+        "sensor_bias",
+        "cleg_sensor_bias",
+        "sensor_delay_20ms",
+        "sensor_delay_30ms",
+        "speed_sensor_delay",
+    ] {
+        assert_eq!(
+            case(name)["found"],
+            true,
+            "{name}: {}",
+            case(name)["report"]["summary"]
+        );
+    }
+    // A sensor offset is measured directly where the leg is out of the medium: the share of
+    // the gap it closes agrees with the share measured against the same strokes without it.
+    for name in ["sensor_bias", "cleg_sensor_bias"] {
+        let c = case(name);
+        let (r, m) = (
+            c["reported_pct"].as_f64().unwrap(),
+            c["measured_pct"].as_f64().unwrap(),
+        );
+        assert!((r - m).abs() <= 10.0, "{name}: reported {r}, measured {m}");
+        assert_eq!(
+            c["report"]["signatures"]["sensor_offset"]["significant"],
+            true
+        );
+    }
+    // The base case: the verdict is free, but the model's own misfit is reported as such.
+    let base = case("base");
+    let u = base["report"]["unexplained"]["share_of_gap_pct"]
+        .as_f64()
+        .unwrap();
+    assert!(
+        u > 10.0,
+        "the model's misfit on DEM is not all explained away: {u}"
+    );
+    assert!(
+        base["report"]["summary"]
+            .as_str()
+            .unwrap()
+            .contains("unexplained"),
+        "{}",
+        base["report"]["summary"]
+    );
+    // The report keeps the shape tools read: verdict, steps, candidates.
+    for c in dem {
+        let r = &c["report"];
+        assert!(r["verdict"]["effect"].is_string());
+        assert!(r["steps"].is_array());
+        assert_eq!(r["candidates"].as_array().unwrap().len(), 9);
+    }
 }

@@ -100,10 +100,25 @@ fn render(m: &serde_json::Value, r: &CampaignReport) -> String {
     let mut s = format!(
         "engine: {}\ncampaign: {} runs, {:.1} min ({})\n",
         m["engine"].as_str().unwrap_or("?"),
-        m["runs"].as_array().map_or(0, |v| v.len()),
+        m["runs"]
+            .as_array()
+            .map_or(0, |v| v.len())
+            .saturating_sub(m["diagnosis"]["runs"].as_array().map_or(0, |v| v.len())),
         m["seconds"].as_f64().unwrap_or(0.0) / 60.0,
         m["command"].as_str().unwrap_or("")
     );
+    let dx = &m["diagnosis"];
+    if let Some(runs) = dx["runs"].as_array() {
+        s += &format!(
+            "diagnosis part: {} runs on beds levelled from {} more fill seeds, {:.1} min ({})\n",
+            runs.len(),
+            dx["seeds"]
+                .as_array()
+                .map_or(0, |v| v.len().saturating_sub(1)),
+            dx["seconds"].as_f64().unwrap_or(0.0) / 60.0,
+            dx["command"].as_str().unwrap_or("")
+        );
+    }
     let base = &m["beds"]["bed_base"];
     let med = &m["medium"];
     s += &format!(

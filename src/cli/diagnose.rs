@@ -173,10 +173,29 @@ fn render(leg: &str, r: &Report, dir: &Path) -> String {
         r.baseline.rmse_n,
         r.gap.noise_var_n2.sqrt()
     );
-    for st in r.steps.iter().skip(1) {
+    if !r.steps.is_empty() {
         s += &format!(
-            "  then {}: {:.0} % of the gap closed in all\n",
-            st.effect, st.gap_closed_pct
+            "  significant effects: {}\n",
+            r.steps
+                .iter()
+                .map(|st| format!(
+                    "{} {:.0} %{}",
+                    st.effect,
+                    st.share_of_gap_pct,
+                    if st.evidence == "held_out+direct" {
+                        " (also seen directly)"
+                    } else {
+                        ""
+                    }
+                ))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    if let Some(u) = &r.unexplained {
+        s += &format!(
+            "  unexplained: {:.0} % of the gap (held-out RMSE {:.3} N once the effects are modelled)\n",
+            u.share_of_gap_pct, u.heldout_rmse_n
         );
     }
     s += &format!("  report: {}\n", dir.join("report.html").display());

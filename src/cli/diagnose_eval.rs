@@ -1,9 +1,10 @@
 //! `terzaghi diagnose-eval`: the diagnosis checked on sessions whose hidden effect it is not told.
 
 use super::print_out;
+use crate::dem::cases::{CaseError, DemOutcome};
 use crate::diagnose::DiagnoseOptions;
 use crate::withheld::{Outcome, Summary, run, summarize};
-use anyhow::{Result, bail};
+use anyhow::{Context, Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
@@ -32,6 +33,11 @@ pub struct DiagnoseEvalArgs {
     pub export_case: Option<usize>,
     #[arg(long, value_name = "DIR", requires = "export_case")]
     pub export_dir: Option<std::path::PathBuf>,
+    /// Also check the diagnosis on the DEM campaign in DIR (tests/dem/campaign): every
+    /// controlled variation with the effect it must name, and the base case. With --cases 0,
+    /// only these.
+    #[arg(long, value_name = "DIR")]
+    pub dem: Option<std::path::PathBuf>,
 }
 
 pub fn run_cmd(a: DiagnoseEvalArgs) -> Result<()> {
@@ -42,9 +48,16 @@ pub fn run_cmd(a: DiagnoseEvalArgs) -> Result<()> {
             dir.join("session.csv").display()
         ));
     }
-    if a.cases == 0 {
-        bail!("--cases must be at least 1");
+    if a.cases == 0 && a.dem.is_none() {
+        bail!("--cases must be at least 1 (or give --dem DIR to check only the DEM cases)");
     }
+    let campaign = match &a.dem {
+        Some(dir) => Some(
+            crate::dem::read_campaign(dir)
+                .with_context(|| format!("cannot read the DEM campaign {}", dir.display()))?,
+        ),
+        None => None,
+    };
     let threads = a
         .threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(2, |n| n.get()));
@@ -65,16 +78,29 @@ pub fn run_cmd(a: DiagnoseEvalArgs) -> Result<()> {
         bar.set_position(d as u64)
     });
     bar.finish_and_clear();
+    let generated_s = start.elapsed().as_secs_f64();
+    let dem_start = std::time::Instant::now();
+    let dem: Vec<Result<DemOutcome, CaseError>> = campaign
+        .as_ref()
+        .map(|c| crate::dem::cases::run_all(c, a.seed, &DiagnoseOptions::default()))
+        .unwrap_or_default();
+    let dem_s = dem_start.elapsed().as_secs_f64();
+    if let Some(e) = dem.iter().find_map(|r| r.as_ref().err()) {
+        bail!("{e}");
+    }
+    let dem: Vec<DemOutcome> = dem.into_iter().filter_map(Result::ok).collect();
     let summary = summarize(&outcomes);
     if a.json {
         #[derive(serde::Serialize)]
         struct All<'a> {
             summary: &'a Summary,
             cases: &'a [Outcome],
+            dem: &'a [DemOutcome],
         }
         let all = All {
             summary: &summary,
             cases: &outcomes,
+            dem: &dem,
         };
         return print_out(&(serde_json::to_string_pretty(&all)? + "\n"));
     }
@@ -94,8 +120,85 @@ pub fn run_cmd(a: DiagnoseEvalArgs) -> Result<()> {
         }
         s += "\n";
     }
-    s += &render(&summary, start.elapsed().as_secs_f64());
+    if a.cases > 0 {
+        s += &render(&summary, generated_s);
+    }
+    if let Some(dir) = &a.dem {
+        if a.cases > 0 {
+            s += "\n";
+        }
+        s += &render_dem(&dem, dir, dem_s);
+    }
     print_out(&s)
+}
+
+/// The DEM cases as a table, and how many variations had their effect found.
+pub fn render_dem(d: &[DemOutcome], dir: &std::path::Path, seconds: f64) -> String {
+    let mut out = format!(
+        "DEM cases from {} ({} cases in {seconds:.1} s; F/T noise {:.0} % of the peak force)\n",
+        dir.display(),
+        d.len(),
+        100.0 * crate::dem::cases::NOISE_FRAC
+    );
+    out += &format!(
+        "{:<18} {:<12} {:<12} {:<44} {:>5} {:>9} {:>9} {:>11}\n",
+        "case",
+        "expected",
+        "verdict",
+        "significant effects (share of the gap)",
+        "found",
+        "reported",
+        "measured",
+        "unexplained"
+    );
+    let pct = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.0} %"));
+    for o in d {
+        let effects = if o.effects.is_empty() {
+            "-".to_string()
+        } else {
+            o.effects
+                .iter()
+                .map(|(e, p)| format!("{e} {p:.0} %"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        out += &format!(
+            "{:<18} {:<12} {:<12} {:<44} {:>5} {:>9} {:>9} {:>11}\n",
+            o.case,
+            o.expected.map_or("(free)".to_string(), |e| e.to_string()),
+            o.verdict,
+            effects,
+            if o.expected.is_none() {
+                "-"
+            } else if o.found {
+                "yes"
+            } else {
+                "NO"
+            },
+            pct(o.reported_pct),
+            pct(o.measured_pct),
+            format!("{:.0} %", o.unexplained_pct),
+        );
+    }
+    let varied: Vec<&DemOutcome> = d.iter().filter(|o| o.expected.is_some()).collect();
+    let found = varied.iter().filter(|o| o.found).count();
+    let compared: Vec<f64> = varied
+        .iter()
+        .filter_map(|o| Some((o.reported_pct? - o.measured_pct?).abs()))
+        .collect();
+    let within = compared.iter().filter(|e| **e <= 10.0).count();
+    out += &format!(
+        "\nDEM: the varied effect found in {found} of {} variations; its reported share of the gap within 10 points of the measured in {within} of {}\n",
+        varied.len(),
+        compared.len()
+    );
+    if let Some(base) = d.iter().find(|o| o.expected.is_none()) {
+        out += &format!(
+            "DEM base case: held-out Psi drag {:.3}, lift {:.3}; {:.0} % of the gap unexplained (the model's own misfit)\n",
+            base.baseline_psi[0], base.baseline_psi[1], base.unexplained_pct
+        );
+    }
+    out
 }
 
 pub fn render(s: &Summary, seconds: f64) -> String {

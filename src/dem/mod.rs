@@ -10,6 +10,7 @@
 //! command that reads a recording (`info`, `fit`, `identify`, `replay --reevaluate`,
 //! `diagnose`) reads it. [`fidelity`] measures the models against a campaign's runs.
 
+pub mod cases;
 pub mod fidelity;
 
 use crate::config::{ParamMap, ParamValue, defaults};

@@ -19,6 +19,8 @@ pub struct Point {
     pub unit_n: [f64; 2],
     pub regime: Regime,
     pub submerged_m: f64,
+    /// Distance from the hip to where the submerged part begins (m).
+    pub inner_radius_m: f64,
     pub depth_m: f64,
     /// Submerged area of the plate's face (m^2).
     pub area_m2: f64,
@@ -30,6 +32,9 @@ pub struct Point {
     pub swept_m2: f64,
     /// Angular speed along the direction of travel (rad/s, >= 0 when turning forward).
     pub speed_rad_s: f64,
+    /// The session's typical speed in the medium (median of |speed| over the points in the
+    /// medium; the same for every point): what `rate` measures speed against.
+    pub typical_speed_rad_s: f64,
     /// Angular acceleration along the direction of travel (rad/s^2).
     pub accel_rad_s2: f64,
     pub stroke: usize,
@@ -104,12 +109,14 @@ impl Context {
                 unit_n: f.as_ref().map_or([0.0, 0.0], |f| [f.drag_n, f.lift_n]),
                 regime: f.as_ref().map_or(Regime::OutOfMedium, |f| f.regime),
                 submerged_m: submerged,
+                inner_radius_m: r_in,
                 depth_m: f.as_ref().map_or(0.0, |f| f.depth_m),
                 area_m2: submerged * b,
                 moment1_m3: b * (l * l - r_in * r_in) / 2.0 * (submerged > 0.0) as u8 as f64,
                 moment2_m4: b * (l.powi(3) - r_in.powi(3)) / 3.0 * (submerged > 0.0) as u8 as f64,
                 swept_m2: swept,
                 speed_rad_s: kin.speed_rad_s[i] * direction,
+                typical_speed_rad_s: 0.0,
                 accel_rad_s2: kin.accel_rad_s2[i] * direction,
                 stroke,
                 session_frac: if strokes > 1 {
@@ -119,6 +126,20 @@ impl Context {
                 },
                 fold: stroke % folds.max(1),
             });
+        }
+        let mut speeds: Vec<f64> = points
+            .iter()
+            .filter(|p| p.in_medium())
+            .map(|p| p.speed_rad_s.abs())
+            .collect();
+        let typical = if speeds.is_empty() {
+            0.0
+        } else {
+            let mid = speeds.len() / 2;
+            *speeds.select_nth_unstable_by(mid, f64::total_cmp).1
+        };
+        for p in &mut points {
+            p.typical_speed_rad_s = typical;
         }
         Context {
             model: unit,

@@ -1,16 +1,19 @@
 //! The library of candidate corrections: physically motivated terms with few parameters, each
 //! added to the baseline `b_k a^(-beta) F_unit(beta)`. Most are linear in their parameters (extra
-//! columns of a least-squares design); `hip_height` and `sensor_lag` have one nonlinear parameter,
-//! searched over a grid.
+//! columns of a least-squares design); `rate`, `hip_height` and `sensor_lag` have one nonlinear
+//! parameter, searched over a grid (for `rate`, the data choose how resistance grows with speed).
 
 use super::context::{Context, Point};
+use super::fit::Nonlinear;
 use std::fmt;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Effect {
-    /// Speed-dependent resistance: inertial drag `~ rho v^2 A` (every element of the plate moves
-    /// at `omega r` across it), normal to the plate and along it.
+    /// Speed-dependent resistance growing as `(omega r)^n` over the submerged plate (every element
+    /// moves at `omega r` across it), normal to the plate and along it, against the session's
+    /// typical speed. `n = 2` is inertial drag `~ rho v^2 A`; granular media often show less
+    /// (`n` near 1): `n` is fitted between 0.5 and 2.
     Rate,
     /// A force proportional to the angular acceleration (added mass of grains moved with the plate).
     Inertia,
@@ -20,7 +23,8 @@ pub enum Effect {
     /// The extraction phase (beta > 90 deg) failing differently from the passive model: its own
     /// scale for drag and lift, changing with the angle past vertical.
     Extraction,
-    /// The medium's strength drifting over the session (stroke by stroke).
+    /// The medium's strength changing over the session: a steady drift, and a change from one
+    /// stroke on (the ground compacted, loosened or disturbed), its stroke chosen by the data.
     Compaction,
     /// A strength term proportional to the submerged area (normal and along the plate).
     Cohesion,
@@ -63,6 +67,11 @@ impl Effect {
         ALL.into_iter().find(|e| e.name() == name)
     }
 
+    /// An effect of the F/T sensor rather than of the medium.
+    pub fn is_sensor(self) -> bool {
+        matches!(self, Effect::SensorBias | Effect::SensorLag)
+    }
+
     /// Names (with units) of the linear parameters, in column order.
     pub fn linear_params(self) -> &'static [&'static str] {
         match self {
@@ -70,7 +79,7 @@ impl Effect {
             Effect::Inertia => &["normal_kg_m2", "tangential_kg_m2"],
             Effect::Surcharge => &["normal_n_m4", "tangential_n_m4"],
             Effect::Extraction => &["drag_scale", "lift_scale", "slope_per_rad"],
-            Effect::Compaction => &["linear", "quadratic"],
+            Effect::Compaction => &["linear", "change_drag", "change_lift"],
             Effect::Cohesion => &["normal_pa", "tangential_pa"],
             Effect::HipHeight | Effect::SensorLag => &[],
             Effect::SensorBias => &["drag_n", "lift_n"],
@@ -80,6 +89,19 @@ impl Effect {
     /// Name and grid of the nonlinear parameter, if any.
     pub fn nonlinear(self, ctx: &Context) -> Option<(&'static str, Vec<f64>)> {
         match self {
+            Effect::Rate => Some(("speed_exponent", RATE_EXPONENTS.to_vec())),
+            Effect::Compaction => Some((
+                "change_at_session_frac",
+                // Where in the session the strength changes: at a stroke, or a tenth of the way
+                // (sessions of many strokes).
+                if ctx.strokes <= 10 {
+                    (1..ctx.strokes)
+                        .map(|k| (k as f64 - 0.5) / (ctx.strokes - 1).max(1) as f64)
+                        .collect()
+                } else {
+                    (1..10).map(|k| k as f64 / 10.0).collect()
+                },
+            )),
             Effect::HipHeight => {
                 let depth = ctx.model.plate().max_depth_m();
                 let grid = [-0.4, -0.25, -0.15, -0.08, 0.08, 0.15, 0.25, 0.4];
@@ -96,16 +118,20 @@ impl Effect {
     /// The parameter count the penalty charges.
     pub fn parameter_count(self) -> usize {
         self.linear_params().len()
-            + usize::from(matches!(self, Effect::HipHeight | Effect::SensorLag))
+            + usize::from(matches!(
+                self,
+                Effect::Rate | Effect::Compaction | Effect::HipHeight | Effect::SensorLag
+            ))
     }
 
     /// Appends this effect's columns at one point. `base` is the baseline column
-    /// `a^(-beta) F_unit(beta)` at that point.
-    pub fn push_columns(self, p: &Point, base: [f64; 2], out: &mut Vec<[f64; 2]>) {
+    /// `a^(-beta) F_unit(beta)` at that point; `nl` holds the nonlinear values (the speed
+    /// exponent of `rate`).
+    pub fn push_columns(self, p: &Point, base: [f64; 2], nl: &Nonlinear, out: &mut Vec<[f64; 2]>) {
         let (s, c) = p.beta_rad.sin_cos();
         match self {
             Effect::Rate => {
-                let q = p.speed_rad_s * p.speed_rad_s * p.moment2_m4;
+                let q = rate_term(p, nl.speed_exponent);
                 out.push(normal(q, s, c));
                 out.push(tangential(q, s, c));
             }
@@ -128,8 +154,16 @@ impl Effect {
             }
             Effect::Compaction => {
                 let u = p.session_frac;
+                // A stroke exactly at the change counts as half changed.
+                let at = nl.change_at_session_frac;
+                let changed = if (u - at).abs() < 1e-9 {
+                    0.5
+                } else {
+                    f64::from(u8::from(u > at))
+                };
                 out.push([u * base[0], u * base[1]]);
-                out.push([u * u * base[0], u * u * base[1]]);
+                out.push([changed * base[0], 0.0]);
+                out.push([0.0, changed * base[1]]);
             }
             Effect::Cohesion => {
                 out.push(normal(p.area_m2, s, c));
@@ -142,6 +176,27 @@ impl Effect {
             Effect::HipHeight | Effect::SensorLag => {}
         }
     }
+}
+
+/// The speed exponents `n` of `rate` the fit chooses from.
+pub const RATE_EXPONENTS: [f64; 4] = [0.5, 1.0, 1.5, 2.0];
+
+/// `(|omega|^n - omega_typ^n) int_submerged b r^n dr` (m^(n+2)/s^n): the submerged plate's
+/// elements moving at `omega r`, each resisting as its speed to the power `n`, measured against
+/// the session's typical speed `omega_typ`. The resistance at the typical speed is part of the
+/// medium's strength (the baseline's `b_k` and the other terms): `rate` claims only how force
+/// changes with speed, so a session at one speed cannot show it.
+fn rate_term(p: &Point, n: f64) -> f64 {
+    if p.submerged_m <= 0.0 {
+        return 0.0;
+    }
+    let b = p.area_m2 / p.submerged_m;
+    let (r0, r1) = (p.inner_radius_m, p.inner_radius_m + p.submerged_m);
+    let n = if n > 0.0 { n } else { 2.0 };
+    (p.speed_rad_s.abs().powf(n) - p.typical_speed_rad_s.powf(n))
+        * b
+        * (r1.powf(n + 1.0) - r0.powf(n + 1.0))
+        / (n + 1.0)
 }
 
 /// Drag and lift of a force `q` normal to the plate (resisting its travel).

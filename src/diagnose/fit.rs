@@ -19,6 +19,10 @@ pub struct Nonlinear {
     pub surface_drop_m: f64,
     /// Time constant of the sensor's first-order lag (s).
     pub lag_s: f64,
+    /// How `rate` grows with speed: `omega^n` (0: the effect is absent).
+    pub speed_exponent: f64,
+    /// Where in the session (0 to 1) `compaction`'s change sets in.
+    pub change_at_session_frac: f64,
 }
 
 impl Nonlinear {
@@ -26,6 +30,8 @@ impl Nonlinear {
         match effect {
             Effect::HipHeight => self.surface_drop_m = value,
             Effect::SensorLag => self.lag_s = value,
+            Effect::Rate => self.speed_exponent = value,
+            Effect::Compaction => self.change_at_session_frac = value,
             _ => {}
         }
         self
@@ -34,6 +40,8 @@ impl Nonlinear {
         match effect {
             Effect::HipHeight => self.surface_drop_m,
             Effect::SensorLag => self.lag_s,
+            Effect::Rate => self.speed_exponent,
+            Effect::Compaction => self.change_at_session_frac,
             _ => 0.0,
         }
     }
@@ -87,7 +95,10 @@ impl Fit {
     }
 }
 
-const LN_A_GRID: (f64, f64, usize) = (-1.2, 3.4, 11);
+// `ln a` from -2.58 to 3.4 in steps of 0.46 (`a` from 0.08 to 30): the paper's media have `a` of
+// 0.5 to 20; a DEM bed of coarse grains fits below 0.3 where `delta` is held at the contact
+// friction.
+const LN_A_GRID: (f64, f64, usize) = (-2.58, 3.4, 14);
 
 /// Fits `design` plus, if given, `search`: a new effect (its nonlinear parameter, if any, is
 /// chosen per fold on the training strokes from its grid).
@@ -103,6 +114,23 @@ pub fn fit(ctx: &Context, design: &Design, search: Option<Effect>) -> Fit {
         };
     let k_all = ctx.folds;
     let mut best: Vec<Option<Candidate>> = vec![None; k_all + 1];
+    // A change in the session is fitted only where the fold's training strokes lie on both
+    // sides of it: otherwise its column is the baseline's own on the training strokes, and the
+    // held-out strokes before it would be predicted from an arbitrary split of the two.
+    let span: Vec<(f64, f64)> = (0..=k_all)
+        .map(|k| {
+            ctx.points
+                .iter()
+                .filter(|p| k == k_all || p.fold != k)
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+                    (lo.min(p.session_frac), hi.max(p.session_frac))
+                })
+        })
+        .collect();
+    let usable = |k: usize, g: &Option<(Effect, f64)>| match g {
+        Some((Effect::Compaction, v)) => span[k].0 < *v && *v < span[k].1,
+        _ => true,
+    };
     for g in &grid {
         let nl: Vec<Nonlinear> = design
             .fixed
@@ -111,12 +139,57 @@ pub fn fit(ctx: &Context, design: &Design, search: Option<Effect>) -> Fit {
             .collect();
         for cand in fit_ln_a(ctx, &design.effects, &nl) {
             let k = cand.k;
+            if !usable(k, g) {
+                continue;
+            }
             if best[k]
                 .as_ref()
                 .is_none_or(|b| cand.train_sse < b.train_sse)
             {
                 best[k] = Some(cand);
             }
+        }
+    }
+    // The training strokes say only between which two of them the change lies: it is put
+    // halfway, so that a held-out stroke between them counts as half changed rather than
+    // falling to one side by rounding.
+    if let Some(Effect::Compaction) = search {
+        let mut nl: Vec<Nonlinear> = best
+            .iter()
+            .zip(&design.fixed)
+            .map(|(b, f)| b.as_ref().map_or(*f, |b| b.nl))
+            .collect();
+        for (k, v) in nl.iter_mut().enumerate() {
+            let at = v.change_at_session_frac;
+            let (below, above) = ctx
+                .points
+                .iter()
+                .filter(|p| k == k_all || p.fold != k)
+                .fold((f64::NEG_INFINITY, f64::INFINITY), |(lo, hi), p| {
+                    let u = p.session_frac;
+                    (
+                        if u < at { lo.max(u) } else { lo },
+                        if u > at { hi.min(u) } else { hi },
+                    )
+                });
+            if below.is_finite() && above.is_finite() {
+                *v = v.with(Effect::Compaction, 0.5 * (below + above));
+            }
+        }
+        for c in fit_ln_a(ctx, &design.effects, &nl) {
+            let k = c.k;
+            best[k] = Some(c);
+        }
+    }
+    // A fold with no usable change point (its training strokes all on one side of every one)
+    // is fitted with the change at the session's end, where no stroke counts as changed.
+    for k in 0..=k_all {
+        if best[k].is_none() {
+            let mut nl = design.fixed.clone();
+            nl[k] = nl[k].with(Effect::Compaction, 2.0);
+            best[k] = fit_ln_a(ctx, &design.effects, &nl)
+                .into_iter()
+                .find(|c| c.k == k);
         }
     }
     let best: Vec<Candidate> = best
@@ -251,8 +324,35 @@ fn fit_ln_a(ctx: &Context, effects: &[Effect], nl: &[Nonlinear]) -> Vec<Candidat
                 sse[k][gi] = train(&sums, k, k_all).solve().1;
             }
         }
+        // A second look, shared by the folds: two points a third of a step either side of the
+        // folds' median first estimate, then each fold's parabola through its three best
+        // neighbouring points of the grid and these.
+        let mut first: Vec<f64> = ks.iter().map(|&k| refine(&grid, &sse[k])).collect();
+        first.sort_by(f64::total_cmp);
+        let mid = first[first.len() / 2];
+        let h = (hi - lo) / (steps - 1) as f64;
+        let mut xs: Vec<f64> = grid.clone();
+        let mut ys: Vec<Vec<f64>> = sse.clone();
+        for x in [mid - h / 3.0, mid + h / 3.0] {
+            if x <= lo || x >= hi {
+                continue;
+            }
+            let sums = fold_sums(ctx, effects, x.exp(), &setting, &unit, &mut cols);
+            xs.push(x);
+            for (k, y) in ys.iter_mut().enumerate() {
+                y.push(if ks.contains(&k) {
+                    train(&sums, k, k_all).solve().1
+                } else {
+                    f64::INFINITY
+                });
+            }
+        }
+        let mut order: Vec<usize> = (0..xs.len()).collect();
+        order.sort_by(|&a, &b| xs[a].total_cmp(&xs[b]));
+        let xs: Vec<f64> = order.iter().map(|&i| xs[i]).collect();
         for &k in &ks {
-            let ln_a = refine(&grid, &sse[k]);
+            let y: Vec<f64> = order.iter().map(|&i| ys[k][i]).collect();
+            let ln_a = refine(&xs, &y);
             let sums = fold_sums(ctx, effects, ln_a.exp(), &setting, &unit, &mut cols);
             let (coef, train_sse) = train(&sums, k, k_all).solve();
             out.push(Candidate {
@@ -276,21 +376,23 @@ fn train(sums: &[Sums], k: usize, k_all: usize) -> Sums {
     }
 }
 
-/// Minimum of a parabola through the best grid point and its neighbours.
-fn refine(grid: &[f64], sse: &[f64]) -> f64 {
-    let j = (0..sse.len())
-        .min_by(|&a, &b| sse[a].total_cmp(&sse[b]))
+/// Minimum of the parabola through the best of the increasing points `x` and its neighbours
+/// (the best point itself at the ends).
+fn refine(x: &[f64], y: &[f64]) -> f64 {
+    let j = (0..y.len())
+        .min_by(|&a, &b| y[a].total_cmp(&y[b]))
         .unwrap_or(0);
-    if j == 0 || j + 1 >= sse.len() {
-        return grid[j];
+    if j == 0 || j + 1 >= y.len() {
+        return x[j];
     }
-    let (y0, y1, y2) = (sse[j - 1], sse[j], sse[j + 1]);
-    let den = y0 - 2.0 * y1 + y2;
-    let h = grid[j + 1] - grid[j];
-    if den <= 0.0 || !den.is_finite() {
-        return grid[j];
+    let (x0, x1, x2) = (x[j - 1], x[j], x[j + 1]);
+    let (y0, y1, y2) = (y[j - 1], y[j], y[j + 1]);
+    let num = (x1 - x0).powi(2) * (y1 - y2) - (x1 - x2).powi(2) * (y1 - y0);
+    let den = (x1 - x0) * (y1 - y2) - (x1 - x2) * (y1 - y0);
+    if den == 0.0 || !(num / den).is_finite() {
+        return x1;
     }
-    grid[j] + 0.5 * h * (y0 - y2) / den
+    (x1 - 0.5 * num / den).clamp(x0, x2)
 }
 
 /// Per-fold sums (index `folds`: the total) of the design at `a`.
@@ -376,7 +478,7 @@ fn build(
         row.clear();
         row.push(base);
         for e in effects {
-            e.push_columns(pt, base, &mut row);
+            e.push_columns(pt, base, nl, &mut row);
         }
         for (j, v) in row.iter().enumerate() {
             cols[2 * i * p + j] = v[0];
@@ -420,6 +522,16 @@ mod tests {
     use crate::diagnose::{Context, kinematics};
     use crate::ident::Sample;
     use crate::model::{Medium, Plate, TerzaghiModel};
+
+    #[test]
+    fn an_uneven_parabola_finds_the_minimum_of_a_quadratic() {
+        let x = [0.0, 0.4, 0.5, 1.0, 2.0];
+        let y: Vec<f64> = x.iter().map(|v| (v - 0.62f64).powi(2) + 3.0).collect();
+        assert!((refine(&x, &y) - 0.62).abs() < 1e-12);
+        // At the edge of the points, the edge.
+        let y: Vec<f64> = x.iter().map(|v| (v - 5.0f64).powi(2)).collect();
+        assert_eq!(refine(&x, &y), 2.0);
+    }
 
     #[test]
     fn the_lag_filter_follows_a_ramp_one_time_constant_behind() {

@@ -9,17 +9,22 @@
 //!    absolute deviation). The gap is the held-out mean squared residual in excess of it.
 //! 4. Where: the squared residual by attack angle, depth, speed, acceleration, regime and stroke;
 //!    each bin's share of the gap, with a chi-square test against the noise.
-//! 5. Which effect: every candidate of [`effects`] fitted with the baseline on the training
-//!    strokes and scored on the held-out ones, with a penalty per parameter; greedy steps while
-//!    another effect still closes a real part of the gap.
-//! 6. A verdict: the best effect if it closes at least half the gap; `none` if the gap is at the
-//!    noise level; `unexplained` if no candidate closes half of a real gap.
+//! 5. Which effects: every candidate of [`effects`] fitted with the baseline on the training
+//!    strokes and scored on the held-out ones, with a penalty per parameter. Forward selection:
+//!    each round adds the effect with the largest held-out gain that is significant (the gain
+//!    holds stroke by stroke, paired t over strokes, and pays for its parameters) and material
+//!    (it closes a set share of the gap, or a direct signature of [`signatures`] shows it).
+//! 6. A verdict: the significant effect with the largest share of the gap if that share is
+//!    material; `none` if the gap is at the noise level; `unexplained` otherwise. What no
+//!    significant effect explains is reported on its own: its share, where it lies, and what
+//!    it resembles.
 
 pub mod context;
 pub mod effects;
 pub mod fit;
 pub mod kinematics;
 pub mod report;
+pub mod signatures;
 
 pub use context::{Context, Point};
 pub use effects::Effect;
@@ -41,10 +46,13 @@ pub struct DiagnoseOptions {
     /// A gap is real when the held-out mean squared residual exceeds the noise variance by this
     /// fraction (and the excess is significant).
     pub min_excess_ratio: f64,
-    /// A candidate must close this share of the gap (%) to be named.
+    /// The verdict names an effect only if its step closes this share of the gap (%).
     pub accept_pct: f64,
-    /// A further greedy step must close this share (%) of the baseline's gap.
+    /// An effect is reported as a step if it closes this share (%) of the baseline's gap, or if
+    /// a direct signature shows it.
     pub step_pct: f64,
+    /// Most effects reported.
+    pub max_steps: usize,
     /// Penalty per parameter, in units of `noise variance x ln(residuals) / residuals`.
     pub penalty: f64,
 }
@@ -53,11 +61,12 @@ impl Default for DiagnoseOptions {
     fn default() -> Self {
         DiagnoseOptions {
             folds: 5,
-            min_strokes: 6,
+            min_strokes: 4,
             max_points: 16_000,
             min_excess_ratio: 0.1,
-            accept_pct: 50.0,
-            step_pct: 15.0,
+            accept_pct: 30.0,
+            step_pct: 5.0,
+            max_steps: 4,
             penalty: 2.0,
         }
     }
@@ -146,7 +155,9 @@ fn prepare(
         });
     }
     let stride = usable.len().div_ceil(opts.max_points.max(1000));
-    let ctx = Context::new(model, &usable, &kin, opts.folds, stride);
+    // Fewer strokes than folds: one stroke held out at a time.
+    let folds = opts.folds.min(kin.strokes()).max(2);
+    let ctx = Context::new(model, &usable, &kin, folds, stride);
     let in_medium = ctx.points.iter().filter(|p| p.in_medium()).count();
     if in_medium < 50 || in_medium * 50 < ctx.points.len() {
         return Err(DiagnoseError::OutOfMedium {
@@ -245,7 +256,7 @@ mod tests {
         )
         .unwrap_err();
         assert!(
-            matches!(e, DiagnoseError::TooFewStrokes { needed: 6, .. }),
+            matches!(e, DiagnoseError::TooFewStrokes { needed: 4, .. }),
             "{e}"
         );
         // A sensor that reads exactly zero is not a session of forces.

@@ -4,6 +4,7 @@ use super::DiagnoseOptions;
 use super::context::{Context, Point};
 use super::effects::{ALL, Effect};
 use super::fit::{Design, Fit, fit};
+use super::signatures::{self, Signatures, t_critical_5pct, t_statistic};
 use crate::model::Regime;
 use std::collections::BTreeMap;
 
@@ -31,6 +32,32 @@ pub struct Report {
     pub steps: Vec<Step>,
     pub verdict: Verdict,
     pub summary: String,
+    /// The part of the gap no significant effect explains (null when the gap is at the noise
+    /// level): the model's own misfit, where it lies, and which candidates it resembles.
+    pub unexplained: Option<Unexplained>,
+    /// Direct signatures of a sensor offset, a delay and a surface level.
+    pub signatures: Signatures,
+}
+
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Unexplained {
+    /// Share of the gap left once every significant effect is modelled, %.
+    pub share_of_gap_pct: f64,
+    pub heldout_rmse_n: f64,
+    /// Where the remaining residual lies: significant bins, largest share first (shares of the
+    /// remaining gap).
+    #[serde(rename = "where")]
+    pub where_: Vec<Bin>,
+    /// Effects whose terms would close part of what remains, without being significant or
+    /// material: what the remaining misfit resembles, not a claim.
+    pub resembles: Vec<Resemblance>,
+}
+
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Resemblance {
+    pub effect: Effect,
+    /// Share of the remaining gap its term closes on held-out strokes, %.
+    pub share_of_remaining_pct: f64,
 }
 
 #[derive(Debug, Clone, serde::Serialize)]
@@ -92,6 +119,12 @@ pub struct Candidate {
     pub gap_closed_pct: Option<f64>,
     /// Held-out gain less the parameter penalty (N^2 per residual); <= 0: not worth its terms.
     pub penalized_gain_n2: f64,
+    /// Paired t over strokes of the held-out improvement against the baseline alone.
+    pub heldout_t: f64,
+    /// Whether it improves the held-out strokes beyond chance on its own (t, penalty).
+    pub significant: bool,
+    /// Whether a direct signature of the session shows it (sensor_bias, sensor_lag, hip_height).
+    pub direct_evidence: bool,
 }
 
 #[derive(Debug, Clone, serde::Serialize)]
@@ -104,6 +137,18 @@ pub struct Step {
     pub gap_closed_pct: f64,
     pub heldout_rmse_n: f64,
     pub heldout_psi: f64,
+    /// Share of the baseline's gap this step adds, %.
+    pub share_of_gap_pct: f64,
+    /// Paired t over strokes of this step's held-out improvement.
+    pub heldout_t: f64,
+    /// `held_out`, `held_out+direct` where a direct signature shows it as well, or `direct`: a
+    /// sensor effect its direct signature shows where the held-out fit cannot.
+    pub evidence: &'static str,
+    /// With a direct signature: the share of the gap closed by correcting the session by the
+    /// directly measured offset, delay or surface level and fitting the baseline again, %
+    /// (a term fitted to the whole session can also take up part of the model's own misfit;
+    /// this share cannot).
+    pub direct_share_of_gap_pct: Option<f64>,
 }
 
 #[derive(Debug, Clone, serde::Serialize)]
@@ -154,11 +199,23 @@ pub(super) fn analyse(
         }
     };
     let penalty_per_param = opts.penalty * var * (residuals as f64).ln() / residuals as f64;
+    let signatures = signatures::read(ctx, &base.fitted_n, [noise.drag_n, noise.lift_n]);
+    let base_strokes = stroke_sse(ctx, &base.heldout_n);
+    // Significant: one-sided 5 % level of the paired t over the strokes that hold points.
+    let min_t = t_critical_5pct(
+        base_strokes
+            .iter()
+            .filter(|s| **s > 0.0)
+            .count()
+            .saturating_sub(1),
+    );
 
     let mut fits: Vec<(Fit, Candidate)> = ALL
         .iter()
         .map(|&e| {
             let f = fit(ctx, &Design::baseline(ctx.folds), Some(e));
+            let t = t_statistic(&improvements(&base_strokes, &stroke_sse(ctx, &f.heldout_n)));
+            let gain = mse_b - f.heldout_mse() - penalty_per_param * e.parameter_count() as f64;
             let c = Candidate {
                 effect: e,
                 params: params(ctx, &f),
@@ -167,80 +224,184 @@ pub(super) fn analyse(
                 heldout_rmse_after_n: f.heldout_mse().sqrt(),
                 heldout_psi_after: psi(ctx, &f.heldout_n),
                 gap_closed_pct: real.then(|| closed(f.heldout_mse())),
-                penalized_gain_n2: mse_b
-                    - f.heldout_mse()
-                    - penalty_per_param * e.parameter_count() as f64,
+                penalized_gain_n2: gain,
+                heldout_t: t,
+                significant: real && gain > 0.0 && t >= min_t,
+                direct_evidence: direct(&signatures, e),
             };
             (f, c)
         })
         .collect();
     fits.sort_by(|a, b| b.1.penalized_gain_n2.total_cmp(&a.1.penalized_gain_n2));
 
+    // Forward selection on held-out strokes: each round adds the effect with the largest
+    // held-out gain over the effects chosen so far that is significant (its gain holds stroke
+    // by stroke: paired t over strokes, and it pays for its parameters) and material (it closes
+    // a set share of the gap, or a direct signature of the session shows it).
     let psi_before = psi(ctx, &base.heldout_n);
-    let mut steps = Vec::new();
-    let mut after = base.heldout_n.clone();
-    let verdict = match fits.first() {
-        Some((f, c))
-            if c.penalized_gain_n2 > 0.0
-                && c.gap_closed_pct.is_some_and(|g| g >= opts.accept_pct) =>
-        {
-            let alone = c.gap_closed_pct.unwrap_or(0.0);
-            steps.push(Step {
-                effect: c.effect,
-                params: c.params.clone(),
-                gap_closed_pct: alone,
-                heldout_rmse_n: c.heldout_rmse_after_n,
-                heldout_psi: c.heldout_psi_after,
-            });
-            let mut current = f.clone();
-            while steps.len() < 3 {
-                let mse = current.heldout_mse();
-                if mse - var <= opts.min_excess_ratio * var {
-                    break;
+    let mut steps: Vec<Step> = Vec::new();
+    let mut current = base.clone();
+    let mut remaining: Vec<(Effect, f64)> = Vec::new();
+    while real && steps.len() < opts.max_steps {
+        let mse = current.heldout_mse();
+        let cur_strokes = stroke_sse(ctx, &current.heldout_n);
+        // Direct evidence given what is already modelled: a misfit that an earlier step
+        // explains (a surface level shifting the onset) must not pass for a delay.
+        let sig_now = if steps.is_empty() {
+            signatures.clone()
+        } else {
+            signatures::read(ctx, &current.fitted_n, [noise.drag_n, noise.lift_n])
+        };
+        let mut tried: Vec<(Fit, f64, f64)> = ALL
+            .iter()
+            .filter(|e| !current.design.effects.contains(e))
+            .map(|&e| {
+                let f = if current.design.effects.is_empty() {
+                    fits.iter()
+                        .find(|(f, _)| f.design.effects == [e])
+                        .map(|x| x.0.clone())
+                } else {
+                    None
                 }
-                let tried = ALL
-                    .iter()
-                    .filter(|e| !current.design.effects.contains(e))
-                    .map(|&e| fit(ctx, &current.design, Some(e)))
-                    .min_by(|a, b| a.heldout_mse().total_cmp(&b.heldout_mse()));
-                let Some(next) = tried else { break };
-                let e = *next.design.effects.last().expect("one effect was added");
-                let gain =
-                    mse - next.heldout_mse() - penalty_per_param * e.parameter_count() as f64;
-                if gain <= 0.0 || 100.0 * (mse - next.heldout_mse()) / excess < opts.step_pct {
-                    break;
-                }
-                steps.push(Step {
-                    effect: e,
-                    params: params(ctx, &next),
-                    gap_closed_pct: closed(next.heldout_mse()),
-                    heldout_rmse_n: next.heldout_mse().sqrt(),
-                    heldout_psi: psi(ctx, &next.heldout_n),
-                });
-                current = next;
+                .unwrap_or_else(|| fit(ctx, &current.design, Some(e)));
+                let t = t_statistic(&improvements(&cur_strokes, &stroke_sse(ctx, &f.heldout_n)));
+                let gain = mse - f.heldout_mse() - penalty_per_param * e.parameter_count() as f64;
+                (f, gain, t)
+            })
+            .collect();
+        tried.sort_by(|a, b| b.1.total_cmp(&a.1));
+        remaining = tried
+            .iter()
+            .map(|(f, _, _)| {
+                let e = *f.design.effects.last().expect("one effect was added");
+                let left = mse - var;
+                (
+                    e,
+                    if left > 0.0 {
+                        100.0 * (mse - f.heldout_mse()) / left
+                    } else {
+                        0.0
+                    },
+                )
+            })
+            .collect();
+        let chosen = tried.into_iter().find(|(f, gain, t)| {
+            let e = *f.design.effects.last().expect("one effect was added");
+            let share = 100.0 * (mse - f.heldout_mse()) / excess;
+            *gain > 0.0
+                && *t >= min_t
+                && (share >= opts.step_pct || (direct(&sig_now, e) && e.is_sensor()))
+        });
+        let Some((next, _, t)) = chosen else { break };
+        let e = *next.design.effects.last().expect("one effect was added");
+        let seen = direct(&sig_now, e);
+        steps.push(Step {
+            evidence: if seen { "held_out+direct" } else { "held_out" },
+            direct_share_of_gap_pct: seen
+                .then(|| direct_share(ctx, e, &sig_now, var, excess))
+                .flatten(),
+            ..step(ctx, &next, mse, t, &closed, excess)
+        });
+        current = next;
+        remaining.clear();
+        if current.heldout_mse() - var <= opts.min_excess_ratio * var {
+            break;
+        }
+    }
+
+    // A sensor effect whose direct signature holds, given everything modelled, is reported even
+    // where the held-out fit cannot show it: the model's own misfit can mask a delay (a model
+    // that lags the medium in angle looks better once the sensor lags too).
+    if real {
+        let sig_end = if steps.is_empty() {
+            signatures.clone()
+        } else {
+            signatures::read(ctx, &current.fitted_n, [noise.drag_n, noise.lift_n])
+        };
+        for e in ALL.into_iter().filter(|e| e.is_sensor()) {
+            if current.design.effects.contains(&e) || !direct(&sig_end, e) {
+                continue;
             }
-            after = current.heldout_n.clone();
-            Verdict {
-                effect: c.effect.name().to_string(),
-                gap_closed_pct: alone,
-                heldout_psi_before: psi_before,
-                heldout_psi_after: c.heldout_psi_after,
-                all_steps_gap_closed_pct: steps.last().map_or(0.0, |s| s.gap_closed_pct),
+            let mse = current.heldout_mse();
+            let f = fit(ctx, &current.design, Some(e));
+            let t = t_statistic(&improvements(
+                &stroke_sse(ctx, &current.heldout_n),
+                &stroke_sse(ctx, &f.heldout_n),
+            ));
+            steps.push(Step {
+                evidence: "direct",
+                direct_share_of_gap_pct: direct_share(ctx, e, &sig_end, var, excess),
+                ..step(ctx, &f, mse, t, &closed, excess)
+            });
+            if f.heldout_mse() < mse {
+                current = f;
             }
         }
-        best => Verdict {
+    }
+
+    // The verdict: the significant effect with the largest share of the gap, if that share is
+    // material; otherwise `unexplained` (a real gap) or `none`.
+    let named = steps
+        .iter()
+        .max_by(|a, b| a.share_of_gap_pct.total_cmp(&b.share_of_gap_pct))
+        .filter(|s| s.share_of_gap_pct >= opts.accept_pct);
+    let all_closed = steps.last().map_or(0.0, |s| s.gap_closed_pct);
+    let verdict = match named {
+        Some(st) => {
+            let alone = fits
+                .iter()
+                .find(|(_, c)| c.effect == st.effect)
+                .map(|(_, c)| c)
+                .expect("every effect has a candidate");
+            Verdict {
+                effect: st.effect.name().to_string(),
+                gap_closed_pct: alone.gap_closed_pct.unwrap_or(0.0),
+                heldout_psi_before: psi_before,
+                heldout_psi_after: alone.heldout_psi_after,
+                all_steps_gap_closed_pct: all_closed,
+            }
+        }
+        None => Verdict {
             effect: if real { "unexplained" } else { "none" }.to_string(),
-            gap_closed_pct: best
+            gap_closed_pct: fits
+                .first()
                 .and_then(|b| b.1.gap_closed_pct)
                 .unwrap_or(0.0)
                 .max(0.0),
             heldout_psi_before: psi_before,
-            heldout_psi_after: psi_before,
-            all_steps_gap_closed_pct: 0.0,
+            heldout_psi_after: if steps.is_empty() {
+                psi_before
+            } else {
+                psi(ctx, &current.heldout_n)
+            },
+            all_steps_gap_closed_pct: all_closed,
         },
     };
+    let after = current.heldout_n.clone();
 
     let where_ = where_bins(ctx, &base.heldout_n, var);
+    let unexplained = real.then(|| {
+        let left = current.heldout_mse() - var;
+        let mut resembles: Vec<Resemblance> = remaining
+            .iter()
+            .filter(|(_, pct)| *pct > 0.0)
+            .map(|&(effect, pct)| Resemblance {
+                effect,
+                share_of_remaining_pct: pct,
+            })
+            .collect();
+        resembles.truncate(3);
+        Unexplained {
+            share_of_gap_pct: (100.0 * left / excess).clamp(0.0, 100.0),
+            heldout_rmse_n: current.heldout_mse().sqrt(),
+            where_: where_bins(ctx, &current.heldout_n, var)
+                .into_iter()
+                .filter(|b| b.significant && b.share_of_gap > 0.0)
+                .take(8)
+                .collect(),
+            resembles,
+        }
+    });
     let baseline = Baseline {
         b_k: base.coefficients[0],
         a: base.a,
@@ -256,7 +417,15 @@ pub(super) fn analyse(
         z,
     };
     let candidates: Vec<Candidate> = fits.into_iter().map(|(_, c)| c).collect();
-    let summary = summary(&gap, &where_, &candidates, &steps, &verdict, &noise);
+    let summary = summary(
+        &gap,
+        &where_,
+        &candidates,
+        &steps,
+        &verdict,
+        &noise,
+        unexplained.as_ref(),
+    );
     Diagnosis {
         report: Report {
             samples: n * stride + skipped,
@@ -272,6 +441,8 @@ pub(super) fn analyse(
             steps,
             verdict,
             summary,
+            unexplained,
+            signatures,
         },
         plot: PlotData {
             beta_rad: ctx.points.iter().map(|p| p.beta_rad).collect(),
@@ -282,6 +453,91 @@ pub(super) fn analyse(
             noise_var_n2: var,
         },
     }
+}
+
+/// The step that `f` (the design so far and its last effect) makes from a held-out mean squared
+/// residual `mse_before`, its evidence held out only.
+fn step(
+    ctx: &Context,
+    f: &Fit,
+    mse_before: f64,
+    t: f64,
+    closed: &dyn Fn(f64) -> f64,
+    excess: f64,
+) -> Step {
+    Step {
+        effect: *f.design.effects.last().expect("a step adds an effect"),
+        params: params(ctx, f),
+        gap_closed_pct: closed(f.heldout_mse()),
+        heldout_rmse_n: f.heldout_mse().sqrt(),
+        heldout_psi: psi(ctx, &f.heldout_n),
+        share_of_gap_pct: 100.0 * (mse_before - f.heldout_mse()) / excess,
+        heldout_t: t,
+        evidence: "held_out",
+        direct_share_of_gap_pct: None,
+    }
+}
+
+/// The share of the gap closed by correcting the session by a directly measured effect and
+/// fitting the baseline again (see [`Step::direct_share_of_gap_pct`]).
+fn direct_share(ctx: &Context, e: Effect, sig: &Signatures, var: f64, excess: f64) -> Option<f64> {
+    let mut design = Design::baseline(ctx.folds);
+    let mut corrected = ctx.clone();
+    match e {
+        Effect::SensorBias => {
+            let off = [sig.sensor_offset.drag_n, sig.sensor_offset.lift_n];
+            for p in &mut corrected.points {
+                p.y_n = [p.y_n[0] - off[0], p.y_n[1] - off[1]];
+            }
+        }
+        Effect::SensorLag => {
+            let times: Vec<f64> = ctx.points.iter().map(|p| p.t_s).collect();
+            let y: Vec<[f64; 2]> = ctx.points.iter().map(|p| p.y_n).collect();
+            for p in &mut corrected.points {
+                p.y_n = signatures::interpolate(&times, &y, p.t_s + sig.delay.lag_s);
+            }
+        }
+        Effect::HipHeight => {
+            for f in &mut design.fixed {
+                f.surface_drop_m = sig.onset.surface_drop_m;
+            }
+        }
+        _ => return None,
+    }
+    (excess > 0.0).then(|| {
+        let mse = fit(&corrected, &design, None).heldout_mse();
+        100.0 * (1.0 - (mse - var) / excess)
+    })
+}
+
+/// Whether a direct signature of the session shows `e`.
+fn direct(sig: &Signatures, e: Effect) -> bool {
+    match e {
+        Effect::SensorBias => sig.sensor_offset.significant,
+        Effect::SensorLag => sig.delay.significant,
+        Effect::HipHeight => sig.onset.significant,
+        _ => false,
+    }
+}
+
+/// Held-out squared residual per stroke.
+fn stroke_sse(ctx: &Context, pred: &[[f64; 2]]) -> Vec<f64> {
+    let mut out = vec![0.0; ctx.strokes.max(1)];
+    for (p, q) in ctx.points.iter().zip(pred) {
+        out[p.stroke.min(ctx.strokes.max(1) - 1)] +=
+            (p.y_n[0] - q[0]).powi(2) + (p.y_n[1] - q[1]).powi(2);
+    }
+    out
+}
+
+/// Per-stroke reduction of the squared residual, over the strokes that hold points.
+fn improvements(before: &[f64], after: &[f64]) -> Vec<f64> {
+    before
+        .iter()
+        .zip(after)
+        .filter(|(b, _)| **b > 0.0)
+        .map(|(b, a)| b - a)
+        .collect()
 }
 
 /// Sensor noise per component, robust (1.4826 x median absolute deviation).
@@ -501,6 +757,7 @@ fn summary(
     steps: &[Step],
     v: &Verdict,
     noise: &Noise,
+    unexplained: Option<&Unexplained>,
 ) -> String {
     let rmse = (gap.heldout_mse_n2).sqrt();
     let sigma = gap.noise_var_n2.sqrt();
@@ -531,35 +788,74 @@ fn summary(
             hot.iter().map(|b| b.share_of_gap).sum::<f64>()
         );
     }
-    match steps.first() {
-        Some(first) => {
+    if !steps.is_empty() {
+        s += &format!(
+            "Significant on held-out strokes: {}. ",
+            steps
+                .iter()
+                .map(|st| format!(
+                    "{} ({}, {:.0} % of the gap{})",
+                    st.effect,
+                    describe(st.effect),
+                    st.share_of_gap_pct,
+                    if st.evidence == "held_out+direct" {
+                        ", also seen directly"
+                    } else {
+                        ""
+                    }
+                ))
+                .collect::<Vec<_>>()
+                .join("; ")
+        );
+    }
+    if v.effect != "unexplained" {
+        s += &format!(
+            "The largest is {}: alone it closes {:.0} % of the gap, and held-out Psi goes from {:.3} to {:.3}.",
+            v.effect, v.gap_closed_pct, v.heldout_psi_before, v.heldout_psi_after
+        );
+        if steps.len() > 1 {
             s += &format!(
-                "The effect that explains it best is {} ({}): it closes {:.0} % of the gap on held-out strokes, and held-out Psi goes from {:.3} to {:.3}.",
-                first.effect,
-                describe(first.effect),
-                v.gap_closed_pct,
-                v.heldout_psi_before,
-                v.heldout_psi_after
+                " All {} together close {:.0} %.",
+                steps.len(),
+                v.all_steps_gap_closed_pct
             );
-            if steps.len() > 1 {
-                s += &format!(
-                    " Adding {} as well closes {:.0} % in all.",
-                    steps[1..]
-                        .iter()
-                        .map(|x| x.effect.name())
-                        .collect::<Vec<_>>()
-                        .join(", then "),
-                    v.all_steps_gap_closed_pct
-                );
-            }
         }
-        None => {
+    } else if steps.is_empty() {
+        s += &format!(
+            "No candidate correction is significant and material (the best, {}, closes {:.0} %): the gap comes from an effect outside the library (verdict: unexplained).",
+            cands.first().map_or("none", |c| c.effect.name()),
+            v.gap_closed_pct
+        );
+    } else {
+        s += &format!(
+            "None of them closes a material share of the gap on its own (verdict: unexplained); together they close {:.0} %.",
+            v.all_steps_gap_closed_pct
+        );
+    }
+    if let Some(u) = unexplained.filter(|u| u.share_of_gap_pct >= 5.0) {
+        s += &format!(
+            " {:.0} % of the gap is left unexplained (the model's own misfit or an effect outside the library)",
+            u.share_of_gap_pct
+        );
+        let places: Vec<String> = u
+            .where_
+            .iter()
+            .filter(|b| b.dimension != "regime")
+            .take(3)
+            .map(|b| format!("{} {}", b.dimension.replace('_', " "), b.label))
+            .collect();
+        if !places.is_empty() {
+            s += &format!(", mostly at {}", places.join(", "));
+        }
+        if let Some(r) = u.resembles.first() {
             s += &format!(
-                "No candidate correction closes half of it (the best, {}, closes {:.0} %): the gap comes from an effect outside the library (verdict: unexplained).",
-                cands.first().map_or("none", |c| c.effect.name()),
-                v.gap_closed_pct
+                "; it resembles {} ({}), whose term would close {:.0} % of it, not enough to claim it",
+                r.effect,
+                describe(r.effect),
+                r.share_of_remaining_pct
             );
         }
+        s += ".";
     }
     s
 }
@@ -570,7 +866,7 @@ fn describe(e: Effect) -> &'static str {
         Effect::Inertia => "a force following the leg's angular acceleration",
         Effect::Surcharge => "grains piling up ahead of the leg as it sweeps",
         Effect::Extraction => "the extraction phase behaving unlike the passive model",
-        Effect::Compaction => "the medium's strength drifting over the session",
+        Effect::Compaction => "the medium's strength changing over the session",
         Effect::Cohesion => "a strength proportional to the submerged area",
         Effect::HipHeight => "the surface at another level than the configured hip height",
         Effect::SensorBias => "a constant offset of the F/T sensor",

@@ -74,34 +74,69 @@ fn facts_table(r: &Report) -> String {
 
 fn candidates_table(r: &Report) -> String {
     let mut s = String::from(
-        "<h2>Candidate corrections (best first)</h2>\n<table><tr><th>effect</th><th>parameters</th><th>held-out RMSE before (N)</th><th>after (N)</th><th>gap closed</th><th>held-out Psi after</th></tr>\n",
+        "<h2>Candidate corrections (best first)</h2>\n<table><tr><th>effect</th><th>parameters</th><th>held-out RMSE before (N)</th><th>after (N)</th><th>gap closed</th><th>held-out Psi after</th><th>t over strokes</th><th>direct signature</th></tr>\n",
     );
     for c in &r.candidates {
         s += &format!(
-            "<tr><td>{}</td><td>{}</td><td>{:.3}</td><td>{:.3}</td><td>{}</td><td>{:.4}</td></tr>\n",
+            "<tr><td>{}</td><td>{}</td><td>{:.3}</td><td>{:.3}</td><td>{}</td><td>{:.4}</td><td>{:.1}</td><td>{}</td></tr>\n",
             c.effect,
             c.parameters,
             c.heldout_rmse_before_n,
             c.heldout_rmse_after_n,
             c.gap_closed_pct
                 .map_or("-".to_string(), |g| format!("{g:.0} %")),
-            c.heldout_psi_after
+            c.heldout_psi_after,
+            c.heldout_t,
+            if c.direct_evidence { "yes" } else { "" }
         );
     }
     s += "</table>\n";
     if !r.steps.is_empty() {
-        s += "<h2>Greedy steps</h2>\n<table><tr><th>step</th><th>effect added</th><th>gap closed so far</th><th>held-out RMSE (N)</th><th>held-out Psi</th></tr>\n";
+        s += "<h2>Significant effects, in order</h2>\n<table><tr><th>step</th><th>effect added</th><th>its share of the gap</th><th>gap closed so far</th><th>held-out RMSE (N)</th><th>held-out Psi</th><th>evidence</th></tr>\n";
         for (i, st) in r.steps.iter().enumerate() {
             s += &format!(
-                "<tr><td>{}</td><td>{}</td><td>{:.0} %</td><td>{:.3}</td><td>{:.4}</td></tr>\n",
+                "<tr><td>{}</td><td>{}</td><td>{:.0} %</td><td>{:.0} %</td><td>{:.3}</td><td>{:.4}</td><td>{}</td></tr>\n",
                 i + 1,
                 st.effect,
+                st.share_of_gap_pct,
                 st.gap_closed_pct,
                 st.heldout_rmse_n,
-                st.heldout_psi
+                st.heldout_psi,
+                st.evidence
             );
         }
         s += "</table>\n";
+    }
+    if let Some(u) = &r.unexplained {
+        s += &format!(
+            "<h2>What is left</h2>\n<p>{:.0} % of the gap is explained by no significant effect (held-out RMSE {:.3} N once they are modelled).</p>\n",
+            u.share_of_gap_pct, u.heldout_rmse_n
+        );
+        if !u.where_.is_empty() {
+            s += "<table><tr><th>where</th><th>bin</th><th>share of what is left</th></tr>\n";
+            for b in &u.where_ {
+                s += &format!(
+                    "<tr><td>{}</td><td>{}</td><td>{:.0} %</td></tr>\n",
+                    escape(b.dimension),
+                    escape(&b.label),
+                    b.share_of_gap
+                );
+            }
+            s += "</table>\n";
+        }
+        if !u.resembles.is_empty() {
+            s += &format!(
+                "<p>It resembles (not significant or not material, so not claimed): {}.</p>\n",
+                u.resembles
+                    .iter()
+                    .map(|x| format!(
+                        "{} ({:.0} % of what is left)",
+                        x.effect, x.share_of_remaining_pct
+                    ))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+        }
     }
     s
 }
