@@ -225,8 +225,8 @@ pub struct DemOutcome {
     pub effects: Vec<(Effect, f64)>,
     /// Whether the expected effect is the verdict or one of the significant effects.
     pub found: bool,
-    /// The share of the gap the report gives the expected effect, %: its direct share where a
-    /// direct signature shows it, its step's share otherwise.
+    /// Where the expected effect is reported, the share of the gap the report gives it, %: its
+    /// direct share where a direct signature shows it, the share it closes alone otherwise.
     pub reported_pct: Option<f64>,
     /// The share measured against the counterpart, %.
     pub measured_pct: Option<f64>,
@@ -396,12 +396,16 @@ pub fn run_case(
     let found = case
         .expected
         .is_some_and(|e| r.verdict.effect == e.name() || effects.iter().any(|(x, _)| *x == e));
-    // The direct share where the effect has a direct signature, the step's share otherwise.
-    let reported_pct = case.expected.and_then(|e| {
-        r.steps
-            .iter()
-            .find(|s| s.effect == e)
-            .map(|s| s.direct_share_of_gap_pct.unwrap_or(s.share_of_gap_pct))
+    // Where the effect is reported: its direct share where a direct signature shows it, else
+    // the share it closes alone (its candidate's, as the generated cases score the verdict's).
+    let reported_pct = case.expected.filter(|_| found).and_then(|e| {
+        let step = r.steps.iter().find(|s| s.effect == e);
+        step.and_then(|s| s.direct_share_of_gap_pct).or_else(|| {
+            r.candidates
+                .iter()
+                .find(|c| c.effect == e)
+                .and_then(|c| c.gap_closed_pct)
+        })
     });
     let measured_pct = match case.expected {
         Some(_) => {
