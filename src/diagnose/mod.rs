@@ -248,6 +248,57 @@ mod tests {
     }
 
     #[test]
+    fn a_sensor_offset_or_delay_is_reported_beside_a_misfit_no_candidate_explains() {
+        let mut rng = rand::rngs::StdRng::seed_from_u64(5);
+        let truth = unit().with_fitting_width(FittingWidth::new(2.0, 1.5).unwrap());
+        let rot = sim::Rotation {
+            speed_min_rad_s: 1.0,
+            speed_max_rad_s: 6.0,
+            ..Default::default()
+        };
+        let angles = sim::rotate(&rot, 20, &mut rng);
+        // The model's own misfit: the force over the stroke off by up to 30 %, in a shape no
+        // candidate has.
+        let misfit = |b: f64| {
+            let f = truth.evaluate(b).unwrap();
+            let k = 1.0 + 0.3 * (3.0 * b).sin();
+            (f.drag_n * k, f.lift_n * k)
+        };
+        let peak = angles
+            .iter()
+            .map(|&(_, b)| misfit(b).0.abs().max(misfit(b).1.abs()))
+            .fold(0.0, f64::max);
+        let opts = DiagnoseOptions::default();
+        let has = |s: &[Sample], e: Effect| {
+            let r = diagnose(&unit(), s, &opts).unwrap().report;
+            assert!(r.steps.iter().any(|x| x.effect == e), "{e}: {}", r.summary);
+            r
+        };
+        // An offset of 10 % of the peak force.
+        let offset = sim::measure(&angles, 0.02, &mut rng, |_, b| {
+            let (d, l) = misfit(b);
+            (d + 0.1 * peak, l + 0.1 * peak)
+        });
+        let r = has(&offset, Effect::SensorBias);
+        assert!(r.signatures.sensor_offset.significant);
+        // A delay of 20 ms.
+        let angle_at = |t: f64| {
+            let i = angles.partition_point(|a| a.0 < t).min(angles.len() - 1);
+            angles[i].1
+        };
+        let late = sim::measure(&angles, 0.02, &mut rng, |t, _| misfit(angle_at(t - 0.02)));
+        has(&late, Effect::SensorLag);
+        // Without them, no sensor effect is reported.
+        let plain = sim::measure(&angles, 0.02, &mut rng, |_, b| misfit(b));
+        let r = diagnose(&unit(), &plain, &opts).unwrap().report;
+        assert!(
+            r.steps.iter().all(|x| !x.effect.is_sensor()),
+            "{}",
+            r.summary
+        );
+    }
+
+    #[test]
     fn too_few_strokes_and_no_force_are_errors() {
         let e = diagnose(
             &unit(),

@@ -44,8 +44,8 @@ pub struct Unexplained {
     /// Share of the gap left once every significant effect is modelled, %.
     pub share_of_gap_pct: f64,
     pub heldout_rmse_n: f64,
-    /// Where the remaining residual lies: significant bins, largest share first (shares of the
-    /// remaining gap).
+    /// Where the remaining residual lies: in each of attack angle, depth, speed and stroke, its
+    /// two largest significant bins, largest share first (shares of the remaining gap).
     #[serde(rename = "where")]
     pub where_: Vec<Bin>,
     /// Effects whose terms would close part of what remains, without being significant or
@@ -394,11 +394,7 @@ pub(super) fn analyse(
         Unexplained {
             share_of_gap_pct: (100.0 * left / excess).clamp(0.0, 100.0),
             heldout_rmse_n: current.heldout_mse().sqrt(),
-            where_: where_bins(ctx, &current.heldout_n, var)
-                .into_iter()
-                .filter(|b| b.significant && b.share_of_gap > 0.0)
-                .take(8)
-                .collect(),
+            where_: where_left(where_bins(ctx, &current.heldout_n, var)),
             resembles,
         }
     });
@@ -508,6 +504,24 @@ fn direct_share(ctx: &Context, e: Effect, sig: &Signatures, var: f64, excess: f6
         let mse = fit(&corrected, &design, None).heldout_mse();
         100.0 * (1.0 - (mse - var) / excess)
     })
+}
+
+/// Where what is left lies: in each of attack angle, depth, speed and stroke, its two largest
+/// significant bins (largest share first).
+fn where_left(bins: Vec<Bin>) -> Vec<Bin> {
+    let mut out: Vec<Bin> = Vec::new();
+    for dim in ["attack_angle_deg", "depth_m", "speed_rad_s", "stroke"] {
+        out.extend(
+            bins.iter()
+                // A speed bin of one speed says nothing of where (a session at one speed).
+                .filter(|b| b.dimension == dim && b.significant && b.share_of_gap > 0.0)
+                .filter(|b| b.dimension != "speed_rad_s" || b.hi > b.lo * (1.0 + 1e-6))
+                .take(2)
+                .cloned(),
+        );
+    }
+    out.sort_by(|a, b| b.share_of_gap.total_cmp(&a.share_of_gap));
+    out
 }
 
 /// Whether a direct signature of the session shows `e`.
@@ -840,9 +854,13 @@ fn summary(
         let places: Vec<String> = u
             .where_
             .iter()
-            .filter(|b| b.dimension != "regime")
             .take(3)
-            .map(|b| format!("{} {}", b.dimension.replace('_', " "), b.label))
+            .map(|b| match b.dimension {
+                "attack_angle_deg" => format!("attack angle {}", b.label),
+                "depth_m" => format!("depth {}", b.label),
+                "speed_rad_s" => format!("speed {}", b.label),
+                _ => b.label.clone(),
+            })
             .collect();
         if !places.is_empty() {
             s += &format!(", mostly at {}", places.join(", "));
