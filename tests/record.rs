@@ -511,3 +511,67 @@ fn a_recording_without_a_name_is_named_from_its_start_time() {
         Some("terzaghi_2000_02_29-00_00_00.mcap")
     );
 }
+
+/// A third, independent reader: Foxglove's TypeScript MCAP library and ROS 2 deserializer
+/// (`tests/js/decode_all.mjs`, run by Node.js) decode every message of a recording and of
+/// `replay --reevaluate -o OUT.mcap`, from the schemas in the files, and count the same
+/// messages per topic as the Python reader.
+#[test]
+fn the_javascript_mcap_reader_decodes_every_message() {
+    let js = common::js_reader();
+    let dir = tempfile::tempdir().unwrap();
+    let demo = dir.path().join("demo");
+    let o = Command::new(terzaghi())
+        .args(["demo", "--seconds", "10", "--speed", "20", "--out"])
+        .arg(&demo)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let session = demo.join("session.mcap");
+    let again = dir.path().join("again.mcap");
+    let o = Command::new(terzaghi())
+        .arg("replay")
+        .arg(&session)
+        .args(["--reevaluate", "-o"])
+        .arg(&again)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for file in [&session, &again] {
+        let o = Command::new("node").arg(&js).arg(file).output().unwrap();
+        assert!(
+            o.status.success(),
+            "{}: {}",
+            file.display(),
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let js_out: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let o = Command::new(python())
+            .arg(repo().join("tests/python/decode_all.py"))
+            .arg(file)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let py_out: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(js_out["counts"], py_out["counts"], "{}", file.display());
+        let counts = js_out["counts"].as_object().unwrap();
+        for topic in [
+            "/joint_states",
+            "/front_left/ft/wrench",
+            "/front_left/predicted_wrench",
+        ] {
+            assert!(counts[topic].as_u64() > Some(10), "{topic}: {counts:?}");
+        }
+        // Values, not only counts: the first JointState names six hips with six finite angles.
+        let js0 = &js_out["first"]["/joint_states"];
+        assert_eq!(js0["name"].as_array().unwrap().len(), 6, "{js0}");
+        assert!(
+            js0["position"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .all(|p| p.as_f64().is_some_and(f64::is_finite)),
+            "{js0}"
+        );
+    }
+}

@@ -88,6 +88,30 @@ pub fn python() -> PathBuf {
     py
 }
 
+/// `node` and the JavaScript MCAP reader `tests/js/decode_all.mjs` with its packages installed
+/// (`.ci/run` runs `npm ci --prefix tests/js`; made here if missing, which needs the npm
+/// registry). Returns the script's path.
+pub fn js_reader() -> PathBuf {
+    let dir = repo().join("tests/js");
+    let ready = || dir.join("node_modules/@mcap/core/package.json").exists();
+    if !ready() {
+        let _lock = std::fs::File::create(repo().join("target/npm.lock"));
+        if !ready() {
+            let ok = Command::new("npm")
+                .args(["ci", "--no-audit", "--no-fund", "--prefix"])
+                .arg(&dir)
+                .status()
+                .is_ok_and(|s| s.success());
+            assert!(
+                ok && ready(),
+                "cannot install the JavaScript reader's packages in {} (run `npm ci --prefix tests/js` once, with network)",
+                dir.display()
+            );
+        }
+    }
+    dir.join("decode_all.mjs")
+}
+
 /// The paper's testbed plate (0.25 x 0.06 m, hip 0.15 m) in its sand, as CLI flags.
 pub const SAND_GEOM: [&str; 12] = [
     "--length-m",
