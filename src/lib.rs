@@ -20,8 +20,8 @@
 //!   diagnose its legs, identify a leg's medium, record and replay topics; with the writers of
 //!   their results.
 //! - [`withheld`]: the check of the diagnosis on generated sessions whose effect it is not told.
-//! - [`dem`]: runs of the DEM testbed (reading, checking, writing as sessions) and the models'
-//!   fidelity against a campaign.
+//! - [`dem`]: runs of the DEM testbed (reading, checking, writing as sessions), the models'
+//!   fidelity against a campaign, and the diagnosis checked on sessions built from its runs.
 //! - [`demo`]: the six-legged robot walking through the node, for `terzaghi demo`.
 //! - [`cli`]: the `terzaghi` command line, over all of the above.
 //!
