@@ -59,6 +59,9 @@ fn the_readme_commands_work_in_a_fresh_clone() {
         .expect("cp");
     assert!(status.success());
     let python = common::python();
+    // The clone has no network for npm (its tests run inside netns-run): it reads with this
+    // checkout's JavaScript reader, as with its Python.
+    let js_reader = common::js_reader();
     // The clone's DDS tests find the namespace tool where this checkout finds it.
     let netns_run = common::netns_run()
         .canonicalize()
@@ -72,6 +75,7 @@ fn the_readme_commands_work_in_a_fresh_clone() {
             .env("CARGO_TARGET_DIR", &target)
             .env("TERZAGHI_IN_CLONE_TEST", "1")
             .env("TERZAGHI_PYTHON", &python)
+            .env("TERZAGHI_JS_READER", &js_reader)
             .env("NETNS_RUN", &netns_run)
             .output()
             .expect("run a README command");

@@ -89,9 +89,13 @@ pub fn python() -> PathBuf {
 }
 
 /// `node` and the JavaScript MCAP reader `tests/js/decode_all.mjs` with its packages installed
-/// (`.ci/run` runs `npm ci --prefix tests/js`; made here if missing, which needs the npm
-/// registry). Returns the script's path.
+/// (`$TERZAGHI_JS_READER`, else this checkout's, whose packages `.ci/run` installs with
+/// `npm ci --prefix tests/js`; installed here if missing, which needs the npm registry).
+/// Returns the script's path.
 pub fn js_reader() -> PathBuf {
+    if let Some(p) = std::env::var_os("TERZAGHI_JS_READER") {
+        return PathBuf::from(p);
+    }
     let dir = repo().join("tests/js");
     let ready = || dir.join("node_modules/@mcap/core/package.json").exists();
     if !ready() {
