@@ -117,16 +117,21 @@ pub fn fit(ctx: &Context, design: &Design, search: Option<Effect>) -> Fit {
     // A change in the session is fitted only where the fold's training strokes lie on both
     // sides of it: otherwise its column is the baseline's own on the training strokes, and the
     // held-out strokes before it would be predicted from an arbitrary split of the two.
-    let span: Vec<(f64, f64)> = (0..=k_all)
-        .map(|k| {
-            ctx.points
-                .iter()
-                .filter(|p| k == k_all || p.fold != k)
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
-                    (lo.min(p.session_frac), hi.max(p.session_frac))
-                })
-        })
-        .collect();
+    // Only a search for `compaction` needs the spans: a pass over the points per fold.
+    let span: Vec<(f64, f64)> = if search == Some(Effect::Compaction) {
+        (0..=k_all)
+            .map(|k| {
+                ctx.points
+                    .iter()
+                    .filter(|p| k == k_all || p.fold != k)
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+                        (lo.min(p.session_frac), hi.max(p.session_frac))
+                    })
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
     let usable = |k: usize, g: &Option<(Effect, f64)>| match g {
         Some((Effect::Compaction, v)) => span[k].0 < *v && *v < span[k].1,
         _ => true,

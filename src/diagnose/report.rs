@@ -123,7 +123,7 @@ pub struct Candidate {
     pub heldout_t: f64,
     /// Whether it improves the held-out strokes beyond chance on its own (t, penalty).
     pub significant: bool,
-    /// Whether a direct signature of the session shows it (sensor_bias, sensor_lag, hip_height).
+    /// Whether a direct signature of the session shows it (sensor_bias, sensor_lag).
     pub direct_evidence: bool,
 }
 
@@ -145,7 +145,7 @@ pub struct Step {
     /// sensor effect its direct signature shows where the held-out fit cannot.
     pub evidence: &'static str,
     /// With a direct signature: the share of the gap closed by correcting the session by the
-    /// directly measured offset, delay or surface level and fitting the baseline again, %
+    /// directly measured offset or delay and fitting the baseline again, %
     /// (a term fitted to the whole session can also take up part of the model's own misfit;
     /// this share cannot).
     pub direct_share_of_gap_pct: Option<f64>,
@@ -239,19 +239,22 @@ pub(super) fn analyse(
     // by stroke: paired t over strokes, and it pays for its parameters) and material (it closes
     // a set share of the gap, or a direct signature of the session shows it).
     let psi_before = psi(ctx, &base.heldout_n);
+    // Direct evidence given what is already modelled: a misfit that an earlier step explains
+    // (a surface level shifting the onset) must not pass for a delay.
+    let given = |f: &Fit, baseline: bool| {
+        if baseline {
+            signatures.clone()
+        } else {
+            signatures::read(ctx, &f.fitted_n, [noise.drag_n, noise.lift_n])
+        }
+    };
     let mut steps: Vec<Step> = Vec::new();
     let mut current = base.clone();
     let mut remaining: Vec<(Effect, f64)> = Vec::new();
     while real && steps.len() < opts.max_steps {
         let mse = current.heldout_mse();
         let cur_strokes = stroke_sse(ctx, &current.heldout_n);
-        // Direct evidence given what is already modelled: a misfit that an earlier step
-        // explains (a surface level shifting the onset) must not pass for a delay.
-        let sig_now = if steps.is_empty() {
-            signatures.clone()
-        } else {
-            signatures::read(ctx, &current.fitted_n, [noise.drag_n, noise.lift_n])
-        };
+        let sig_now = given(&current, steps.is_empty());
         let mut tried: Vec<(Fit, f64, f64)> = ALL
             .iter()
             .filter(|e| !current.design.effects.contains(e))
@@ -288,9 +291,7 @@ pub(super) fn analyse(
         let chosen = tried.into_iter().find(|(f, gain, t)| {
             let e = *f.design.effects.last().expect("one effect was added");
             let share = 100.0 * (mse - f.heldout_mse()) / excess;
-            *gain > 0.0
-                && *t >= min_t
-                && (share >= opts.step_pct || (direct(&sig_now, e) && e.is_sensor()))
+            *gain > 0.0 && *t >= min_t && (share >= opts.step_pct || direct(&sig_now, e))
         });
         let Some((next, _, t)) = chosen else { break };
         let e = *next.design.effects.last().expect("one effect was added");
@@ -313,11 +314,7 @@ pub(super) fn analyse(
     // where the held-out fit cannot show it: the model's own misfit can mask a delay (a model
     // that lags the medium in angle looks better once the sensor lags too).
     if real {
-        let sig_end = if steps.is_empty() {
-            signatures.clone()
-        } else {
-            signatures::read(ctx, &current.fitted_n, [noise.drag_n, noise.lift_n])
-        };
+        let sig_end = given(&current, steps.is_empty());
         for e in ALL.into_iter().filter(|e| e.is_sensor()) {
             if current.design.effects.contains(&e) || !direct(&sig_end, e) {
                 continue;
@@ -477,7 +474,7 @@ fn step(
 /// The share of the gap closed by correcting the session by a directly measured effect and
 /// fitting the baseline again (see [`Step::direct_share_of_gap_pct`]).
 fn direct_share(ctx: &Context, e: Effect, sig: &Signatures, var: f64, excess: f64) -> Option<f64> {
-    let mut design = Design::baseline(ctx.folds);
+    let design = Design::baseline(ctx.folds);
     let mut corrected = ctx.clone();
     match e {
         Effect::SensorBias => {
@@ -491,11 +488,6 @@ fn direct_share(ctx: &Context, e: Effect, sig: &Signatures, var: f64, excess: f6
             let y: Vec<[f64; 2]> = ctx.points.iter().map(|p| p.y_n).collect();
             for p in &mut corrected.points {
                 p.y_n = signatures::interpolate(&times, &y, p.t_s + sig.delay.lag_s);
-            }
-        }
-        Effect::HipHeight => {
-            for f in &mut design.fixed {
-                f.surface_drop_m = sig.onset.surface_drop_m;
             }
         }
         _ => return None,
@@ -525,11 +517,12 @@ fn where_left(bins: Vec<Bin>) -> Vec<Bin> {
 }
 
 /// Whether a direct signature of the session shows `e`.
+/// Only the sensor's effects: the onset is reported in the signatures but does not vouch for
+/// `hip_height`, because the model's own misfit shifts it too.
 fn direct(sig: &Signatures, e: Effect) -> bool {
     match e {
         Effect::SensorBias => sig.sensor_offset.significant,
         Effect::SensorLag => sig.delay.significant,
-        Effect::HipHeight => sig.onset.significant,
         _ => false,
     }
 }
