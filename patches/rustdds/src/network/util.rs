@@ -239,12 +239,29 @@ fn get_local_multicast_ip_addrs_inner(
   ifaces: &[IfAddr],
   only_networks: Option<&[IpAddr]>,
 ) -> Vec<IpAddr> {
-  ifaces
+  let usable = |ifa: &&IfAddr| {
+    ifa.ip.is_ipv4() && only_networks.is_none_or(|nets| nets.contains(&ifa.ip))
+  };
+  let multicast: Vec<IpAddr> = ifaces
     .iter()
     .filter(|ifa| ifa.is_multicast)
-    .filter(|ifa| only_networks.is_none_or(|nets| nets.contains(&ifa.ip)))
+    .filter(usable)
     .map(|ifa| ifa.ip)
-    .filter(IpAddr::is_ipv4)
+    .collect();
+  if !multicast.is_empty() {
+    return multicast;
+  }
+  // No multicast-capable interface is usable (a participant restricted to
+  // localhost, or a host with only loopback): multicast over loopback, which
+  // Linux carries although `lo` does not set IFF_MULTICAST. Cyclone DDS
+  // announces itself there and listens on ports of its own choosing, so a
+  // participant that only sends unicast to the well-known ports finds it only
+  // when it announces itself again.
+  ifaces
+    .iter()
+    .filter(|ifa| ifa.is_loopback)
+    .filter(usable)
+    .map(|ifa| ifa.ip)
     .collect()
 }
 
@@ -371,6 +388,22 @@ mod tests {
       ips.is_empty(),
       "we only want interfaces w/ multicast support"
     );
+  }
+
+  #[test]
+  fn loopback_when_no_interface_is_multicast_capable() {
+    let ifaces = vec![
+      iface(IpAddr::V4(Ipv4Addr::LOCALHOST), 0, true, false),
+      iface(IpAddr::V6(Ipv6Addr::LOCALHOST), 0, true, false),
+      iface(v4(192, 168, 0, 137), 1, false, true),
+    ];
+    // Restricted to localhost: loopback, IPv4 only.
+    let only_networks = [IpAddr::V4(Ipv4Addr::LOCALHOST)];
+    let ips = get_local_multicast_ip_addrs_inner(&ifaces, Some(&only_networks));
+    assert_eq!(ips, vec![IpAddr::V4(Ipv4Addr::LOCALHOST)]);
+    // Only loopback on the host.
+    let ips = get_local_multicast_ip_addrs_inner(&ifaces[..2], None);
+    assert_eq!(ips, vec![IpAddr::V4(Ipv4Addr::LOCALHOST)]);
   }
 
   #[test]
