@@ -711,9 +711,12 @@ impl Node {
       None // No parameter services
     };
 
+    // ROS publishes /clock as rosgraph_msgs/Clock, a struct holding one
+    // builtin_interfaces/Time: the same CDR, so it is read as a Time, but the
+    // topic must carry Clock's type name for publishers of /clock to match.
     let clock_topic = self.create_topic(
       &Name::new("/", "clock").unwrap(),
-      MessageTypeName::new("builtin_interfaces", "Time"),
+      MessageTypeName::new("rosgraph_msgs", "Clock"),
       &DEFAULT_SUBSCRIPTION_QOS,
     )?;
 
