@@ -127,6 +127,7 @@ fn run_dds(
         config: cfg.clone(),
         domain_id: domain,
         localhost_only: local,
+        log: Default::default(),
     };
     let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
     let node_task = rt.spawn(crate::node::dds::run(setup, async {

@@ -507,14 +507,14 @@ struct LoadReport {
     node_exit_clean: bool,
 }
 
-/// What the node said of its run when it stopped (its last line on stderr: "terzaghi node
-/// stopped: J joint states, P predictions, D inputs dropped; processing p50 X us, p99 Y us,
-/// max Z us").
+/// What the node said of its run when it stopped (its last log line on stderr, after the
+/// `[INFO] [STAMP] [LOGGER]: ` prefix: "terzaghi node stopped: J joint states, P predictions,
+/// D inputs dropped; processing p50 X us, p99 Y us, max Z us").
 fn stop_line(log: &str) -> Option<RunSummary> {
-    let line = log
-        .lines()
-        .rev()
-        .find(|l| l.starts_with("terzaghi node stopped:"))?;
+    let line = log.lines().rev().find_map(|l| {
+        let msg = l.split_once("]: ").map_or(l, |(_, m)| m);
+        msg.strip_prefix("terzaghi node stopped:")
+    })?;
     let numbers: Vec<f64> = line
         .split(|c: char| !(c.is_ascii_digit() || c == '.'))
         .filter_map(|w| w.trim_matches('.').parse().ok())
@@ -547,7 +547,7 @@ mod tests {
     #[test]
     fn the_node_stop_line_reads_back() {
         let s = super::stop_line(
-            "noise\nterzaghi node stopped: 10000 joint states, 60000 predictions, 3 inputs dropped; processing p50 16.4 us, p99 45.1 us, max 120.0 us\n",
+            "noise\n[INFO] [1795445050.756860069] [robot.terzaghi]: terzaghi node stopped: 10000 joint states, 60000 predictions, 3 inputs dropped; processing p50 16.4 us, p99 45.1 us, max 120.0 us\n",
         )
         .unwrap();
         assert_eq!(

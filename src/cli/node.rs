@@ -1,7 +1,8 @@
 //! `terzaghi node`: the ROS 2 node.
 
-use crate::config::{NodeConfig, ParamValue, load_params, parse_ros_args};
+use crate::config::{LogLevel, NodeConfig, ParamValue, load_params, parse_ros_args};
 use crate::node::dds::{NodeSetup, run as run_node};
+use crate::node::log::LogSettings;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use std::path::PathBuf;
@@ -9,9 +10,12 @@ use std::path::PathBuf;
 #[derive(Debug, Args)]
 #[command(
     after_help = "ROS arguments: --ros-args [-p NAME:=VALUE]... [--params-file FILE]... \
-[-r __node:=NAME] [-r __ns:=/NAMESPACE] [-r FROM:=TO]... [--]\n\
+[-r __node:=NAME] [-r __ns:=/NAMESPACE] [-r FROM:=TO]... [--log-level LEVEL] \
+[--disable-rosout-logs] [--disable-stdout-logs] [--]\n\
 Environment: ROS_DOMAIN_ID (0-232), ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST or \
 ROS_LOCALHOST_ONLY=1 (DDS on loopback only).\n\
+Simulated time: -p use_sim_time:=true, and the node's time (diagnostics, parameter events, \
+recorded receive times) follows /clock (rosgraph_msgs/msg/Clock).\n\
 Parameters: see launch_configs/ and the README."
 )]
 pub struct NodeArgs {
@@ -92,31 +96,16 @@ pub fn setup(a: &NodeArgs) -> Result<NodeSetup> {
         config,
         domain_id,
         localhost_only,
+        log: LogSettings {
+            level: ros.log_level.unwrap_or(LogLevel::Info),
+            stderr: !ros.stdout_logs_disabled,
+            rosout: !ros.rosout_logs_disabled,
+        },
     })
 }
 
 pub fn run(a: NodeArgs) -> Result<()> {
     let setup = setup(&a)?;
-    let c = &setup.config;
-    eprintln!(
-        "terzaghi node {}/{}: {} legs ({}), model {}, joint states on {}, domain {}{}",
-        c.namespace.trim_end_matches('/'),
-        c.node_name,
-        c.legs.len(),
-        c.legs
-            .iter()
-            .map(|l| l.name.as_str())
-            .collect::<Vec<_>>()
-            .join(", "),
-        c.model.as_str(),
-        c.joint_states_topic,
-        setup.domain_id,
-        if setup.localhost_only {
-            ", localhost only"
-        } else {
-            ""
-        }
-    );
     // One thread: each message is handled where it is taken off DDS, and on two cores more
     // threads only add wake-ups and preemption to the processing time.
     let rt = tokio::runtime::Builder::new_current_thread()
@@ -130,16 +119,8 @@ pub fn run(a: NodeArgs) -> Result<()> {
     if let Some(priority) = a.realtime_priority {
         crate::node::realtime::set_realtime(priority).context("--realtime-priority")?;
     }
-    let summary = rt.block_on(run_node(setup, shutdown_signal()))?;
-    eprintln!(
-        "terzaghi node stopped: {} joint states, {} predictions, {} inputs dropped; processing p50 {:.1} us, p99 {:.1} us, max {:.1} us",
-        summary.joint_states,
-        summary.predictions,
-        summary.dropped,
-        summary.processing_p50_ns as f64 / 1e3,
-        summary.processing_p99_ns as f64 / 1e3,
-        summary.processing_max_ns as f64 / 1e3
-    );
+    // The node logs its start and what it did at the end (stderr and /rosout).
+    rt.block_on(run_node(setup, shutdown_signal()))?;
     rt.shutdown_timeout(std::time::Duration::from_secs(2));
     Ok(())
 }

@@ -184,6 +184,22 @@ other_node:
     }
 
     #[test]
+    fn log_level_and_log_switches() {
+        let (_, ros) = parse_ros_args(&args(
+            "--ros-args --log-level terzaghi:=DEBUG --disable-stdout-logs",
+        ))
+        .unwrap();
+        assert_eq!(ros.log_level, Some(LogLevel::Debug));
+        assert!(ros.stdout_logs_disabled && !ros.rosout_logs_disabled);
+        let (_, ros) = parse_ros_args(&args("--ros-args --log-level warn")).unwrap();
+        assert_eq!(ros.log_level, Some(LogLevel::Warn));
+        let e = parse_ros_args(&args("--ros-args --log-level loud"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("loud") && e.contains("debug"), "{e}");
+    }
+
+    #[test]
     fn node_sections_and_names() {
         let y = "terzaghi:\n  ros__parameters:\n    legs: [a]\n";
         assert!(

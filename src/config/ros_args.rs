@@ -1,5 +1,6 @@
 //! `--ros-args`: `-p name:=value`, `--params-file FILE`, `-r __node:=NAME`, `-r __ns:=/NS`,
-//! `-r from:=to`, as `ros2 run` passes them.
+//! `-r from:=to`, `--log-level [LOGGER:=]LEVEL`, `--disable-rosout-logs`,
+//! `--disable-stdout-logs`, as `ros2 run` passes them.
 
 use super::{ConfigError, ParamValue, parse_value};
 use std::path::PathBuf;
@@ -14,6 +15,46 @@ pub struct RosArgs {
     pub namespace: Option<String>,
     /// `-r from:=to` topic remappings.
     pub remaps: Vec<(String, String)>,
+    /// `--log-level LEVEL`, or `--log-level LOGGER:=LEVEL` for the node's own logger.
+    pub log_level: Option<LogLevel>,
+    /// `--disable-rosout-logs`: no log lines on `/rosout`.
+    pub rosout_logs_disabled: bool,
+    /// `--disable-stdout-logs`: no log lines on the console (stderr).
+    pub stdout_logs_disabled: bool,
+}
+
+/// ROS 2 log severities, with the values of `rcl_interfaces/msg/Log`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub enum LogLevel {
+    Debug = 10,
+    Info = 20,
+    Warn = 30,
+    Error = 40,
+    Fatal = 50,
+}
+
+impl LogLevel {
+    /// As `--log-level` takes it: `debug`, `info`, `warn`, `error`, `fatal`, any case.
+    pub fn parse(s: &str) -> Option<LogLevel> {
+        Some(match s.to_ascii_lowercase().as_str() {
+            "debug" => LogLevel::Debug,
+            "info" => LogLevel::Info,
+            "warn" | "warning" => LogLevel::Warn,
+            "error" => LogLevel::Error,
+            "fatal" => LogLevel::Fatal,
+            _ => return None,
+        })
+    }
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            LogLevel::Debug => "DEBUG",
+            LogLevel::Info => "INFO",
+            LogLevel::Warn => "WARN",
+            LogLevel::Error => "ERROR",
+            LogLevel::Fatal => "FATAL",
+        }
+    }
 }
 
 /// Splits `args` into the program's own arguments and what `--ros-args ... [--]` says.
@@ -75,11 +116,22 @@ pub fn parse_ros_args(args: &[String]) -> Result<(Vec<String>, RosArgs), ConfigE
                 }
                 i += 1;
             }
-            "--log-level" | "-e" | "--enclave" => i += 1, // accepted; nothing to configure
-            "--disable-rosout-logs"
-            | "--disable-stdout-logs"
-            | "--enable-rosout-logs"
-            | "--enable-stdout-logs" => {}
+            "--log-level" => {
+                let v = need(i, a)?;
+                // `LOGGER:=LEVEL` sets one logger; this node has one, its own.
+                let level = v.split_once(":=").map(|(_, l)| l).unwrap_or(&v);
+                ros.log_level = Some(LogLevel::parse(level).ok_or_else(|| {
+                    ConfigError::RosArgs(format!(
+                        "{a} {v:?}: unknown level (debug, info, warn, error, fatal)"
+                    ))
+                })?);
+                i += 1;
+            }
+            "-e" | "--enclave" => i += 1, // accepted; security enclaves are not supported
+            "--disable-rosout-logs" => ros.rosout_logs_disabled = true,
+            "--disable-stdout-logs" => ros.stdout_logs_disabled = true,
+            "--enable-rosout-logs" => ros.rosout_logs_disabled = false,
+            "--enable-stdout-logs" => ros.stdout_logs_disabled = false,
             other => {
                 return Err(ConfigError::RosArgs(format!(
                     "unknown argument {other:?} (known: -p, --param, --params-file, -r, --remap, --log-level, --)"

@@ -2,13 +2,16 @@
 //! queue, one task runs [`NodeCore`] on it and publishes; parameter services run, and a change
 //! of a parameter is validated as a whole configuration before it takes effect.
 
+use super::clock::NodeClock;
 use super::core::{LegOutput, NodeCore};
 use super::handle::{Publish, Topics, diagnostics_done, joint_state_done, wrench_done};
 use super::latency::Histogram;
-use crate::config::{NodeConfig, ParamMap, ParamValue, STARTUP_ONLY};
+use super::log::{LogSettings, NodeLog};
+use crate::config::{LogLevel, NodeConfig, ParamMap, ParamValue, STARTUP_ONLY};
+use crate::log_site;
 use crate::msgs::{DiagnosticArray, JointState, LegForce, ModelParams, RosMessage, WrenchStamped};
 use crate::record::RecordOptions;
-use crate::record::recorder::{Recorder, now_ns};
+use crate::record::recorder::Recorder;
 use anyhow::{Context as _, Result, anyhow};
 use ros2_client::dds::rustdds::DomainParticipantBuilder;
 use ros2_client::{
@@ -31,6 +34,8 @@ pub struct NodeSetup {
     pub config: NodeConfig,
     pub domain_id: u16,
     pub localhost_only: bool,
+    /// `--log-level`, `--disable-rosout-logs`, `--disable-stdout-logs`.
+    pub log: LogSettings,
 }
 
 /// What a run did, printed at shutdown.
@@ -51,6 +56,8 @@ struct Shared {
     core: Mutex<Core>,
     hist: Mutex<Histogram>,
     dropped: AtomicU64,
+    log: Arc<NodeLog>,
+    clock: Arc<NodeClock>,
 }
 
 /// The node's core and the parameters it follows.
@@ -157,6 +164,14 @@ pub fn qos_out() -> QosProfile {
         .history(History::KeepLast { depth: 10 })
 }
 
+/// [`qos_out`], transient local, keeping the last sample: a subscriber that joins late
+/// (transient local, as a planner started after the node asks) gets the latest at once.
+pub fn qos_latched() -> QosProfile {
+    qos_out()
+        .durability(Durability::TransientLocal)
+        .history(History::KeepLast { depth: 1 })
+}
+
 fn topic_name(full: &str) -> Result<Name> {
     Name::parse(full).map_err(|e| anyhow!("bad topic name {full:?}: {e:?}"))
 }
@@ -166,10 +181,18 @@ fn message_type<M: RosMessage>() -> MessageTypeName {
 }
 
 pub fn publisher<M: RosMessage>(node: &mut Node, topic: &str) -> Result<Publisher<M>> {
+    publisher_with_qos(node, topic, qos_out())
+}
+
+pub fn publisher_with_qos<M: RosMessage>(
+    node: &mut Node,
+    topic: &str,
+    qos: QosProfile,
+) -> Result<Publisher<M>> {
     let t = node
-        .create_topic(&topic_name(topic)?, message_type::<M>(), &qos_out())
+        .create_topic(&topic_name(topic)?, message_type::<M>(), &qos)
         .with_context(|| format!("cannot create topic {topic}"))?;
-    node.create_publisher::<M>(&t, Some(qos_out()))
+    node.create_publisher::<M>(&t, Some(qos))
         .with_context(|| format!("cannot publish {topic}"))
 }
 
@@ -342,12 +365,34 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
     });
     let node_name = NodeName::new(&cfg.namespace, &cfg.node_name)
         .map_err(|e| anyhow!("bad node name {}/{}: {e:?}", cfg.namespace, cfg.node_name))?;
+    let log = Arc::new(NodeLog::new(&cfg.namespace, &cfg.node_name, setup.log));
     let mut node = context
-        .new_node(node_name, node_options(&setup.params, Arc::new(live_tx)))
+        .new_node(
+            node_name,
+            node_options(&setup.params, Arc::new(live_tx), log.clone()),
+        )
         .context("cannot create the ROS 2 node")?;
+    log.attach(node.logging_handle());
+    log.log(LogLevel::Info, &startup_line(&setup), log_site!());
     let spinner = node.spinner().context("cannot start the node's spinner")?;
     let spin_task = tokio::spawn(spinner.spin());
     let (wrench, force, params, diagnostics) = publishers(&mut node, &cfg)?;
+
+    let depth = cfg.queue_depth;
+    let js_sub = subscription_with_depth::<JointState>(&mut node, &cfg.joint_states_topic, depth)?;
+    let mut ft_subs = Vec::new();
+    for (i, leg) in cfg.legs.iter().enumerate() {
+        if let Some(topic) = &leg.ft_topic {
+            ft_subs.push((
+                i,
+                subscription_with_depth::<WrenchStamped>(&mut node, topic, depth)?,
+            ));
+        }
+    }
+    // From here on the node is shared: the message tasks ask it who subscribes, and the clock
+    // asks it the time.
+    let node = Arc::new(node);
+    let clock = Arc::new(NodeClock::new(node.clone()));
 
     // Each message is handled in the task that takes it off DDS (no hand-off, which would add a
     // thread wake-up to every JointState). The DDS reader's KeepLast history is the bounded
@@ -360,20 +405,9 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
         }),
         hist: Mutex::new(Histogram::default()),
         dropped: AtomicU64::new(0),
+        log: log.clone(),
+        clock: clock.clone(),
     });
-    let depth = cfg.queue_depth;
-    let js_sub = subscription_with_depth::<JointState>(&mut node, &cfg.joint_states_topic, depth)?;
-    let mut ft_subs = Vec::new();
-    for (i, leg) in cfg.legs.iter().enumerate() {
-        if let Some(topic) = &leg.ft_topic {
-            ft_subs.push((
-                i,
-                subscription_with_depth::<WrenchStamped>(&mut node, topic, depth)?,
-            ));
-        }
-    }
-    // From here on the node is shared: the message tasks ask it who subscribes.
-    let node = Arc::new(node);
     let publish_errors = Arc::new(AtomicU64::new(0));
     let pubs = Arc::new(Pubs {
         wrench,
@@ -383,7 +417,7 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
         errors: publish_errors.clone(),
         node: node.clone(),
     });
-    let (recorder, record_error) = start_recorder(&cfg, &setup.params);
+    let (recorder, record_error) = start_recorder(&cfg, &setup.params, &log);
     let topics = Arc::new(Topics::new(&cfg));
     let mut tasks = vec![tokio::spawn(joint_states_task(
         js_sub,
@@ -405,13 +439,16 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
 
     let mut diag_tick = tokio::time::interval(Duration::from_secs_f64(cfg.diagnostics_period_s));
     diag_tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    let mut watch = Watch::default();
     tokio::pin!(shutdown);
     loop {
         tokio::select! {
             _ = &mut shutdown => break,
             _ = diag_tick.tick() => {
                 let d = node_status(&shared, &publish_errors, &recorder, record_error.as_deref());
-                diagnostics_done(recorder.as_deref(), &topics, d, now_ns(), &*pubs);
+                watch.report(&shared, &d, &cfg);
+                let now = clock.now_ns().max(0) as u64;
+                diagnostics_done(recorder.as_deref(), &topics, d, now, &*pubs);
             }
         }
     }
@@ -422,35 +459,163 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
     for t in tasks {
         let _ = t.await;
     }
+    let summary = run_summary(&shared, cfg.legs.len());
+    log.log(LogLevel::Info, &summary_line(&summary), log_site!());
+    if let Some(r) = recorder.and_then(|r| Arc::try_unwrap(r).ok()) {
+        finish_recording(r, &log);
+    }
     node.stop_spinner();
     let _ = tokio::time::timeout(Duration::from_secs(2), spin_task).await;
-    let summary = run_summary(&shared, cfg.legs.len());
     // Dropping the node and context tells DDS peers that we left.
     drop(pubs);
-    if let Some(r) = recorder.and_then(|r| Arc::try_unwrap(r).ok()) {
-        finish_recording(r);
-    }
+    drop(shared);
+    drop(clock);
+    drop(log);
     drop(node);
     drop(context);
     Ok(summary)
 }
 
+/// The first line the node logs: who it is and what it listens to.
+fn startup_line(setup: &NodeSetup) -> String {
+    let c = &setup.config;
+    format!(
+        "terzaghi node {}/{}: {} legs ({}), model {}, joint states on {}, domain {}{}",
+        c.namespace.trim_end_matches('/'),
+        c.node_name,
+        c.legs.len(),
+        c.legs
+            .iter()
+            .map(|l| l.name.as_str())
+            .collect::<Vec<_>>()
+            .join(", "),
+        c.model.as_str(),
+        c.joint_states_topic,
+        setup.domain_id,
+        if setup.localhost_only {
+            ", localhost only"
+        } else {
+            ""
+        }
+    )
+}
+
+/// The last line the node logs: what it did.
+fn summary_line(s: &RunSummary) -> String {
+    format!(
+        "terzaghi node stopped: {} joint states, {} predictions, {} inputs dropped; processing p50 {:.1} us, p99 {:.1} us, max {:.1} us",
+        s.joint_states,
+        s.predictions,
+        s.dropped,
+        s.processing_p50_ns as f64 / 1e3,
+        s.processing_p99_ns as f64 / 1e3,
+        s.processing_max_ns as f64 / 1e3
+    )
+}
+
+/// What the diagnostics tick says in the log when it changed: inputs dropped, the clock going
+/// back, the recording stopping.
+#[derive(Default)]
+struct Watch {
+    dropped: u64,
+    jumps_back: u64,
+    recording_failed: bool,
+}
+
+impl Watch {
+    fn report(&mut self, shared: &Shared, d: &DiagnosticArray, cfg: &NodeConfig) {
+        let log = &shared.log;
+        let dropped = shared.dropped.load(Ordering::Relaxed);
+        if dropped > self.dropped {
+            log.log(
+                LogLevel::Warn,
+                &format!(
+                    "{} inputs dropped since the last diagnostics ({dropped} since start): \
+                     the node falls behind its inputs (queue_depth {})",
+                    dropped - self.dropped,
+                    cfg.queue_depth
+                ),
+                log_site!(),
+            );
+            self.dropped = dropped;
+        }
+        let jumps = shared.clock.jumps_back();
+        if jumps > self.jumps_back {
+            log.log(
+                LogLevel::Warn,
+                &format!(
+                    "the node's time went back {} times since the last diagnostics{}: \
+                     stamps and receive times follow it",
+                    jumps - self.jumps_back,
+                    if shared.clock.simulated() {
+                        " (/clock, use_sim_time)"
+                    } else {
+                        " (the system clock)"
+                    }
+                ),
+                log_site!(),
+            );
+            self.jumps_back = jumps;
+        }
+        let failed = d
+            .status
+            .first()
+            .is_some_and(|s| s.message.starts_with("recording stopped"));
+        if failed && !self.recording_failed {
+            if let Some(s) = d.status.first() {
+                log.log(LogLevel::Error, &s.message, log_site!());
+            }
+            self.recording_failed = true;
+        }
+    }
+}
+
 /// The node's options: rosout, its parameters declared, and a change of a parameter validated
-/// as a whole configuration before it is sent to the message tasks on `live`.
-fn node_options(params: &ParamMap, live: Arc<watch::Sender<Live>>) -> NodeOptions {
+/// as a whole configuration before it is sent to the message tasks on `live`; changes and
+/// refusals are logged.
+fn node_options(
+    params: &ParamMap,
+    live: Arc<watch::Sender<Live>>,
+    log: Arc<NodeLog>,
+) -> NodeOptions {
     let mut opts = NodeOptions::new().enable_rosout(true);
     for (name, value) in params {
         opts = opts.declare_parameter(name, to_ros(value));
     }
     let check = live.clone();
+    let check_log = log.clone();
     opts.parameter_validator(Box::new(move |name, value| {
-        candidate(&check.borrow(), name, value).map(|_| ())
+        candidate(&check.borrow(), name, value)
+            .map(|_| ())
+            .inspect_err(|e| {
+                check_log.log(
+                    LogLevel::Warn,
+                    &format!("parameter {name} not set to {}: {e}", show(value)),
+                    log_site!(),
+                )
+            })
     }))
     .parameter_set_action(Box::new(move |name, value| {
+        let changed = from_ros(value).as_ref() != live.borrow().params.get(name);
         let next = candidate(&live.borrow(), name, value)?;
         live.send_replace(next);
+        if changed {
+            log.log(
+                LogLevel::Info,
+                &format!("parameter {name} set to {}", show(value)),
+                log_site!(),
+            );
+        }
         Ok(())
     }))
+}
+
+/// A parameter value as `ros2 param` shows it.
+fn show(v: &ParameterValue) -> String {
+    match from_ros(v) {
+        Some(p) => p.to_string(),
+        None => format!("{v:?}"),
+    }
 }
 
 type Publishers = (
@@ -467,7 +632,12 @@ fn publishers(node: &mut Node, cfg: &NodeConfig) -> Result<Publishers> {
     for leg in &topics.legs {
         wrench.push(publisher::<WrenchStamped>(node, &leg.wrench)?);
         force.push(publisher::<LegForce>(node, &leg.force)?);
-        params.push(publisher::<ModelParams>(node, &leg.params)?);
+        // The latest estimate, for subscribers that join later.
+        params.push(publisher_with_qos::<ModelParams>(
+            node,
+            &leg.params,
+            qos_latched(),
+        )?);
     }
     let diagnostics = publisher::<DiagnosticArray>(node, &topics.diagnostics)?;
     Ok((wrench, force, params, diagnostics))
@@ -475,18 +645,85 @@ fn publishers(node: &mut Node, cfg: &NodeConfig) -> Result<Publishers> {
 
 /// The recorder, if the configuration asks for one; a failure to start is reported (and shown
 /// on `/diagnostics`), and the node runs on.
-fn start_recorder(cfg: &NodeConfig, params: &ParamMap) -> (Option<Arc<Recorder>>, Option<String>) {
+fn start_recorder(
+    cfg: &NodeConfig,
+    params: &ParamMap,
+    log: &NodeLog,
+) -> (Option<Arc<Recorder>>, Option<String>) {
     let Some(path) = &cfg.record else {
         return (None, None);
     };
     let opts = RecordOptions::with_node_params(params, &cfg.node_name, &cfg.namespace);
     match Recorder::start(path, opts, 1 << 16) {
-        Ok(r) => (Some(Arc::new(r)), None),
+        Ok(r) => {
+            log.log(
+                LogLevel::Info,
+                &format!("recording to {}", path.display()),
+                log_site!(),
+            );
+            (Some(Arc::new(r)), None)
+        }
         Err(e) => {
             let msg = format!("cannot record to {}: {e}", path.display());
-            eprintln!("error: {msg}; the node runs without recording");
+            log.log(
+                LogLevel::Error,
+                &format!("{msg}; the node runs without recording"),
+                log_site!(),
+            );
             (None, Some(msg))
         }
+    }
+}
+
+/// At most one line per second for each kind of skipped input: a flood of bad messages costs a
+/// counter each, not a line each.
+const LOG_THROTTLE: Duration = Duration::from_secs(1);
+
+/// JointStates skipped, whole or for a leg, since start.
+fn skipped_joint_states(core: &NodeCore) -> u64 {
+    let legs: u64 = (0..core.legs())
+        .filter_map(|i| core.leg_counters(i))
+        .map(|c| c.missing_joint + c.invalid_position + c.stamps_backwards)
+        .sum();
+    core.counters().invalid_joint_states + legs
+}
+
+fn skipped_joint_state_line(sh: &Shared) -> String {
+    let c = sh.lock_core();
+    let core = &c.core;
+    let mut parts = vec![format!(
+        "{} malformed (arrays of unequal length, invalid stamp)",
+        core.counters().invalid_joint_states
+    )];
+    for i in 0..core.legs() {
+        if let (Some(l), Some(name)) = (core.leg_counters(i), core.leg_name(i)) {
+            parts.push(format!(
+                "{name}: {} without its joint, {} non-finite positions, {} stamps older than the last",
+                l.missing_joint, l.invalid_position, l.stamps_backwards
+            ));
+        }
+    }
+    format!("joint states skipped, since start: {}", parts.join("; "))
+}
+
+/// F/T samples of `leg` skipped since start.
+fn skipped_wrenches(core: &NodeCore, leg: usize) -> u64 {
+    core.leg_counters(leg)
+        .map(|c| c.ft_invalid + c.ft_unmatched)
+        .unwrap_or(0)
+}
+
+fn skipped_wrench_line(sh: &Shared, leg: usize) -> String {
+    let c = sh.lock_core();
+    let core = &c.core;
+    let name = core.leg_name(leg).unwrap_or("?");
+    match core.leg_counters(leg) {
+        Some(l) => format!(
+            "F/T samples of {name} skipped, since start: {} non-finite or with an invalid stamp, \
+             {} without a joint angle within max_match_dt_s",
+            l.ft_invalid, l.ft_unmatched
+        ),
+        None => format!("F/T samples of {name} skipped"),
     }
 }
 
@@ -505,11 +742,19 @@ async fn joint_states_task(
     loop {
         let msg = next_sample(&sub, &mut gaps, &sh.dropped).await;
         let received = Instant::now();
-        let log_ns = now_ns();
-        {
+        let log_ns = sh.clock.now_ns().max(0) as u64;
+        let skipped = {
             let core = &mut sh.lock_core().core;
+            let before = skipped_joint_states(core);
             core.on_joint_state(&msg, &mut outputs);
             core.take_params(&mut params_out);
+            skipped_joint_states(core) - before
+        };
+        if skipped > 0 {
+            sh.log
+                .throttled(LogLevel::Warn, LOG_THROTTLE, log_site!(), || {
+                    skipped_joint_state_line(&sh)
+                });
         }
         joint_state_done(
             rec.as_deref(),
@@ -541,11 +786,19 @@ async fn wrench_task(
     let mut params_out = Vec::new();
     loop {
         let msg = next_sample(&sub, &mut gaps, &sh.dropped).await;
-        let log_ns = now_ns();
-        {
+        let log_ns = sh.clock.now_ns().max(0) as u64;
+        let skipped = {
             let core = &mut sh.lock_core().core;
+            let before = skipped_wrenches(core, leg);
             core.on_wrench(leg, &msg);
             core.take_params(&mut params_out);
+            skipped_wrenches(core, leg) - before
+        };
+        if skipped > 0 {
+            sh.log
+                .throttled(LogLevel::Warn, LOG_THROTTLE, log_site!(), || {
+                    skipped_wrench_line(&sh, leg)
+                });
         }
         wrench_done(
             rec.as_deref(),
@@ -581,8 +834,20 @@ fn node_status(
         ]
     };
     let rec_error = recording_state(recorder, record_error, &mut values);
+    values.push((
+        "clock".to_string(),
+        if shared.clock.simulated() {
+            "/clock (use_sim_time)".to_string()
+        } else {
+            "system".to_string()
+        },
+    ));
+    values.push((
+        "clock_jumps_back".to_string(),
+        shared.clock.jumps_back().to_string(),
+    ));
     let mut d = shared.lock_core().core.diagnostics(
-        now_ns() as i64,
+        shared.clock.now_ns(),
         shared.dropped.load(Ordering::Relaxed),
         &values,
     );
@@ -613,15 +878,23 @@ fn run_summary(shared: &Shared, legs: usize) -> RunSummary {
 }
 
 /// Closes the recording and says what it holds.
-fn finish_recording(r: Recorder) {
+fn finish_recording(r: Recorder, log: &NodeLog) {
     let path = r.path.clone();
     let written = r.status.written.load(Ordering::Relaxed);
     let dropped = r.status.dropped.load(Ordering::Relaxed);
     match r.finish() {
-        None => eprintln!(
-            "recorded {written} messages to {} ({dropped} dropped)",
-            path.display()
+        None => log.log(
+            LogLevel::Info,
+            &format!(
+                "recorded {written} messages to {} ({dropped} dropped)",
+                path.display()
+            ),
+            log_site!(),
         ),
-        Some(e) => eprintln!("error: recording to {} stopped: {e}", path.display()),
+        Some(e) => log.log(
+            LogLevel::Error,
+            &format!("recording to {} stopped: {e}", path.display()),
+            log_site!(),
+        ),
     }
 }

@@ -1,12 +1,15 @@
 //! The ROS 2 node: [`core`] is what it does with each message (pure), [`dds`] connects it to a
 //! ROS 2 network through ros2-client, [`memory`] runs it over an in-memory transport, [`handle`]
 //! is the code path after the core that both share, [`latency`] keeps its processing-time
-//! statistics.
+//! statistics, [`log`] writes its log to stderr and `/rosout`, [`clock`] is its time (the
+//! wall clock, or `/clock` with `use_sim_time`).
 
+pub mod clock;
 pub mod core;
 pub mod dds;
 pub mod handle;
 pub mod latency;
+pub mod log;
 pub mod matcher;
 pub mod memory;
 pub mod param_client;

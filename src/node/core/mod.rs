@@ -424,6 +424,16 @@ impl NodeCore {
         })
     }
 
+    /// How many legs the node predicts for.
+    pub fn legs(&self) -> usize {
+        self.legs.len()
+    }
+
+    /// The name of leg `leg`, as the parameter `legs` gives it.
+    pub fn leg_name(&self, leg: usize) -> Option<&str> {
+        self.cfg.legs.get(leg).map(|l| l.name.as_str())
+    }
+
     pub fn leg_counters(&self, leg: usize) -> Option<LegCounters> {
         self.legs.get(leg).map(|l| l.counters)
     }
