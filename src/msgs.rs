@@ -5,6 +5,12 @@
 
 use serde::{Deserialize, Serialize};
 
+/// `rosgraph_msgs/Clock`: the time of a simulation or of a log played back, on `/clock`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct Clock {
+    pub clock: Time,
+}
+
 /// `builtin_interfaces/Time`
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub struct Time {
@@ -175,6 +181,7 @@ pub fn definition(t: (&str, &str)) -> Option<&'static str> {
     Some(match t {
         ("builtin_interfaces", "Time") => "int32 sec\nuint32 nanosec\n",
         ("std_msgs", "Header") => "builtin_interfaces/Time stamp\nstring frame_id\n",
+        ("rosgraph_msgs", "Clock") => "builtin_interfaces/Time clock\n",
         ("sensor_msgs", "JointState") => {
             "std_msgs/Header header\nstring[] name\nfloat64[] position\nfloat64[] velocity\nfloat64[] effort\n"
         }
@@ -204,6 +211,7 @@ macro_rules! ros_message {
 }
 
 ros_message!(Time, "builtin_interfaces", "Time", []);
+ros_message!(Clock, "rosgraph_msgs", "Clock", [TIME]);
 ros_message!(Header, "std_msgs", "Header", [TIME]);
 ros_message!(JointState, "sensor_msgs", "JointState", [HEADER, TIME]);
 ros_message!(Vector3, "geometry_msgs", "Vector3", []);

@@ -42,9 +42,16 @@ pub struct ReplayArgs {
     /// Start again at the end, until interrupted.
     #[arg(long = "loop")]
     pub repeat: bool,
+    /// Publish /clock (rosgraph_msgs/Clock) with the recording's time at HZ (default 40), as
+    /// `ros2 bag play --clock` does: nodes with use_sim_time follow it.
+    #[arg(long, value_name = "HZ", num_args = 0..=1, default_missing_value = "40")]
+    pub clock: Option<f64>,
 }
 
 pub fn run(a: ReplayArgs) -> Result<()> {
+    if a.reevaluate && a.clock.is_some() {
+        bail!("--clock goes with replaying over DDS, not with --reevaluate");
+    }
     if a.reevaluate {
         return run_reevaluate(&a);
     }
@@ -162,6 +169,7 @@ fn run_dds(a: &ReplayArgs) -> Result<()> {
         as_fast_as_possible: a.as_fast_as_possible,
         topics: a.topics.clone(),
         repeat: a.repeat,
+        clock_hz: a.clock,
     };
     let pb = progress(0, "replaying");
     let rt = crate::node::dds::runtime()?;

@@ -1,6 +1,8 @@
 //! Republishing a session over DDS with its recorded timing, as `ros2 bag play` does.
 
-use crate::msgs::{DiagnosticArray, JointState, LegForce, ModelParams, RosMessage, WrenchStamped};
+use crate::msgs::{
+    Clock, DiagnosticArray, JointState, LegForce, ModelParams, RosMessage, Time, WrenchStamped,
+};
 use crate::node::dds::{publisher, tool_node};
 use crate::record::read::{read_session, same_type};
 use crate::session::files::read_file;
@@ -21,6 +23,9 @@ pub struct ReplayOptions {
     pub topics: Vec<String>,
     /// Start again at the end, until stopped.
     pub repeat: bool,
+    /// Publish `/clock` (`rosgraph_msgs/Clock`) at this rate (Hz) with the recording's time, as
+    /// `ros2 bag play --clock` does, for nodes that run with `use_sim_time`.
+    pub clock_hz: Option<f64>,
 }
 
 impl Default for ReplayOptions {
@@ -30,6 +35,7 @@ impl Default for ReplayOptions {
             as_fast_as_possible: false,
             topics: Vec::new(),
             repeat: false,
+            clock_hz: None,
         }
     }
 }
@@ -63,6 +69,11 @@ pub async fn replay(
     if !(opts.rate.is_finite() && opts.rate > 0.0) {
         anyhow::bail!("replay rate {}: must be a positive number", opts.rate);
     }
+    if let Some(hz) = opts.clock_hz
+        && !(hz.is_finite() && hz > 0.0 && hz <= 10_000.0)
+    {
+        anyhow::bail!("clock rate {hz} Hz: must be a number in (0, 10000]");
+    }
     let bytes = read_file(file)?;
     let mut session = read_session(&bytes).with_context(|| file.display().to_string())?;
     // Played in log-time order: chunks may overlap in time (the node's outputs are in chunks of
@@ -94,14 +105,30 @@ pub async fn replay(
         }
         pubs.push(p);
     }
+    let clock = match opts.clock_hz {
+        Some(_) => Some(publisher::<Clock>(&mut node, "/clock")?),
+        None => None,
+    };
     let spin = tokio::spawn(node.spinner()?.spin());
     // Let subscribers discover the publishers before the first message.
     tokio::time::sleep(Duration::from_secs(2)).await;
     let total = session.messages.len() as u64;
     tokio::pin!(stop);
+    let clock_period = opts.clock_hz.map(|hz| Duration::from_secs_f64(1.0 / hz));
     'outer: loop {
         let t0 = session.messages.first().map(|m| m.log_time_ns).unwrap_or(0);
         let start = Instant::now();
+        // The recording's time now: between messages it runs on with the wall clock (scaled by
+        // the rate); played as fast as possible, it is the last message's log time.
+        let play_ns = |last_ns: u64| -> u64 {
+            if opts.as_fast_as_possible {
+                last_ns
+            } else {
+                t0 + (start.elapsed().as_secs_f64() * opts.rate * 1e9) as u64
+            }
+        };
+        let mut next_clock = start;
+        let mut last_ns = t0;
         for (i, m) in session.messages.iter().enumerate() {
             let Some(p) = &pubs[m.topic] else { continue };
             if !opts.as_fast_as_possible {
@@ -109,11 +136,29 @@ pub async fn replay(
                     + Duration::from_secs_f64(
                         m.log_time_ns.saturating_sub(t0) as f64 * 1e-9 / opts.rate,
                     );
+                // /clock ticks while waiting for the message.
+                while let (Some(c), Some(period)) = (&clock, clock_period) {
+                    if next_clock > due {
+                        break;
+                    }
+                    tokio::select! {
+                        _ = tokio::time::sleep_until(next_clock.into()) => {}
+                        _ = &mut stop => break 'outer,
+                    }
+                    publish_clock(c, play_ns(last_ns));
+                    next_clock += period;
+                }
                 tokio::select! {
                     _ = tokio::time::sleep_until(due.into()) => {}
                     _ = &mut stop => break 'outer,
                 }
+            } else if let (Some(c), Some(period)) = (&clock, clock_period)
+                && Instant::now() >= next_clock
+            {
+                publish_clock(c, m.log_time_ns);
+                next_clock = Instant::now() + period;
             }
+            last_ns = m.log_time_ns;
             let ok = match p {
                 AnyPub::Joints(p) => session.decode(m).map(|x| p.publish(x).is_ok()),
                 AnyPub::Wrench(p) => session.decode(m).map(|x| p.publish(x).is_ok()),
@@ -136,4 +181,9 @@ pub async fn replay(
     node.stop_spinner();
     let _ = tokio::time::timeout(Duration::from_secs(1), spin).await;
     Ok(out)
+}
+
+fn publish_clock(p: &Publisher<Clock>, ns: u64) {
+    let t = Time::from_nanos(ns.min(i64::MAX as u64) as i64).unwrap_or_default();
+    let _ = p.publish(Clock { clock: t });
 }
