@@ -62,6 +62,98 @@ fn cyclonedds_peer_gets_predictions_and_sees_identification_converge() {
     assert_eq!(v["node_exit_code"], 0);
 }
 
+/// rclpy, ROS 2's own client library over Fast DDS, as a ROS 2 user's code: predicted wrenches
+/// (best-effort and reliable JointState publishers) and `leg_force` through the colcon-built
+/// terzaghi_msgs, checked against `terzaghi predict`; `model_params` converging from F/T and
+/// reaching a late transient-local subscriber; the parameter services from rclpy's client
+/// (list, get, describe, a refused and an accepted set); the node's log on `/rosout`; and
+/// `/diagnostics` stamped by `/clock` under `use_sim_time`, a jump back followed and counted.
+#[test]
+fn rclpy_peer_over_fast_dds_sees_what_a_ros_user_relies_on() {
+    let out = ros_python_command(
+        "rclpy_peer.py",
+        &["--terzaghi", terzaghi().to_str().unwrap(), "--domain", "21"],
+    )
+    .output()
+    .expect("run the rclpy peer");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    eprintln!("{stdout}\n{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_str(stdout.trim()).expect("peer summary");
+    let checks = v["checks"].as_object().expect("checks");
+    for name in [
+        "predicted_wrench_best_effort",
+        "predicted_wrench_reliable",
+        "leg_force_best_effort",
+        "leg_force_reliable",
+        "param_list",
+        "param_get",
+        "param_describe",
+        "param_set_refused",
+        "param_set",
+        "param_set_takes_effect",
+        "model_params_converge",
+        "model_params_transient_local",
+        "diagnostics_follow_clock",
+        "clock_jump_back_followed",
+        "rosout_startup",
+        "rosout_refused_param",
+        "rosout_param_set",
+        "rosout_clock_back",
+        "rosout_source",
+    ] {
+        assert_eq!(checks[name]["ok"], true, "{name}: {}", checks[name]);
+    }
+    assert_eq!(v["node_exit_code"], 0);
+    assert!(out.status.success());
+}
+
+/// Time from the node's start to the first prediction a peer receives, for a Cyclone DDS and an
+/// rclpy (Fast DDS) peer, each started before and after the node: p90 within 1 s. Before the
+/// RustDDS patch (patches/README.md) a Cyclone peer that was up first waited 7.9 s every time.
+#[test]
+fn discovery_with_cyclone_and_rclpy_peers_is_under_a_second() {
+    let mut report = Vec::new();
+    for (k, (peer, order)) in [
+        ("cyclone", "before"),
+        ("cyclone", "after"),
+        ("rclpy", "before"),
+        ("rclpy", "after"),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let domain = (120 + 20 * k).to_string();
+        let out = ros_python_command(
+            "discovery.py",
+            &[
+                "--terzaghi",
+                terzaghi().to_str().unwrap(),
+                "--peer",
+                peer,
+                "--order",
+                order,
+                "--starts",
+                "10",
+                "--domain",
+                &domain,
+            ],
+        )
+        .output()
+        .expect("run the discovery peer");
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            out.status.success(),
+            "{peer} {order}: {stdout}\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let v: serde_json::Value = serde_json::from_str(stdout.trim()).expect("discovery summary");
+        report.push(v.to_string());
+        assert_eq!(v["failures"], 0, "{v}");
+        assert!(v["p90_s"].as_f64().unwrap() <= 1.0, "{peer} {order}: {v}");
+    }
+    eprintln!("{}", report.join("\n"));
+}
+
 /// The shipped testbed parameter file, with --ros-args overrides: another plate width (whose
 /// Table 1 fit the hit_sand preset supplies), a namespace and a joint name, on ROS_DOMAIN_ID 7
 /// with discovery on localhost only; then `leg.b_k` set

@@ -62,6 +62,8 @@ fn the_readme_commands_work_in_a_fresh_clone() {
     // The clone has no network for npm (its tests run inside netns-run): it reads with this
     // checkout's JavaScript reader, as with its Python.
     let js_reader = common::js_reader();
+    // Nor for PyPI: the clone's rclpy peer uses this checkout's colcon-built terzaghi_msgs.
+    let ros_msgs = common::ros_env().parent().unwrap().to_path_buf();
     // The clone's DDS tests find the namespace tool where this checkout finds it.
     let netns_run = common::netns_run()
         .canonicalize()
@@ -76,6 +78,7 @@ fn the_readme_commands_work_in_a_fresh_clone() {
             .env("TERZAGHI_IN_CLONE_TEST", "1")
             .env("TERZAGHI_PYTHON", &python)
             .env("TERZAGHI_JS_READER", &js_reader)
+            .env("TERZAGHI_ROS_MSGS", &ros_msgs)
             .env("NETNS_RUN", &netns_run)
             .output()
             .expect("run a README command");

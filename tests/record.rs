@@ -575,3 +575,81 @@ fn the_javascript_mcap_reader_decodes_every_message() {
         );
     }
 }
+
+/// `replay --clock` publishes the recording's time on `/clock`, as `ros2 bag play --clock`
+/// does; a node run with `use_sim_time` follows it: its `/diagnostics`, as it records them,
+/// are stamped within the recording's time (1 s to 3 s), not with the wall clock, and so are
+/// the receive times of what it records.
+#[test]
+fn replay_clock_drives_a_node_on_simulated_time() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = dir.path().join("src.mcap");
+    // 400 samples 5 ms apart from t = 1 s.
+    std::fs::write(&src, leg_session_with(400, 5_000_000, 1_000_000_000, false)).unwrap();
+    let params = dir.path().join("leg.yaml");
+    std::fs::write(&params, LEG_PARAMS).unwrap();
+    let out_mcap = dir.path().join("node.mcap");
+    let t = terzaghi();
+    let script = format!(
+        "ROS_DOMAIN_ID=27 '{t}' node --record '{out}' --ros-args --params-file '{params}' -p use_sim_time:=true -p diagnostics_period_s:=0.1 & N=$!; sleep 1; \
+         ROS_DOMAIN_ID=27 '{t}' replay '{src}' --rate 1 --clock 100; kill -INT $N; wait $N",
+        t = t.display(),
+        out = out_mcap.display(),
+        params = params.display(),
+        src = src.display()
+    );
+    let out = isolated_command(Path::new("/bin/sh"))
+        .arg("-c")
+        .arg(&script)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let bytes = std::fs::read(&out_mcap).unwrap();
+    let session = terzaghi::record::read::read_session(&bytes).unwrap();
+    let diag_topic = session
+        .topics
+        .iter()
+        .position(|t| t.topic == "/diagnostics")
+        .expect("/diagnostics recorded");
+    let js_topic = session
+        .topics
+        .iter()
+        .position(|t| t.topic == "/joint_states")
+        .expect("/joint_states recorded");
+    let (mut in_recording, mut wall) = (0, 0);
+    for m in session.messages.iter().filter(|m| m.topic == diag_topic) {
+        let d: terzaghi::msgs::DiagnosticArray = session.decode(m).unwrap();
+        let s = d.header.stamp.sec as f64 + d.header.stamp.nanosec as f64 * 1e-9;
+        if (1.0..=3.5).contains(&s) {
+            in_recording += 1;
+        }
+        if s > 1e9 {
+            wall += 1;
+        }
+    }
+    // 2 s of recording at 10 Hz diagnostics; before the first /clock the time is 0.
+    assert!(
+        in_recording >= 10,
+        "{in_recording} stamped in the recording's time"
+    );
+    assert_eq!(wall, 0, "diagnostics stamped with the wall clock");
+    let js: Vec<u64> = session
+        .messages
+        .iter()
+        .filter(|m| m.topic == js_topic)
+        .map(|m| m.log_time_ns)
+        .collect();
+    assert!(js.len() >= 390, "{} joint states recorded", js.len());
+    // A joint state taken before the first /clock arrived is stamped 0, as in any ROS node.
+    let in_time = js
+        .iter()
+        .filter(|&&t| (900_000_000..3_600_000_000).contains(&t))
+        .count();
+    assert!(
+        in_time >= js.len() - 5,
+        "{in_time} of {} receive times within the recording's time: {:?}",
+        js.len(),
+        (js.iter().min(), js.iter().max())
+    );
+}

@@ -192,3 +192,52 @@ pub fn leg_session_with(n: u64, spacing_ns: u64, flush_period_ns: u64, outputs: 
     }
     w.finish().unwrap().into_inner()
 }
+
+/// The environment script that makes [`python`] a ROS 2 peer: rclpy over Fast DDS and the
+/// `terzaghi_msgs` classes built by colcon from `msgs/` (`$TERZAGHI_ROS_MSGS/env.sh`, else
+/// `target/ros_msgs/env.sh`, which `.ci/run` makes with `tests/python/build_msgs.sh`; made
+/// here if missing, which needs PyPI).
+pub fn ros_env() -> PathBuf {
+    let dir = std::env::var_os("TERZAGHI_ROS_MSGS")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| repo().join("target/ros_msgs"));
+    let env = dir.join("env.sh");
+    if !env.exists() {
+        let py = python();
+        let venv = py.parent().and_then(Path::parent).unwrap().to_path_buf();
+        let _lock = std::fs::File::create(repo().join("target/ros_msgs.lock"));
+        if !env.exists() {
+            let ok = Command::new(venv.join("bin/pip"))
+                .args(["install", "-q", "--prefer-binary", "-r"])
+                .arg(repo().join("tests/python/requirements-ros.txt"))
+                .status()
+                .is_ok_and(|s| s.success())
+                && Command::new(repo().join("tests/python/build_msgs.sh"))
+                    .arg(&venv)
+                    .arg(&dir)
+                    .status()
+                    .is_ok_and(|s| s.success());
+            assert!(
+                ok && env.exists(),
+                "cannot build terzaghi_msgs for the rclpy peer into {} (run .ci/run once, with network)",
+                dir.display()
+            );
+        }
+    }
+    env
+}
+
+/// `python SCRIPT ARGS...` in the ROS 2 peer's environment ([`ros_env`]), inside the private
+/// network namespace, from `tests/python`.
+pub fn ros_python_command(script: &str, args: &[&str]) -> Command {
+    let env = ros_env();
+    let mut c = isolated_command(Path::new("bash"));
+    c.arg("-c")
+        .arg("source \"$0\" && exec \"$@\"")
+        .arg(&env)
+        .arg(python())
+        .arg(repo().join("tests/python").join(script))
+        .args(args)
+        .current_dir(repo().join("tests/python"));
+    c
+}
