@@ -101,4 +101,54 @@ fn node_core(c: &mut Criterion) {
     });
 }
 
-criterion_group!(node, node_core);
+/// What the live view (`--foxglove`) adds to the node's work for one JointState of six legs when
+/// no client is connected: the JointState and each leg's predicted wrench and leg force offered
+/// to a server on loopback with no client.
+fn live_view_without_client(c: &mut Criterion) {
+    use terzaghi::config::{NodeConfig, defaults, parse_params_yaml};
+    use terzaghi::msgs::{JointState, LegForce, WrenchStamped};
+    use terzaghi::node::handle::Topics;
+    use terzaghi::node::live::Live;
+    let mut p = defaults();
+    p.extend(
+        parse_params_yaml(
+            include_str!("../launch_configs/rhex.yaml"),
+            "rhex",
+            "terzaghi",
+            "/",
+        )
+        .unwrap(),
+    );
+    let cfg = NodeConfig::from_params(&p, "terzaghi", "/", &[]).unwrap();
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    let live = rt
+        .block_on(Live::start(
+            "127.0.0.1:0".parse().unwrap(),
+            "bench",
+            &Topics::new(&cfg),
+        ))
+        .unwrap();
+    let js = JointState {
+        name: cfg.legs.iter().map(|l| l.joint.clone()).collect(),
+        position: vec![0.5; 6],
+        ..Default::default()
+    };
+    let wrench = WrenchStamped::default();
+    let force = LegForce::default();
+    c.bench_function("live_view_no_client_joint_state_6_legs", |b| {
+        b.iter(|| {
+            live.joints.log(black_box(&js));
+            for leg in 0..6 {
+                live.wrench[leg].log(black_box(&wrench));
+                live.force[leg].log(black_box(&force));
+            }
+        })
+    });
+    // The server stops inside its runtime.
+    rt.block_on(async move { drop(live) });
+}
+
+criterion_group!(node, node_core, live_view_without_client);

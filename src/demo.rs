@@ -128,6 +128,7 @@ fn run_dds(
         domain_id: domain,
         localhost_only: local,
         log: Default::default(),
+        foxglove: None,
     };
     let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
     let node_task = rt.spawn(crate::node::dds::run(setup, async {

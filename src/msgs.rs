@@ -11,6 +11,18 @@ pub struct Clock {
     pub clock: Time,
 }
 
+/// `rcl_interfaces/Log`: a node's log line, on `/rosout`.
+#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct RosLog {
+    pub stamp: Time,
+    pub level: u8,
+    pub name: String,
+    pub msg: String,
+    pub file: String,
+    pub function: String,
+    pub line: u32,
+}
+
 /// `builtin_interfaces/Time`
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub struct Time {
@@ -182,6 +194,9 @@ pub fn definition(t: (&str, &str)) -> Option<&'static str> {
         ("builtin_interfaces", "Time") => "int32 sec\nuint32 nanosec\n",
         ("std_msgs", "Header") => "builtin_interfaces/Time stamp\nstring frame_id\n",
         ("rosgraph_msgs", "Clock") => "builtin_interfaces/Time clock\n",
+        ("rcl_interfaces", "Log") => {
+            "byte DEBUG=10\nbyte INFO=20\nbyte WARN=30\nbyte ERROR=40\nbyte FATAL=50\nbuiltin_interfaces/Time stamp\nuint8 level\nstring name\nstring msg\nstring file\nstring function\nuint32 line\n"
+        }
         ("sensor_msgs", "JointState") => {
             "std_msgs/Header header\nstring[] name\nfloat64[] position\nfloat64[] velocity\nfloat64[] effort\n"
         }
@@ -212,6 +227,7 @@ macro_rules! ros_message {
 
 ros_message!(Time, "builtin_interfaces", "Time", []);
 ros_message!(Clock, "rosgraph_msgs", "Clock", [TIME]);
+ros_message!(RosLog, "rcl_interfaces", "Log", [TIME]);
 ros_message!(Header, "std_msgs", "Header", [TIME]);
 ros_message!(JointState, "sensor_msgs", "JointState", [HEADER, TIME]);
 ros_message!(Vector3, "geometry_msgs", "Vector3", []);

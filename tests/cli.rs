@@ -558,3 +558,70 @@ fn identify_errors_are_clean_and_leave_no_partial_file() {
         "no stray files"
     );
 }
+
+/// The shipped Foxglove layout plots what the node serves with the testbed's parameters: every
+/// plotted path names a topic the node reads or writes with `launch_configs/testbed.yaml`, and
+/// a field of that topic's message type.
+#[test]
+fn the_foxglove_layout_plots_topics_and_fields_the_node_serves() {
+    use terzaghi::config::*;
+    use terzaghi::msgs::definition;
+    let repo = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let ros = RosArgs {
+        params_files: vec![repo.join("launch_configs/testbed.yaml")],
+        ..Default::default()
+    };
+    let params = load_params(&ros, "terzaghi", "/").unwrap();
+    let cfg = NodeConfig::from_params(&params, "terzaghi", "/", &[]).unwrap();
+    let out = OutputTopics::of(&cfg, &[]);
+    // Topic -> (package, type) of what the node serves.
+    let mut served = std::collections::HashMap::new();
+    for (leg, t) in cfg.legs.iter().zip(&out.legs) {
+        served.insert(t.wrench.clone(), ("geometry_msgs", "WrenchStamped"));
+        served.insert(t.force.clone(), ("terzaghi_msgs", "LegForce"));
+        served.insert(t.params.clone(), ("terzaghi_msgs", "ModelParams"));
+        if let Some(ft) = &leg.ft_topic {
+            served.insert(ft.clone(), ("geometry_msgs", "WrenchStamped"));
+        }
+    }
+    let layout: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(repo.join("launch_configs/testbed.foxglove.json")).unwrap(),
+    )
+    .unwrap();
+    let mut plotted = 0;
+    for (id, panel) in layout["configById"].as_object().unwrap() {
+        for path in panel["paths"].as_array().into_iter().flatten() {
+            let value = path["value"].as_str().unwrap();
+            let (topic, fields) = value.split_once('.').unwrap();
+            let (mut pkg, mut ty) = *served
+                .get(topic)
+                .unwrap_or_else(|| panic!("{id}: {topic} is not a topic the node serves"));
+            let fields: Vec<&str> = fields.split('.').collect();
+            for (i, field) in fields.iter().enumerate() {
+                let def = definition((pkg, ty)).unwrap();
+                let line = def
+                    .lines()
+                    .map(|l| l.split('#').next().unwrap().trim())
+                    .find(|l| l.split_whitespace().nth(1) == Some(*field))
+                    .unwrap_or_else(|| panic!("{id}: {value}: {pkg}/{ty} has no field {field}"));
+                let field_type = line.split_whitespace().next().unwrap();
+                if i + 1 < fields.len() {
+                    // A nested message: `pkg/Type`, or `Type` of the same package.
+                    let (p, t) = field_type.split_once('/').unwrap_or((pkg, field_type));
+                    (pkg, ty) = (if p == pkg { pkg } else { leak(p) }, leak(t));
+                } else {
+                    assert!(
+                        ["float64", "uint64", "uint32", "bool"].contains(&field_type),
+                        "{id}: {value} is a {field_type}, not a number"
+                    );
+                }
+            }
+            plotted += 1;
+        }
+    }
+    assert!(plotted >= 6, "{plotted} paths plotted");
+}
+
+fn leak(s: &str) -> &'static str {
+    Box::leak(s.to_string().into_boxed_str())
+}

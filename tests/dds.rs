@@ -301,3 +301,160 @@ fn the_demo_runs_over_dds() {
         assert!(leg["online"]["b_k"].as_f64().unwrap() > 0.0, "{leg}");
     }
 }
+
+/// `node --foxglove`: an independent Foxglove WebSocket client (Python `websockets`, protocol
+/// foxglove.sdk.v1, formerly foxglove.websocket.v1) sees every topic advertised with its ROS 2
+/// schema, subscribes, and
+/// decodes what it receives with the advertised schema alone (mcap-ros2-support's decoder):
+/// the predicted wrenches are the ones the node records, value for value, and the measured F/T
+/// the ones replayed into it.
+#[test]
+fn a_foxglove_client_receives_predicted_and_measured_forces_live() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = dir.path().join("src.mcap");
+    // 400 joint states and F/T samples 5 ms apart.
+    std::fs::write(&src, leg_session_with(400, 5_000_000, 1_000_000_000, false)).unwrap();
+    let params = dir.path().join("leg.yaml");
+    std::fs::write(&params, LEG_PARAMS).unwrap();
+    let rec = dir.path().join("node.mcap");
+    let live = dir.path().join("live.json");
+    let t = terzaghi();
+    let script = format!(
+        "ROS_DOMAIN_ID=33 '{t}' node --record '{rec}' --foxglove 127.0.0.1:18765 --ros-args --params-file '{params}' & N=$!; \
+         '{py}' '{client}' live --url ws://127.0.0.1:18765 --seconds 8 --keep 100000 --out '{live}' \
+           --topics /joint_states /leg/ft /leg/predicted_wrench /leg/leg_force /leg/model_params /diagnostics /rosout & C=$!; \
+         sleep 1; ROS_DOMAIN_ID=33 '{t}' replay '{src}' --rate 1; wait $C; kill -INT $N; wait $N",
+        t = t.display(),
+        rec = rec.display(),
+        params = params.display(),
+        py = python().display(),
+        client = repo().join("tests/python/foxglove_client.py").display(),
+        live = live.display(),
+        src = src.display(),
+    );
+    let out = isolated_command(std::path::Path::new("/bin/sh"))
+        .arg("-c")
+        .arg(&script)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let v: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(&live)
+            .unwrap_or_else(|e| panic!("the client's output: {e}; stderr:\n{stderr}")),
+    )
+    .unwrap();
+    assert_eq!(v["subprotocol"], "foxglove.sdk.v1");
+    let topic = |t: &str| &v["topics"][t];
+    for (t, schema) in [
+        ("/joint_states", "sensor_msgs/msg/JointState"),
+        ("/leg/ft", "geometry_msgs/msg/WrenchStamped"),
+        ("/leg/predicted_wrench", "geometry_msgs/msg/WrenchStamped"),
+        ("/leg/leg_force", "terzaghi_msgs/msg/LegForce"),
+        ("/leg/model_params", "terzaghi_msgs/msg/ModelParams"),
+        ("/diagnostics", "diagnostic_msgs/msg/DiagnosticArray"),
+        ("/rosout", "rcl_interfaces/msg/Log"),
+    ] {
+        assert_eq!(topic(t)["schemaName"], schema, "{t}: {}", topic(t));
+        assert_eq!(topic(t)["encoding"], "cdr", "{t}");
+        assert_eq!(topic(t)["schemaEncoding"], "ros2msg", "{t}");
+    }
+    // What the node recorded, by stamp.
+    let bytes = std::fs::read(&rec).unwrap();
+    let session = terzaghi::record::read::read_session(&bytes).unwrap();
+    let by_stamp = |name: &str| -> std::collections::HashMap<(i64, i64), [f64; 3]> {
+        let i = session.topics.iter().position(|t| t.topic == name).unwrap();
+        session
+            .messages
+            .iter()
+            .filter(|m| m.topic == i)
+            .map(|m| {
+                let w: terzaghi::msgs::WrenchStamped = session.decode(m).unwrap();
+                let s = &w.header.stamp;
+                (
+                    (s.sec as i64, s.nanosec as i64),
+                    [w.wrench.force.x, w.wrench.force.z, w.wrench.torque.y],
+                )
+            })
+            .collect()
+    };
+    for (t, min) in [("/leg/predicted_wrench", 390), ("/leg/ft", 390)] {
+        let recorded = by_stamp(t);
+        let live = topic(t)["messages"].as_array().unwrap();
+        assert!(live.len() >= min, "{t}: {} received live", live.len());
+        for m in live {
+            let s = &m["header"]["stamp"];
+            let key = (s["sec"].as_i64().unwrap(), s["nanosec"].as_i64().unwrap());
+            let w = &m["wrench"];
+            let got = [
+                w["force"]["x"].as_f64().unwrap(),
+                w["force"]["z"].as_f64().unwrap(),
+                w["torque"]["y"].as_f64().unwrap(),
+            ];
+            // Equal to the bit, up to serde_json's float parsing (not exact in its last bit).
+            let want = recorded
+                .get(&key)
+                .unwrap_or_else(|| panic!("{t}: {key:?} not recorded"));
+            for (w, g) in want.iter().zip(got) {
+                assert!(
+                    (w - g).abs() <= 1e-12 * w.abs().max(1.0),
+                    "{t} at {key:?}: {want:?} {got:?}"
+                );
+            }
+        }
+    }
+    assert!(topic("/leg/leg_force")["received"].as_u64().unwrap() >= 390);
+    assert!(topic("/joint_states")["received"].as_u64().unwrap() >= 390);
+    assert!(topic("/diagnostics")["received"].as_u64().unwrap() >= 3);
+}
+
+/// A Foxglove client that subscribes to everything and then never reads again (its TCP window
+/// shut) while JointStates arrive at 1 kHz: the node goes on, its memory stays bounded (the
+/// server drops the oldest of that client's queue), and it exits cleanly.
+#[test]
+fn a_foxglove_client_that_never_reads_does_not_hold_up_the_node() {
+    let dir = tempfile::tempdir().unwrap();
+    let stuck = dir.path().join("stuck.json");
+    let script = format!(
+        "'{py}' '{client}' stuck --url ws://127.0.0.1:18766 --topics /joint_states /front_left/predicted_wrench --seconds 25 --out '{stuck}' & C=$!; \
+         '{bench}' node --load --rate-hz 1000 --seconds 15 --json --node-arg=--foxglove=127.0.0.1:18766; S=$?; wait $C; exit $S",
+        py = python().display(),
+        client = repo().join("tests/python/foxglove_client.py").display(),
+        stuck = stuck.display(),
+        bench = env!("CARGO_BIN_EXE_terzaghi-bench"),
+    );
+    let out = isolated_command(std::path::Path::new("/bin/sh"))
+        .arg("-c")
+        .arg(&script)
+        .env("ROS_DOMAIN_ID", "35")
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    eprintln!("{stdout}{stderr}");
+    assert!(out.status.success(), "{stderr}");
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&stuck).expect("the stuck client's output"))
+            .unwrap();
+    assert!(s["subscribed"].as_u64().unwrap() >= 2, "{s}");
+    let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let sent = v["sent"].as_u64().unwrap();
+    let processed = v["node_joint_states"].as_u64().unwrap();
+    let dropped = v["node_dropped_counted"].as_u64().unwrap();
+    assert!(sent > 14_000, "{v}");
+    // The node kept up with its inputs: the stuck client costs it nothing it must wait for.
+    assert!(processed + 100 >= sent && dropped == 0, "{v}");
+    assert!(v["node_peak_rss_kb"].as_u64().unwrap() <= 64 * 1024, "{v}");
+    let rss: Vec<u64> = v["node_rss_kb_per_second"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_u64().unwrap())
+        .collect();
+    let (early, last) = (rss[3], *rss.last().unwrap());
+    assert!(
+        last <= early + 8 * 1024,
+        "memory grew from {early} kB to {last} kB: {rss:?}"
+    );
+    assert_eq!(v["node_exit_clean"], true);
+}

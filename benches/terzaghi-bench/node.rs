@@ -55,6 +55,13 @@ pub struct BenchNodeArgs {
     /// have that core in their blocks, as a control node on a core of its own.
     #[arg(long, value_name = "CPU")]
     pub node_cpu: Option<usize>,
+    /// With --load: the first leg's joint position is NaN in every JointState, so that the
+    /// node skips that leg of each message and warns (a log storm it must throttle).
+    #[arg(long, requires = "load")]
+    pub bad_leg: bool,
+    /// An argument for `terzaghi node` (repeatable), e.g. --node-arg=--foxglove=127.0.0.1:8765.
+    #[arg(long, value_name = "ARG", allow_hyphen_values = true)]
+    pub node_arg: Vec<String>,
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
@@ -171,6 +178,7 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
                     .map(|p| format!("--realtime-priority={p}")),
             )
             .args(a.node_cpu.map(|c| format!("--cpu={c}")))
+            .args(&a.node_arg)
             .args(["--ros-args", "--params-file"])
             .arg(&params)
             .stderr(std::fs::File::create(&node_log)?)
@@ -203,6 +211,7 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
         a.rate_hz,
         a.seconds,
         a.load.then_some(node_pid),
+        a.bad_leg,
     ))?;
     // The node's peak memory, read before it is asked to stop.
     let node_peak_rss_kb = peak_rss_kb(node_pid);
@@ -239,6 +248,13 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
             node_peak_rss_kb,
             node_rss_kb_per_second: load.rss_kb,
             node_exit_clean,
+            node_processing: Figures {
+                p50_us: summary.processing_p50_ns as f64 / 1e3,
+                p99_us: summary.processing_p99_ns as f64 / 1e3,
+                max_us: summary.processing_max_ns as f64 / 1e3,
+                count: summary.processing_count,
+            },
+            node_log_lines: text.lines().count(),
         };
         if a.json {
             return print_out(&(serde_json::to_string_pretty(&r)? + "\n"));
@@ -250,7 +266,8 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
         return print_out(&format!(
             "load: {} legs, JointState at {} Hz for {} s\n\
              sent {}, node processed {} and counted {} dropped; {} predictions\n\
-             node resident memory: peak {} kB; each second {:?} kB; clean exit: {}\n",
+             node resident memory: peak {} kB; each second {:?} kB; clean exit: {}\n\
+             node processing p50 {:.1} us, p99 {:.1} us, max {:.1} us; {} lines on its stderr\n",
             r.legs,
             r.rate_hz,
             r.seconds,
@@ -260,7 +277,11 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
             r.node_predictions,
             peak,
             r.node_rss_kb_per_second,
-            r.node_exit_clean
+            r.node_exit_clean,
+            r.node_processing.p50_us,
+            r.node_processing.p99_us,
+            r.node_processing.max_us,
+            r.node_log_lines
         ));
     }
     let nr = Figures::from(&node_rt);
@@ -339,6 +360,7 @@ async fn client(
     rate_hz: f64,
     seconds: u32,
     load: Option<u32>,
+    bad_leg: bool,
 ) -> Result<(Histogram, Histogram, u64, u64, LoadFigures)> {
     let mut node = tool_node("terzaghi_bench_client").context("cannot create the client node")?;
     let to_node = publisher::<JointState>(&mut node, &legs.joint_states)?;
@@ -439,7 +461,11 @@ async fn client(
                 },
                 name: names.clone(),
                 position: (0..names.len())
-                    .map(|i| if i < 3 { beta } else { -beta })
+                    .map(|i| match i {
+                        0 if bad_leg => f64::NAN,
+                        _ if i < 3 => beta,
+                        _ => -beta,
+                    })
                     .collect(),
                 velocity: vec![],
                 effort: vec![],
@@ -505,6 +531,9 @@ struct LoadReport {
     node_peak_rss_kb: Option<u64>,
     node_rss_kb_per_second: Vec<u64>,
     node_exit_clean: bool,
+    node_processing: Figures,
+    /// Lines the node wrote to stderr in the whole run (its log).
+    node_log_lines: usize,
 }
 
 /// What the node said of its run when it stopped (its last log line on stderr, after the

@@ -35,6 +35,12 @@ pub struct NodeArgs {
     /// send what the node published right after it, instead of preempting it.
     #[arg(long, value_name = "CPU")]
     pub cpu: Option<usize>,
+    /// Serve the node's topics live to Foxglove or Lichtblick (Foxglove WebSocket protocol) on
+    /// ADDR:PORT; default 127.0.0.1:8765 (this machine only). Open
+    /// launch_configs/testbed.foxglove.json in the app for plots of predicted against measured
+    /// forces.
+    #[arg(long, value_name = "ADDR:PORT", num_args = 0..=1, default_missing_value = "127.0.0.1:8765")]
+    pub foxglove: Option<String>,
     /// ROS arguments, after --ros-args.
     #[arg(
         trailing_var_arg = true,
@@ -91,6 +97,12 @@ pub fn setup(a: &NodeArgs) -> Result<NodeSetup> {
     }
     let params = config.effective_params(&params);
     let (domain_id, localhost_only) = crate::node::dds::network_from_env()?;
+    let foxglove = match &a.foxglove {
+        None => None,
+        Some(s) => Some(s.parse::<std::net::SocketAddr>().map_err(|_| {
+            anyhow::anyhow!("--foxglove {s:?}: expected ADDR:PORT, e.g. 127.0.0.1:8765")
+        })?),
+    };
     Ok(NodeSetup {
         params,
         config,
@@ -101,6 +113,7 @@ pub fn setup(a: &NodeArgs) -> Result<NodeSetup> {
             stderr: !ros.stdout_logs_disabled,
             rosout: !ros.rosout_logs_disabled,
         },
+        foxglove,
     })
 }
 

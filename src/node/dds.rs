@@ -6,6 +6,7 @@ use super::clock::NodeClock;
 use super::core::{LegOutput, NodeCore};
 use super::handle::{Publish, Topics, diagnostics_done, joint_state_done, wrench_done};
 use super::latency::Histogram;
+use super::live::Live as LiveView;
 use super::log::{LogSettings, NodeLog};
 use crate::config::{LogLevel, NodeConfig, ParamMap, ParamValue, STARTUP_ONLY};
 use crate::log_site;
@@ -36,6 +37,8 @@ pub struct NodeSetup {
     pub localhost_only: bool,
     /// `--log-level`, `--disable-rosout-logs`, `--disable-stdout-logs`.
     pub log: LogSettings,
+    /// `--foxglove ADDR:PORT`: serve the live view there.
+    pub foxglove: Option<std::net::SocketAddr>,
 }
 
 /// What a run did, printed at shutdown.
@@ -87,6 +90,8 @@ struct Pubs {
     /// Asked, before each write, whether anyone subscribes: writing to nobody costs a DDS
     /// write per message, skipped.
     node: Arc<Node>,
+    /// The live view, with `--foxglove`.
+    live: Option<Arc<LiveView>>,
 }
 
 impl Pubs {
@@ -99,15 +104,27 @@ impl Pubs {
 
 impl Publish for Pubs {
     fn wrench(&self, leg: usize, msg: WrenchStamped) {
+        if let Some(l) = &self.live {
+            l.wrench[leg].log(&msg);
+        }
         self.send(&self.wrench[leg], msg);
     }
     fn force(&self, leg: usize, msg: LegForce) {
+        if let Some(l) = &self.live {
+            l.force[leg].log(&msg);
+        }
         self.send(&self.force[leg], msg);
     }
     fn params(&self, leg: usize, msg: ModelParams) {
+        if let Some(l) = &self.live {
+            l.params[leg].log(&msg);
+        }
         self.send(&self.params[leg], msg);
     }
     fn diagnostics(&self, msg: DiagnosticArray) {
+        if let Some(l) = &self.live {
+            l.diagnostics.log(&msg);
+        }
         if self.diagnostics.publish(msg).is_err() {
             self.errors.fetch_add(1, Ordering::Relaxed);
         }
@@ -366,6 +383,15 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
     let node_name = NodeName::new(&cfg.namespace, &cfg.node_name)
         .map_err(|e| anyhow!("bad node name {}/{}: {e:?}", cfg.namespace, cfg.node_name))?;
     let log = Arc::new(NodeLog::new(&cfg.namespace, &cfg.node_name, setup.log));
+    let topics = Arc::new(Topics::new(&cfg));
+    let live = match setup.foxglove {
+        Some(addr) => {
+            let l = LiveView::start(addr, &format!("terzaghi {}", log.name()), &topics).await?;
+            log.attach_live(l.rosout.clone());
+            Some(Arc::new(l))
+        }
+        None => None,
+    };
     let mut node = context
         .new_node(
             node_name,
@@ -374,6 +400,16 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
         .context("cannot create the ROS 2 node")?;
     log.attach(node.logging_handle());
     log.log(LogLevel::Info, &startup_line(&setup), log_site!());
+    if let Some(l) = &live {
+        log.log(
+            LogLevel::Info,
+            &format!(
+                "live view on ws://{} (Foxglove WebSocket; layout in launch_configs/)",
+                l.server.addr
+            ),
+            log_site!(),
+        );
+    }
     let spinner = node.spinner().context("cannot start the node's spinner")?;
     let spin_task = tokio::spawn(spinner.spin());
     let (wrench, force, params, diagnostics) = publishers(&mut node, &cfg)?;
@@ -416,9 +452,9 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
         diagnostics,
         errors: publish_errors.clone(),
         node: node.clone(),
+        live: live.clone(),
     });
     let (recorder, record_error) = start_recorder(&cfg, &setup.params, &log);
-    let topics = Arc::new(Topics::new(&cfg));
     let mut tasks = vec![tokio::spawn(joint_states_task(
         js_sub,
         shared.clone(),
@@ -742,6 +778,9 @@ async fn joint_states_task(
     loop {
         let msg = next_sample(&sub, &mut gaps, &sh.dropped).await;
         let received = Instant::now();
+        if let Some(l) = &pubs.live {
+            l.joints.log(&msg);
+        }
         let log_ns = sh.clock.now_ns().max(0) as u64;
         let skipped = {
             let core = &mut sh.lock_core().core;
@@ -786,6 +825,9 @@ async fn wrench_task(
     let mut params_out = Vec::new();
     loop {
         let msg = next_sample(&sub, &mut gaps, &sh.dropped).await;
+        if let Some(ch) = pubs.live.as_ref().and_then(|l| l.ft[leg].as_ref()) {
+            ch.log(&msg);
+        }
         let log_ns = sh.clock.now_ns().max(0) as u64;
         let skipped = {
             let core = &mut sh.lock_core().core;

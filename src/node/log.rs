@@ -65,6 +65,8 @@ pub struct NodeLog {
     name: String,
     settings: LogSettings,
     rosout: OnceLock<NodeLoggingHandle>,
+    /// The live view's `/rosout`, with `--foxglove`.
+    live: OnceLock<super::live::LiveChannel>,
     throttle: Mutex<HashMap<(&'static str, u32), Throttled>>,
 }
 
@@ -74,6 +76,7 @@ impl NodeLog {
             name: logger_name(namespace, node_name),
             settings,
             rosout: OnceLock::new(),
+            live: OnceLock::new(),
             throttle: Mutex::new(HashMap::new()),
         }
     }
@@ -82,6 +85,14 @@ impl NodeLog {
     pub fn attach(&self, handle: NodeLoggingHandle) {
         if self.settings.rosout {
             let _ = self.rosout.set(handle);
+        }
+    }
+
+    /// From now on, lines go to the live view's `/rosout` as well (unless
+    /// `--disable-rosout-logs`).
+    pub fn attach_live(&self, channel: super::live::LiveChannel) {
+        if self.settings.rosout {
+            let _ = self.live.set(channel);
         }
     }
 
@@ -109,6 +120,17 @@ impl NodeLog {
                 ns.rem_euclid(1_000_000_000),
                 self.name
             );
+        }
+        if let Some(ch) = self.live.get() {
+            ch.log(&crate::msgs::RosLog {
+                stamp: crate::msgs::Time::from_nanos(stamp.to_nanos()).unwrap_or_default(),
+                level: level as u8,
+                name: self.name.clone(),
+                msg: msg.to_string(),
+                file: site.file.to_string(),
+                function: site.function.to_string(),
+                line: site.line,
+            });
         }
         if let Some(h) = self.rosout.get() {
             h.rosout_raw(

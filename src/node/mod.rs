@@ -2,13 +2,14 @@
 //! ROS 2 network through ros2-client, [`memory`] runs it over an in-memory transport, [`handle`]
 //! is the code path after the core that both share, [`latency`] keeps its processing-time
 //! statistics, [`log`] writes its log to stderr and `/rosout`, [`clock`] is its time (the
-//! wall clock, or `/clock` with `use_sim_time`).
+//! wall clock, or `/clock` with `use_sim_time`), [`live`] serves its topics to Foxglove.
 
 pub mod clock;
 pub mod core;
 pub mod dds;
 pub mod handle;
 pub mod latency;
+pub mod live;
 pub mod log;
 pub mod matcher;
 pub mod memory;

@@ -61,7 +61,7 @@ pub fn python() -> PathBuf {
     let py = venv.join("bin/python");
     let ready = || {
         Command::new(&py)
-            .args(["-c", "import cyclonedds, mcap_ros2, rosbags"])
+            .args(["-c", "import cyclonedds, mcap_ros2, rosbags, websockets"])
             .output()
             .is_ok_and(|o| o.status.success())
     };
