@@ -458,3 +458,40 @@ fn a_foxglove_client_that_never_reads_does_not_hold_up_the_node() {
     );
     assert_eq!(v["node_exit_clean"], true);
 }
+
+/// A log storm: JointStates at 10 kHz whose first leg's position is NaN, each a skipped leg
+/// and a warning. The warnings are throttled (a line a second, counting those held back), the
+/// other legs are predicted, memory stays flat, and the node exits cleanly.
+#[test]
+fn a_warning_per_message_at_10_khz_is_throttled() {
+    let out = isolated_command(std::path::Path::new(env!("CARGO_BIN_EXE_terzaghi-bench")))
+        .args([
+            "node",
+            "--load",
+            "--rate-hz",
+            "10000",
+            "--seconds",
+            "10",
+            "--bad-leg",
+            "--json",
+        ])
+        .env("ROS_DOMAIN_ID", "37")
+        .output()
+        .expect("run terzaghi-bench node --load --bad-leg");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    eprintln!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let processed = v["node_joint_states"].as_u64().unwrap();
+    assert!(processed > 50_000, "{v}");
+    // Five legs of six predicted in each.
+    assert_eq!(v["node_predictions"].as_u64().unwrap(), 5 * processed);
+    // Start-up, about one warning a second for the skipped leg and one for drops, the end.
+    let lines = v["node_log_lines"].as_u64().unwrap();
+    assert!(
+        lines <= 40,
+        "{lines} log lines for {processed} bad JointStates"
+    );
+    assert!(v["node_peak_rss_kb"].as_u64().unwrap() <= 64 * 1024, "{v}");
+    assert_eq!(v["node_exit_clean"], true);
+}
