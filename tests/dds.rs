@@ -5,6 +5,20 @@
 mod common;
 
 use common::*;
+use std::sync::{RwLock, RwLockReadGuard, RwLockWriteGuard};
+
+/// The discovery benchmark measures start-up times against a threshold: it runs alone, the
+/// other tests of this file side by side. (Run beside one, it also starved a node's parameter
+/// service of a first answer for 10 s once in six runs.)
+static ALONE: RwLock<()> = RwLock::new(());
+
+fn shared() -> RwLockReadGuard<'static, ()> {
+    ALONE.read().unwrap_or_else(|p| p.into_inner())
+}
+
+fn alone() -> RwLockWriteGuard<'static, ()> {
+    ALONE.write().unwrap_or_else(|p| p.into_inner())
+}
 
 fn run_peer(node_args: &[&str], predict_flags: &[&str], extra: &[&str]) -> serde_json::Value {
     let out = isolated_command(&python())
@@ -29,6 +43,7 @@ fn run_peer(node_args: &[&str], predict_flags: &[&str], extra: &[&str]) -> serde
 /// its model_params converge within 3 % to the b_k, a the F/T was generated with.
 #[test]
 fn cyclonedds_peer_gets_predictions_and_sees_identification_converge() {
+    let _guard = shared();
     let dir = tempfile::tempdir().unwrap();
     let params = dir.path().join("leg.yaml");
     std::fs::write(&params, LEG_PARAMS).unwrap();
@@ -70,6 +85,7 @@ fn cyclonedds_peer_gets_predictions_and_sees_identification_converge() {
 /// `/diagnostics` stamped by `/clock` under `use_sim_time`, a jump back followed and counted.
 #[test]
 fn rclpy_peer_over_fast_dds_sees_what_a_ros_user_relies_on() {
+    let _guard = shared();
     let out = ros_python_command(
         "rclpy_peer.py",
         &["--terzaghi", terzaghi().to_str().unwrap(), "--domain", "21"],
@@ -112,6 +128,7 @@ fn rclpy_peer_over_fast_dds_sees_what_a_ros_user_relies_on() {
 /// RustDDS patch (patches/README.md) a Cyclone peer that was up first waited 7.9 s every time.
 #[test]
 fn discovery_with_cyclone_and_rclpy_peers_is_under_a_second() {
+    let _guard = alone();
     let mut report = Vec::new();
     for (k, (peer, order)) in [
         ("cyclone", "before"),
@@ -160,6 +177,7 @@ fn discovery_with_cyclone_and_rclpy_peers_is_under_a_second() {
 /// through the parameter services takes effect at once, and an invalid width is refused.
 #[test]
 fn node_runs_from_the_launch_config_with_ros_args_overrides() {
+    let _guard = shared();
     let params = repo().join("launch_configs/testbed.yaml");
     let v = run_peer(
         &[
@@ -207,6 +225,7 @@ fn node_runs_from_the_launch_config_with_ros_args_overrides() {
 /// A CPU that does not exist is refused at start-up, naming it, before any DDS traffic.
 #[test]
 fn a_cpu_that_does_not_exist_is_refused() {
+    let _guard = shared();
     let out = isolated_command(&terzaghi())
         .args(["node", "--cpu", "4096", "--ros-args", "--params-file"])
         .arg(repo().join("launch_configs/rhex.yaml"))
@@ -222,6 +241,7 @@ fn a_cpu_that_does_not_exist_is_refused() {
 /// 64 MB, and it stops cleanly on SIGINT.
 #[test]
 fn a_10_khz_flood_is_absorbed_with_drops_counted_and_memory_flat() {
+    let _guard = shared();
     let out = isolated_command(std::path::Path::new(env!("CARGO_BIN_EXE_terzaghi-bench")))
         .args([
             "node",
@@ -276,6 +296,7 @@ fn a_10_khz_flood_is_absorbed_with_drops_counted_and_memory_flat() {
 /// participants), recorded by the node and diagnosed.
 #[test]
 fn the_demo_runs_over_dds() {
+    let _guard = shared();
     let tmp = tempfile::tempdir().unwrap();
     let out = isolated_command(&terzaghi())
         .args(["demo", "--dds", "--seconds", "15", "--speed", "5", "--out"])
@@ -310,6 +331,7 @@ fn the_demo_runs_over_dds() {
 /// the ones replayed into it.
 #[test]
 fn a_foxglove_client_receives_predicted_and_measured_forces_live() {
+    let _guard = shared();
     let dir = tempfile::tempdir().unwrap();
     let src = dir.path().join("src.mcap");
     // 400 joint states and F/T samples 5 ms apart.
@@ -413,6 +435,7 @@ fn a_foxglove_client_receives_predicted_and_measured_forces_live() {
 /// server drops the oldest of that client's queue), and it exits cleanly.
 #[test]
 fn a_foxglove_client_that_never_reads_does_not_hold_up_the_node() {
+    let _guard = shared();
     let dir = tempfile::tempdir().unwrap();
     let stuck = dir.path().join("stuck.json");
     let script = format!(
@@ -464,6 +487,7 @@ fn a_foxglove_client_that_never_reads_does_not_hold_up_the_node() {
 /// other legs are predicted, memory stays flat, and the node exits cleanly.
 #[test]
 fn a_warning_per_message_at_10_khz_is_throttled() {
+    let _guard = shared();
     let out = isolated_command(std::path::Path::new(env!("CARGO_BIN_EXE_terzaghi-bench")))
         .args([
             "node",
@@ -494,4 +518,49 @@ fn a_warning_per_message_at_10_khz_is_throttled() {
     );
     assert!(v["node_peak_rss_kb"].as_u64().unwrap() <= 64 * 1024, "{v}");
     assert_eq!(v["node_exit_clean"], true);
+}
+
+/// `--ros-args --log-level warn` leaves out the node's info lines (its start-up, its summary),
+/// as a ROS user expects; by default they are there.
+#[test]
+fn the_log_level_flag_is_honoured() {
+    let _guard = shared();
+    let dir = tempfile::tempdir().unwrap();
+    let params = dir.path().join("leg.yaml");
+    std::fs::write(&params, LEG_PARAMS).unwrap();
+    let run = |extra: &str| {
+        let script = format!(
+            "'{t}' node --ros-args --params-file '{p}' {extra} & N=$!; sleep 1.5; kill -INT $N; wait $N",
+            t = terzaghi().display(),
+            p = params.display()
+        );
+        let out = isolated_command(std::path::Path::new("/bin/sh"))
+            .arg("-c")
+            .arg(&script)
+            .env("ROS_DOMAIN_ID", "39")
+            .output()
+            .unwrap();
+        assert!(out.status.success());
+        String::from_utf8_lossy(&out.stderr).to_string()
+    };
+    let default = run("");
+    assert!(
+        default.contains("[INFO]") && default.contains("[terzaghi]: terzaghi node stopped"),
+        "{default}"
+    );
+    let warn = run("--log-level warn");
+    assert!(!warn.contains("[INFO]"), "{warn}");
+    // An unknown level is a usage error that names it.
+    let bad = isolated_command(&terzaghi())
+        .args(["node", "--ros-args", "--params-file"])
+        .arg(&params)
+        .args(["--log-level", "loud"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&bad.stderr);
+    assert_eq!(bad.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("loud") && stderr.contains("debug"),
+        "{stderr}"
+    );
 }

@@ -331,7 +331,9 @@ def main():
               [(m.file, m.function, m.line) for m in mine[:3]])
         summary["rosout_lines"] = len(mine)
     finally:
+        # The clock thread stops publishing before anything is torn down.
         sim["run"] = False
+        clock_thread.join(timeout=5)
         node.send_signal(2)
         try:
             _, err = node.communicate(timeout=20)
@@ -340,7 +342,10 @@ def main():
             _, err = node.communicate()
         summary["node_exit_code"] = node.returncode
         summary["node_stderr_tail"] = err.strip().splitlines()[-5:]
-        executor.shutdown()
+        # Stop spinning and wait for the spin thread before the node and the context go:
+        # torn down under a spinning executor, rclpy's C++ layer aborts the process.
+        executor.shutdown(timeout_sec=5)
+        spin.join(timeout=5)
         peer.destroy_node()
         rclpy.shutdown()
     if node.returncode != 0:
