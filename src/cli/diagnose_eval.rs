@@ -151,14 +151,16 @@ pub fn render_dem(d: &[DemOutcome], dir: &std::path::Path, seconds: f64) -> Stri
         "measured",
         "unexplained"
     );
-    let pct = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.0} %"));
+    // Rounded to whole percent, a share just below zero reads 0 %, not -0 %.
+    let whole = |v: f64| format!("{:.0} %", v.round() + 0.0);
+    let pct = |v: Option<f64>| v.map_or("-".to_string(), whole);
     for o in d {
         let effects = if o.effects.is_empty() {
             "-".to_string()
         } else {
             o.effects
                 .iter()
-                .map(|(e, p)| format!("{e} {p:.0} %"))
+                .map(|(e, p)| format!("{e} {}", whole(*p)))
                 .collect::<Vec<_>>()
                 .join(", ")
         };

@@ -13,7 +13,8 @@ pub enum Effect {
     /// Speed-dependent resistance growing as `(omega r)^n` over the submerged plate (every element
     /// moves at `omega r` across it), normal to the plate and along it, against the session's
     /// typical speed. `n = 2` is inertial drag `~ rho v^2 A`; granular media often show less
-    /// (`n` near 1): `n` is fitted between 0.5 and 2.
+    /// (`n` near 1): `n` is fitted between 0.5 and 2. With it, `ln a` (how force grows with the
+    /// angle) moves with `(|omega| / omega_typ)^n - 1`.
     Rate,
     /// A force proportional to the angular acceleration (added mass of grains moved with the plate).
     Inertia,
@@ -24,7 +25,9 @@ pub enum Effect {
     /// scale for drag and lift, changing with the angle past vertical.
     Extraction,
     /// The medium's strength changing over the session: a steady drift, and a change from one
-    /// stroke on (the ground compacted, loosened or disturbed), its stroke chosen by the data.
+    /// stroke on (the ground compacted, loosened or disturbed), its stroke chosen by the data:
+    /// of drag, of lift, and of `ln a` (a denser bed's force also grows differently with the
+    /// angle).
     Compaction,
     /// A strength term proportional to the submerged area (normal and along the plate).
     Cohesion,
@@ -75,11 +78,11 @@ impl Effect {
     /// Names (with units) of the linear parameters, in column order.
     pub fn linear_params(self) -> &'static [&'static str] {
         match self {
-            Effect::Rate => &["normal_kg_m3", "tangential_kg_m3"],
+            Effect::Rate => &["normal_kg_m3", "tangential_kg_m3", "ln_a_per_speed_excess"],
             Effect::Inertia => &["normal_kg_m2", "tangential_kg_m2"],
             Effect::Surcharge => &["normal_n_m4", "tangential_n_m4"],
             Effect::Extraction => &["drag_scale", "lift_scale", "slope_per_rad"],
-            Effect::Compaction => &["linear", "change_drag", "change_lift"],
+            Effect::Compaction => &["linear", "change_drag", "change_lift", "change_ln_a"],
             Effect::Cohesion => &["normal_pa", "tangential_pa"],
             Effect::HipHeight | Effect::SensorLag => &[],
             Effect::SensorBias => &["drag_n", "lift_n"],
@@ -134,6 +137,21 @@ impl Effect {
                 let q = rate_term(p, nl.speed_exponent);
                 out.push(normal(q, s, c));
                 out.push(tangential(q, s, c));
+                // Faster, the force also grows differently with the angle (the DEM's does): `ln a`
+                // moving with the speed's excess over the typical one, `(|omega| / omega_typ)^n - 1`,
+                // linearised.
+                let n = if nl.speed_exponent > 0.0 {
+                    nl.speed_exponent
+                } else {
+                    2.0
+                };
+                let excess = if p.typical_speed_rad_s > 1e-6 {
+                    (p.speed_rad_s.abs() / p.typical_speed_rad_s).powf(n) - 1.0
+                } else {
+                    0.0
+                };
+                let w = -excess * p.beta_rad;
+                out.push([w * base[0], w * base[1]]);
             }
             Effect::Inertia => {
                 let q = p.accel_rad_s2 * p.moment1_m3;
@@ -164,6 +182,10 @@ impl Effect {
                 out.push([u * base[0], u * base[1]]);
                 out.push([changed * base[0], 0.0]);
                 out.push([0.0, changed * base[1]]);
+                // A denser or looser bed changes how force grows with the angle as well as its
+                // scale: `a^(-beta)` with `ln a` moved by a small amount, linearised.
+                let w = -changed * p.beta_rad;
+                out.push([w * base[0], w * base[1]]);
             }
             Effect::Cohesion => {
                 out.push(normal(p.area_m2, s, c));
