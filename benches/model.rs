@@ -59,12 +59,9 @@ fn online_update(c: &mut Criterion) {
 criterion_group!(benches, models, online_update);
 criterion_main!(benches, node);
 
-/// The node's work for one JointState of six legs, without DDS: what `node_processing`
-/// contains besides the publishes.
-fn node_core(c: &mut Criterion) {
+/// The node's configuration for the six-legged robot of `launch_configs/rhex.yaml`.
+fn rhex_config() -> terzaghi::config::NodeConfig {
     use terzaghi::config::{NodeConfig, defaults, parse_params_yaml};
-    use terzaghi::msgs::{Header, JointState, Time};
-    use terzaghi::node::NodeCore;
     let mut p = defaults();
     p.extend(
         parse_params_yaml(
@@ -75,7 +72,15 @@ fn node_core(c: &mut Criterion) {
         )
         .unwrap(),
     );
-    let cfg = NodeConfig::from_params(&p, "terzaghi", "/", &[]).unwrap();
+    NodeConfig::from_params(&p, "terzaghi", "/", &[]).unwrap()
+}
+
+/// The node's work for one JointState of six legs, without DDS: what `node_processing`
+/// contains besides the publishes.
+fn node_core(c: &mut Criterion) {
+    use terzaghi::msgs::{Header, JointState, Time};
+    use terzaghi::node::NodeCore;
+    let cfg = rhex_config();
     let names: Vec<String> = cfg.legs.iter().map(|l| l.joint.clone()).collect();
     let mut core = NodeCore::new(cfg);
     let mut out = Vec::new();
@@ -105,21 +110,10 @@ fn node_core(c: &mut Criterion) {
 /// no client is connected: the JointState and each leg's predicted wrench and leg force offered
 /// to a server on loopback with no client.
 fn live_view_without_client(c: &mut Criterion) {
-    use terzaghi::config::{NodeConfig, defaults, parse_params_yaml};
     use terzaghi::msgs::{JointState, LegForce, WrenchStamped};
     use terzaghi::node::handle::Topics;
     use terzaghi::node::live::Live;
-    let mut p = defaults();
-    p.extend(
-        parse_params_yaml(
-            include_str!("../launch_configs/rhex.yaml"),
-            "rhex",
-            "terzaghi",
-            "/",
-        )
-        .unwrap(),
-    );
-    let cfg = NodeConfig::from_params(&p, "terzaghi", "/", &[]).unwrap();
+    let cfg = rhex_config();
     let rt = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()

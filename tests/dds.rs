@@ -242,23 +242,7 @@ fn a_cpu_that_does_not_exist_is_refused() {
 #[test]
 fn a_10_khz_flood_is_absorbed_with_drops_counted_and_memory_flat() {
     let _guard = shared();
-    let out = isolated_command(std::path::Path::new(env!("CARGO_BIN_EXE_terzaghi-bench")))
-        .args([
-            "node",
-            "--load",
-            "--rate-hz",
-            "10000",
-            "--seconds",
-            "30",
-            "--json",
-        ])
-        .env("ROS_DOMAIN_ID", "13")
-        .output()
-        .expect("run terzaghi-bench node --load");
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    eprintln!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
-    assert!(out.status.success());
-    let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let v = bench_node_load(&["--rate-hz", "10000", "--seconds", "30"], "13");
     let sent = v["sent"].as_u64().unwrap();
     let processed = v["node_joint_states"].as_u64().unwrap();
     let dropped = v["node_dropped_counted"].as_u64().unwrap();
@@ -467,24 +451,10 @@ fn a_foxglove_client_that_never_reads_does_not_hold_up_the_node() {
 #[test]
 fn a_warning_per_message_at_10_khz_is_throttled() {
     let _guard = shared();
-    let out = isolated_command(std::path::Path::new(env!("CARGO_BIN_EXE_terzaghi-bench")))
-        .args([
-            "node",
-            "--load",
-            "--rate-hz",
-            "10000",
-            "--seconds",
-            "10",
-            "--bad-leg",
-            "--json",
-        ])
-        .env("ROS_DOMAIN_ID", "37")
-        .output()
-        .expect("run terzaghi-bench node --load --bad-leg");
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    eprintln!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
-    assert!(out.status.success());
-    let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let v = bench_node_load(
+        &["--rate-hz", "10000", "--seconds", "10", "--bad-leg"],
+        "37",
+    );
     let processed = v["node_joint_states"].as_u64().unwrap();
     assert!(processed > 50_000, "{v}");
     // Five legs of six predicted in each.
@@ -497,6 +467,21 @@ fn a_warning_per_message_at_10_khz_is_throttled() {
     );
     assert_memory_bounded(&v, 6 * 1024);
     assert_eq!(v["node_exit_clean"], true);
+}
+
+/// `terzaghi-bench node --load ARGS --json` on ROS_DOMAIN_ID `domain`: what it measured.
+fn bench_node_load(args: &[&str], domain: &str) -> serde_json::Value {
+    let out = isolated_command(std::path::Path::new(env!("CARGO_BIN_EXE_terzaghi-bench")))
+        .args(["node", "--load"])
+        .args(args)
+        .arg("--json")
+        .env("ROS_DOMAIN_ID", domain)
+        .output()
+        .expect("run terzaghi-bench node --load");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    eprintln!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success(), "terzaghi-bench node --load {args:?}");
+    serde_json::from_str(&stdout).unwrap()
 }
 
 /// The node's memory under a `terzaghi-bench node --json` load: its peak at most 64 MB, and

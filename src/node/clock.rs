@@ -39,6 +39,12 @@ impl NodeClock {
         now
     }
 
+    /// [`NodeClock::now_ns`] as a recording's log time: a time before the epoch (a simulation
+    /// clock set so) reads 0.
+    pub fn log_time_ns(&self) -> u64 {
+        self.now_ns().max(0) as u64
+    }
+
     /// Whether the time follows `/clock` (the parameter `use_sim_time`).
     pub fn simulated(&self) -> bool {
         matches!(

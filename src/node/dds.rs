@@ -482,8 +482,8 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
             _ = &mut shutdown => break,
             _ = diag_tick.tick() => {
                 let d = node_status(&shared, &publish_errors, &recorder, record_error.as_deref());
-                watch.report(&shared, &d, &cfg);
-                let now = clock.now_ns().max(0) as u64;
+                watch.report(&shared, recorder.as_deref(), &cfg);
+                let now = clock.log_time_ns();
                 diagnostics_done(recorder.as_deref(), &topics, d, now, &*pubs);
             }
         }
@@ -559,7 +559,7 @@ struct Watch {
 }
 
 impl Watch {
-    fn report(&mut self, shared: &Shared, d: &DiagnosticArray, cfg: &NodeConfig) {
+    fn report(&mut self, shared: &Shared, recorder: Option<&Recorder>, cfg: &NodeConfig) {
         let log = &shared.log;
         let dropped = shared.dropped.load(Ordering::Relaxed);
         if dropped > self.dropped {
@@ -593,14 +593,20 @@ impl Watch {
             );
             self.jumps_back = jumps;
         }
-        let failed = d
-            .status
-            .first()
-            .is_some_and(|s| s.message.starts_with("recording stopped"));
-        if failed && !self.recording_failed {
-            if let Some(s) = d.status.first() {
-                log.log(LogLevel::Error, &s.message, log_site!());
-            }
+        // A recording that could not start was logged then; this is one that stopped since.
+        if let Some(r) = recorder.filter(|r| r.status.failed.load(Ordering::Relaxed))
+            && !self.recording_failed
+        {
+            let e = r.status.error.lock().ok().and_then(|e| e.clone());
+            log.log(
+                LogLevel::Error,
+                &format!(
+                    "recording to {} stopped: {}",
+                    r.path.display(),
+                    e.as_deref().unwrap_or("write failed")
+                ),
+                log_site!(),
+            );
             self.recording_failed = true;
         }
     }
@@ -781,7 +787,7 @@ async fn joint_states_task(
         if let Some(l) = &pubs.live {
             l.joints.log(&msg);
         }
-        let log_ns = sh.clock.now_ns().max(0) as u64;
+        let log_ns = sh.clock.log_time_ns();
         let skipped = {
             let core = &mut sh.lock_core().core;
             let before = skipped_joint_states(core);
@@ -828,7 +834,7 @@ async fn wrench_task(
         if let Some(ch) = pubs.live.as_ref().and_then(|l| l.ft[leg].as_ref()) {
             ch.log(&msg);
         }
-        let log_ns = sh.clock.now_ns().max(0) as u64;
+        let log_ns = sh.clock.log_time_ns();
         let skipped = {
             let core = &mut sh.lock_core().core;
             let before = skipped_wrenches(core, leg);

@@ -105,8 +105,12 @@ pub async fn replay(
         }
         pubs.push(p);
     }
+    // `/clock` and its period.
     let clock = match opts.clock_hz {
-        Some(_) => Some(publisher::<Clock>(&mut node, "/clock")?),
+        Some(hz) => Some((
+            publisher::<Clock>(&mut node, "/clock")?,
+            Duration::from_secs_f64(1.0 / hz),
+        )),
         None => None,
     };
     let spin = tokio::spawn(node.spinner()?.spin());
@@ -114,21 +118,10 @@ pub async fn replay(
     tokio::time::sleep(Duration::from_secs(2)).await;
     let total = session.messages.len() as u64;
     tokio::pin!(stop);
-    let clock_period = opts.clock_hz.map(|hz| Duration::from_secs_f64(1.0 / hz));
     'outer: loop {
         let t0 = session.messages.first().map(|m| m.log_time_ns).unwrap_or(0);
         let start = Instant::now();
-        // The recording's time now: between messages it runs on with the wall clock (scaled by
-        // the rate); played as fast as possible, it is the last message's log time.
-        let play_ns = |last_ns: u64| -> u64 {
-            if opts.as_fast_as_possible {
-                last_ns
-            } else {
-                t0 + (start.elapsed().as_secs_f64() * opts.rate * 1e9) as u64
-            }
-        };
         let mut next_clock = start;
-        let mut last_ns = t0;
         for (i, m) in session.messages.iter().enumerate() {
             let Some(p) = &pubs[m.topic] else { continue };
             if !opts.as_fast_as_possible {
@@ -136,8 +129,9 @@ pub async fn replay(
                     + Duration::from_secs_f64(
                         m.log_time_ns.saturating_sub(t0) as f64 * 1e-9 / opts.rate,
                     );
-                // /clock ticks while waiting for the message.
-                while let (Some(c), Some(period)) = (&clock, clock_period) {
+                // /clock ticks while waiting for the message, with the recording's time running
+                // on with the wall clock (scaled by the rate) between messages.
+                while let Some((c, period)) = &clock {
                     if next_clock > due {
                         break;
                     }
@@ -145,20 +139,23 @@ pub async fn replay(
                         _ = tokio::time::sleep_until(next_clock.into()) => {}
                         _ = &mut stop => break 'outer,
                     }
-                    publish_clock(c, play_ns(last_ns));
-                    next_clock += period;
+                    publish_clock(
+                        c,
+                        t0 + (start.elapsed().as_secs_f64() * opts.rate * 1e9) as u64,
+                    );
+                    next_clock += *period;
                 }
                 tokio::select! {
                     _ = tokio::time::sleep_until(due.into()) => {}
                     _ = &mut stop => break 'outer,
                 }
-            } else if let (Some(c), Some(period)) = (&clock, clock_period)
+            } else if let Some((c, period)) = &clock
                 && Instant::now() >= next_clock
             {
+                // As fast as possible, the recording's time is the message's.
                 publish_clock(c, m.log_time_ns);
-                next_clock = Instant::now() + period;
+                next_clock = Instant::now() + *period;
             }
-            last_ns = m.log_time_ns;
             let ok = match p {
                 AnyPub::Joints(p) => session.decode(m).map(|x| p.publish(x).is_ok()),
                 AnyPub::Wrench(p) => session.decode(m).map(|x| p.publish(x).is_ok()),

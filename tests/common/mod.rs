@@ -205,7 +205,9 @@ pub fn ros_env() -> PathBuf {
     if !env.exists() {
         let py = python();
         let venv = py.parent().and_then(Path::parent).unwrap().to_path_buf();
-        let _lock = std::fs::File::create(repo().join("target/ros_msgs.lock"));
+        // One build at a time among this binary's tests.
+        static BUILD: std::sync::Mutex<()> = std::sync::Mutex::new(());
+        let _one = BUILD.lock().unwrap_or_else(|p| p.into_inner());
         if !env.exists() {
             let ok = Command::new(venv.join("bin/pip"))
                 .args(["install", "-q", "--prefer-binary", "-r"])

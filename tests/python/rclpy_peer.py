@@ -293,13 +293,18 @@ def main():
               {"received": len(late), "b_k": late[0].b_k if late else None})
 
         # 4. Simulated time: diagnostics stamped with /clock's time.
+        def fresh_diagnostics():
+            """The stamps (s) and values of the next two /diagnostics or more."""
+            with peer.lock:
+                peer.diags.clear()
+            wait_until(lambda: len(peer.diags) >= 2, 5)
+            with peer.lock:
+                stamps = [secs(m.header.stamp) for _, m in peer.diags]
+                values = {kv.key: kv.value for _, m in peer.diags for st in m.status for kv in st.values}
+            return stamps, values
+
         t_sent = sim["t"]
-        with peer.lock:
-            peer.diags.clear()
-        wait_until(lambda: len(peer.diags) >= 2, 5)
-        with peer.lock:
-            stamps = [secs(m.header.stamp) for _, m in peer.diags]
-            values = {kv.key: kv.value for _, m in peer.diags for st in m.status for kv in st.values}
+        stamps, values = fresh_diagnostics()
         check("diagnostics_follow_clock", bool(stamps) and all(abs(s - t_sent) < 5.0 for s in stamps)
               and values.get("clock") == "/clock (use_sim_time)" and values.get("clock_jumps_back") == "0",
               {"clock_s": t_sent, "diagnostics_stamps_s": stamps[:3], "wall_s": time.time(),
@@ -308,12 +313,7 @@ def main():
         # A /clock that jumps back (a log played again from its start): followed and counted.
         sim["t"] = 500.0
         time.sleep(1.0)
-        with peer.lock:
-            peer.diags.clear()
-        wait_until(lambda: len(peer.diags) >= 2, 5)
-        with peer.lock:
-            stamps = [secs(m.header.stamp) for _, m in peer.diags]
-            values = {kv.key: kv.value for _, m in peer.diags for st in m.status for kv in st.values}
+        stamps, values = fresh_diagnostics()
         check("clock_jump_back_followed",
               bool(stamps) and all(500.0 <= s < 520.0 for s in stamps) and values.get("clock_jumps_back") == "1",
               {"diagnostics_stamps_s": stamps[:3], "clock_jumps_back": values.get("clock_jumps_back")})
