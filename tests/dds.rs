@@ -253,16 +253,9 @@ fn a_10_khz_flood_is_absorbed_with_drops_counted_and_memory_flat() {
         "{v}"
     );
     assert_eq!(v["node_predictions"].as_u64().unwrap(), 6 * processed);
-    // At most one allocator step of a few MB after start-up (seen once: +3 MB at second 14,
-    // flat after).
-    let rss = assert_memory_bounded(&v, 6 * 1024);
-    // And no growth over the last ten seconds: a leak under this flood would be megabytes a
-    // second.
-    let (last, ten_before) = (rss[rss.len() - 1], rss[rss.len().saturating_sub(11)]);
-    assert!(
-        last <= ten_before + 1024,
-        "memory grew from {ten_before} kB to {last} kB in the last 10 s: {rss:?}"
-    );
+    // At most one allocator step of a few MB after start-up (seen: +3 MB at second 14, +2 MB at
+    // second 27 with other tests beside it, flat after each), and no trend.
+    assert_memory_bounded(&v, 6 * 1024);
     assert_eq!(v["node_exit_clean"], true);
 }
 
@@ -439,8 +432,13 @@ fn a_foxglove_client_that_never_reads_does_not_hold_up_the_node() {
     let processed = v["node_joint_states"].as_u64().unwrap();
     let dropped = v["node_dropped_counted"].as_u64().unwrap();
     assert!(sent > 14_000, "{v}");
-    // The node kept up with its inputs: the stuck client costs it nothing it must wait for.
-    assert!(processed + 100 >= sent && dropped == 0, "{v}");
+    // The node kept up with its inputs: the stuck client costs it nothing it must wait for (a
+    // node waiting on it would stop taking inputs and drop all but its queue; a busy machine
+    // may cost a few).
+    assert!(
+        processed + dropped + 100 >= sent && dropped * 100 <= sent,
+        "{v}"
+    );
     assert_memory_bounded(&v, 8 * 1024);
     assert_eq!(v["node_exit_clean"], true);
 }
@@ -484,10 +482,13 @@ fn bench_node_load(args: &[&str], domain: &str) -> serde_json::Value {
     serde_json::from_str(&stdout).unwrap()
 }
 
-/// The node's memory under a `terzaghi-bench node --json` load: its peak at most 64 MB, and
-/// from the fourth second on (start-up done) growing by at most `step_kb` (an allocator step,
-/// not a leak). Returns the resident memory sampled each second, in kB.
-fn assert_memory_bounded(v: &serde_json::Value, step_kb: u64) -> Vec<u64> {
+/// The node's memory under a `terzaghi-bench node --json` load: its peak at most 64 MB; from
+/// the fourth second on (start-up done) growing by at most `step_kb` in all (an allocator step,
+/// not a leak), and without a trend over the second half of the run (queues that fill up to their
+/// bound have filled by then): the median of the slopes between every two samples (robust to a
+/// step, which changes only the pairs that straddle it) at most 32 kB/s, where a leak under these
+/// loads would be megabytes a second.
+fn assert_memory_bounded(v: &serde_json::Value, step_kb: u64) {
     assert!(v["node_peak_rss_kb"].as_u64().unwrap() <= 64 * 1024, "{v}");
     let rss: Vec<u64> = v["node_rss_kb_per_second"]
         .as_array()
@@ -495,13 +496,26 @@ fn assert_memory_bounded(v: &serde_json::Value, step_kb: u64) -> Vec<u64> {
         .iter()
         .map(|x| x.as_u64().unwrap())
         .collect();
-    assert!(rss.len() > 4, "too few memory samples: {v}");
-    let (early, last) = (rss[3], rss[rss.len() - 1]);
+    assert!(rss.len() > 6, "too few memory samples: {v}");
+    let settled = &rss[3..];
+    let (early, last) = (settled[0], settled[settled.len() - 1]);
     assert!(
         last <= early + step_kb,
         "memory grew from {early} kB to {last} kB: {rss:?}"
     );
-    rss
+    let late = &rss[rss.len() / 2..];
+    let mut slopes_kb_per_s: Vec<f64> = Vec::new();
+    for i in 0..late.len() {
+        for j in i + 1..late.len() {
+            slopes_kb_per_s.push((late[j] as f64 - late[i] as f64) / (j - i) as f64);
+        }
+    }
+    slopes_kb_per_s.sort_by(f64::total_cmp);
+    let trend_kb_per_s = slopes_kb_per_s[slopes_kb_per_s.len() / 2];
+    assert!(
+        trend_kb_per_s <= 32.0,
+        "memory grows by {trend_kb_per_s:.0} kB/s (median of pairwise slopes): {rss:?}"
+    );
 }
 
 /// `--ros-args --log-level warn` leaves out the node's info lines (its start-up, its summary),
