@@ -458,11 +458,12 @@ fn on_the_dem_campaign_the_varied_effect_is_reported() {
     }
     // Ground passed through again and again changes over the session, and that is the verdict;
     // strokes at speeds rising one after another are not taken for ground changing over the
-    // session (the speed's own change of how force grows with the angle is `rate`'s).
+    // session (the speed's own change of how force grows with the angle is `rate`'s), nor for
+    // a late sensor (the DEM's onset comes earlier with speed, a late sensor's later).
     assert_eq!(case("disturbed")["verdict"], "compaction");
     let speed_effects = case("speed")["effects"].to_string();
     assert!(
-        !speed_effects.contains("compaction"),
+        !speed_effects.contains("compaction") && !speed_effects.contains("sensor_lag"),
         "speed: {speed_effects}"
     );
     // A sensor offset is measured directly where the leg is out of the medium: the share of

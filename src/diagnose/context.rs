@@ -4,7 +4,7 @@
 
 use super::kinematics::Kinematics;
 use crate::ident::Sample;
-use crate::model::{FittingWidth, Plate, Regime, TerzaghiModel};
+use crate::model::{FittingWidth, Medium, Plate, Regime, TerzaghiModel};
 use std::f64::consts::{FRAC_PI_2, TAU};
 
 /// One analysed sample.
@@ -17,6 +17,9 @@ pub struct Point {
     pub y_n: [f64; 2],
     /// Unit model's drag and lift (`b_e = b`), nominal hip height (N).
     pub unit_n: [f64; 2],
+    /// How the unit model's drag and lift change with the medium's internal friction angle
+    /// `phi` (N/deg, a one-degree difference): a denser bed is a stronger one in this way.
+    pub unit_per_phi_n_deg: [f64; 2],
     pub regime: Regime,
     pub submerged_m: f64,
     /// Distance from the hip to where the submerged part begins (m).
@@ -74,6 +77,16 @@ impl Context {
     ) -> Context {
         let unit = model.with_fitting_width(FittingWidth::CONVENTIONAL);
         let plate = *unit.plate();
+        // The unit model in a medium one degree stronger in friction, for `unit_per_phi_n_deg`
+        // (none where `phi` is at its limit).
+        let medium = unit.medium();
+        let stronger = Medium::new(
+            medium.unit_weight_n_m3(),
+            medium.phi_deg() + 1.0,
+            medium.delta_deg(),
+        )
+        .ok()
+        .map(|m| TerzaghiModel::conventional(plate, m));
         let strokes = kin.strokes();
         let direction = {
             let total = kin.unwrapped_rad.last().unwrap_or(&0.0)
@@ -100,6 +113,12 @@ impl Context {
             if i % stride.max(1) != 0 {
                 continue;
             }
+            let per_phi = match (&f, stronger.as_ref().and_then(|m| m.evaluate(beta).ok())) {
+                (Some(f), Some(g)) if f.regime != Regime::OutOfMedium => {
+                    [g.drag_n - f.drag_n, g.lift_n - f.lift_n]
+                }
+                _ => [0.0, 0.0],
+            };
             let b = plate.width_m();
             let stroke = kin.stroke[i];
             points.push(Point {
@@ -107,6 +126,7 @@ impl Context {
                 beta_rad: beta,
                 y_n: [s.drag_n, s.lift_n],
                 unit_n: f.as_ref().map_or([0.0, 0.0], |f| [f.drag_n, f.lift_n]),
+                unit_per_phi_n_deg: per_phi,
                 regime: f.as_ref().map_or(Regime::OutOfMedium, |f| f.regime),
                 submerged_m: submerged,
                 inner_radius_m: r_in,

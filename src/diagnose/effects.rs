@@ -13,8 +13,8 @@ pub enum Effect {
     /// Speed-dependent resistance growing as `(omega r)^n` over the submerged plate (every element
     /// moves at `omega r` across it), normal to the plate and along it, against the session's
     /// typical speed. `n = 2` is inertial drag `~ rho v^2 A`; granular media often show less
-    /// (`n` near 1): `n` is fitted between 0.5 and 2. With it, `ln a` (how force grows with the
-    /// angle) moves with `(|omega| / omega_typ)^n - 1`.
+    /// (`n` near 1): `n` is fitted between 0.5 and 2. With it, the quasi-static force's scale
+    /// and `ln a` (how force grows with the angle) move with `(|omega| / omega_typ)^n - 1`.
     Rate,
     /// A force proportional to the angular acceleration (added mass of grains moved with the plate).
     Inertia,
@@ -26,8 +26,8 @@ pub enum Effect {
     Extraction,
     /// The medium's strength changing over the session: a steady drift, and a change from one
     /// stroke on (the ground compacted, loosened or disturbed), its stroke chosen by the data:
-    /// of drag, of lift, and of `ln a` (a denser bed's force also grows differently with the
-    /// angle).
+    /// of drag, of lift, of `ln a` (a denser bed's force also grows differently with the angle)
+    /// and of the friction angle `phi` (its grains interlock more, which reshapes the profile).
     Compaction,
     /// A strength term proportional to the submerged area (normal and along the plate).
     Cohesion,
@@ -78,11 +78,22 @@ impl Effect {
     /// Names (with units) of the linear parameters, in column order.
     pub fn linear_params(self) -> &'static [&'static str] {
         match self {
-            Effect::Rate => &["normal_kg_m3", "tangential_kg_m3", "ln_a_per_speed_excess"],
+            Effect::Rate => &[
+                "normal_kg_m3",
+                "tangential_kg_m3",
+                "ln_a_per_speed_excess",
+                "scale_per_speed_excess",
+            ],
             Effect::Inertia => &["normal_kg_m2", "tangential_kg_m2"],
             Effect::Surcharge => &["normal_n_m4", "tangential_n_m4"],
             Effect::Extraction => &["drag_scale", "lift_scale", "slope_per_rad"],
-            Effect::Compaction => &["linear", "change_drag", "change_lift", "change_ln_a"],
+            Effect::Compaction => &[
+                "linear",
+                "change_drag",
+                "change_lift",
+                "change_ln_a",
+                "change_phi_deg",
+            ],
             Effect::Cohesion => &["normal_pa", "tangential_pa"],
             Effect::HipHeight | Effect::SensorLag => &[],
             Effect::SensorBias => &["drag_n", "lift_n"],
@@ -129,17 +140,24 @@ impl Effect {
 
     /// Appends this effect's columns at one point. `base` is the baseline column
     /// `a^(-beta) F_unit(beta)` at that point; `nl` holds the nonlinear values (the speed
-    /// exponent of `rate`).
-    pub fn push_columns(self, p: &Point, base: [f64; 2], nl: &Nonlinear, out: &mut Vec<[f64; 2]>) {
+    /// exponent of `rate`); `a_factor` is the baseline's `a^(-beta)` there.
+    pub fn push_columns(
+        self,
+        p: &Point,
+        base: [f64; 2],
+        a_factor: f64,
+        nl: &Nonlinear,
+        out: &mut Vec<[f64; 2]>,
+    ) {
         let (s, c) = p.beta_rad.sin_cos();
         match self {
             Effect::Rate => {
                 let q = rate_term(p, nl.speed_exponent);
                 out.push(normal(q, s, c));
                 out.push(tangential(q, s, c));
-                // Faster, the force also grows differently with the angle (the DEM's does): `ln a`
-                // moving with the speed's excess over the typical one, `(|omega| / omega_typ)^n - 1`,
-                // linearised.
+                // Faster, the whole quasi-static force grows, and it grows differently with the
+                // angle (the DEM's does): its scale and `ln a` moving with the speed's excess over
+                // the typical one, `(|omega| / omega_typ)^n - 1`, linearised.
                 let n = if nl.speed_exponent > 0.0 {
                     nl.speed_exponent
                 } else {
@@ -152,6 +170,7 @@ impl Effect {
                 };
                 let w = -excess * p.beta_rad;
                 out.push([w * base[0], w * base[1]]);
+                out.push([excess * base[0], excess * base[1]]);
             }
             Effect::Inertia => {
                 let q = p.accel_rad_s2 * p.moment1_m3;
@@ -186,6 +205,10 @@ impl Effect {
                 // scale: `a^(-beta)` with `ln a` moved by a small amount, linearised.
                 let w = -changed * p.beta_rad;
                 out.push([w * base[0], w * base[1]]);
+                // And its grains interlock more: a higher friction angle, which reshapes the
+                // whole profile (linearised, per degree).
+                let g = changed * a_factor;
+                out.push([g * p.unit_per_phi_n_deg[0], g * p.unit_per_phi_n_deg[1]]);
             }
             Effect::Cohesion => {
                 out.push(normal(p.area_m2, s, c));

@@ -483,7 +483,7 @@ fn build(
         row.clear();
         row.push(base);
         for e in effects {
-            e.push_columns(pt, base, nl, &mut row);
+            e.push_columns(pt, base, w, nl, &mut row);
         }
         for (j, v) in row.iter().enumerate() {
             cols[2 * i * p + j] = v[0];

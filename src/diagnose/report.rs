@@ -241,11 +241,20 @@ pub(super) fn analyse(
     let psi_before = psi(ctx, &base.heldout_n);
     // Direct evidence given what is already modelled: a misfit that an earlier step explains
     // (a surface level shifting the onset) must not pass for a delay.
+    // A late sensor moves the onset of force later the faster the leg, against any prediction,
+    // and the baseline's does not depend on speed: where, against it, the onset comes clearly
+    // earlier with speed, a delay read against a fit with speed terms (whose own onset moves
+    // with speed) is that fit's, not the sensor's.
+    let onset_against_delay = signatures.delay.onset_slope_t < -4.0;
     let given = |f: &Fit, baseline: bool| {
         if baseline {
             signatures.clone()
         } else {
-            signatures::read(ctx, &f.fitted_n, [noise.drag_n, noise.lift_n])
+            let mut sig = signatures::read(ctx, &f.fitted_n, [noise.drag_n, noise.lift_n]);
+            if onset_against_delay {
+                sig.delay.significant = false;
+            }
+            sig
         }
     };
     let mut steps: Vec<Step> = Vec::new();
