@@ -118,6 +118,24 @@ fn render(m: &serde_json::Value, r: &CampaignReport) -> String {
             dx["seconds"].as_f64().unwrap_or(0.0) / 60.0,
             dx["command"].as_str().unwrap_or("")
         );
+        // Runs added to the part later, each batch with the command that made it.
+        let added = dx["added"].as_array().map_or(&[][..], |v| v.as_slice());
+        let later: usize = added
+            .iter()
+            .map(|a| a["runs"].as_array().map_or(0, |v| v.len()))
+            .sum();
+        if later > 0 {
+            s.pop();
+            s += &format!("; {} of them added later:\n", later);
+            for a in added {
+                s += &format!(
+                    "  {} runs, {:.1} min ({})\n",
+                    a["runs"].as_array().map_or(0, |v| v.len()),
+                    a["seconds"].as_f64().unwrap_or(0.0) / 60.0,
+                    a["command"].as_str().unwrap_or("")
+                );
+            }
+        }
     }
     let base = &m["beds"]["bed_base"];
     let med = &m["medium"];

@@ -881,6 +881,10 @@ def diagnosis_plan(cohesion):
         plan.append(("dx_fast_w%03d_s%d" % (round(w * 10), k), "base", k, {"omega": w}))
     # Four passes through the same trough, never levelled between them.
     plan.append(("dx_disturbed_s1", "base", 1, {"strokes": 4}))
+    # The C-leg speeding up the same way (the campaign's `cleg` is its stroke at 1 rad/s): a
+    # large misfit of the flat-plate model at several speeds.
+    for k, w in ((1, 2.5), (2, 5.0), (3, 7.5)):
+        plan.append(("dx_cleg_w%03d_s%d" % (round(w * 10), k), "base", k, {"omega": w, "shape": "c"}))
     return plan
 
 
@@ -891,12 +895,21 @@ def run_diagnosis_part(args):
     path = os.path.join(out, "campaign.json")
     with open(path) as f:
         manifest = json.load(f)
+    if args.only and "diagnosis" not in manifest:
+        sys.exit("--only adds runs to a diagnosis part: %s has none yet (run --diagnosis first)" % path)
     camp = Campaign(args)
     camp.t0 = time.time()
     camp.medium = manifest["medium"]
     c = camp.cfg
     b0, h0, w0 = c["width_m"], c["hip_height_m"], c["omega"]
     plan = diagnosis_plan(args.cohesion)
+    if args.only:
+        wanted = set(args.only.split(","))
+        unknown = sorted(wanted - {r[0] for r in plan})
+        if unknown:
+            sys.exit("--only: no run %s in the diagnosis part (its runs: %s)"
+                     % (", ".join(unknown), ", ".join(r[0] for r in plan)))
+        plan = [r for r in plan if r[0] in wanted]
     beds = {}
     bed_lock = threading.Lock()
     bed_events = {}
@@ -941,20 +954,33 @@ def run_diagnosis_part(args):
     for k, v in camp.beds.items():
         manifest["beds"][k] = {kk: vv for kk, vv in v.items() if kk != "restart"}
     manifest["refused"] = manifest.get("refused", []) + camp.refused + refused
-    manifest["diagnosis"] = {
-        "command": "python3 tests/dem/campaign.py --out %s --diagnosis --jobs %d" % (
-            os.path.relpath(out, os.path.dirname(os.path.dirname(HERE))), args.jobs),
-        "engine": camp.engine,
-        "seeds": DIAGNOSIS_SEEDS,
-        "runs": sorted(names),
-        "seconds": round(time.time() - camp.t0, 1),
-    }
+    command = "python3 tests/dem/campaign.py --out %s --diagnosis --jobs %d" % (
+        os.path.relpath(out, os.path.dirname(os.path.dirname(HERE))), args.jobs)
+    seconds = round(time.time() - camp.t0, 1)
+    if args.only:
+        # Runs added to an existing diagnosis part: recorded beside it, the part's run list
+        # grown by them.
+        part = manifest["diagnosis"]
+        part["runs"] = sorted(set(part["runs"]) | names)
+        part.setdefault("added", []).append({
+            "command": command + " --only " + args.only,
+            "engine": camp.engine,
+            "runs": sorted(names),
+            "seconds": seconds,
+        })
+    else:
+        manifest["diagnosis"] = {
+            "command": command,
+            "engine": camp.engine,
+            "seeds": DIAGNOSIS_SEEDS,
+            "runs": sorted(names),
+            "seconds": seconds,
+        }
     with open(path, "w") as f:
         json.dump(manifest, f, indent=1, sort_keys=True)
     if not args.keep_work:
         shutil.rmtree(camp.work, ignore_errors=True)
-    camp.log("diagnosis part done in %.0f s (%.1f min): %d runs"
-             % (manifest["diagnosis"]["seconds"], manifest["diagnosis"]["seconds"] / 60, len(names)))
+    camp.log("diagnosis part done in %.0f s (%.1f min): %d runs" % (seconds, seconds / 60, len(names)))
 
 
 def import_sessions(out, terzaghi, log=print, only=None):
@@ -994,6 +1020,8 @@ def main():
                     help="measure the friction angle again and rewrite it in the runs already in --out")
     ap.add_argument("--diagnosis", action="store_true",
                     help="add the diagnosis part (independent beds and strokes per condition) to the campaign in --out")
+    ap.add_argument("--only", metavar="RUN[,RUN...]",
+                    help="with --diagnosis: run only these runs of the diagnosis part and add them to the campaign")
     ap.add_argument("--import-only", action="store_true",
                     help="only write the sessions of the CSV runs already in --out (no engine)")
     args = ap.parse_args()
@@ -1007,6 +1035,8 @@ def main():
     if args.remeasure_medium:
         Campaign(args).remeasure_medium()
         return
+    if args.only and not args.diagnosis:
+        sys.exit("--only goes with --diagnosis")
     if args.diagnosis:
         run_diagnosis_part(args)
         return
