@@ -140,22 +140,11 @@ pub fn render_dem(d: &[DemOutcome], dir: &std::path::Path, seconds: f64) -> Stri
         d.len(),
         100.0 * crate::dem::cases::NOISE_FRAC
     );
-    out += &format!(
-        "{:<18} {:<12} {:<12} {:<44} {:>5} {:>9} {:>9} {:>11}\n",
-        "case",
-        "expected",
-        "verdict",
-        "significant effects (share of the gap)",
-        "found",
-        "reported",
-        "measured",
-        "unexplained"
-    );
     // Rounded to whole percent, a share just below zero reads 0 %, not -0 %.
     let whole = |v: f64| format!("{:.0} %", v.round() + 0.0);
     let pct = |v: Option<f64>| v.map_or("-".to_string(), whole);
-    for o in d {
-        let effects = if o.effects.is_empty() {
+    let effects_of = |o: &DemOutcome| {
+        if o.effects.is_empty() {
             "-".to_string()
         } else {
             o.effects
@@ -163,9 +152,20 @@ pub fn render_dem(d: &[DemOutcome], dir: &std::path::Path, seconds: f64) -> Stri
                 .map(|(e, p)| format!("{e} {}", whole(*p)))
                 .collect::<Vec<_>>()
                 .join(", ")
-        };
+        }
+    };
+    let first = "significant effects (share of the gap)";
+    let (wc, we) = d.iter().fold((4, first.len()), |(wc, we), o| {
+        (wc.max(o.case.len()), we.max(effects_of(o).len()))
+    });
+    out += &format!(
+        "{:<wc$} {:<12} {:<12} {:<we$} {:>5} {:>9} {:>9} {:>11}\n",
+        "case", "expected", "verdict", first, "found", "reported", "measured", "unexplained"
+    );
+    for o in d {
+        let effects = effects_of(o);
         out += &format!(
-            "{:<18} {:<12} {:<12} {:<44} {:>5} {:>9} {:>9} {:>11}\n",
+            "{:<wc$} {:<12} {:<12} {:<we$} {:>5} {:>9} {:>9} {:>11}\n",
             o.case,
             o.expected.map_or("(free)".to_string(), |e| e.to_string()),
             o.verdict,

@@ -108,8 +108,30 @@ pub fn baseline_heldout_mse(
     samples: &[Sample],
     opts: &DiagnoseOptions,
 ) -> Result<f64, DiagnoseError> {
+    baseline_heldout(model, samples, opts).map(|b| b.mse_n2)
+}
+
+/// The baseline alone on held-out strokes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BaselineHeldOut {
+    /// Mean squared residual per component over every analysed sample (N^2).
+    pub mse_n2: f64,
+    /// Share of the analysed samples in the medium (0 to 1): out of it the baseline predicts no
+    /// force, so two sessions' gaps compare per sample in the medium.
+    pub in_medium_frac: f64,
+}
+
+pub fn baseline_heldout(
+    model: &TerzaghiModel,
+    samples: &[Sample],
+    opts: &DiagnoseOptions,
+) -> Result<BaselineHeldOut, DiagnoseError> {
     let (ctx, ..) = prepare(model, samples, opts)?;
-    Ok(fit::fit(&ctx, &fit::Design::baseline(ctx.folds), None).heldout_mse())
+    let inside = ctx.points.iter().filter(|p| p.in_medium()).count();
+    Ok(BaselineHeldOut {
+        mse_n2: fit::fit(&ctx, &fit::Design::baseline(ctx.folds), None).heldout_mse(),
+        in_medium_frac: inside as f64 / ctx.points.len().max(1) as f64,
+    })
 }
 
 /// Checks the log and builds the analysed points: returns them with the count of skipped
@@ -245,6 +267,64 @@ mod tests {
             .find(|b| b.label == "out_of_medium")
             .unwrap();
         assert!(out.significant && out.share_of_gap > 30.0, "{out:?}");
+    }
+
+    #[test]
+    fn a_change_half_way_is_measured_against_the_strokes_before_it() {
+        let mut rng = rand::rngs::StdRng::seed_from_u64(4);
+        let truth = unit().with_fitting_width(FittingWidth::new(2.0, 1.5).unwrap());
+        let angles = sim::rotate(&sim::Rotation::default(), 20, &mut rng);
+        // Each stroke is a turn from the first angle: the last ten strokes change.
+        let half = angles[0].1 + 10.0 * std::f64::consts::TAU;
+        // From half way on, a stronger bed whose force also grows faster with the angle: more
+        // than the compaction term's linearised form takes up.
+        let s = sim::measure(&angles, 0.01, &mut rng, |_, b| {
+            let f = truth.evaluate(b).unwrap();
+            let beta = b.rem_euclid(std::f64::consts::TAU);
+            let k = if b >= half {
+                1.3 * (0.2 * beta).exp()
+            } else {
+                1.0
+            };
+            (f.drag_n * k, f.lift_n * k)
+        });
+        let r = diagnose(&unit(), &s, &DiagnoseOptions::default())
+            .unwrap()
+            .report;
+        let step = r
+            .steps
+            .iter()
+            .find(|x| x.effect == Effect::Compaction)
+            .unwrap_or_else(|| panic!("{}", r.summary));
+        let c = step
+            .contrast
+            .as_ref()
+            .expect("the strokes before the change");
+        // The strokes before it are the first half's, and the model fits them to the noise:
+        // the change accounts for all of the gap, whatever its term closes.
+        assert!(
+            !c.unreached_strokes.is_empty() && c.unreached_strokes.iter().all(|&k| k < 10),
+            "{c:?}"
+        );
+        assert!(c.share_of_gap_pct > 95.0, "{c:?}");
+        let first = c.unreached_strokes[0];
+        let last = c.unreached_strokes[c.unreached_strokes.len() - 1];
+        assert!(
+            r.summary.contains(&format!(
+                "Against the strokes compaction does not reach (strokes {first}-{last})"
+            )),
+            "{}",
+            r.summary
+        );
+        // An effect that reaches every stroke has none.
+        let offset = diagnose(
+            &unit(),
+            &session(20, |d, l| (d + 3.0, l - 2.0)),
+            &DiagnoseOptions::default(),
+        )
+        .unwrap()
+        .report;
+        assert!(offset.steps.iter().all(|x| x.contrast.is_none()));
     }
 
     #[test]

@@ -149,6 +149,25 @@ pub struct Step {
     /// (a term fitted to the whole session can also take up part of the model's own misfit;
     /// this share cannot).
     pub direct_share_of_gap_pct: Option<f64>,
+    /// For an effect that reaches only part of the session (`compaction` from its change on,
+    /// `rate` above the session's lowest speed): the gap the baseline leaves on the strokes it
+    /// does not reach, fitted to them alone, against the whole session's.
+    pub contrast: Option<Contrast>,
+}
+
+/// The session's own counterpart of an effect that reaches only some strokes.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Contrast {
+    /// The strokes the effect does not reach (0-based).
+    pub unreached_strokes: Vec<usize>,
+    /// The baseline fitted to those strokes alone: its held-out RMS residual there (a single
+    /// stroke's samples held out alternately), N.
+    pub unreached_rmse_n: f64,
+    /// The share of the whole session's gap in excess of what the baseline leaves on those
+    /// strokes (both per sample in the medium), %: how much of the gap the effect accounts for,
+    /// its term's form aside (the model's own misfit taken as on the strokes it does not
+    /// reach).
+    pub share_of_gap_pct: f64,
 }
 
 #[derive(Debug, Clone, serde::Serialize)]
@@ -310,6 +329,7 @@ pub(super) fn analyse(
             direct_share_of_gap_pct: seen
                 .then(|| direct_share(ctx, e, &sig_now, var, excess))
                 .flatten(),
+            contrast: contrast(ctx, &next, e, var, excess),
             ..step(ctx, &next, mse, t, &closed, excess)
         });
         current = next;
@@ -477,7 +497,113 @@ fn step(
         heldout_t: t,
         evidence: "held_out",
         direct_share_of_gap_pct: None,
+        contrast: None,
     }
+}
+
+/// Strokes as runs of consecutive numbers: `0-2, 5`.
+fn stroke_list(strokes: &[usize]) -> String {
+    let mut runs: Vec<(usize, usize)> = Vec::new();
+    for &k in strokes {
+        match runs.last_mut() {
+            Some((_, hi)) if *hi + 1 == k => *hi = k,
+            _ => runs.push((k, k)),
+        }
+    }
+    let label = |(lo, hi): (usize, usize)| {
+        if lo == hi {
+            lo.to_string()
+        } else {
+            format!("{lo}-{hi}")
+        }
+    };
+    let list: Vec<String> = runs.into_iter().map(label).collect();
+    format!(
+        "stroke{} {}",
+        if strokes.len() == 1 { "" } else { "s" },
+        list.join(", ")
+    )
+}
+
+/// Speeds of strokes this close to the session's lowest count as the lowest.
+const LOWEST_SPEED_BAND: f64 = 1.25;
+
+/// The strokes an effect does not reach in fit `f` (where it reaches only some), and the
+/// baseline's gap on them (see [`Contrast`]).
+fn contrast(ctx: &Context, f: &Fit, e: Effect, var: f64, excess: f64) -> Option<Contrast> {
+    let strokes = ctx.strokes.max(1);
+    let unreached: Vec<usize> = match e {
+        Effect::Compaction => {
+            let at = f.nonlinear.last()?.change_at_session_frac;
+            let mut before = vec![true; strokes];
+            for p in &ctx.points {
+                before[p.stroke.min(strokes - 1)] &= p.session_frac < at - 1e-9;
+            }
+            (0..strokes).filter(|&s| before[s]).collect()
+        }
+        Effect::Rate => {
+            // Each stroke's median speed in the medium; the strokes near the lowest, where the
+            // session's speeds span a factor two.
+            let mut speeds: Vec<Vec<f64>> = vec![Vec::new(); strokes];
+            for p in ctx.points.iter().filter(|p| p.in_medium()) {
+                speeds[p.stroke.min(strokes - 1)].push(p.speed_rad_s.abs());
+            }
+            let median: Vec<Option<f64>> = speeds
+                .iter_mut()
+                .map(|v| {
+                    (!v.is_empty()).then(|| {
+                        let mid = v.len() / 2;
+                        *v.select_nth_unstable_by(mid, f64::total_cmp).1
+                    })
+                })
+                .collect();
+            let known = median.iter().flatten();
+            let lo = known.clone().fold(f64::INFINITY, |a, &b| a.min(b));
+            let hi = known.fold(0.0f64, |a, &b| a.max(b));
+            if !(lo > 0.0 && hi >= 2.0 * lo) {
+                return None;
+            }
+            (0..strokes)
+                .filter(|&s| median[s].is_some_and(|m| m <= LOWEST_SPEED_BAND * lo))
+                .collect()
+        }
+        _ => return None,
+    };
+    if unreached.is_empty() || unreached.len() == strokes || excess <= 0.0 {
+        return None;
+    }
+    // The unreached strokes as a session of their own: renumbered, folds of whole strokes (one
+    // stroke: its samples alternately in two folds, nothing to hold out but noise).
+    let folds = unreached.len().clamp(2, ctx.folds.max(2));
+    let mut sub = ctx.clone();
+    sub.points.retain(|p| unreached.contains(&p.stroke));
+    for (i, p) in sub.points.iter_mut().enumerate() {
+        p.stroke = unreached
+            .iter()
+            .position(|&s| s == p.stroke)
+            .expect("kept points are on unreached strokes");
+        p.fold = if unreached.len() == 1 {
+            i % 2
+        } else {
+            p.stroke % folds
+        };
+    }
+    sub.strokes = unreached.len();
+    sub.folds = folds;
+    let mse = fit(&sub, &Design::baseline(folds), None).heldout_mse();
+    // Both gaps per sample in the medium: out of it the baseline predicts no force, and the
+    // strokes differ in how long they spend in the air.
+    let per_in_medium = |c: &Context, gap: f64| {
+        let inside = c.points.iter().filter(|p| p.in_medium()).count();
+        (inside > 0).then(|| gap * c.points.len() as f64 / inside as f64)
+    };
+    let unreached_gap = per_in_medium(&sub, mse - var)?;
+    let whole_gap = per_in_medium(ctx, excess)?;
+    mse.is_finite().then(|| Contrast {
+        unreached_strokes: unreached,
+        unreached_rmse_n: mse.sqrt(),
+        share_of_gap_pct: 100.0 * (1.0 - unreached_gap / whole_gap),
+    })
 }
 
 /// The share of the gap closed by correcting the session by a directly measured effect and
@@ -847,6 +973,16 @@ fn summary(
             "None of them closes a material share of the gap on its own (verdict: unexplained); together they close {:.0} %.",
             v.all_steps_gap_closed_pct
         );
+    }
+    for st in steps {
+        if let Some(c) = &st.contrast {
+            s += &format!(
+                " Against the strokes {} does not reach ({}), fitted alone, it accounts for {:.0} % of the gap.",
+                st.effect,
+                stroke_list(&c.unreached_strokes),
+                c.share_of_gap_pct
+            );
+        }
     }
     if let Some(u) = unexplained.filter(|u| u.share_of_gap_pct >= 5.0) {
         s += &format!(
