@@ -15,7 +15,7 @@
 //! as for the generated cases.
 
 use super::{Campaign, DemRun};
-use crate::diagnose::{DiagnoseOptions, Effect, baseline_heldout, diagnose};
+use crate::diagnose::{DiagnoseOptions, Effect, baseline_heldout, diagnose, in_medium_frac};
 use crate::ident::Sample;
 use crate::model::{Plate, TerzaghiModel};
 use rand::SeedableRng;
@@ -445,9 +445,8 @@ pub fn run_case(
             // Per sample in the medium (where the leg truly is, not where the model is told):
             // the counterpart's strokes may spend longer in the air (slower turns between
             // them), which would dilute a per-sample gap.
-            let inside = baseline_heldout(&cf_model, &samples, opts)
-                .map_err(|e| invalid(e.to_string()))?
-                .in_medium_frac;
+            let inside =
+                in_medium_frac(&cf_model, &samples, opts).map_err(|e| invalid(e.to_string()))?;
             let var = sigma * sigma;
             let gap_with = (r.gap.heldout_mse_n2 - var) / inside.max(1e-9);
             let gap_without = (without.mse_n2 - var) / without.in_medium_frac.max(1e-9);

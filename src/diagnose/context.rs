@@ -65,6 +65,13 @@ pub struct Context {
 }
 
 impl Context {
+    /// Share of the points in the medium (0 to 1; 0 for no points): out of it the baseline
+    /// predicts no force, so gaps of two sessions compare per sample in the medium.
+    pub fn in_medium_frac(&self) -> f64 {
+        let inside = self.points.iter().filter(|p| p.in_medium()).count();
+        inside as f64 / self.points.len().max(1) as f64
+    }
+
     /// Builds the context from finite samples (the caller drops non-finite ones), their
     /// kinematics, and the unit model (its fitting width is ignored). Every `stride`-th sample is
     /// kept (1: all).

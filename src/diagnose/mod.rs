@@ -127,11 +127,19 @@ pub fn baseline_heldout(
     opts: &DiagnoseOptions,
 ) -> Result<BaselineHeldOut, DiagnoseError> {
     let (ctx, ..) = prepare(model, samples, opts)?;
-    let inside = ctx.points.iter().filter(|p| p.in_medium()).count();
     Ok(BaselineHeldOut {
         mse_n2: fit::fit(&ctx, &fit::Design::baseline(ctx.folds), None).heldout_mse(),
-        in_medium_frac: inside as f64 / ctx.points.len().max(1) as f64,
+        in_medium_frac: ctx.in_medium_frac(),
     })
+}
+
+/// Share of the analysed samples in the medium with `model`'s geometry (0 to 1), without a fit.
+pub fn in_medium_frac(
+    model: &TerzaghiModel,
+    samples: &[Sample],
+    opts: &DiagnoseOptions,
+) -> Result<f64, DiagnoseError> {
+    prepare(model, samples, opts).map(|(ctx, ..)| ctx.in_medium_frac())
 }
 
 /// Checks the log and builds the analysed points: returns them with the count of skipped

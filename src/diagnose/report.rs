@@ -548,23 +548,18 @@ fn contrast(ctx: &Context, f: &Fit, e: Effect, var: f64, excess: f64) -> Option<
             for p in ctx.points.iter().filter(|p| p.in_medium()) {
                 speeds[p.stroke.min(strokes - 1)].push(p.speed_rad_s.abs());
             }
-            let median: Vec<Option<f64>> = speeds
-                .iter_mut()
-                .map(|v| {
-                    (!v.is_empty()).then(|| {
-                        let mid = v.len() / 2;
-                        *v.select_nth_unstable_by(mid, f64::total_cmp).1
-                    })
-                })
+            let stroke_speed: Vec<Option<f64>> = speeds
+                .iter()
+                .map(|v| (!v.is_empty()).then(|| median(v)))
                 .collect();
-            let known = median.iter().flatten();
+            let known = stroke_speed.iter().flatten();
             let lo = known.clone().fold(f64::INFINITY, |a, &b| a.min(b));
             let hi = known.fold(0.0f64, |a, &b| a.max(b));
             if !(lo > 0.0 && hi >= 2.0 * lo) {
                 return None;
             }
             (0..strokes)
-                .filter(|&s| median[s].is_some_and(|m| m <= LOWEST_SPEED_BAND * lo))
+                .filter(|&s| stroke_speed[s].is_some_and(|m| m <= LOWEST_SPEED_BAND * lo))
                 .collect()
         }
         _ => return None,
@@ -594,8 +589,8 @@ fn contrast(ctx: &Context, f: &Fit, e: Effect, var: f64, excess: f64) -> Option<
     // Both gaps per sample in the medium: out of it the baseline predicts no force, and the
     // strokes differ in how long they spend in the air.
     let per_in_medium = |c: &Context, gap: f64| {
-        let inside = c.points.iter().filter(|p| p.in_medium()).count();
-        (inside > 0).then(|| gap * c.points.len() as f64 / inside as f64)
+        let frac = c.in_medium_frac();
+        (frac > 0.0).then(|| gap / frac)
     };
     let unreached_gap = per_in_medium(&sub, mse - var)?;
     let whole_gap = per_in_medium(ctx, excess)?;
