@@ -519,6 +519,25 @@ fn on_the_dem_campaign_the_varied_effect_is_reported() {
             true
         );
     }
+    // Where the speeds vary, the report splits each stroke's best-aligning shift into time and
+    // angle. A late sensor moves the time part by its delay, against the same strokes without
+    // it; in a session alone the time part is net of the medium's own lead over the
+    // quasi-static model, which on the DEM is in time too (its force builds sooner the faster
+    // the leg), so that a session alone cannot tell the late sensor: the reason the C-leg's
+    // delay at rising speeds is missed.
+    let time = |name: &str| {
+        case(name)["report"]["signatures"]["delay"]["timing_split"]["time_shift_s"]
+            .as_f64()
+            .unwrap_or_else(|| panic!("{name}: no timing split"))
+    };
+    for (plain, late) in [
+        ("speed", "speed_sensor_delay"),
+        ("cleg_speed", "cleg_speed_sensor_delay"),
+    ] {
+        let moved = time(late) - time(plain);
+        assert!((moved - 0.020).abs() < 0.005, "{late}: moved {moved} s");
+        assert!(time(plain) < 0.0, "{plain}: {} s", time(plain));
+    }
     // The base case: the verdict is free, but the model's own misfit is reported as such.
     let base = case("base");
     let u = base["report"]["unexplained"]["share_of_gap_pct"]

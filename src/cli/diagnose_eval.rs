@@ -194,7 +194,33 @@ pub fn render_dem(d: &[DemOutcome], dir: &std::path::Path, seconds: f64) -> Stri
         varied.len(),
         compared.len()
     );
-    if let Some(base) = d.iter().find(|o| o.expected.is_none()) {
+    let split: Vec<(&DemOutcome, &crate::diagnose::signatures::TimingSplit)> = d
+        .iter()
+        .filter_map(|o| Some((o, o.report.signatures.delay.timing_split.as_ref()?)))
+        .collect();
+    if !split.is_empty() {
+        out += "\nwhere the speeds vary, each stroke's best-aligning shift split as time + angle / omega (reported, not used to decide):\n";
+        out += &format!(
+            "{:<wc$} {:>10} {:>7} {:>11}  strokes (rad/s: ms)\n",
+            "case", "time (ms)", "t", "angle (deg)"
+        );
+        for (o, t) in split {
+            let strokes: Vec<String> = t
+                .strokes
+                .iter()
+                .map(|(w, l)| format!("{w:.1}: {:+.0}", 1e3 * l))
+                .collect();
+            out += &format!(
+                "{:<wc$} {:>+10.1} {:>+7.1} {:>+11.2}  {}\n",
+                o.case,
+                1e3 * t.time_shift_s,
+                t.time_shift_t,
+                t.angle_shift_deg,
+                strokes.join(", ")
+            );
+        }
+    }
+    if let Some(base) = d.iter().find(|o| o.case == "base") {
         out += &format!(
             "DEM base case: held-out Psi drag {:.3}, lift {:.3}; {:.0} % of the gap unexplained (the model's own misfit)\n",
             base.baseline_psi[0], base.baseline_psi[1], base.unexplained_pct

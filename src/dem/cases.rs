@@ -197,6 +197,14 @@ pub fn cases() -> Vec<DemCase> {
             },
         },
         DemCase {
+            name: "cleg_speed",
+            variation: "none: the C-leg told as a flat plate at 1 to 7.5 rad/s",
+            expected: None,
+            runs: CLEG_SPEED,
+            counterpart: CLEG_SPEED,
+            sensor: none,
+        },
+        DemCase {
             name: "cleg_speed_sensor_delay",
             variation: "C-leg told as a flat plate (a large misfit) at 1 to 7.5 rad/s, F/T delayed by 20 ms",
             expected: Some(Effect::SensorLag),

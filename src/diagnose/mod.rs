@@ -375,7 +375,22 @@ mod tests {
             angles[i].1
         };
         let late = sim::measure(&angles, 0.02, &mut rng, |t, _| misfit(angle_at(t - 0.02)));
-        has(&late, Effect::SensorLag);
+        let r = has(&late, Effect::SensorLag);
+        // The strokes' speeds vary, so the best-aligning shift splits into time and angle: the
+        // delay is found in time (the baseline, fitted to the late session, takes up a part:
+        // 16 ms of the 20 here), and a shift of the encoder in angle, not in time.
+        let split = |r: &Report| {
+            r.signatures
+                .delay
+                .timing_split
+                .clone()
+                .expect("speeds vary")
+        };
+        let s = split(&r);
+        assert!(
+            (0.012..0.022).contains(&s.time_shift_s) && s.time_shift_t > 4.0,
+            "{s:?}"
+        );
         // Without them, no sensor effect is reported.
         let plain = sim::measure(&angles, 0.02, &mut rng, |_, b| misfit(b));
         let r = diagnose(&unit(), &plain, &opts).unwrap().report;
@@ -384,6 +399,14 @@ mod tests {
             "{}",
             r.summary
         );
+        assert!(split(&r).time_shift_s.abs() < 0.002, "{:?}", split(&r));
+        // An encoder reading 1 deg behind: a shift in angle, none in time.
+        let behind = sim::measure(&angles, 0.02, &mut rng, |_, b| {
+            misfit(b - 1f64.to_radians())
+        });
+        let s = split(&diagnose(&unit(), &behind, &opts).unwrap().report);
+        assert!(s.time_shift_s.abs() < 0.002, "{s:?}");
+        assert!(s.angle_shift_deg > 0.2, "{s:?}");
     }
 
     #[test]

@@ -51,7 +51,28 @@ pub struct Delay {
     /// Zero where the strokes' speeds vary less than twofold.
     pub onset_slope_s: f64,
     pub onset_slope_t: f64,
+    /// Where the strokes' speeds span a factor two: each stroke's best-aligning shift split
+    /// into a part in time and a part in angle (not used to decide; see [`TimingSplit`]).
+    pub timing_split: Option<TimingSplit>,
     pub significant: bool,
+}
+
+/// Each stroke's best-aligning shift `lag_k` (s) fitted over the strokes as
+/// `time_shift + angle_shift / omega_k`, `omega_k` the stroke's median speed in the medium: a
+/// sensor delay is the same time at every speed, a misfit of the model in angle (an encoder
+/// offset, a surface at another level) a shift that shrinks as the leg goes faster. The medium's
+/// own response can lead the quasi-static model in time as well (on the DEM it does, by more
+/// the faster the leg), so `time_shift_s` is a sensor delay only net of that lead.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct TimingSplit {
+    /// Positive: the measurement late (s).
+    pub time_shift_s: f64,
+    pub time_shift_t: f64,
+    /// Positive: the measured force appears later in angle than predicted (deg).
+    pub angle_shift_deg: f64,
+    /// `(median speed rad/s, best shift s)` of each stroke whose best shift lies inside the
+    /// range tried.
+    pub strokes: Vec<(f64, f64)>,
 }
 
 /// The angle at which force first appears in a stroke, measured against predicted.
@@ -121,9 +142,9 @@ fn offset(ctx: &Context, noise_n: [f64; 2]) -> Offset {
 }
 
 /// The shifts tried (s): positive, the measurement is late.
-const LAGS_S: [f64; 17] = [
-    -0.06, -0.04, -0.03, -0.02, -0.015, -0.01, -0.005, 0.0, 0.005, 0.01, 0.015, 0.02, 0.03, 0.04,
-    0.06, 0.08, 0.1,
+const LAGS_S: [f64; 19] = [
+    -0.12, -0.09, -0.06, -0.04, -0.03, -0.02, -0.015, -0.01, -0.005, 0.0, 0.005, 0.01, 0.015, 0.02,
+    0.03, 0.04, 0.06, 0.08, 0.1,
 ];
 
 fn delay(ctx: &Context, fitted_n: &[[f64; 2]], noise_n: [f64; 2]) -> Delay {
@@ -135,6 +156,7 @@ fn delay(ctx: &Context, fitted_n: &[[f64; 2]], noise_n: [f64; 2]) -> Delay {
         t_strokes: 0.0,
         onset_slope_s,
         onset_slope_t,
+        timing_split: None,
         significant: by_onset,
     };
     let pts = &ctx.points;
@@ -199,8 +221,92 @@ fn delay(ctx: &Context, fitted_n: &[[f64; 2]], noise_n: [f64; 2]) -> Delay {
         t_strokes: t,
         onset_slope_s,
         onset_slope_t,
+        timing_split: timing_split(ctx, &all),
         significant: by_alignment || by_onset,
     }
+}
+
+/// [`TimingSplit`] from the per-shift, per-stroke squared residuals `sse[l][k]` of
+/// [`LAGS_S`]: each stroke's best shift refined by a parabola through its neighbours, then
+/// `lag = time + angle / omega` by least squares over the strokes. `None` unless four strokes
+/// or more have their best shift inside the range and their speeds span a factor two.
+fn timing_split(ctx: &Context, sse: &[Vec<f64>]) -> Option<TimingSplit> {
+    let strokes = ctx.strokes.max(1);
+    let mut speeds: Vec<Vec<f64>> = vec![Vec::new(); strokes];
+    for p in ctx.points.iter().filter(|p| p.in_medium()) {
+        speeds[p.stroke.min(strokes - 1)].push(p.speed_rad_s.abs());
+    }
+    let mut found: Vec<(f64, f64)> = Vec::new();
+    for (k, sp) in speeds.iter_mut().enumerate() {
+        if sp.len() < 10 {
+            continue;
+        }
+        sp.sort_by(f64::total_cmp);
+        let omega = sp[sp.len() / 2];
+        let best = (0..LAGS_S.len()).min_by(|&a, &b| sse[a][k].total_cmp(&sse[b][k]))?;
+        if best == 0 || best + 1 == LAGS_S.len() || omega <= 0.0 {
+            continue;
+        }
+        found.push((
+            omega,
+            parabola_min(
+                &LAGS_S[best - 1..=best + 1],
+                [sse[best - 1][k], sse[best][k], sse[best + 1][k]],
+            ),
+        ));
+    }
+    let (lo, hi) = found.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), p| {
+        (lo.min(p.0), hi.max(p.0))
+    });
+    if found.len() < 4 || hi < 2.0 * lo {
+        return None;
+    }
+    // lag = time + angle * x, x = 1 / omega.
+    let n = found.len() as f64;
+    let xs: Vec<f64> = found.iter().map(|p| 1.0 / p.0).collect();
+    let mx = xs.iter().sum::<f64>() / n;
+    let my = found.iter().map(|p| p.1).sum::<f64>() / n;
+    let sxx: f64 = xs.iter().map(|x| (x - mx).powi(2)).sum();
+    let sxy: f64 = xs
+        .iter()
+        .zip(&found)
+        .map(|(x, p)| (x - mx) * (p.1 - my))
+        .sum();
+    let angle = sxy / sxx;
+    let time = my - angle * mx;
+    let resid: f64 = xs
+        .iter()
+        .zip(&found)
+        .map(|(x, p)| (p.1 - time - angle * x).powi(2))
+        .sum();
+    // Standard error of the intercept.
+    let se = (resid / (n - 2.0) * (1.0 / n + mx * mx / sxx)).sqrt();
+    let time_shift_t = if se > 0.0 {
+        time / se
+    } else {
+        1e6 * time.signum()
+    };
+    Some(TimingSplit {
+        time_shift_s: time,
+        time_shift_t,
+        angle_shift_deg: angle.to_degrees(),
+        strokes: found,
+    })
+}
+
+/// The abscissa of the minimum of the parabola through three points (`x` increasing, the
+/// middle one the lowest), kept within the outer two.
+fn parabola_min(x: &[f64], y: [f64; 3]) -> f64 {
+    let (x0, x1, x2) = (x[0], x[1], x[2]);
+    let d01 = (y[1] - y[0]) / (x1 - x0);
+    let d12 = (y[2] - y[1]) / (x2 - x1);
+    let curv = (d12 - d01) / (x2 - x0);
+    if curv <= 0.0 {
+        return x1;
+    }
+    // Newton's form y0 + d01 (x - x0) + curv (x - x0) (x - x1) is flat where
+    // d01 + curv (2x - x0 - x1) = 0.
+    (0.5 * (x0 + x1) - d01 / (2.0 * curv)).clamp(x0, x2)
 }
 
 /// Least-squares slope of onset shift (rad) on speed (rad/s) over strokes, and its t: the
@@ -419,6 +525,17 @@ mod tests {
         assert!(t_statistic(&[1.0, 1.1, 0.9, 1.0]) > 10.0);
         assert!(t_statistic(&[1.0, -1.2, 0.9, -0.8]).abs() < 1.0);
         assert_eq!(t_statistic(&[3.0]), 0.0);
+    }
+
+    #[test]
+    fn the_parabola_finds_a_vertex_between_unequal_steps() {
+        // y = (x - 0.004)^2 through -0.01, 0.0, 0.02.
+        let f = |x: f64| (x - 0.004f64).powi(2);
+        let x = [-0.01, 0.0, 0.02];
+        let v = parabola_min(&x, [f(x[0]), f(x[1]), f(x[2])]);
+        assert!((v - 0.004).abs() < 1e-12, "{v}");
+        // No curvature: the middle point.
+        assert_eq!(parabola_min(&x, [1.0, 1.0, 1.0]), 0.0);
     }
 
     #[test]
