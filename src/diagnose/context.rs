@@ -65,6 +65,52 @@ pub struct Context {
 }
 
 impl Context {
+    /// Each stroke's median angular speed in the medium (rad/s), where it has at least
+    /// `min_points` points there.
+    pub fn stroke_speeds_rad_s(&self, min_points: usize) -> Vec<Option<f64>> {
+        let strokes = self.strokes.max(1);
+        let mut speeds: Vec<Vec<f64>> = vec![Vec::new(); strokes];
+        for p in self.points.iter().filter(|p| p.in_medium()) {
+            speeds[p.stroke.min(strokes - 1)].push(p.speed_rad_s.abs());
+        }
+        speeds
+            .iter()
+            .map(|v| (!v.is_empty() && v.len() >= min_points).then(|| median(v)))
+            .collect()
+    }
+
+    /// The strokes `keep` (in increasing order) as a session of their own: renumbered from 0,
+    /// `folds` folds of whole strokes (one stroke: its samples alternately in two folds).
+    pub fn sub_session(&self, keep: &[usize], folds: usize) -> Context {
+        let mut renumber: Vec<Option<usize>> = vec![None; self.strokes.max(1)];
+        for (new, &old) in keep.iter().enumerate() {
+            if let Some(r) = renumber.get_mut(old) {
+                *r = Some(new);
+            }
+        }
+        let points = self
+            .points
+            .iter()
+            .filter_map(|p| Some((renumber.get(p.stroke).copied()??, p)))
+            .enumerate()
+            .map(|(i, (stroke, p))| Point {
+                stroke,
+                fold: if keep.len() == 1 {
+                    i % 2
+                } else {
+                    stroke % folds
+                },
+                ..*p
+            })
+            .collect();
+        Context {
+            model: self.model.clone(),
+            points,
+            folds,
+            strokes: keep.len(),
+        }
+    }
+
     /// Share of the points in the medium (0 to 1; 0 for no points): out of it the baseline
     /// predicts no force, so gaps of two sessions compare per sample in the medium.
     pub fn in_medium_frac(&self) -> f64 {
@@ -218,4 +264,25 @@ impl Context {
             0.0
         }
     }
+}
+
+/// The upper median (0 for none).
+pub fn median(x: &[f64]) -> f64 {
+    if x.is_empty() {
+        return 0.0;
+    }
+    let mut v = x.to_vec();
+    let mid = v.len() / 2;
+    *v.select_nth_unstable_by(mid, f64::total_cmp).1
+}
+
+/// The lowest of `speeds` (rad/s) where they span a factor two and it is above zero: what
+/// separates a speed's effect from the rest.
+pub fn lowest_of_twofold_span(speeds: impl IntoIterator<Item = f64>) -> Option<f64> {
+    let (lo, hi) = speeds
+        .into_iter()
+        .fold((f64::INFINITY, 0.0f64), |(lo, hi), w| {
+            (lo.min(w), hi.max(w))
+        });
+    (lo > 0.0 && hi >= 2.0 * lo).then_some(lo)
 }

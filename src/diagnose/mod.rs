@@ -101,16 +101,6 @@ pub fn diagnose(
     Ok(report::analyse(&ctx, opts, skipped, stride))
 }
 
-/// The baseline's held-out mean squared residual per component (N^2) alone, without the search
-/// for effects.
-pub fn baseline_heldout_mse(
-    model: &TerzaghiModel,
-    samples: &[Sample],
-    opts: &DiagnoseOptions,
-) -> Result<f64, DiagnoseError> {
-    baseline_heldout(model, samples, opts).map(|b| b.mse_n2)
-}
-
 /// The baseline alone on held-out strokes.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BaselineHeldOut {
@@ -121,6 +111,7 @@ pub struct BaselineHeldOut {
     pub in_medium_frac: f64,
 }
 
+/// The baseline alone on held-out strokes, without the search for effects.
 pub fn baseline_heldout(
     model: &TerzaghiModel,
     samples: &[Sample],

@@ -1,7 +1,7 @@
 //! The analysis behind a diagnosis, and its report (serialized as `report.json`).
 
 use super::DiagnoseOptions;
-use super::context::{Context, Point};
+use super::context::{Context, Point, lowest_of_twofold_span, median};
 use super::effects::{ALL, Effect};
 use super::fit::{Design, Fit, fit};
 use super::signatures::{self, Signatures, t_critical_5pct, t_statistic};
@@ -542,22 +542,9 @@ fn contrast(ctx: &Context, f: &Fit, e: Effect, var: f64, excess: f64) -> Option<
             (0..strokes).filter(|&s| before[s]).collect()
         }
         Effect::Rate => {
-            // Each stroke's median speed in the medium; the strokes near the lowest, where the
-            // session's speeds span a factor two.
-            let mut speeds: Vec<Vec<f64>> = vec![Vec::new(); strokes];
-            for p in ctx.points.iter().filter(|p| p.in_medium()) {
-                speeds[p.stroke.min(strokes - 1)].push(p.speed_rad_s.abs());
-            }
-            let stroke_speed: Vec<Option<f64>> = speeds
-                .iter()
-                .map(|v| (!v.is_empty()).then(|| median(v)))
-                .collect();
-            let known = stroke_speed.iter().flatten();
-            let lo = known.clone().fold(f64::INFINITY, |a, &b| a.min(b));
-            let hi = known.fold(0.0f64, |a, &b| a.max(b));
-            if !(lo > 0.0 && hi >= 2.0 * lo) {
-                return None;
-            }
+            // The strokes near the lowest speed, where the session's speeds span a factor two.
+            let stroke_speed = ctx.stroke_speeds_rad_s(1);
+            let lo = lowest_of_twofold_span(stroke_speed.iter().flatten().copied())?;
             (0..strokes)
                 .filter(|&s| stroke_speed[s].is_some_and(|m| m <= LOWEST_SPEED_BAND * lo))
                 .collect()
@@ -567,24 +554,10 @@ fn contrast(ctx: &Context, f: &Fit, e: Effect, var: f64, excess: f64) -> Option<
     if unreached.is_empty() || unreached.len() == strokes || excess <= 0.0 {
         return None;
     }
-    // The unreached strokes as a session of their own: renumbered, folds of whole strokes (one
-    // stroke: its samples alternately in two folds, nothing to hold out but noise).
+    // The unreached strokes as a session of their own (one stroke: nothing to hold out but
+    // noise, so its samples alternate between two folds).
     let folds = unreached.len().clamp(2, ctx.folds.max(2));
-    let mut sub = ctx.clone();
-    sub.points.retain(|p| unreached.contains(&p.stroke));
-    for (i, p) in sub.points.iter_mut().enumerate() {
-        p.stroke = unreached
-            .iter()
-            .position(|&s| s == p.stroke)
-            .expect("kept points are on unreached strokes");
-        p.fold = if unreached.len() == 1 {
-            i % 2
-        } else {
-            p.stroke % folds
-        };
-    }
-    sub.strokes = unreached.len();
-    sub.folds = folds;
+    let sub = ctx.sub_session(&unreached, folds);
     let mse = fit(&sub, &Design::baseline(folds), None).heldout_mse();
     // Both gaps per sample in the medium: out of it the baseline predicts no force, and the
     // strokes differ in how long they spend in the air.
@@ -708,15 +681,6 @@ fn mad_sigma(x: &[f64]) -> f64 {
     let med = median(x);
     let dev: Vec<f64> = x.iter().map(|v| (v - med).abs()).collect();
     1.4826 * median(&dev)
-}
-
-fn median(x: &[f64]) -> f64 {
-    if x.is_empty() {
-        return 0.0;
-    }
-    let mut v = x.to_vec();
-    let mid = v.len() / 2;
-    *v.select_nth_unstable_by(mid, f64::total_cmp).1
 }
 
 /// Psi (Eq. 28) over drag and lift together.

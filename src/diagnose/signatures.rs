@@ -11,7 +11,7 @@
 //! Every test is made stroke by stroke, so that a signature must hold in every stroke, not only
 //! on average: a model that misfits one stroke cannot fake it.
 
-use super::context::Context;
+use super::context::{Context, lowest_of_twofold_span};
 use std::f64::consts::FRAC_PI_2;
 
 /// The three signatures of a session.
@@ -231,18 +231,9 @@ fn delay(ctx: &Context, fitted_n: &[[f64; 2]], noise_n: [f64; 2]) -> Delay {
 /// `lag = time + angle / omega` by least squares over the strokes. `None` unless four strokes
 /// or more have their best shift inside the range and their speeds span a factor two.
 fn timing_split(ctx: &Context, sse: &[Vec<f64>]) -> Option<TimingSplit> {
-    let strokes = ctx.strokes.max(1);
-    let mut speeds: Vec<Vec<f64>> = vec![Vec::new(); strokes];
-    for p in ctx.points.iter().filter(|p| p.in_medium()) {
-        speeds[p.stroke.min(strokes - 1)].push(p.speed_rad_s.abs());
-    }
     let mut found: Vec<(f64, f64)> = Vec::new();
-    for (k, sp) in speeds.iter_mut().enumerate() {
-        if sp.len() < 10 {
-            continue;
-        }
-        sp.sort_by(f64::total_cmp);
-        let omega = sp[sp.len() / 2];
+    for (k, omega) in ctx.stroke_speeds_rad_s(10).into_iter().enumerate() {
+        let Some(omega) = omega else { continue };
         let best = (0..LAGS_S.len()).min_by(|&a, &b| sse[a][k].total_cmp(&sse[b][k]))?;
         if best == 0 || best + 1 == LAGS_S.len() || omega <= 0.0 {
             continue;
@@ -255,10 +246,7 @@ fn timing_split(ctx: &Context, sse: &[Vec<f64>]) -> Option<TimingSplit> {
             ),
         ));
     }
-    let (lo, hi) = found.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), p| {
-        (lo.min(p.0), hi.max(p.0))
-    });
-    if found.len() < 4 || hi < 2.0 * lo {
+    if found.len() < 4 || lowest_of_twofold_span(found.iter().map(|p| p.0)).is_none() {
         return None;
     }
     // lag = time + angle * x, x = 1 / omega.
@@ -313,10 +301,7 @@ fn parabola_min(x: &[f64], y: [f64; 3]) -> f64 {
 /// delay in seconds. Zero unless there are four strokes or more whose speeds span a factor two.
 fn onset_slope(points: &[(f64, f64)]) -> (f64, f64) {
     let n = points.len();
-    let (lo, hi) = points.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), p| {
-        (lo.min(p.1), hi.max(p.1))
-    });
-    if n < 4 || !(hi >= 2.0 * lo && lo > 0.0) {
+    if n < 4 || lowest_of_twofold_span(points.iter().map(|p| p.1)).is_none() {
         return (0.0, 0.0);
     }
     let mx = points.iter().map(|p| p.1).sum::<f64>() / n as f64;

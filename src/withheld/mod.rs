@@ -6,7 +6,7 @@
 //! motion, same noise) leaves a baseline gap; the true share closed is
 //! `1 - (mse_without - noise^2) / (mse_with - noise^2)`, with the generator's own noise level.
 
-use crate::diagnose::{DiagnoseOptions, baseline_heldout_mse, diagnose};
+use crate::diagnose::{DiagnoseOptions, baseline_heldout, diagnose};
 use crate::model::TerzaghiModel;
 use crate::sim::generator::{Hidden, IN_LIBRARY, OUTSIDE, draw_case, generate};
 use std::collections::BTreeMap;
@@ -135,7 +135,7 @@ pub fn run_case(i: usize, seed: u64, opts: &DiagnoseOptions) -> Outcome {
     out.reported_gap_closed_pct = r.verdict.gap_closed_pct;
     if let Some(named) = effects.iter().find(|e| e.name() == r.verdict.effect) {
         let (without, _) = generate(&case, &[*named]);
-        if let Ok(mse_without) = baseline_heldout_mse(&model, &without, opts) {
+        if let Ok(mse_without) = baseline_heldout(&model, &without, opts).map(|b| b.mse_n2) {
             let var = sigma * sigma;
             let with = r.gap.heldout_mse_n2 - var;
             if with > 0.0 {
