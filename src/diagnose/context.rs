@@ -4,7 +4,10 @@
 
 use super::kinematics::Kinematics;
 use crate::ident::Sample;
-use crate::model::{FittingWidth, Medium, Plate, Regime, TerzaghiModel};
+use crate::model::corrections::{
+    TermInputs, moved_unit_model, stronger_unit_model, submerged_geometry,
+};
+use crate::model::{FittingWidth, Regime, TerzaghiModel};
 use std::f64::consts::{FRAC_PI_2, TAU};
 
 /// One analysed sample.
@@ -47,6 +50,24 @@ pub struct Point {
 }
 
 impl Point {
+    /// What the correction terms read at this point.
+    pub fn terms(&self) -> TermInputs {
+        TermInputs {
+            beta_rad: self.beta_rad,
+            regime: self.regime,
+            submerged_m: self.submerged_m,
+            inner_radius_m: self.inner_radius_m,
+            area_m2: self.area_m2,
+            moment1_m3: self.moment1_m3,
+            swept_m2: self.swept_m2,
+            speed_rad_s: self.speed_rad_s,
+            typical_speed_rad_s: self.typical_speed_rad_s,
+            accel_rad_s2: self.accel_rad_s2,
+            session_frac: self.session_frac,
+            unit_per_phi_n_deg: self.unit_per_phi_n_deg,
+        }
+    }
+
     pub fn in_medium(&self) -> bool {
         self.regime != Regime::OutOfMedium
     }
@@ -132,14 +153,7 @@ impl Context {
         let plate = *unit.plate();
         // The unit model in a medium one degree stronger in friction, for `unit_per_phi_n_deg`
         // (none where `phi` is at its limit).
-        let medium = unit.medium();
-        let stronger = Medium::new(
-            medium.unit_weight_n_m3(),
-            medium.phi_deg() + 1.0,
-            medium.delta_deg(),
-        )
-        .ok()
-        .map(|m| TerzaghiModel::conventional(plate, m));
+        let stronger = stronger_unit_model(&unit);
         let strokes = kin.strokes();
         let direction = {
             let total = kin.unwrapped_rad.last().unwrap_or(&0.0)
@@ -172,7 +186,7 @@ impl Context {
                 }
                 _ => [0.0, 0.0],
             };
-            let b = plate.width_m();
+            let (_, area, moment1, moment2) = submerged_geometry(&plate, submerged);
             let stroke = kin.stroke[i];
             points.push(Point {
                 t_s: s.t_s.unwrap_or(i as f64),
@@ -184,9 +198,9 @@ impl Context {
                 submerged_m: submerged,
                 inner_radius_m: r_in,
                 depth_m: f.as_ref().map_or(0.0, |f| f.depth_m),
-                area_m2: submerged * b,
-                moment1_m3: b * (l * l - r_in * r_in) / 2.0 * (submerged > 0.0) as u8 as f64,
-                moment2_m4: b * (l.powi(3) - r_in.powi(3)) / 3.0 * (submerged > 0.0) as u8 as f64,
+                area_m2: area,
+                moment1_m3: moment1,
+                moment2_m4: moment2,
                 swept_m2: swept,
                 speed_rad_s: kin.speed_rad_s[i] * direction,
                 typical_speed_rad_s: 0.0,
@@ -228,12 +242,7 @@ impl Context {
         if dh_m == 0.0 {
             return self.points.iter().map(|p| p.unit_n).collect();
         }
-        let plate = self.model.plate();
-        let h = (plate.hip_height_m() + dh_m).clamp(0.0, 0.95 * plate.length_m());
-        let Ok(moved) = Plate::new(plate.length_m(), plate.width_m(), h) else {
-            return self.points.iter().map(|p| p.unit_n).collect();
-        };
-        let m = TerzaghiModel::conventional(moved, *self.model.medium());
+        let m = moved_unit_model(&self.model, dh_m);
         self.points
             .iter()
             .map(|p| {

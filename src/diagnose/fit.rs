@@ -9,43 +9,10 @@
 //! fitted without them.
 
 use super::context::Context;
-use super::effects::Effect;
+use super::effects::{Effect, nonlinear_grid};
+pub use crate::model::corrections::Nonlinear;
+use crate::model::corrections::lag_step;
 use nalgebra::{DMatrix, DVector};
-
-/// Values of the nonlinear parameters (0: effect absent).
-#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
-pub struct Nonlinear {
-    /// How much lower the surface is than configured (m; negative: higher).
-    pub surface_drop_m: f64,
-    /// Time constant of the sensor's first-order lag (s).
-    pub lag_s: f64,
-    /// How `rate` grows with speed: `omega^n` (0: the effect is absent).
-    pub speed_exponent: f64,
-    /// Where in the session (0 to 1) `compaction`'s change sets in.
-    pub change_at_session_frac: f64,
-}
-
-impl Nonlinear {
-    fn with(mut self, effect: Effect, value: f64) -> Self {
-        match effect {
-            Effect::HipHeight => self.surface_drop_m = value,
-            Effect::SensorLag => self.lag_s = value,
-            Effect::Rate => self.speed_exponent = value,
-            Effect::Compaction => self.change_at_session_frac = value,
-            _ => {}
-        }
-        self
-    }
-    pub fn get(&self, effect: Effect) -> f64 {
-        match effect {
-            Effect::HipHeight => self.surface_drop_m,
-            Effect::SensorLag => self.lag_s,
-            Effect::Rate => self.speed_exponent,
-            Effect::Compaction => self.change_at_session_frac,
-            _ => 0.0,
-        }
-    }
-}
 
 /// A design: the effects added to the baseline, and the nonlinear values of the ones already
 /// chosen (per fold, and at index `folds` for the fit on everything).
@@ -108,7 +75,7 @@ pub fn fit(ctx: &Context, design: &Design, search: Option<Effect>) -> Fit {
         design.effects.push(e);
     }
     let grid: Vec<Option<(Effect, f64)>> =
-        match search.and_then(|e| e.nonlinear(ctx).map(|g| (e, g))) {
+        match search.and_then(|e| nonlinear_grid(e, ctx).map(|g| (e, g))) {
             Some((e, (_, values))) => values.into_iter().map(|v| Some((e, v))).collect(),
             None => vec![None],
         };
@@ -483,7 +450,7 @@ fn build(
         row.clear();
         row.push(base);
         for e in effects {
-            e.push_columns(pt, base, w, nl, &mut row);
+            e.push_columns(&pt.terms(), base, w, nl, &mut row);
         }
         for (j, v) in row.iter().enumerate() {
             cols[2 * i * p + j] = v[0];
@@ -495,9 +462,8 @@ fn build(
     }
 }
 
-/// First-order lag with time constant `tau` on every column, exact for inputs linear between
-/// samples: `y1 = x1 - g tau + (y0 - x0 + g tau) e^(-dt/tau)`, `g` the input's slope. In place:
-/// the previous point's raw input is kept aside.
+/// The sensor's first-order lag with time constant `tau` on every column ([`lag_step`]). In
+/// place: the previous point's raw input is kept aside.
 fn lag(ctx: &Context, tau: f64, p: usize, cols: &mut [f64]) {
     let n = ctx.points.len();
     if n == 0 {
@@ -506,17 +472,10 @@ fn lag(ctx: &Context, tau: f64, p: usize, cols: &mut [f64]) {
     let mut raw_prev: Vec<f64> = cols[..2 * p].to_vec();
     for i in 1..n {
         let dt = ctx.points[i].t_s - ctx.points[i - 1].t_s;
-        let step = dt > 0.0 && dt.is_finite();
-        let k = (-dt / tau).exp();
         for q in 0..2 * p {
             let (x0, x1, y0) = (raw_prev[q], cols[2 * i * p + q], cols[2 * (i - 1) * p + q]);
             raw_prev[q] = x1;
-            cols[2 * i * p + q] = if step {
-                let g = (x1 - x0) / dt;
-                x1 - g * tau + (y0 - x0 + g * tau) * k
-            } else {
-                y0
-            };
+            cols[2 * i * p + q] = lag_step(x0, x1, y0, dt, tau);
         }
     }
 }

@@ -400,6 +400,99 @@ mod tests {
         assert!(s.angle_shift_deg > 0.2, "{s:?}");
     }
 
+    /// The node's corrected model, given the coefficients a fit found and the motion of each
+    /// point, predicts what the fit predicted: the terms are one implementation.
+    #[test]
+    fn the_corrected_model_predicts_what_the_fit_fitted() {
+        use crate::model::corrections::{ALL, CorrectedModel, Motion, Nonlinear, SensorLagFilter};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(9);
+        let truth = unit().with_fitting_width(FittingWidth::new(2.0, 1.5).unwrap());
+        // A leg speeding up and slowing down within its strokes, so that every term's column
+        // varies (inertia's with the acceleration).
+        let (mut t, mut beta) = (0.0f64, 0.0f64);
+        let mut angles = Vec::new();
+        while beta < 8.0 * std::f64::consts::TAU {
+            angles.push((t, beta));
+            beta += (3.0 + 1.5 * (t * 9.0).sin()) * 0.002;
+            t += 0.002;
+        }
+        let s = sim::measure(&angles, 0.02, &mut rng, |_, b| {
+            let f = truth.evaluate(b).unwrap();
+            (f.drag_n * (1.0 + 0.2 * b.sin()) + 1.0, f.lift_n - 0.5)
+        });
+        let (ctx, ..) = prepare(&unit(), &s, &DiagnoseOptions::default()).unwrap();
+        let nl = Nonlinear {
+            surface_drop_m: 0.008,
+            lag_s: 0.01,
+            speed_exponent: 1.5,
+            change_at_session_frac: 0.5,
+        };
+        // Every term, in two designs (all at once, their columns are too collinear to fit).
+        use crate::model::corrections::Effect as E;
+        let designs = [
+            vec![
+                E::Rate,
+                E::Surcharge,
+                E::Extraction,
+                E::Compaction,
+                E::HipHeight,
+                E::SensorBias,
+                E::SensorLag,
+            ],
+            vec![E::Inertia, E::Cohesion],
+        ];
+        assert!(ALL.iter().all(|e| designs.iter().any(|d| d.contains(e))));
+        for effects in designs {
+            // The fit applies the nonlinear values it is given; the diagnosis gives only those
+            // of the effects in its design.
+            let given = effects
+                .iter()
+                .fold(Nonlinear::default(), |v, &e| v.with(e, nl.get(e)));
+            let design = fit::Design {
+                effects,
+                fixed: vec![given; ctx.folds + 1],
+            };
+            let f = fit::fit(&ctx, &design, None);
+            let c = report::corrected_model(&ctx, &f);
+            assert_eq!(c.terms.len(), design.effects.len());
+            let model = CorrectedModel::new(*unit().plate(), *unit().medium(), c.clone()).unwrap();
+            let mut lag = SensorLagFilter::default();
+            let peak = f
+                .fitted_n
+                .iter()
+                .map(|y| y[0].abs().max(y[1].abs()))
+                .fold(0.0, f64::max);
+            for (p, want) in ctx.points.iter().zip(&f.fitted_n) {
+                let motion = Motion {
+                    speed_rad_s: p.speed_rad_s,
+                    accel_rad_s2: p.accel_rad_s2,
+                    swept_m2: p.swept_m2,
+                    stroke: p.stroke,
+                };
+                let got = model.evaluate(p.beta_rad, &motion).unwrap();
+                let bias = [
+                    got.sensor_drag_n - got.drag_n,
+                    got.sensor_lift_n - got.lift_n,
+                ];
+                let y = if c.has(E::SensorLag) {
+                    lag.step(p.t_s, [got.drag_n, got.lift_n], c.nonlinear.lag_s)
+                } else {
+                    [got.drag_n, got.lift_n]
+                };
+                for k in 0..2 {
+                    let reading = y[k] + bias[k];
+                    assert!(
+                        (reading - want[k]).abs() < 1e-6 * peak,
+                        "{:?} at beta {}: {reading} against {}",
+                        design.effects,
+                        p.beta_rad,
+                        want[k]
+                    );
+                }
+            }
+        }
+    }
+
     #[test]
     fn too_few_strokes_and_no_force_are_errors() {
         let e = diagnose(

@@ -6,6 +6,7 @@ use super::effects::{ALL, Effect};
 use super::fit::{Design, Fit, fit};
 use super::signatures::{self, Signatures, t_critical_5pct, t_statistic};
 use crate::model::Regime;
+use crate::model::corrections::{Corrections, Term};
 use std::collections::BTreeMap;
 
 /// The report and the per-point series behind its plots.
@@ -37,6 +38,9 @@ pub struct Report {
     pub unexplained: Option<Unexplained>,
     /// Direct signatures of a sensor offset, a delay and a surface level.
     pub signatures: Signatures,
+    /// The corrected model of every step taken, fitted on every stroke: what the node predicts
+    /// with once given it (`corrected.yaml`). The baseline's `b_k, a` alone without steps.
+    pub corrected_model: Corrections,
 }
 
 #[derive(Debug, Clone, serde::Serialize)]
@@ -237,7 +241,7 @@ pub(super) fn analyse(
             let gain = mse_b - f.heldout_mse() - penalty_per_param * e.parameter_count() as f64;
             let c = Candidate {
                 effect: e,
-                params: params(ctx, &f),
+                params: params(&f),
                 parameters: e.parameter_count(),
                 heldout_rmse_before_n: mse_b.sqrt(),
                 heldout_rmse_after_n: f.heldout_mse().sqrt(),
@@ -404,6 +408,7 @@ pub(super) fn analyse(
         },
     };
     let after = current.heldout_n.clone();
+    let corrected_model = corrected_model(ctx, &current);
 
     let where_ = where_bins(ctx, &base.heldout_n, var);
     let unexplained = real.then(|| {
@@ -465,6 +470,7 @@ pub(super) fn analyse(
             summary,
             unexplained,
             signatures,
+            corrected_model,
         },
         plot: PlotData {
             beta_rad: ctx.points.iter().map(|p| p.beta_rad).collect(),
@@ -475,6 +481,24 @@ pub(super) fn analyse(
             noise_var_n2: var,
         },
     }
+}
+
+/// The corrected model of the fit `f` on every stroke.
+pub(crate) fn corrected_model(ctx: &Context, f: &Fit) -> Corrections {
+    let mut c = Corrections::none(f.coefficients[0], f.a);
+    let mut j = 1;
+    for &e in &f.design.effects {
+        let n = e.linear_params().len();
+        c.terms.push(Term {
+            effect: e,
+            coefficients: f.coefficients[j..j + n].to_vec(),
+        });
+        j += n;
+    }
+    c.nonlinear = f.nonlinear.last().copied().unwrap_or_default();
+    c.typical_speed_rad_s = ctx.points.first().map_or(0.0, |p| p.typical_speed_rad_s);
+    c.session_strokes = ctx.strokes;
+    c
 }
 
 /// The step that `f` (the design so far and its last effect) makes from a held-out mean squared
@@ -489,7 +513,7 @@ fn step(
 ) -> Step {
     Step {
         effect: *f.design.effects.last().expect("a step adds an effect"),
-        params: params(ctx, f),
+        params: params(f),
         gap_closed_pct: closed(f.heldout_mse()),
         heldout_rmse_n: f.heldout_mse().sqrt(),
         heldout_psi: psi(ctx, &f.heldout_n),
@@ -709,7 +733,7 @@ fn psi_sums(ctx: &Context, pred: &[[f64; 2]], c: usize) -> (f64, f64) {
         })
 }
 
-fn params(ctx: &Context, f: &Fit) -> BTreeMap<String, f64> {
+fn params(f: &Fit) -> BTreeMap<String, f64> {
     let mut m = BTreeMap::new();
     m.insert("b_k".to_string(), f.coefficients[0]);
     m.insert("a".to_string(), f.a);
@@ -722,7 +746,7 @@ fn params(ctx: &Context, f: &Fit) -> BTreeMap<String, f64> {
             );
             j += 1;
         }
-        if let Some((name, _)) = e.nonlinear(ctx) {
+        if let Some(name) = e.nonlinear_param() {
             m.insert(
                 name.to_string(),
                 f.nonlinear.last().map_or(0.0, |v| v.get(*e)),

@@ -5,17 +5,22 @@
 //! - [`rft`]: resistive force theory (Li, Zhang & Goldman 2013), the reference users know.
 //! - [`medium`]: soil values and the paper's identified fitting widths, as named presets.
 //! - [`plate`]: the leg's geometry, the attack angle and the submerged length.
+//! - [`corrections`]: the corrected model: the improved model plus terms for what it leaves out
+//!   (speed, added mass, surcharge, extraction, compaction, cohesion, surface level, and the F/T
+//!   sensor's offset and lag), fitted by the diagnosis and evaluated by the node.
 //!
 //! Conventions (see `docs` in the README): `beta` is the attack angle in radians, `x` points along
 //! the travel of the submerged tip, `z` up; drag is positive when the medium pushes the plate
 //! along `-x`, lift positive up, hip torque positive when it resists the rotation.
 //! Everything here is pure: no I/O, no clock.
 
+pub mod corrections;
 pub mod medium;
 pub mod plate;
 pub mod rft;
 pub mod terzaghi;
 
+pub use corrections::{CorrectedModel, CorrectedPrediction, Corrections, Effect};
 pub use medium::{FittingWidth, Medium, MediumPreset, Provenance};
 pub use plate::{Plate, wrap_beta_rad};
 pub use rft::{RftCoefficients, RftFit, RftGrid, RftModel, rft_leg};
