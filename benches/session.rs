@@ -127,6 +127,11 @@ fn rows(n: usize) -> Vec<Row> {
             let t = 1_700_000_000.0 + (i / 6) as f64 * 1e-3;
             let beta = 0.5 + (i / 6 % 1000) as f64 * 2e-3;
             let inside = i % 3 != 0;
+            let (drag, lift) = if inside {
+                (10.5 + beta, 4.5 + beta)
+            } else {
+                (0.0, 0.0)
+            };
             Row {
                 t_s: t,
                 leg: i % 6,
@@ -138,12 +143,16 @@ fn rows(n: usize) -> Vec<Row> {
                 },
                 measured_drag_n: Some(if inside { 10.0 + beta.sin() } else { 0.0 }),
                 measured_lift_n: Some(if inside { 5.0 + beta.cos() } else { 0.0 }),
-                predicted_drag_n: if inside { 10.5 + beta } else { 0.0 },
-                predicted_lift_n: if inside { 4.5 + beta } else { 0.0 },
+                predicted_drag_n: drag,
+                predicted_lift_n: lift,
                 predicted_hip_torque_nm: if inside { 1.5 * beta } else { 0.0 },
                 b_k: 30.0,
                 a: 2.2,
                 identified: i > n / 2,
+                bare_drag_n: drag,
+                bare_lift_n: lift,
+                expected_reading_drag_n: drag,
+                expected_reading_lift_n: lift,
             }
         })
         .collect()

@@ -137,6 +137,13 @@ pub struct LegForce {
     pub a: f64,
     pub delta_deg: f64,
     pub identified: bool,
+    pub bare_drag_n: f64,
+    pub bare_lift_n: f64,
+    pub correction_names: Vec<String>,
+    pub correction_drag_n: Vec<f64>,
+    pub correction_lift_n: Vec<f64>,
+    pub sensor_drag_n: f64,
+    pub sensor_lift_n: f64,
 }
 
 /// `terzaghi_msgs/ModelParams` (msgs/msg/ModelParams.msg)

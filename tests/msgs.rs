@@ -113,6 +113,13 @@ fn every_message_decodes_with_its_definition_in_mcap_ros2() {
             a: 1.5,
             delta_deg: 19.0,
             identified: true,
+            bare_drag_n: 35.0,
+            bare_lift_n: 40.0,
+            correction_names: vec!["surcharge".into(), "extraction".into()],
+            correction_drag_n: vec![4.674130, 0.0],
+            correction_lift_n: vec![5.639865, 0.0],
+            sensor_drag_n: 40.0,
+            sensor_lift_n: 45.0,
         }),
         item(&ModelParams {
             header,

@@ -10,6 +10,7 @@
 //! - [`names`]: ROS names: topic resolution and remapping, and the node's output topics.
 //! - [`env`]: the ROS 2 environment variables the node honours.
 
+pub mod corrections;
 pub mod env;
 pub mod names;
 pub mod node;

@@ -1,13 +1,15 @@
 //! The node's configuration, validated once from its parameters; every error names the
 //! parameter and its value.
 
+use super::corrections::{corrections_params, leg_corrections};
 use super::names::{check_name, resolve_topic};
 use super::{ConfigError, ParamMap, ParamValue, invalid, model_err};
 use crate::ident::OnlineOptions;
 use crate::ident::online::Forgetting;
 use crate::model::medium::{self, MediumPreset, RftSet};
 use crate::model::{
-    FittingWidth, ForceModel, Medium, ModelError, Plate, RftCoefficients, RftModel, TerzaghiModel,
+    Corrections, FittingWidth, ForceModel, Medium, ModelError, Plate, RftCoefficients, RftModel,
+    TerzaghiModel,
 };
 use std::path::PathBuf;
 
@@ -76,6 +78,8 @@ pub struct LegConfig {
     pub ft_topic: Option<String>,
     pub ft_frame: FtFrame,
     pub rft: Option<RftCoefficients>,
+    /// The corrected model's terms (`<leg>.corrections.*`), with `width` as its baseline.
+    pub corrections: Option<Corrections>,
 }
 
 impl LegConfig {
@@ -96,6 +100,7 @@ impl LegConfig {
             ft_topic: None,
             ft_frame: FtFrame::Hip,
             rft: None,
+            corrections: None,
         }
     }
 }
@@ -298,9 +303,23 @@ impl NodeConfig {
         }
         for key in params.keys() {
             if let Some((leg, k)) = key.split_once('.')
+                && !leg_names.iter().any(|l| l == leg)
+                && k.starts_with("corrections.")
+            {
+                return Err(invalid(
+                    key,
+                    &params[key],
+                    format!(
+                        "corrections for a leg {leg:?} the node does not have (legs: {}): a correction file of another robot?",
+                        leg_names.join(", ")
+                    ),
+                ));
+            }
+            if let Some((leg, k)) = key.split_once('.')
                 && leg != "estimator"
                 && leg_names.iter().any(|l| l == leg)
                 && !LEG_KEYS.contains(&k)
+                && !k.starts_with("corrections.")
             {
                 return Err(invalid(
                     key,
@@ -434,6 +453,11 @@ impl NodeConfig {
             put("ft_frame", ParamValue::String(l.ft_frame.as_str().into()));
             put("rft_coeffs", ParamValue::String(l.rft_name.clone()));
             put("rft_zeta", ParamValue::Double(0.0));
+            if let Some(c) = &l.corrections {
+                for (k, v) in corrections_params(&l.name, &l.plate, &l.medium, c) {
+                    m.entry(k).or_insert(v);
+                }
+            }
         }
         m
     }
@@ -522,6 +546,14 @@ fn leg_config(
     let b_k = g.f64(&k("b_k"))?.or(fit.map(|f| f.b_k())).unwrap_or(1.0);
     let a = g.f64(&k("a"))?.or(fit.map(|f| f.a())).unwrap_or(1.0);
     let width_fit = FittingWidth::new(b_k, a).map_err(model_err(&k("b_k")))?;
+    let corrections = leg_corrections(g.0, leg, &plate, &medium, b_k, a)?;
+    if corrections.is_some() && model != ModelKind::Improved {
+        return Err(invalid(
+            &k("corrections.effects"),
+            &model.as_str(),
+            "corrections are terms of the improved model: set model to improved, or leave the corrections out",
+        ));
+    }
     let ft_topic = g
         .str(&k("ft_topic"))?
         .filter(|t| !t.is_empty())
@@ -568,5 +600,6 @@ fn leg_config(
         ft_topic,
         ft_frame,
         rft,
+        corrections,
     })
 }

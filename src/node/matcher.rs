@@ -17,7 +17,10 @@ const PENDING_WRENCHES: usize = 64;
 /// A measured wrench matched with a joint angle: drag and lift in the hip frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Matched {
+    /// Stamp of the F/T sample.
     pub t_ns: i64,
+    /// Stamp of the joint angle it was matched with.
+    pub angle_t_ns: i64,
     pub beta_rad: f64,
     pub drag_n: f64,
     pub lift_n: f64,
@@ -74,7 +77,7 @@ impl LegMatcher {
     /// Matches `msg` with the angle nearest its stamp.
     fn matched(&self, msg: &WrenchStamped, max_dt_ns: i64) -> Match {
         let t_ns = msg.header.stamp.to_nanos();
-        let Some(beta) = nearest(&self.history, t_ns, max_dt_ns) else {
+        let Some((angle_t_ns, beta)) = nearest(&self.history, t_ns, max_dt_ns) else {
             return Match::Unmatched;
         };
         let f = &msg.wrench.force;
@@ -88,6 +91,7 @@ impl LegMatcher {
         };
         Match::Matched(Matched {
             t_ns,
+            angle_t_ns,
             beta_rad: beta,
             drag_n: -fx,
             lift_n: fz,
@@ -211,8 +215,9 @@ pub fn usable_stamp_ns(msg: &JointState) -> Option<i64> {
         .then(|| msg.header.stamp.to_nanos())
 }
 
-/// The angle whose stamp is nearest `t_ns`, if within `max_dt_ns`. History is in time order.
-fn nearest(history: &VecDeque<(i64, f64)>, t_ns: i64, max_dt_ns: i64) -> Option<f64> {
+/// The angle whose stamp is nearest `t_ns`, with that stamp, if within `max_dt_ns`. History is
+/// in time order.
+fn nearest(history: &VecDeque<(i64, f64)>, t_ns: i64, max_dt_ns: i64) -> Option<(i64, f64)> {
     // Where `t_ns` goes in the (sorted) history. A sample is nearly always matched against the
     // last angles, so look there before searching the whole history.
     let n = history.len();
@@ -229,7 +234,7 @@ fn nearest(history: &VecDeque<(i64, f64)>, t_ns: i64, max_dt_ns: i64) -> Option<
         (None, Some(&a)) => a,
         (None, None) => return None,
     };
-    ((t - t_ns).abs() <= max_dt_ns).then_some(beta)
+    ((t - t_ns).abs() <= max_dt_ns).then_some((t, beta))
 }
 
 #[cfg(test)]
@@ -239,8 +244,8 @@ mod tests {
     #[test]
     fn nearest_angle_by_stamp() {
         let h: VecDeque<(i64, f64)> = [(10, 1.0), (20, 2.0), (30, 3.0)].into();
-        assert_eq!(nearest(&h, 24, 5), Some(2.0));
-        assert_eq!(nearest(&h, 26, 5), Some(3.0));
+        assert_eq!(nearest(&h, 24, 5), Some((20, 2.0)));
+        assert_eq!(nearest(&h, 26, 5), Some((30, 3.0)));
         assert_eq!(nearest(&h, 100, 5), None);
         assert_eq!(nearest(&VecDeque::new(), 1, 5), None);
         // Against every entry of the history: the nearest stamp, the earlier one on a tie.
@@ -257,7 +262,7 @@ mod tests {
                     .min_by_key(|&&(s, _)| (s - t).abs())
                     .filter(|&&(s, _)| (s - t).abs() <= 4)
                     .map(|&(_, b)| b);
-                assert_eq!(nearest(&h, t, 4), brute, "{h:?} at {t}");
+                assert_eq!(nearest(&h, t, 4).map(|x| x.1), brute, "{h:?} at {t}");
             }
         }
     }

@@ -6,7 +6,7 @@ use crate::model::Regime;
 use anyhow::{Result, anyhow};
 
 /// The CSV header of `replay --reevaluate`.
-pub const CSV_HEADER: &str = "t_s,leg,beta_rad,regime,measured_drag_n,measured_lift_n,predicted_drag_n,predicted_lift_n,predicted_hip_torque_nm,b_k,a,identified\n";
+pub const CSV_HEADER: &str = "t_s,leg,beta_rad,regime,measured_drag_n,measured_lift_n,predicted_drag_n,predicted_lift_n,predicted_hip_torque_nm,b_k,a,identified,bare_drag_n,bare_lift_n,expected_reading_drag_n,expected_reading_lift_n\n";
 
 /// Rows of a re-evaluation as CSV, written by hand beside the csv crate: every field but the
 /// leg's name is a number, a fixed word or empty, so no field needs the crate's quoting checks,
@@ -155,7 +155,18 @@ impl CsvRows {
         ] {
             self.floats.put(out, v);
         }
-        out.extend_from_slice(if r.identified { b"true\n" } else { b"false\n" });
+        out.extend_from_slice(if r.identified { b"true," } else { b"false," });
+        for v in [
+            r.bare_drag_n,
+            r.bare_lift_n,
+            r.expected_reading_drag_n,
+            r.expected_reading_lift_n,
+        ] {
+            self.floats.put(out, v);
+        }
+        // The last field's comma ends the row instead.
+        out.pop();
+        out.push(b'\n');
     }
 }
 
@@ -184,6 +195,10 @@ mod tests {
             b_k: 32.61,
             a: 2.3,
             identified: leg == 1,
+            bare_drag_n: 1.5,
+            bare_lift_n: -1.5,
+            expected_reading_drag_n: 2.5,
+            expected_reading_lift_n: predicted,
         };
         let mut written = [
             row(0, Some(12.345678901234567), 0.0),
@@ -197,13 +212,14 @@ mod tests {
         }
         let mut rdr = csv::Reader::from_reader(&text[..]);
         let header: Vec<String> = rdr.headers().unwrap().iter().map(String::from).collect();
-        assert_eq!(header.len(), 12);
+        assert_eq!(header.len(), 16);
         assert_eq!(header[0], "t_s");
         assert_eq!(header[11], "identified");
+        assert_eq!(header[15], "expected_reading_lift_n");
         let back: Vec<csv::StringRecord> = rdr.records().map(|r| r.unwrap()).collect();
         assert_eq!(back.len(), written.len());
         for (b, w) in back.iter().zip(&written) {
-            assert_eq!(b.len(), 12, "{b:?}");
+            assert_eq!(b.len(), 16, "{b:?}");
             let num = |i: usize| b[i].parse::<f64>().unwrap();
             assert_eq!(num(0), w.t_s);
             assert_eq!(&b[1], legs[w.leg].as_str());
@@ -222,6 +238,9 @@ mod tests {
             assert_eq!(num(8), -2.5e21);
             assert_eq!((num(9), num(10)), (32.61, 2.3));
             assert_eq!(&b[11], if w.identified { "true" } else { "false" });
+            assert_eq!((num(12), num(13), num(14)), (1.5, -1.5, 2.5));
+            let e = num(15);
+            assert!(e == w.predicted_drag_n || (e.is_nan() && w.predicted_drag_n.is_nan()));
         }
     }
 
@@ -259,6 +278,10 @@ mod tests {
                 b_k: v(),
                 a: v(),
                 identified: false,
+                bare_drag_n: v(),
+                bare_lift_n: v(),
+                expected_reading_drag_n: v(),
+                expected_reading_lift_n: v(),
             };
             rows.push(&mut text, &r);
             written.push(r);
@@ -278,8 +301,15 @@ mod tests {
                 w.predicted_hip_torque_nm,
                 w.b_k,
                 w.a,
+                w.bare_drag_n,
+                w.bare_lift_n,
+                w.expected_reading_drag_n,
+                w.expected_reading_lift_n,
             ];
-            for (i, v) in [0, 2, 4, 5, 6, 7, 8, 9, 10].into_iter().zip(want) {
+            for (i, v) in [0, 2, 4, 5, 6, 7, 8, 9, 10, 12, 13, 14, 15]
+                .into_iter()
+                .zip(want)
+            {
                 assert_eq!(bits(i), v.to_bits(), "field {i} of {b:?}");
             }
             assert_eq!(&b[3], w.regime.as_str());

@@ -31,6 +31,13 @@ pub struct Row {
     pub b_k: f64,
     pub a: f64,
     pub identified: bool,
+    /// The bare improved model (no corrections), and what the F/T sensor is expected to read
+    /// (the prediction through the sensor's corrections); both equal the prediction for a leg
+    /// without corrections.
+    pub bare_drag_n: f64,
+    pub bare_lift_n: f64,
+    pub expected_reading_drag_n: f64,
+    pub expected_reading_lift_n: f64,
 }
 
 /// What the re-evaluation produces besides rows, for an MCAP output.
@@ -276,6 +283,10 @@ fn run_core(
                             b_k: f.b_k,
                             a: f.a,
                             identified: f.identified,
+                            bare_drag_n: f.bare_drag_n,
+                            bare_lift_n: f.bare_lift_n,
+                            expected_reading_drag_n: f.sensor_drag_n,
+                            expected_reading_lift_n: f.sensor_lift_n,
                         });
                     }
                 }
@@ -288,9 +299,10 @@ fn run_core(
         }
         core.take_matches(&mut matches);
         for (leg, mt) in matches.drain(..) {
-            let Some(p) = core.predict(leg, mt.beta_rad) else {
+            let Some(r) = core.row_prediction(leg, &mt) else {
                 continue;
             };
+            let p = r.medium;
             let (b_k, a, identified) = core.width_in_use(leg).unwrap_or((0.0, 0.0, false));
             rows += 1;
             on_row(&Row {
@@ -306,6 +318,10 @@ fn run_core(
                 b_k,
                 a,
                 identified,
+                bare_drag_n: r.bare_n[0],
+                bare_lift_n: r.bare_n[1],
+                expected_reading_drag_n: r.sensor_n[0],
+                expected_reading_lift_n: r.sensor_n[1],
             });
         }
     })?;

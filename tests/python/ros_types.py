@@ -76,6 +76,13 @@ class LegForce(IdlStruct, typename="terzaghi_msgs::msg::dds_::LegForce_"):
     a: float64 = 0.0
     delta_deg: float64 = 0.0
     identified: bool = False
+    bare_drag_n: float64 = 0.0
+    bare_lift_n: float64 = 0.0
+    correction_names: sequence[str] = field(default_factory=list)
+    correction_drag_n: sequence[float64] = field(default_factory=list)
+    correction_lift_n: sequence[float64] = field(default_factory=list)
+    sensor_drag_n: float64 = 0.0
+    sensor_lift_n: float64 = 0.0
 
 
 def stamp(t_s):

@@ -7,10 +7,14 @@ mod status;
 use super::matcher::{FtMatcher, Match, NoAngle, usable_stamp_ns};
 use crate::config::{ModelKind, NodeConfig};
 use crate::ident::{Estimate, OnlineEstimator, Sample};
-use crate::model::{FittingWidth, ForceModel, TerzaghiModel};
+use crate::model::corrections::{
+    CorrectedModel, CorrectedPrediction, Effect, MotionTracker, SensorLagFilter,
+};
+use crate::model::{FittingWidth, ForceModel, Prediction, TerzaghiModel, wrap_beta_rad};
 use crate::msgs::{
     Header, JointState, LegForce, ModelParams, Time, Vector3, Wrench, WrenchStamped,
 };
+use std::collections::VecDeque;
 
 pub use super::matcher::Matched;
 
@@ -42,6 +46,8 @@ pub struct NodeCounters {
 
 struct Leg {
     model: ForceModel,
+    /// The corrected model, for a leg with `<leg>.corrections`: it predicts instead of `model`.
+    corrected: Option<CorrectedLeg>,
     /// `<leg>_hip`, the frame of the predictions (made once, not per message).
     hip_frame: String,
     estimator: Option<OnlineEstimator>,
@@ -51,6 +57,94 @@ struct Leg {
     counters: LegCounters,
     /// Counters at the last diagnostics, for rates.
     at_last_diag: LegCounters,
+}
+
+/// Predictions kept per corrected leg for the rows of a re-evaluation, by their angle's stamp.
+const RECENT_PREDICTIONS: usize = 1024;
+
+/// Window of the slopes that give a corrected leg's speed and acceleration (s).
+const MOTION_WINDOW_S: f64 = 0.03;
+
+/// A leg predicted by the corrected model: the model, the leg's motion followed from its angles,
+/// the sensor's lag, and (when re-evaluating) its recent predictions.
+struct CorrectedLeg {
+    model: CorrectedModel,
+    tracker: MotionTracker,
+    lag: SensorLagFilter,
+    recent: VecDeque<(i64, RowPrediction)>,
+}
+
+impl CorrectedLeg {
+    fn new(model: CorrectedModel) -> CorrectedLeg {
+        CorrectedLeg {
+            model,
+            tracker: MotionTracker::new(MOTION_WINDOW_S),
+            lag: SensorLagFilter::default(),
+            recent: VecDeque::new(),
+        }
+    }
+
+    /// The corrected prediction for the angle `beta_rad` stamped `stamp_ns`, the sensor's side
+    /// through its lag; kept for the rows when `keep`.
+    fn step(&mut self, stamp_ns: i64, beta_rad: f64, keep: bool) -> Option<CorrectedPrediction> {
+        let t_s = stamp_ns as f64 * 1e-9;
+        let plate = *self.model.plate();
+        let submerged = plate.submerged_length_m(wrap_beta_rad(beta_rad));
+        let motion = self
+            .tracker
+            .update(t_s, beta_rad, submerged, plate.length_m());
+        let mut p = self.model.evaluate(beta_rad, &motion).ok()?;
+        let c = self.model.corrections();
+        if c.has(Effect::SensorLag) {
+            let bias = [p.sensor_drag_n - p.drag_n, p.sensor_lift_n - p.lift_n];
+            let y = self.lag.step(t_s, [p.drag_n, p.lift_n], c.nonlinear.lag_s);
+            p.sensor_drag_n = y[0] + bias[0];
+            p.sensor_lift_n = y[1] + bias[1];
+        }
+        if keep {
+            if self.recent.len() == RECENT_PREDICTIONS {
+                self.recent.pop_front();
+            }
+            self.recent
+                .push_back((stamp_ns, RowPrediction::corrected(&p)));
+        }
+        Some(p)
+    }
+}
+
+/// A prediction as a re-evaluation's row gives it: the medium's force (corrected where the leg
+/// has corrections), the bare model's, and what the sensor is expected to read.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RowPrediction {
+    pub medium: Prediction,
+    pub bare_n: [f64; 2],
+    pub sensor_n: [f64; 2],
+}
+
+impl RowPrediction {
+    fn corrected(p: &CorrectedPrediction) -> RowPrediction {
+        RowPrediction {
+            medium: Prediction {
+                beta_rad: p.bare.beta_rad,
+                submerged_m: p.submerged_m,
+                depth_m: p.depth_m,
+                drag_n: p.drag_n,
+                lift_n: p.lift_n,
+                hip_torque_nm: p.hip_torque_nm,
+                regime: p.regime,
+            },
+            bare_n: [p.bare.drag_n, p.bare.lift_n],
+            sensor_n: [p.sensor_drag_n, p.sensor_lift_n],
+        }
+    }
+
+    fn bare(p: Prediction) -> RowPrediction {
+        RowPrediction {
+            medium: p,
+            bare_n: [p.drag_n, p.lift_n],
+            sensor_n: [p.drag_n, p.lift_n],
+        }
+    }
 }
 
 /// What the core is run for.
@@ -130,6 +224,7 @@ impl NodeCore {
         });
         Leg {
             model: self.model_for(i, None),
+            corrected: self.corrected_model(i).map(CorrectedLeg::new),
             hip_frame: format!("{}_hip", lc.name),
             estimator,
             identified: None,
@@ -137,6 +232,12 @@ impl NodeCore {
             counters: LegCounters::default(),
             at_last_diag: LegCounters::default(),
         }
+    }
+
+    /// The corrected model of leg `i`, if it has corrections (validated with the configuration).
+    fn corrected_model(&self, i: usize) -> Option<CorrectedModel> {
+        let lc = &self.cfg.legs[i];
+        CorrectedModel::new(lc.plate, lc.medium, lc.corrections.clone()?).ok()
     }
 
     /// The leg's model with the configured parameters, or with an identified estimate.
@@ -209,6 +310,17 @@ impl NodeCore {
             };
             self.legs[i].model = self.model_for(i, identified.as_ref());
             self.legs[i].hip_frame = format!("{}_hip", n.name);
+            // New corrections take effect at once; the leg's motion is followed on.
+            match (self.corrected_model(i), &mut self.legs[i].corrected) {
+                (Some(m), Some(c)) => {
+                    if c.model.corrections() != m.corrections() || c.model.plate() != m.plate() {
+                        c.model = m;
+                        c.lag.reset();
+                        c.recent.clear();
+                    }
+                }
+                (m, c) => *c = m.map(CorrectedLeg::new),
+            }
         }
     }
 
@@ -239,63 +351,110 @@ impl NodeCore {
                     continue;
                 }
             };
+            let keep = self.mode != CoreMode::Node;
+            let corrected = self.legs[i]
+                .corrected
+                .as_mut()
+                .map(|c| c.step(stamp_ns, beta, keep));
             if self.mode == CoreMode::ReevaluationRows && self.cfg.legs[i].ft_topic.is_some() {
                 continue;
             }
             let (lc, leg) = (&self.cfg.legs[i], &mut self.legs[i]);
-            let Ok(p) = leg.model.predict(beta) else {
-                leg.counters.invalid_position += 1;
-                continue;
-            };
-            leg.counters.predictions += 1;
             let header = Header {
                 stamp: msg.header.stamp,
                 frame_id: leg.hip_frame.clone(),
             };
-            let (b_k, a, delta_deg) = match (&leg.identified, self.cfg.use_identified) {
-                (Some(e), true) => (
-                    e.b_k,
-                    e.a,
-                    if self.cfg.estimator.fit_delta {
-                        e.delta_deg
-                    } else {
-                        lc.medium.delta_deg()
-                    },
-                ),
-                _ => (lc.width.b_k(), lc.width.a(), lc.medium.delta_deg()),
+            let force = match corrected {
+                Some(Some(p)) => {
+                    let c = leg.corrected.as_ref().map(|c| c.model.corrections());
+                    let (b_k, a) = c.map_or((0.0, 0.0), |c| (c.b_k, c.a));
+                    LegForce {
+                        header,
+                        attack_angle_rad: p.bare.beta_rad,
+                        submerged_length_m: p.submerged_m,
+                        depth_m: p.depth_m,
+                        drag_n: p.drag_n,
+                        lift_n: p.lift_n,
+                        hip_torque_nm: p.hip_torque_nm,
+                        regime: p.regime.code(),
+                        model: self.cfg.model.as_str().to_string(),
+                        b_k,
+                        a,
+                        delta_deg: lc.medium.delta_deg(),
+                        identified: false,
+                        bare_drag_n: p.bare.drag_n,
+                        bare_lift_n: p.bare.lift_n,
+                        correction_names: p.parts.iter().map(|(e, _)| e.name().into()).collect(),
+                        correction_drag_n: p.parts.iter().map(|(_, v)| v[0]).collect(),
+                        correction_lift_n: p.parts.iter().map(|(_, v)| v[1]).collect(),
+                        sensor_drag_n: p.sensor_drag_n,
+                        sensor_lift_n: p.sensor_lift_n,
+                    }
+                }
+                Some(None) => {
+                    leg.counters.invalid_position += 1;
+                    continue;
+                }
+                None => {
+                    let Ok(p) = leg.model.predict(beta) else {
+                        leg.counters.invalid_position += 1;
+                        continue;
+                    };
+                    let (b_k, a, delta_deg) = match (&leg.identified, self.cfg.use_identified) {
+                        (Some(e), true) => (
+                            e.b_k,
+                            e.a,
+                            if self.cfg.estimator.fit_delta {
+                                e.delta_deg
+                            } else {
+                                lc.medium.delta_deg()
+                            },
+                        ),
+                        _ => (lc.width.b_k(), lc.width.a(), lc.medium.delta_deg()),
+                    };
+                    LegForce {
+                        header,
+                        attack_angle_rad: p.beta_rad,
+                        submerged_length_m: p.submerged_m,
+                        depth_m: p.depth_m,
+                        drag_n: p.drag_n,
+                        lift_n: p.lift_n,
+                        hip_torque_nm: p.hip_torque_nm,
+                        regime: p.regime.code(),
+                        model: self.cfg.model.as_str().to_string(),
+                        b_k,
+                        a,
+                        delta_deg,
+                        identified: leg.identified.is_some() && self.cfg.use_identified,
+                        bare_drag_n: p.drag_n,
+                        bare_lift_n: p.lift_n,
+                        correction_names: Vec::new(),
+                        correction_drag_n: Vec::new(),
+                        correction_lift_n: Vec::new(),
+                        sensor_drag_n: p.drag_n,
+                        sensor_lift_n: p.lift_n,
+                    }
+                }
             };
+            leg.counters.predictions += 1;
             out.push(LegOutput {
                 leg: i,
                 wrench: WrenchStamped {
-                    header: header.clone(),
+                    header: force.header.clone(),
                     wrench: Wrench {
                         force: Vector3 {
-                            x: -p.drag_n,
+                            x: -force.drag_n,
                             y: 0.0,
-                            z: p.lift_n,
+                            z: force.lift_n,
                         },
                         torque: Vector3 {
                             x: 0.0,
-                            y: p.hip_torque_nm,
+                            y: force.hip_torque_nm,
                             z: 0.0,
                         },
                     },
                 },
-                force: LegForce {
-                    header,
-                    attack_angle_rad: p.beta_rad,
-                    submerged_length_m: p.submerged_m,
-                    depth_m: p.depth_m,
-                    drag_n: p.drag_n,
-                    lift_n: p.lift_n,
-                    hip_torque_nm: p.hip_torque_nm,
-                    regime: p.regime.code(),
-                    model: self.cfg.model.as_str().to_string(),
-                    b_k,
-                    a,
-                    delta_deg,
-                    identified: leg.identified.is_some() && self.cfg.use_identified,
-                },
+                force,
             });
         }
     }
@@ -406,14 +565,35 @@ impl NodeCore {
         out.append(&mut self.matches);
     }
 
-    /// The prediction of `leg`'s current model at `beta_rad`.
-    pub fn predict(&self, leg: usize, beta_rad: f64) -> Option<crate::model::Prediction> {
+    /// The prediction of `leg`'s current model at `beta_rad` (the bare model's, for a leg with
+    /// corrections: theirs depend on the leg's motion, see [`Self::row_prediction`]).
+    pub fn predict(&self, leg: usize, beta_rad: f64) -> Option<Prediction> {
         self.legs.get(leg)?.model.predict(beta_rad).ok()
+    }
+
+    /// The prediction next to a matched F/T sample of `leg` when re-evaluating: for a leg with
+    /// corrections, the one made for the joint angle it was matched with; else the current
+    /// model's at its angle.
+    pub fn row_prediction(&self, leg: usize, mt: &Matched) -> Option<RowPrediction> {
+        let l = self.legs.get(leg)?;
+        match &l.corrected {
+            Some(c) => c
+                .recent
+                .iter()
+                .rev()
+                .find(|(t, _)| *t == mt.angle_t_ns)
+                .map(|(_, p)| *p),
+            None => l.model.predict(mt.beta_rad).ok().map(RowPrediction::bare),
+        }
     }
 
     /// The fitting width `leg` predicts with now, and whether it is identified.
     pub fn width_in_use(&self, leg: usize) -> Option<(f64, f64, bool)> {
         let l = self.legs.get(leg)?;
+        if let Some(c) = &l.corrected {
+            let c = c.model.corrections();
+            return Some((c.b_k, c.a, false));
+        }
         Some(match (&l.identified, self.cfg.use_identified) {
             (Some(e), true) => (e.b_k, e.a, true),
             _ => (
