@@ -332,6 +332,58 @@ pub struct Walked {
 }
 
 impl Demo {
+    /// Re-runs the recording through the node as it ran and with the corrections the diagnosis
+    /// wrote (`corrected`), and adds each leg's prediction error of both to the summary.
+    fn rerun(&self, corrected: &Path, summary: &mut Summary) -> Result<()> {
+        use crate::session::reevaluate::{ReevaluateOptions, RowErrors, reevaluate_file};
+        let session = self.out.join("session.mcap");
+        let as_ran = reevaluate_file(&session, ReevaluateOptions::default(), |_| {})?;
+        let with = reevaluate_file(
+            &session,
+            ReevaluateOptions {
+                params_file: Some(corrected.to_path_buf()),
+                progress: None,
+            },
+            |_| {},
+        )?;
+        summary.text += &format!(
+            "\nThe recording re-run through the node with the corrections the diagnosis wrote\n\
+             (terzaghi replay {} --reevaluate --params-file {}):\n\
+             {:<13} {:>26} {:>24}\n",
+            session.display(),
+            corrected.display(),
+            "leg",
+            "as it ran (online b_k, a)",
+            "with the corrections"
+        );
+        let mut legs = Vec::new();
+        for (i, leg) in self.cfg.legs.iter().enumerate() {
+            let (Some(b), Some(c)) = (as_ran.summary.errors.get(i), with.summary.errors.get(i))
+            else {
+                continue;
+            };
+            if b.samples() == 0 || c.samples() == 0 {
+                continue;
+            }
+            let (before, after) = (
+                RowErrors::rmse_n(&b.expected),
+                RowErrors::rmse_n(&c.expected),
+            );
+            summary.text += &format!("{:<13} {:>24.3} N {:>22.3} N\n", leg.name, before, after);
+            legs.push(serde_json::json!({
+                "leg": leg.name, "rmse_as_ran_n": before, "rmse_corrected_n": after,
+                "samples": c.samples(),
+            }));
+        }
+        summary.text += "(in sample: the corrections were fitted on this recording; `terzaghi diagnose-eval --closed-loop`\n\
+             measures them on strokes they were not fitted on)\n";
+        summary.json["rerun"] = serde_json::json!({
+            "params_file": corrected,
+            "legs": legs,
+        });
+        Ok(())
+    }
+
     /// Simulates `seconds` of walking (seed `seed`) into the directory `out` (created).
     pub fn new(seconds: f64, seed: u64, out: &Path) -> Result<Demo> {
         if !(seconds.is_finite() && seconds > 0.0) {
@@ -399,7 +451,7 @@ impl Demo {
             bail!("the diagnosis failed: {}", done.failed.join("; "));
         }
         let reports: Vec<serde_json::Value> = done.reports.iter().map(|(_, r)| r.clone()).collect();
-        let summary = summarize(
+        let mut summary = summarize(
             &self.cfg,
             &self.truth,
             &walked.estimates,
@@ -409,6 +461,9 @@ impl Demo {
             walked.run_s,
             started.elapsed().as_secs_f64(),
         );
+        if let Some(corrected) = &done.corrected {
+            self.rerun(corrected, &mut summary)?;
+        }
         crate::session::files::write_text(
             &self.out.join("summary.json"),
             &(serde_json::to_string_pretty(&summary.json)? + "\n"),

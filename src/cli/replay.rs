@@ -13,7 +13,9 @@ use std::path::PathBuf;
 
 #[derive(Debug, Args)]
 pub struct ReplayArgs {
-    /// The MCAP session (ours, or any ROS 2 MCAP with JointState and WrenchStamped).
+    /// The MCAP session (ours, or any ROS 2 MCAP with JointState and WrenchStamped); with
+    /// --reevaluate --params-file, also a CSV log of one leg (t_s,beta_rad,drag_n,lift_n, as
+    /// diagnose and fit read).
     pub file: PathBuf,
     /// Run the recorded joint states and F/T through the model and estimator offline, as fast as
     /// possible, instead of republishing.
@@ -160,7 +162,50 @@ fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
         },
         est.join("; ")
     );
+    if summary.skipped_samples > 0 {
+        eprintln!(
+            "note: {} samples of the CSV log had no usable time and were skipped",
+            summary.skipped_samples
+        );
+    }
+    eprint!("{}", error_table(&done));
     Ok(())
+}
+
+/// Each leg's prediction error against its measurements: the expected F/T reading (with the
+/// leg's corrections, where it has them) and the bare model.
+fn error_table(done: &Reevaluation) -> String {
+    use crate::session::reevaluate::RowErrors;
+    let mut out = String::new();
+    for (l, e) in done.config.legs.iter().zip(&done.summary.errors) {
+        if e.samples() == 0 {
+            continue;
+        }
+        let (d, li) = (e.expected[0].fit(), e.expected[1].fit());
+        out += &format!(
+            "{}: RMSE {:.3} N (R^2 drag {:.3}, lift {:.3}) over {} samples",
+            l.name,
+            RowErrors::rmse_n(&e.expected),
+            d.r2,
+            li.r2,
+            e.samples()
+        );
+        if let Some(c) = l.corrections.as_ref().filter(|c| !c.terms.is_empty()) {
+            out += &format!(
+                " with the corrections {}; bare model {:.3} N (R^2 drag {:.3}, lift {:.3})",
+                c.terms
+                    .iter()
+                    .map(|t| t.effect.name())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                RowErrors::rmse_n(&e.bare),
+                e.bare[0].fit().r2,
+                e.bare[1].fit().r2
+            );
+        }
+        out.push('\n');
+    }
+    out
 }
 
 fn run_dds(a: &ReplayArgs) -> Result<()> {

@@ -69,18 +69,19 @@ pub fn leg_corrections(
 ) -> Result<Option<Corrections>, ConfigError> {
     let key = |s: &str| format!("{leg}.corrections.{s}");
     for k in params.keys() {
-        if let Some(rest) = k.strip_prefix(&format!("{leg}.")) {
-            if rest.starts_with("corrections.") && !is_corrections_key(rest) {
-                return Err(invalid(
-                    k,
-                    &params[k],
-                    format!(
-                        "unknown corrections parameter; known: effects, typical_speed_rad_s, session_strokes, fitted_for.{{{}}}, and <effect>.<parameter> for the effects {}",
-                        FITTED_FOR.join(","),
-                        ALL.map(Effect::name).join(", ")
-                    ),
-                ));
-            }
+        if let Some(rest) = k.strip_prefix(&format!("{leg}."))
+            && rest.starts_with("corrections.")
+            && !is_corrections_key(rest)
+        {
+            return Err(invalid(
+                k,
+                &params[k],
+                format!(
+                    "unknown corrections parameter; known: effects, typical_speed_rad_s, session_strokes, fitted_for.{{{}}}, and <effect>.<parameter> for the effects {}",
+                    FITTED_FOR.join(","),
+                    ALL.map(Effect::name).join(", ")
+                ),
+            ));
         }
     }
     let effects_key = key("effects");

@@ -102,3 +102,94 @@ fn read_params_file(
     })?;
     parse_params_yaml(&text, &shown, node_name, namespace)
 }
+
+/// `params` as a params file for every node (`/**:` then `ros__parameters:`), dotted names
+/// nested again, after the comment lines `header` (each written with `# `). Doubles always
+/// carry a decimal point, so that ROS reads them as doubles (`2.0`, `1.0e-5`).
+pub fn params_yaml(params: &ParamMap, header: &str) -> String {
+    let mut out = String::new();
+    for line in header.lines() {
+        out += &format!("# {line}\n").replace("# \n", "#\n");
+    }
+    out += "/**:\n  ros__parameters:\n";
+    // Names in order nest as a tree; a level is opened where a name leaves the previous one's.
+    let mut open: Vec<&str> = Vec::new();
+    for (name, value) in params {
+        let parts: Vec<&str> = name.split('.').collect();
+        let (path, leaf) = parts.split_at(parts.len() - 1);
+        let common = open.iter().zip(path).take_while(|(a, b)| a == b).count();
+        open.truncate(common);
+        for p in &path[common..] {
+            out += &format!("{}{p}:\n", "  ".repeat(2 + open.len()));
+            open.push(p);
+        }
+        out += &format!(
+            "{}{}: {}\n",
+            "  ".repeat(2 + open.len()),
+            leaf[0],
+            yaml_value(value)
+        );
+    }
+    out
+}
+
+fn yaml_f64(v: f64) -> String {
+    let s = format!("{v:?}");
+    match s.find('e') {
+        Some(i) if !s[..i].contains('.') => format!("{}.0{}", &s[..i], &s[i..]),
+        _ => s,
+    }
+}
+
+fn yaml_value(v: &super::ParamValue) -> String {
+    use super::ParamValue as P;
+    let quoted = |s: &str| serde_json::to_string(s).unwrap_or_else(|_| "\"\"".into());
+    let list = |items: Vec<String>| format!("[{}]", items.join(", "));
+    match v {
+        P::Bool(b) => b.to_string(),
+        P::Int(i) => i.to_string(),
+        P::Double(x) => yaml_f64(*x),
+        P::String(s) => quoted(s),
+        P::BoolArray(v) => list(v.iter().map(|b| b.to_string()).collect()),
+        P::IntArray(v) => list(v.iter().map(|i| i.to_string()).collect()),
+        P::DoubleArray(v) => list(v.iter().map(|x| yaml_f64(*x)).collect()),
+        P::StringArray(v) => list(v.iter().map(|s| quoted(s)).collect()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::ParamValue;
+
+    #[test]
+    fn a_written_params_file_reads_back_as_the_same_parameters() {
+        let mut p = ParamMap::new();
+        p.insert(
+            "legs".into(),
+            ParamValue::StringArray(vec!["fl".into(), "a \"b\"".into()]),
+        );
+        p.insert("fl.b_k".into(), ParamValue::Double(2.0));
+        p.insert(
+            "fl.corrections.effects".into(),
+            ParamValue::StringArray(vec!["rate".into()]),
+        );
+        p.insert(
+            "fl.corrections.rate.speed_exponent".into(),
+            ParamValue::Double(1e-5),
+        );
+        p.insert("fl.corrections.rate.x".into(), ParamValue::Double(-2.5e21));
+        p.insert("fl.corrections.session_strokes".into(), ParamValue::Int(20));
+        p.insert("fl.length_m".into(), ParamValue::Double(0.25));
+        p.insert("fr.medium".into(), ParamValue::String("poppy_lp".into()));
+        p.insert("use_identified".into(), ParamValue::Bool(false));
+        let text = params_yaml(&p, "made by a test\n\nsecond line");
+        assert!(
+            text.starts_with("# made by a test\n#\n# second line\n/**:\n"),
+            "{text}"
+        );
+        assert!(text.contains("speed_exponent: 1.0e-5\n"), "{text}");
+        let back = parse_params_yaml(&text, "t", "terzaghi", "/").unwrap();
+        assert_eq!(back, p, "{text}");
+    }
+}

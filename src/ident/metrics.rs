@@ -27,26 +27,53 @@ pub struct ComponentFit {
 /// Goodness of fit of one component. Zero denominators (no force, constant force) give 0 for Psi
 /// or R^2 rather than a NaN; an empty input gives all zeros.
 pub fn component_fit(pred: &[f64], meas: &[f64]) -> ComponentFit {
-    let n = pred.len().min(meas.len());
-    if n == 0 {
-        return ComponentFit {
-            psi: 0.0,
-            r2: 0.0,
-            rmse: 0.0,
-        };
+    let mut sums = FitSums::default();
+    for (p, m) in pred.iter().zip(meas) {
+        sums.add(*p, *m);
     }
-    let mean = meas[..n].iter().sum::<f64>() / n as f64;
-    let (mut sse, mut ss, mut sst) = (0.0, 0.0, 0.0);
-    for (p, m) in pred[..n].iter().zip(&meas[..n]) {
-        sse += (p - m) * (p - m);
-        ss += m * m;
-        sst += (m - mean) * (m - mean);
+    sums.fit()
+}
+
+/// The sums behind [`component_fit`], added sample by sample: for a stream of predictions
+/// next to measurements that is not kept (a re-evaluated session). The measurements' spread
+/// is summed about their running mean (Welford), which a large mean force does not spoil.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct FitSums {
+    n: u64,
+    sse: f64,
+    ss: f64,
+    mean: f64,
+    sst: f64,
+}
+
+impl FitSums {
+    pub fn add(&mut self, pred: f64, meas: f64) {
+        self.n += 1;
+        self.sse += (pred - meas) * (pred - meas);
+        self.ss += meas * meas;
+        let d = meas - self.mean;
+        self.mean += d / self.n as f64;
+        self.sst += d * (meas - self.mean);
     }
-    let ratio = |den: f64| if den > 0.0 { 1.0 - sse / den } else { 0.0 };
-    ComponentFit {
-        psi: ratio(ss),
-        r2: ratio(sst),
-        rmse: (sse / n as f64).sqrt(),
+
+    pub fn samples(&self) -> u64 {
+        self.n
+    }
+
+    pub fn fit(&self) -> ComponentFit {
+        if self.n == 0 {
+            return ComponentFit {
+                psi: 0.0,
+                r2: 0.0,
+                rmse: 0.0,
+            };
+        }
+        let ratio = |den: f64| if den > 0.0 { 1.0 - self.sse / den } else { 0.0 };
+        ComponentFit {
+            psi: ratio(self.ss),
+            r2: ratio(self.sst),
+            rmse: (self.sse / self.n as f64).sqrt(),
+        }
     }
 }
 

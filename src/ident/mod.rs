@@ -11,7 +11,7 @@ pub mod metrics;
 pub mod online;
 
 pub use batch::{BatchFit, BatchOptions, fit_batch};
-pub use metrics::{GoodnessOfFit, goodness_of_fit};
+pub use metrics::{ComponentFit, FitSums, GoodnessOfFit, goodness_of_fit};
 pub use online::{Estimate, OnlineEstimator, OnlineOptions};
 
 use crate::model::{ModelError, Regime, TerzaghiModel};

@@ -141,13 +141,14 @@ impl Effect {
     /// magnitude) is refused.
     pub fn linear_bound(self, param: &str) -> f64 {
         match (self, param) {
-            (Effect::Rate, "ln_a_per_speed_excess") | (Effect::Compaction, "change_ln_a") => 5.0,
+            (Effect::Rate, "ln_a_per_speed_excess") | (Effect::Compaction, "change_ln_a") => 10.0,
             (Effect::Rate, "scale_per_speed_excess")
             | (Effect::Compaction, "linear" | "change_drag" | "change_lift")
-            | (Effect::Extraction, _) => 10.0,
+            | (Effect::Extraction, "drag_scale" | "lift_scale") => 100.0,
+            (Effect::Extraction, "slope_per_rad") => 1e3,
             (Effect::Compaction, "change_phi_deg") => 30.0,
             (Effect::SensorBias, _) => 1e4,
-            _ => 1e7,
+            _ => 1e9,
         }
     }
 
@@ -327,12 +328,6 @@ pub struct TermInputs {
     /// How the unit model's drag and lift change with one degree more of the medium's internal
     /// friction angle (N/deg).
     pub unit_per_phi_n_deg: [f64; 2],
-}
-
-impl Default for Regime {
-    fn default() -> Self {
-        Regime::OutOfMedium
-    }
 }
 
 /// The submerged part of a plate of `plate`'s length and width whose submerged length is

@@ -72,10 +72,11 @@ pub(crate) fn positive(name: &'static str, value: f64) -> Result<f64, ModelError
 }
 
 /// Which failure mechanism the prediction comes from, so that consumers can weigh it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Regime {
     /// Submerged length <= 0: every force is zero.
+    #[default]
     OutOfMedium,
     /// `beta <= pi/2`: the regime the paper validates.
     Penetration,

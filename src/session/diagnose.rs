@@ -5,7 +5,10 @@
 use super::Opened;
 use super::files::write_text;
 use super::legs::{LegLog, LegsFrom, choose_legs, csv_leg, session_legs};
+use crate::config::corrections::corrections_params;
+use crate::config::{LegConfig, NodeConfig, ParamMap, ParamValue, params_yaml};
 use crate::diagnose::{DiagnoseOptions, Diagnosis, Report, diagnose};
+use crate::model::Corrections;
 use crate::model::{Medium, Plate};
 use anyhow::{Context as _, Result, bail};
 use rayon::prelude::*;
@@ -37,6 +40,9 @@ pub struct LegDiagnosis {
 pub struct Diagnosed {
     pub log: PathBuf,
     pub legs: Vec<LegDiagnosis>,
+    /// The node configuration of the log's legs (for a CSV log, its one leg's), which the
+    /// corrected parameters complete.
+    pub config: NodeConfig,
 }
 
 /// Reads `log` (a ROS 2 MCAP session, or a CSV log of one leg) and diagnoses its legs, several
@@ -45,7 +51,7 @@ pub fn diagnose_file(log: &Path, opts: &DiagnoseFileOptions) -> Result<Diagnosed
     if opts.analysis.folds < 2 {
         bail!("folds of strokes: at least 2, got {}", opts.analysis.folds);
     }
-    let legs = match Opened::mcap(log)? {
+    let (legs, config) = match Opened::mcap(log)? {
         Some(opened) => {
             opened.refuse_cut_off(log)?;
             let cfg = opts.legs_from.config(&opened, log)?;
@@ -55,7 +61,7 @@ pub fn diagnose_file(log: &Path, opts: &DiagnoseFileOptions) -> Result<Diagnosed
                     "no leg to diagnose has an F/T topic in the parameters (set <leg>.ft_topic, or use --joint and --wrench-topic)"
                 );
             }
-            session_legs(log, &opened, &cfg, &chosen)?
+            (session_legs(log, &opened, &cfg, &chosen)?, cfg)
         }
         None => {
             let Some((plate, medium)) = opts.csv_leg else {
@@ -68,12 +74,18 @@ pub fn diagnose_file(log: &Path, opts: &DiagnoseFileOptions) -> Result<Diagnosed
                 log.file_stem()
                     .map_or("leg".to_string(), |s| s.to_string_lossy().into_owned())
             });
-            vec![csv_leg(log, &name, plate, medium)?]
+            let leg = csv_leg(log, &name, plate, medium)?;
+            let cfg = NodeConfig::with_legs(
+                vec![LegConfig::new(&name, &name, plate, medium)],
+                "joint_states",
+            )?;
+            (vec![leg], cfg)
         }
     };
     Ok(Diagnosed {
         log: log.to_path_buf(),
         legs: diagnose_legs(&legs, &opts.analysis),
+        config,
     })
 }
 
@@ -105,6 +117,9 @@ pub struct Written {
     pub reports: Vec<(PathBuf, serde_json::Value)>,
     /// The legs that could not be diagnosed, with the reason.
     pub failed: Vec<String>,
+    /// The node's parameters with every diagnosed leg's corrected model (`corrected.yaml` in
+    /// the output directory), if a leg was diagnosed.
+    pub corrected: Option<PathBuf>,
 }
 
 /// Writes `report.json` and `report.html` of each diagnosed leg into `out` (into `out/<leg>/`
@@ -118,7 +133,9 @@ pub fn write_reports(d: &Diagnosed, out: &Path) -> Result<Written> {
         single,
         reports: Vec::new(),
         failed: Vec::new(),
+        corrected: None,
     };
+    let mut all = d.config.effective_params(&ParamMap::new());
     for leg in &d.legs {
         let dir = if single {
             out.to_path_buf()
@@ -142,6 +159,20 @@ pub fn write_reports(d: &Diagnosed, out: &Path) -> Result<Written> {
                     &dir.join("report.html"),
                     &super::report_html::html(&leg.leg, diag)?,
                 )?;
+                let leg_params =
+                    corrected_params(&d.config, &leg.leg, &diag.report.corrected_model);
+                if !single {
+                    write_text(
+                        &dir.join("corrected.yaml"),
+                        &params_yaml(
+                            &leg_params,
+                            &corrected_header(&log, &leg.leg, &diag.report, false),
+                        ),
+                    )?;
+                }
+                let own = format!("{}.corrections.", leg.leg);
+                all.retain(|k, _| !k.starts_with(&own));
+                all.extend(leg_params);
                 written.reports.push((dir, serde_json::to_value(&doc)?));
             }
             Err(e) => written.failed.push(format!("leg {}: {e}", leg.leg)),
@@ -150,7 +181,69 @@ pub fn write_reports(d: &Diagnosed, out: &Path) -> Result<Written> {
     if !single && !written.reports.is_empty() {
         write_index(out, d.legs.len(), &written.reports)?;
     }
+    if !written.reports.is_empty() {
+        let path = out.join("corrected.yaml");
+        let cfg = &d.config;
+        all.insert(
+            "legs".into(),
+            ParamValue::StringArray(cfg.legs.iter().map(|l| l.name.clone()).collect()),
+        );
+        all.insert("model".into(), ParamValue::String("improved".into()));
+        all.insert(
+            "joint_states_topic".into(),
+            ParamValue::String(cfg.joint_states_topic.clone()),
+        );
+        let header = match (single, d.legs.iter().find_map(|l| l.result.as_ref().ok())) {
+            (true, Some(diag)) => corrected_header(&log, &d.legs[0].leg, &diag.report, true),
+            _ => format!(
+                "The node's parameters for the legs of {log}, each diagnosed leg with the corrected\nmodel its diagnosis found (written by terzaghi diagnose):\n  terzaghi node --ros-args --params-file corrected.yaml\nEach leg's own file, <leg>/corrected.yaml, holds its corrections alone."
+            ),
+        };
+        write_text(&path, &params_yaml(&all, &header))?;
+        written.corrected = Some(path);
+    }
     Ok(written)
+}
+
+/// The parameters of leg `leg`'s corrected model, with `fitted_for` the leg's configuration.
+fn corrected_params(cfg: &NodeConfig, leg: &str, c: &Corrections) -> ParamMap {
+    let Some(l) = cfg.legs.iter().find(|l| l.name == leg) else {
+        return ParamMap::new();
+    };
+    let mut p: ParamMap = corrections_params(leg, &l.plate, &l.medium, c)
+        .into_iter()
+        .collect();
+    // A diagnosis that kept no term has the baseline alone: its b_k and a.
+    if c.terms.is_empty() {
+        p.retain(|k, _| !k.contains(".corrections."));
+    }
+    p
+}
+
+/// The comment at the top of a leg's `corrected.yaml`: where it comes from, what it holds, and
+/// how a node uses it (`whole`: the node's parameters too).
+fn corrected_header(log: &str, leg: &str, r: &Report, whole: bool) -> String {
+    let terms: Vec<&str> = r
+        .corrected_model
+        .terms
+        .iter()
+        .map(|t| t.effect.name())
+        .collect();
+    let mut s = format!(
+        "Leg {leg} of {log}: the corrected model its diagnosis found (written by terzaghi diagnose).\nBaseline b_k, a fitted with {}; verdict {}.\n",
+        if terms.is_empty() {
+            "no correction (no term was significant)".to_string()
+        } else {
+            format!("the corrections {}", terms.join(", "))
+        },
+        r.verdict.effect
+    );
+    s += if whole {
+        "  terzaghi node --ros-args --params-file corrected.yaml"
+    } else {
+        "With the robot's own parameters:\n  terzaghi node --ros-args --params-file ROBOT.yaml --params-file corrected.yaml"
+    };
+    s
 }
 
 fn write_index(out: &Path, legs: usize, reports: &[(PathBuf, serde_json::Value)]) -> Result<()> {

@@ -6,9 +6,9 @@ use super::Opened;
 use super::csv_rows::{CSV_HEADER, CsvRows};
 use super::files::{refuse_existing_recording, write_atomically};
 use crate::config::{NodeConfig, ParamMap, RosArgs, defaults, load_params, parse_value};
-use crate::ident::{Estimate, Sample};
+use crate::ident::{Estimate, FitSums, Sample};
 use crate::model::Regime;
-use crate::msgs::{DecodeInto, JointState, LegForce, ModelParams, RosMessage, WrenchStamped};
+use crate::msgs::{DecodeInto, JointState, LegForce, ModelParams, RosMessage, Time, WrenchStamped};
 use crate::node::core::{CoreMode, LegOutput, Matched, NodeCore};
 use crate::node::matcher::{FtMatcher, Match, usable_stamp_ns};
 use crate::record::read::{MessageView, Scan, Source, TopicInfo, same_type, scan_topics};
@@ -40,6 +40,38 @@ pub struct Row {
     pub expected_reading_lift_n: f64,
 }
 
+/// How far one leg's predictions lie from its measurements, over the rows that have one: the
+/// bare model's and the expected F/T reading's (the corrected model's, for a leg with
+/// corrections), drag and lift each.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct RowErrors {
+    pub bare: [FitSums; 2],
+    pub expected: [FitSums; 2],
+}
+
+impl RowErrors {
+    pub fn add(&mut self, r: &Row) {
+        let (Some(d), Some(l)) = (r.measured_drag_n, r.measured_lift_n) else {
+            return;
+        };
+        self.bare[0].add(r.bare_drag_n, d);
+        self.bare[1].add(r.bare_lift_n, l);
+        self.expected[0].add(r.expected_reading_drag_n, d);
+        self.expected[1].add(r.expected_reading_lift_n, l);
+    }
+
+    /// Rows with a measurement.
+    pub fn samples(&self) -> u64 {
+        self.bare[0].samples()
+    }
+
+    /// RMSE over drag and lift together (N) of `sums` (`bare` or `expected`).
+    pub fn rmse_n(sums: &[FitSums; 2]) -> f64 {
+        let (d, l) = (sums[0].fit().rmse, sums[1].fit().rmse);
+        (0.5 * (d * d + l * l)).sqrt()
+    }
+}
+
 /// What the re-evaluation produces besides rows, for an MCAP output.
 pub enum Output<'a> {
     /// A recorded input, as it was.
@@ -57,10 +89,15 @@ pub struct Summary {
     pub skipped_topics: Vec<String>,
     /// Messages that did not decode (counted, skipped).
     pub undecodable: u64,
+    /// Samples of a CSV log without a usable time (counted, skipped).
+    pub skipped_samples: u64,
     pub complete: bool,
     pub stopped: Option<String>,
     /// Final estimate per leg with F/T.
     pub estimates: Vec<Option<Estimate>>,
+    /// Per leg, how far its predictions lie from its measurements.
+    #[serde(skip)]
+    pub errors: Vec<RowErrors>,
 }
 
 /// The node parameters recorded in a session, if any (`terzaghi_params` metadata), with the
@@ -244,32 +281,54 @@ pub fn measured_samples<'a>(
     Ok((out, sum))
 }
 
-/// Runs the inputs of `source` through `core`: `on_row` gets every prediction next to its
-/// measurement, `on_output` every input, prediction and parameter message.
-fn run_core(
-    source: Source,
-    mut core: NodeCore,
-    mut on_row: impl FnMut(&Row),
-    mut on_output: impl FnMut(Output),
-) -> Result<Summary, RecordError> {
-    let cfg = core.config().clone();
-    let has_ft: Vec<bool> = cfg.legs.iter().map(|l| l.ft_topic.is_some()).collect();
-    let mut rows = 0u64;
-    let mut outputs: Vec<LegOutput> = Vec::new();
-    let mut params = Vec::new();
-    let mut matches: Vec<(usize, Matched)> = Vec::new();
-    let mut sum = scan_inputs(source, &cfg, |input, scan, m| {
-        let log = m.log_time_ns;
-        on_output(Output::Input(scan, m));
+/// The node core run offline: inputs in, rows and output messages out.
+struct Driver {
+    core: NodeCore,
+    has_ft: Vec<bool>,
+    rows: u64,
+    errors: Vec<RowErrors>,
+    outputs: Vec<LegOutput>,
+    params: Vec<(usize, ModelParams)>,
+    matches: Vec<(usize, Matched)>,
+}
+
+impl Driver {
+    fn new(core: NodeCore) -> Driver {
+        Driver {
+            has_ft: core
+                .config()
+                .legs
+                .iter()
+                .map(|l| l.ft_topic.is_some())
+                .collect(),
+            errors: vec![RowErrors::default(); core.legs()],
+            core,
+            rows: 0,
+            outputs: Vec::new(),
+            params: Vec::new(),
+            matches: Vec::new(),
+        }
+    }
+
+    /// One input, received at `log_ns`: `on_row` gets every prediction next to its measurement,
+    /// `on_output` every prediction and parameter message.
+    fn input(
+        &mut self,
+        input: Input,
+        log_ns: u64,
+        on_row: &mut impl FnMut(&Row),
+        on_output: &mut impl FnMut(Output),
+    ) {
+        let core = &mut self.core;
         match input {
             Input::Joints(js) => {
-                outputs.clear();
-                core.on_joint_state(js, &mut outputs);
-                for o in &outputs {
-                    on_output(Output::Prediction(log, o));
-                    if !has_ft[o.leg] {
+                self.outputs.clear();
+                core.on_joint_state(js, &mut self.outputs);
+                for o in &self.outputs {
+                    on_output(Output::Prediction(log_ns, o));
+                    if !self.has_ft[o.leg] {
                         let f = &o.force;
-                        rows += 1;
+                        self.rows += 1;
                         on_row(&Row {
                             t_s: f.header.stamp.to_secs(),
                             leg: o.leg,
@@ -293,19 +352,19 @@ fn run_core(
             }
             Input::Wrench(leg, w) => core.on_wrench(leg, w),
         }
-        core.take_params(&mut params);
-        for (leg, p) in params.drain(..) {
-            on_output(Output::Params(log, leg, &p));
+        core.take_params(&mut self.params);
+        for (leg, p) in self.params.drain(..) {
+            on_output(Output::Params(log_ns, leg, &p));
         }
-        core.take_matches(&mut matches);
-        for (leg, mt) in matches.drain(..) {
+        core.take_matches(&mut self.matches);
+        for (leg, mt) in self.matches.drain(..) {
             let Some(r) = core.row_prediction(leg, &mt) else {
                 continue;
             };
             let p = r.medium;
             let (b_k, a, identified) = core.width_in_use(leg).unwrap_or((0.0, 0.0, false));
-            rows += 1;
-            on_row(&Row {
+            self.rows += 1;
+            let row = Row {
                 t_s: mt.t_ns as f64 * 1e-9,
                 leg,
                 beta_rad: mt.beta_rad,
@@ -322,12 +381,93 @@ fn run_core(
                 bare_lift_n: r.bare_n[1],
                 expected_reading_drag_n: r.sensor_n[0],
                 expected_reading_lift_n: r.sensor_n[1],
-            });
+            };
+            self.errors[leg].add(&row);
+            on_row(&row);
         }
+    }
+
+    /// The summary's rows and final estimates.
+    fn finish(self, mut sum: Summary) -> Summary {
+        sum.rows = self.rows;
+        sum.errors = self.errors;
+        sum.estimates = (0..self.core.legs())
+            .map(|i| self.core.estimate(i))
+            .collect();
+        sum
+    }
+}
+
+/// Runs the inputs of `source` through `core`: `on_row` gets every prediction next to its
+/// measurement, `on_output` every input, prediction and parameter message.
+fn run_core(
+    source: Source,
+    core: NodeCore,
+    mut on_row: impl FnMut(&Row),
+    mut on_output: impl FnMut(Output),
+) -> Result<Summary, RecordError> {
+    let cfg = core.config().clone();
+    let mut driver = Driver::new(core);
+    let sum = scan_inputs(source, &cfg, |input, scan, m| {
+        on_output(Output::Input(scan, m));
+        driver.input(input, m.log_time_ns, &mut on_row, &mut on_output);
     })?;
-    sum.rows = rows;
-    sum.estimates = (0..cfg.legs.len()).map(|i| core.estimate(i)).collect();
-    Ok(sum)
+    Ok(driver.finish(sum))
+}
+
+/// Runs the samples of one leg (a CSV log's: time, attack angle, measured drag and lift in the
+/// hip frame) through a node with `cfg`, as the joint states and F/T samples they stand for: a
+/// JointState of the leg's joint and a wrench in its hip frame at each sample's time. `leg` is
+/// the leg of `cfg` they belong to (given an F/T topic if it has none). Samples without a
+/// finite time, angle or force are counted as the node counts such messages.
+pub fn reevaluate_samples(
+    samples: &[Sample],
+    mut cfg: NodeConfig,
+    leg: usize,
+    mut on_row: impl FnMut(&Row),
+) -> Result<Summary, RecordError> {
+    let Some(lc) = cfg.legs.get_mut(leg) else {
+        return Ok(Summary::default());
+    };
+    if lc.ft_topic.is_none() {
+        lc.ft_topic = Some(format!("/{}/ft", lc.name));
+    }
+    lc.ft_frame = crate::config::FtFrame::Hip;
+    let (joint, direction, offset) = (lc.joint.clone(), lc.direction, lc.angle_offset_rad);
+    let mut driver = Driver::new(NodeCore::with_mode(cfg, CoreMode::ReevaluationRows));
+    let mut js = JointState {
+        name: vec![joint],
+        position: vec![0.0],
+        ..Default::default()
+    };
+    let mut w = WrenchStamped::default();
+    let mut sum = Summary {
+        estimates: vec![None; driver.core.legs()],
+        complete: true,
+        ..Default::default()
+    };
+    let mut none = |_: Output| {};
+    for s in samples {
+        let stamp = s
+            .t_s
+            .filter(|t| t.is_finite() && *t >= 0.0)
+            .and_then(|t| Time::from_nanos((t * 1e9).round() as i64));
+        let Some(stamp) = stamp else {
+            sum.skipped_samples += 1;
+            continue;
+        };
+        let log_ns = stamp.to_nanos().max(0) as u64;
+        js.header.stamp = stamp;
+        js.position[0] = direction * s.beta_rad + offset;
+        sum.joint_states += 1;
+        driver.input(Input::Joints(&js), log_ns, &mut on_row, &mut none);
+        w.header.stamp = stamp;
+        w.wrench.force.x = -s.drag_n;
+        w.wrench.force.z = s.lift_n;
+        sum.ft_samples += 1;
+        driver.input(Input::Wrench(leg, &w), log_ns, &mut on_row, &mut none);
+    }
+    Ok(driver.finish(sum))
 }
 
 /// The regime of a leg force message (an unknown code as extraction, the last regime).
@@ -400,17 +540,25 @@ pub fn session_config(
     Ok((cfg, params))
 }
 
-/// A session opened for re-evaluation, with its configuration.
+/// A log opened for re-evaluation, with its configuration.
 struct Prepared {
-    opened: Opened,
+    log: Log,
     cfg: NodeConfig,
     params: ParamMap,
     inputs: u64,
 }
 
+/// What a re-evaluated log is.
+enum Log {
+    Mcap(Box<Opened>),
+    /// A CSV log of one leg (`t_s,beta_rad,drag_n,lift_n`), the leg of the configuration it
+    /// belongs to.
+    Csv(Vec<Sample>, usize),
+}
+
 fn prepare(file: &Path, opts: &ReevaluateOptions) -> Result<Prepared> {
     let Some(opened) = Opened::mcap(file)? else {
-        bail!("{} is not an MCAP file", file.display());
+        return prepare_csv(file, opts);
     };
     let (cfg, params) = session_config(opts.params_file.as_deref(), opened.head(), file)?;
     // Progress counts the inputs read (joint states and F/T), which is what takes the time.
@@ -425,10 +573,53 @@ fn prepare(file: &Path, opts: &ReevaluateOptions) -> Result<Prepared> {
             .sum()
     };
     Ok(Prepared {
-        opened,
+        log: Log::Mcap(Box::new(opened)),
         cfg,
         params,
         inputs,
+    })
+}
+
+/// A CSV log of one leg with the parameters of `opts.params_file` (a CSV log carries none): the
+/// leg is the configuration's only one, or the one named as the file.
+fn prepare_csv(file: &Path, opts: &ReevaluateOptions) -> Result<Prepared> {
+    let Some(params_file) = opts.params_file.as_deref() else {
+        bail!(
+            "{} is a CSV log, which carries no node parameters: pass --params-file (a corrected.yaml of terzaghi diagnose, or the robot's parameters)",
+            file.display()
+        );
+    };
+    let samples = crate::dataset::read_samples_csv(file)?;
+    let ros = RosArgs {
+        params_files: vec![params_file.to_path_buf()],
+        ..Default::default()
+    };
+    let params = load_params(&ros, "terzaghi", "/")?;
+    let cfg = NodeConfig::from_params(&params, "terzaghi", "/", &[])?;
+    let stem = file
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let leg = match cfg.legs.len() {
+        1 => 0,
+        _ => cfg.legs.iter().position(|l| l.name == stem).ok_or_else(|| {
+            anyhow!(
+                "{} is a CSV log of one leg, and {} has several ({}): name the log after its leg",
+                file.display(),
+                params_file.display(),
+                cfg.legs
+                    .iter()
+                    .map(|l| l.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        })?,
+    };
+    Ok(Prepared {
+        inputs: 2 * samples.len() as u64,
+        log: Log::Csv(samples, leg),
+        cfg,
+        params,
     })
 }
 
@@ -437,13 +628,35 @@ impl Prepared {
         Reevaluation {
             summary,
             config: self.cfg,
-            topics: self
-                .opened
-                .head()
-                .topics
-                .iter()
-                .map(|t| t.topic.clone())
-                .collect(),
+            topics: match &self.log {
+                Log::Mcap(opened) => opened
+                    .head()
+                    .topics
+                    .iter()
+                    .map(|t| t.topic.clone())
+                    .collect(),
+                Log::Csv(..) => Vec::new(),
+            },
+        }
+    }
+
+    /// Re-evaluates the log into rows; `input` is called once per input read.
+    fn rows(
+        &self,
+        on_row: impl FnMut(&Row),
+        mut input: impl FnMut(),
+    ) -> Result<Summary, RecordError> {
+        match &self.log {
+            Log::Mcap(opened) => reevaluate_rows(opened.source(), self.cfg.clone(), on_row, |o| {
+                if let Output::Input(..) = o {
+                    input();
+                }
+            }),
+            Log::Csv(samples, leg) => {
+                let s = reevaluate_samples(samples, self.cfg.clone(), *leg, on_row);
+                (0..2 * samples.len()).for_each(|_| input());
+                s
+            }
         }
     }
 }
@@ -479,12 +692,9 @@ pub fn reevaluate_file(
         total: p.inputs,
         report: opts.progress.as_mut(),
     };
-    let s = reevaluate_rows(p.opened.source(), p.cfg.clone(), on_row, |o| {
-        if let Output::Input(..) = o {
-            progress.input();
-        }
-    })
-    .with_context(|| file.display().to_string())?;
+    let s = p
+        .rows(on_row, || progress.input())
+        .with_context(|| file.display().to_string())?;
     Ok(p.done(s))
 }
 
@@ -524,20 +734,14 @@ pub fn reevaluate_to_csv(
             // A writer that failed has hung up; its error is reported below.
             let _ = tx.send(std::mem::replace(batch, Vec::with_capacity(BATCH)));
         };
-        let s = reevaluate_rows(
-            p.opened.source(),
-            p.cfg.clone(),
+        let s = p.rows(
             |r| {
                 batch.push(*r);
                 if batch.len() == BATCH {
                     send(&mut batch);
                 }
             },
-            |o| {
-                if let Output::Input(..) = o {
-                    progress.input();
-                }
-            },
+            || progress.input(),
         );
         send(&mut batch);
         drop(tx);
@@ -562,6 +766,12 @@ pub fn reevaluate_to_mcap(
 ) -> Result<Reevaluation> {
     refuse_existing_recording(out, overwrite)?;
     let p = prepare(file, &opts)?;
+    let Log::Mcap(opened) = &p.log else {
+        bail!(
+            "{} is a CSV log: it re-evaluates into CSV rows (-o OUT.csv), not into a session",
+            file.display()
+        );
+    };
     let cfg = &p.cfg;
     let topics = crate::config::names::OutputTopics::of(cfg, &[]);
     let mut progress = Progress {
@@ -575,7 +785,7 @@ pub fn reevaluate_to_mcap(
         let mut writer = SessionWriter::new(w, ropts)?;
         let mut err: Option<RecordError> = None;
         let s = reevaluate(
-            p.opened.source(),
+            opened.source(),
             cfg.clone(),
             |_| {},
             |o| {
