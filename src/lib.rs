@@ -23,12 +23,15 @@
 //! - [`dem`]: runs of the DEM testbed (reading, checking, writing as sessions), the models'
 //!   fidelity against a campaign, and the diagnosis checked on sessions built from its runs.
 //! - [`demo`]: the six-legged robot walking through the node, for `terzaghi demo`.
+//! - [`closed_loop`]: the corrected model checked on strokes its diagnosis did not see, through
+//!   the node, against the bare model (demo, generated cases, DEM campaign).
 //! - [`cli`]: the `terzaghi` command line, over all of the above.
 //!
 //! Re-evaluating and diagnosing a recording from Rust, without the command line: see
 //! [`session`].
 
 pub mod cli;
+pub mod closed_loop;
 pub mod config;
 pub mod dataset;
 pub mod dem;

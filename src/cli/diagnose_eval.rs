@@ -38,6 +38,12 @@ pub struct DiagnoseEvalArgs {
     /// only these.
     #[arg(long, value_name = "DIR")]
     pub dem: Option<std::path::PathBuf>,
+    /// Instead of scoring the verdicts, close the loop: diagnose the first two thirds of each
+    /// session's strokes and predict the rest through the node, with the bare model and with
+    /// the corrected model the diagnosis wrote (the demo's six legs, --cases generated
+    /// sessions, and with --dem the DEM cases).
+    #[arg(long)]
+    pub closed_loop: bool,
 }
 
 pub fn run_cmd(a: DiagnoseEvalArgs) -> Result<()> {
@@ -63,6 +69,9 @@ pub fn run_cmd(a: DiagnoseEvalArgs) -> Result<()> {
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(2, |n| n.get()));
     if threads == 0 {
         bail!("--threads must be at least 1");
+    }
+    if a.closed_loop {
+        return closed_loop(&a, campaign.as_ref(), threads);
     }
     let bar = if std::io::stderr().is_terminal() && !a.json {
         ProgressBar::new(a.cases as u64)
@@ -130,6 +139,134 @@ pub fn run_cmd(a: DiagnoseEvalArgs) -> Result<()> {
         s += &render_dem(&dem, dir, dem_s);
     }
     print_out(&s)
+}
+
+/// `--closed-loop`: every session's held-out strokes, bare against corrected.
+fn closed_loop(
+    a: &DiagnoseEvalArgs,
+    campaign: Option<&crate::dem::Campaign>,
+    threads: usize,
+) -> Result<()> {
+    use crate::closed_loop::{dem_sessions, demo_sessions, generated_sessions};
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .context("cannot start the worker threads")?;
+    let start = std::time::Instant::now();
+    let (all, seconds) = pool.install(|| {
+        let mut all = demo_sessions(60.0, a.seed);
+        all.extend(generated_sessions(a.cases, a.seed));
+        if let Some(c) = campaign {
+            all.extend(dem_sessions(c, a.seed));
+        }
+        (all, start.elapsed().as_secs_f64())
+    });
+    let (done, failed): (Vec<_>, Vec<_>) = all.into_iter().partition(|r| r.is_ok());
+    let done: Vec<crate::closed_loop::HeldOut> = done.into_iter().filter_map(Result::ok).collect();
+    let failed: Vec<String> = failed
+        .into_iter()
+        .filter_map(|r| r.err().map(|e| e.to_string()))
+        .collect();
+    if a.json {
+        return print_out(
+            &(serde_json::to_string_pretty(&serde_json::json!({
+                "sessions": done,
+                "not_checked": failed,
+            }))? + "\n"),
+        );
+    }
+    print_out(&render_closed_loop(&done, &failed, seconds))
+}
+
+/// The held-out table: per session, what the diagnosis kept and reported, and the node's error
+/// on the strokes it did not see with the bare and the corrected model.
+pub fn render_closed_loop(
+    done: &[crate::closed_loop::HeldOut],
+    failed: &[String],
+    seconds: f64,
+) -> String {
+    let whole = |v: f64| format!("{:.0} %", v.round() + 0.0);
+    let kept = |h: &crate::closed_loop::HeldOut| {
+        if h.kept.is_empty() {
+            "-".to_string()
+        } else {
+            h.kept
+                .iter()
+                .map(|e| e.name())
+                .collect::<Vec<_>>()
+                .join(", ")
+        }
+    };
+    let (wc, wt, wk) = done.iter().fold((4, 5, 4), |(c, t, k), h| {
+        (
+            c.max(h.case.len()),
+            t.max(h.truth.len()),
+            k.max(kept(h).len()),
+        )
+    });
+    let mut out = format!(
+        "Held-out strokes: each session's first {:.0} % of strokes diagnosed, the rest predicted through the node\n\
+         with the bare model (the diagnosis's b_k, a) and the corrected model it wrote; {} sessions in {seconds:.1} s\n\n",
+        100.0 * crate::closed_loop::TRAIN_FRAC,
+        done.len()
+    );
+    out += &format!(
+        "{:<9} {:<wc$} {:<wt$} {:<wk$} {:>8} {:>8} {:>21} {:>21} {:>5}\n",
+        "source",
+        "case",
+        "truth",
+        "kept",
+        "reported",
+        "measured",
+        "bare RMSE (R^2 d/l)",
+        "corrected (R^2 d/l)",
+        "holds"
+    );
+    for h in done {
+        let fit = |f: &crate::closed_loop::HeldOutFit| {
+            format!("{:.3} N ({:.2}/{:.2})", f.rmse_n, f.r2_drag, f.r2_lift)
+        };
+        out += &format!(
+            "{:<9} {:<wc$} {:<wt$} {:<wk$} {:>8} {:>8} {:>21} {:>21} {:>5}\n",
+            h.source,
+            h.case,
+            h.truth,
+            kept(h),
+            if h.kept.is_empty() {
+                "-".to_string()
+            } else {
+                whole(h.reported_pct)
+            },
+            h.measured_pct.map_or("-".to_string(), whole),
+            fit(&h.bare),
+            fit(&h.corrected),
+            if h.holds { "yes" } else { "NO" }
+        );
+    }
+    out += "\n";
+    for source in ["demo", "generated", "dem"] {
+        let of: Vec<&crate::closed_loop::HeldOut> =
+            done.iter().filter(|h| h.source == source).collect();
+        if of.is_empty() {
+            continue;
+        }
+        let corrected: Vec<&&crate::closed_loop::HeldOut> =
+            of.iter().filter(|h| !h.kept.is_empty()).collect();
+        let holds = corrected.iter().filter(|h| h.holds).count();
+        let better = corrected
+            .iter()
+            .filter(|h| h.corrected.rmse_n < h.bare.rmse_n)
+            .count();
+        out += &format!(
+            "{source}: {} sessions, {} with corrections; the corrected model closes at least the reported share less 10 points in {holds} of them, and predicts the held-out strokes better than the bare model in {better}\n",
+            of.len(),
+            corrected.len()
+        );
+    }
+    for f in failed {
+        out += &format!("not checked: {f}\n");
+    }
+    out
 }
 
 /// The DEM cases as a table, and how many variations had their effect found.

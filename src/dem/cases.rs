@@ -400,6 +400,20 @@ fn runs_of<'a>(
         .collect()
 }
 
+/// The session of one case (noise seeded by `seed`): its samples, the model the diagnosis is
+/// told, and the noise level (N).
+pub fn case_session(
+    campaign: &Campaign,
+    case: &DemCase,
+    seed: u64,
+) -> Result<(Vec<Sample>, TerzaghiModel, f64), CaseError> {
+    let runs = runs_of(campaign, case.name, case.runs)?;
+    compose(&runs, &case.sensor, seed).map_err(|message| CaseError::Invalid {
+        case: case.name,
+        message,
+    })
+}
+
 /// Diagnoses one case (noise seeded by `seed`).
 pub fn run_case(
     campaign: &Campaign,
@@ -411,8 +425,7 @@ pub fn run_case(
         case: case.name,
         message,
     };
-    let runs = runs_of(campaign, case.name, case.runs)?;
-    let (samples, model, sigma) = compose(&runs, &case.sensor, seed).map_err(invalid)?;
+    let (samples, model, sigma) = case_session(campaign, case, seed)?;
     let d = diagnose(&model, &samples, opts).map_err(|e| invalid(e.to_string()))?;
     let r = &d.report;
     let effects: Vec<(Effect, f64)> = r

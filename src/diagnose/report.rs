@@ -41,6 +41,12 @@ pub struct Report {
     /// The corrected model of every step taken, fitted on every stroke: what the node predicts
     /// with once given it (`corrected.yaml`). The baseline's `b_k, a` alone without steps.
     pub corrected_model: Corrections,
+    /// Share of the gap the corrected model closes on held-out strokes, %: the last step's
+    /// `gap_closed_pct` it holds (0 with no step).
+    pub corrected_model_gap_closed_pct: f64,
+    /// Steps whose fit left the terms' physical bounds, with the value that did: the corrected
+    /// model stops before the first of them, unless a later step's fit is within bounds again.
+    pub corrected_model_left_out: Vec<String>,
 }
 
 #[derive(Debug, Clone, serde::Serialize)]
@@ -282,6 +288,22 @@ pub(super) fn analyse(
     };
     let mut steps: Vec<Step> = Vec::new();
     let mut current = base.clone();
+    // The corrected model the node is given: every step's terms, as long as their fit stays
+    // within the terms' physical bounds (a step whose fit leaves them, a negative b_k say,
+    // explains part of the gap but is no model to predict with).
+    let length_m = ctx.model.plate().length_m();
+    let mut admissible = (corrected_model(ctx, &base), 0.0);
+    let mut left_out: Vec<String> = Vec::new();
+    let mut admit = |f: &Fit, admissible: &mut (Corrections, f64)| {
+        let c = corrected_model(ctx, f);
+        match c.validate(length_m) {
+            Ok(()) => *admissible = (c, closed(f.heldout_mse())),
+            Err(e) => left_out.push(format!(
+                "{} ({e})",
+                f.design.effects.last().map_or("baseline", |e| e.name())
+            )),
+        }
+    };
     let mut remaining: Vec<(Effect, f64)> = Vec::new();
     while real && steps.len() < opts.max_steps {
         let mse = current.heldout_mse();
@@ -337,6 +359,7 @@ pub(super) fn analyse(
             ..step(ctx, &next, mse, t, &closed, excess)
         });
         current = next;
+        admit(&current, &mut admissible);
         remaining.clear();
         if current.heldout_mse() - var <= opts.min_excess_ratio * var {
             break;
@@ -365,6 +388,7 @@ pub(super) fn analyse(
             });
             if f.heldout_mse() < mse {
                 current = f;
+                admit(&current, &mut admissible);
             }
         }
     }
@@ -408,7 +432,8 @@ pub(super) fn analyse(
         },
     };
     let after = current.heldout_n.clone();
-    let corrected_model = corrected_model(ctx, &current);
+    let (corrected_model, corrected_model_gap_closed_pct) = admissible;
+    let corrected_model_left_out = left_out;
 
     let where_ = where_bins(ctx, &base.heldout_n, var);
     let unexplained = real.then(|| {
@@ -471,6 +496,8 @@ pub(super) fn analyse(
             unexplained,
             signatures,
             corrected_model,
+            corrected_model_gap_closed_pct,
+            corrected_model_left_out,
         },
         plot: PlotData {
             beta_rad: ctx.points.iter().map(|p| p.beta_rad).collect(),
