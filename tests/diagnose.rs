@@ -148,6 +148,59 @@ fn a_csv_log_gives_a_report_that_names_the_hidden_effect() {
             html.contains("</html>") && !html.contains("<script src") && !html.contains("<link")
         );
         assert!(html.contains(&format!("<b>{expected}</b>")));
+        // Each step says what shows it, in report.json and in the HTML.
+        for st in r["steps"].as_array().unwrap() {
+            let claim = st["claim"].as_str().unwrap();
+            assert!(html.contains(claim), "{claim}");
+        }
+        // Beside the report, the corrected model as node parameters; re-running the log with
+        // it through the node predicts what the sensor reads better than the bare model does.
+        let params = out_dir.join("corrected.yaml");
+        let yaml = std::fs::read_to_string(&params).unwrap();
+        assert!(yaml.contains("ros__parameters:"), "{yaml}");
+        let rows = dir.join("rerun.csv");
+        ok(&terzaghi(&[
+            "replay",
+            dir.join("session.csv").to_str().unwrap(),
+            "--reevaluate",
+            "--params-file",
+            params.to_str().unwrap(),
+            "-o",
+            rows.to_str().unwrap(),
+        ]));
+        let mut rdr = csv::Reader::from_path(&rows).unwrap();
+        let h = rdr.headers().unwrap().clone();
+        let col = |name: &str| h.iter().position(|c| c == name).unwrap();
+        let (md, ml, bd, bl, ed, el) = (
+            col("measured_drag_n"),
+            col("measured_lift_n"),
+            col("bare_drag_n"),
+            col("bare_lift_n"),
+            col("expected_reading_drag_n"),
+            col("expected_reading_lift_n"),
+        );
+        let (mut bare, mut expected_sse, mut n) = (0.0, 0.0, 0);
+        for rec in rdr.records() {
+            let rec = rec.unwrap();
+            let f = |i: usize| rec[i].parse::<f64>().unwrap();
+            bare += (f(md) - f(bd)).powi(2) + (f(ml) - f(bl)).powi(2);
+            expected_sse += (f(md) - f(ed)).powi(2) + (f(ml) - f(el)).powi(2);
+            n += 1;
+        }
+        assert!(n > 1000, "{n} rows");
+        if expected == "none" {
+            assert!(!yaml.contains("corrections:"), "{yaml}");
+            assert_eq!(bare, expected_sse);
+        } else {
+            assert!(
+                yaml.contains(&format!("effects: [\"{expected}\"")),
+                "{yaml}"
+            );
+            assert!(
+                expected_sse < 0.5 * bare,
+                "{expected}: {expected_sse} against {bare}"
+            );
+        }
     }
 }
 
@@ -555,11 +608,121 @@ fn on_the_dem_campaign_the_varied_effect_is_reported() {
         "{}",
         base["report"]["summary"]
     );
-    // The report keeps the shape tools read: verdict, steps, candidates.
+    // The report keeps the shape tools read: verdict, steps, candidates; and every step says
+    // what shows it, beyond its term closing part of the gap.
     for c in dem {
         let r = &c["report"];
         assert!(r["verdict"]["effect"].is_string());
         assert!(r["steps"].is_array());
         assert_eq!(r["candidates"].as_array().unwrap().len(), 9);
+        for st in r["steps"].as_array().unwrap() {
+            assert!(st["basis"].is_string() && !st["claim"].as_str().unwrap().is_empty());
+        }
     }
+    // The LIGGGHTS beds are not cohesive, and nobody said they were: a cohesion term found by
+    // its form alone, on the base case the verdict's, is reported as what it is, and the
+    // summary makes no claim of cohesion. The cohesive bed still has it among its effects.
+    let verdict = &base["report"]["verdict"];
+    assert_eq!(verdict["effect"], "cohesion", "{verdict}");
+    assert_eq!(verdict["basis"], "form_only");
+    assert!(
+        verdict["claim"]
+            .as_str()
+            .unwrap()
+            .contains("cohesion, or the model's own misfit"),
+        "{verdict}"
+    );
+    let summary = base["report"]["summary"].as_str().unwrap();
+    assert!(
+        summary.contains("The largest is a cohesion-like term")
+            && !summary.contains("The largest is cohesion"),
+        "{summary}"
+    );
+    assert_eq!(case("cohesion")["found"], true);
+    // Where a signature or a contrast shows the effect, the basis says which.
+    let basis = |name: &str, effect: &str| {
+        case(name)["report"]["steps"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|s| s["effect"] == effect)
+            .map(|s| s["basis"].as_str().unwrap().to_string())
+            .unwrap_or_default()
+    };
+    assert_eq!(basis("sensor_bias", "sensor_bias"), "force_out_of_medium");
+    assert_eq!(basis("surface_level", "hip_height"), "onset_angle");
+    assert_eq!(basis("density", "compaction"), "contrast");
+    assert_eq!(basis("speed", "rate"), "contrast");
+}
+
+/// The loop closed on strokes the diagnosis did not see: the first two thirds of each session
+/// diagnosed, the rest predicted through the node with the bare and the corrected model.
+#[test]
+fn the_corrected_model_closes_the_reported_share_on_held_out_strokes() {
+    let campaign = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/dem/campaign");
+    let out = ok(&terzaghi(&[
+        "diagnose-eval",
+        "--closed-loop",
+        "--cases",
+        "26",
+        "--dem",
+        campaign.to_str().unwrap(),
+        "--json",
+    ]));
+    let v: Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(
+        v["not_checked"],
+        serde_json::json!([]),
+        "every session is checked"
+    );
+    let sessions = v["sessions"].as_array().unwrap();
+    let of = |source: &str| -> Vec<&Value> {
+        sessions.iter().filter(|s| s["source"] == source).collect()
+    };
+    let (demo, generated, dem) = (of("demo"), of("generated"), of("dem"));
+    assert_eq!((demo.len(), generated.len(), dem.len()), (6, 26, 14));
+    let rmse = |s: &Value, which: &str| s[which]["rmse_n"].as_f64().unwrap();
+    let kept = |s: &Value| !s["kept"].as_array().unwrap().is_empty();
+    // The demo's legs: the hidden surcharge is among the corrections, and they close on the
+    // held-out strokes what the diagnosis reported.
+    for s in &demo {
+        assert!(s["kept"].to_string().contains("surcharge"), "{s}");
+        assert_eq!(s["holds"], true, "{s}");
+        assert!(rmse(s, "corrected") < rmse(s, "bare"), "{s}");
+    }
+    // Generated sessions: every one with corrections holds and predicts better; one without is
+    // predicted alike both ways.
+    let corrected: Vec<&&Value> = generated.iter().filter(|s| kept(s)).collect();
+    assert!(
+        corrected.len() >= 15,
+        "{} with corrections",
+        corrected.len()
+    );
+    for s in &generated {
+        if kept(s) {
+            assert_eq!(s["holds"], true, "{s}");
+            assert!(rmse(s, "corrected") < rmse(s, "bare"), "{s}");
+        } else {
+            let (c, b) = (rmse(s, "corrected"), rmse(s, "bare"));
+            assert!((c - b).abs() <= 1e-9 * b, "{s}");
+        }
+    }
+    // DEM: every case gets corrections that predict its held-out strokes better; they close the
+    // reported share within 10 points except in three, which the README names: the strokes at
+    // rising speeds (flat plate and C-leg) are predicted at speeds the first strokes did not
+    // reach, and the offset's cohesion-like companion generalises less than reported.
+    let expected_misses = ["cleg_speed_sensor_delay", "sensor_bias", "speed"];
+    let mut misses: Vec<&str> = Vec::new();
+    for s in &dem {
+        assert!(kept(s), "{s}");
+        assert!(rmse(s, "corrected") < rmse(s, "bare"), "{s}");
+        if s["holds"] != true {
+            misses.push(s["case"].as_str().unwrap());
+        }
+    }
+    misses.sort();
+    assert_eq!(
+        misses, expected_misses,
+        "the DEM cases whose held-out share falls short"
+    );
 }

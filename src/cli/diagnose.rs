@@ -60,6 +60,10 @@ pub struct DiagnoseArgs {
     /// Folds of whole strokes for the held-out scores.
     #[arg(long, default_value_t = 5)]
     pub folds: usize,
+    /// The medium is known to be cohesive (moist sand, clay): a cohesion term found by its form
+    /// alone is reported as cohesion, rather than as "cohesion, or the model's own misfit".
+    #[arg(long)]
+    pub cohesive: bool,
     /// Print the report(s) as JSON instead of a text summary.
     #[arg(long)]
     pub json: bool,
@@ -94,6 +98,7 @@ fn options(a: &DiagnoseArgs) -> Result<DiagnoseFileOptions> {
         leg: a.leg.clone(),
         analysis: DiagnoseOptions {
             folds: a.folds,
+            cohesive_medium: a.cohesive,
             ..Default::default()
         },
         ..Default::default()
@@ -178,16 +183,7 @@ fn render(leg: &str, r: &Report, dir: &Path) -> String {
             "  significant effects: {}\n",
             r.steps
                 .iter()
-                .map(|st| format!(
-                    "{} {:.0} %{}",
-                    st.effect,
-                    st.share_of_gap_pct,
-                    if st.evidence == "held_out+direct" {
-                        " (also seen directly)"
-                    } else {
-                        ""
-                    }
-                ))
+                .map(|st| format!("{} {:.0} % ({})", st.effect, st.share_of_gap_pct, st.claim))
                 .collect::<Vec<_>>()
                 .join(", ")
         );
@@ -199,6 +195,12 @@ fn render(leg: &str, r: &Report, dir: &Path) -> String {
         );
     }
     s += &format!("  report: {}\n", dir.join("report.html").display());
+    if !r.corrected_model_left_out.is_empty() {
+        s += &format!(
+            "  left out of the corrected model: {}\n",
+            r.corrected_model_left_out.join("; ")
+        );
+    }
     s
 }
 

@@ -55,6 +55,9 @@ pub struct DiagnoseOptions {
     pub max_steps: usize,
     /// Penalty per parameter, in units of `noise variance x ln(residuals) / residuals`.
     pub penalty: f64,
+    /// The medium is known to be cohesive (moist sand, clay): a cohesion term found by its form
+    /// alone is then reported as cohesion, not as "cohesion, or the model's own misfit".
+    pub cohesive_medium: bool,
 }
 
 impl Default for DiagnoseOptions {
@@ -68,6 +71,7 @@ impl Default for DiagnoseOptions {
             step_pct: 5.0,
             max_steps: 4,
             penalty: 2.0,
+            cohesive_medium: false,
         }
     }
 }

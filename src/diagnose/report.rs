@@ -163,6 +163,31 @@ pub struct Step {
     /// `rate` above the session's lowest speed): the gap the baseline leaves on the strokes it
     /// does not reach, fitted to them alone, against the whole session's.
     pub contrast: Option<Contrast>,
+    /// What shows the effect beyond its term closing part of the gap: a direct signature, a
+    /// contrast between strokes, or nothing but the term's form.
+    pub basis: Basis,
+    /// What the step says of the robot and its medium, worded by its basis: a term found by its
+    /// form alone is named for what it is, not for the cause it would have in another medium.
+    pub claim: String,
+}
+
+/// What shows an effect, beyond its term closing part of the gap on held-out strokes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Basis {
+    /// Force measured while the leg is out of the medium (a sensor offset).
+    ForceOutOfMedium,
+    /// The measured forces aligning with the predicted ones only when shifted later in time,
+    /// or their onset moving later with speed (a delay).
+    Alignment,
+    /// The angle at which force first appears, against the predicted one (a surface level).
+    OnsetAngle,
+    /// The strokes the effect reaches against those it does not (a change over the session, a
+    /// speed).
+    Contrast,
+    /// Nothing but the form of its term: it closes part of the gap, and another effect of the
+    /// same form, or the model's own misfit, would do as well.
+    FormOnly,
 }
 
 /// The session's own counterpart of an effect that reaches only some strokes.
@@ -191,6 +216,10 @@ pub struct Verdict {
     pub heldout_psi_after: f64,
     /// Share of the gap closed by all greedy steps, %.
     pub all_steps_gap_closed_pct: f64,
+    /// The named effect's basis and what the report says of it (see [`Step::claim`]); none for
+    /// `none` and `unexplained`.
+    pub basis: Option<Basis>,
+    pub claim: String,
 }
 
 /// Per analysed point: angle, speed, measurement, held-out prediction before and after the
@@ -393,6 +422,11 @@ pub(super) fn analyse(
         }
     }
 
+    for st in &mut steps {
+        st.basis = basis_of(st, &signatures);
+        st.claim = claim(st.effect, st.basis, opts.cohesive_medium);
+    }
+
     // The verdict: the significant effect with the largest share of the gap, if that share is
     // material; otherwise `unexplained` (a real gap) or `none`.
     let named = steps
@@ -413,6 +447,8 @@ pub(super) fn analyse(
                 heldout_psi_before: psi_before,
                 heldout_psi_after: alone.heldout_psi_after,
                 all_steps_gap_closed_pct: all_closed,
+                basis: Some(st.basis),
+                claim: st.claim.clone(),
             }
         }
         None => Verdict {
@@ -429,6 +465,12 @@ pub(super) fn analyse(
                 psi(ctx, &current.heldout_n)
             },
             all_steps_gap_closed_pct: all_closed,
+            basis: None,
+            claim: if real {
+                "an effect no candidate term explains, or the model's own misfit".into()
+            } else {
+                "the model fits to the noise level".into()
+            },
         },
     };
     let after = current.heldout_n.clone();
@@ -549,6 +591,8 @@ fn step(
         evidence: "held_out",
         direct_share_of_gap_pct: None,
         contrast: None,
+        basis: Basis::FormOnly,
+        claim: String::new(),
     }
 }
 
@@ -946,24 +990,23 @@ fn summary(
             steps
                 .iter()
                 .map(|st| format!(
-                    "{} ({}, {:.0} % of the gap{})",
-                    st.effect,
-                    describe(st.effect),
+                    "{}: {}, {:.0} % of the gap",
+                    named(st.effect, &st.claim),
+                    st.claim,
                     st.share_of_gap_pct,
-                    if st.evidence == "held_out+direct" {
-                        ", also seen directly"
-                    } else {
-                        ""
-                    }
                 ))
                 .collect::<Vec<_>>()
                 .join("; ")
         );
     }
     if v.effect != "unexplained" {
+        let e = Effect::from_name(&v.effect);
         s += &format!(
             "The largest is {}: alone it closes {:.0} % of the gap, and held-out Psi goes from {:.3} to {:.3}.",
-            v.effect, v.gap_closed_pct, v.heldout_psi_before, v.heldout_psi_after
+            e.map_or(v.effect.clone(), |e| named(e, &v.claim)),
+            v.gap_closed_pct,
+            v.heldout_psi_before,
+            v.heldout_psi_after
         );
         if steps.len() > 1 {
             s += &format!(
@@ -1024,6 +1067,53 @@ fn summary(
         s += ".";
     }
     s
+}
+
+/// What shows step `st`'s effect beyond its term's form.
+fn basis_of(st: &Step, sig: &Signatures) -> Basis {
+    match st.effect {
+        Effect::SensorBias if st.evidence != "held_out" => Basis::ForceOutOfMedium,
+        Effect::SensorLag if st.evidence != "held_out" => Basis::Alignment,
+        Effect::HipHeight if sig.onset.significant => Basis::OnsetAngle,
+        Effect::Compaction | Effect::Rate if st.contrast.is_some() => Basis::Contrast,
+        _ => Basis::FormOnly,
+    }
+}
+
+/// What a step found on `basis` says of the robot and its medium. A cohesion term found by its
+/// form alone, in a medium not described as cohesive, is a strength proportional to the
+/// submerged area and no more: the model's own misfit takes that form too (it does on the
+/// non-cohesive DEM beds).
+fn claim(e: Effect, basis: Basis, cohesive_medium: bool) -> String {
+    let seen = match basis {
+        Basis::ForceOutOfMedium => {
+            "seen directly: force measured while the leg is out of the medium"
+        }
+        Basis::Alignment => "seen directly: the forces align with the model only shifted later",
+        Basis::OnsetAngle => "seen directly: force appears at another angle than predicted",
+        Basis::Contrast => "seen in the strokes it reaches against those it does not",
+        Basis::FormOnly => "by the form of its term alone",
+    };
+    match (e, basis, cohesive_medium) {
+        (Effect::Cohesion, Basis::FormOnly, false) => format!(
+            "{}: cohesion, or the model's own misfit ({seen}; the medium was not described as cohesive)",
+            describe(e)
+        ),
+        (Effect::Cohesion, _, true) => format!(
+            "cohesion: {}, in a medium described as cohesive ({seen})",
+            describe(e)
+        ),
+        _ => format!("{} ({seen})", describe(e)),
+    }
+}
+
+/// How a summary names a step's effect: by its claim where the claim is not the effect's name.
+fn named(e: Effect, claim: &str) -> String {
+    if e == Effect::Cohesion && !claim.starts_with("cohesion:") {
+        "a cohesion-like term".into()
+    } else {
+        e.name().into()
+    }
 }
 
 fn describe(e: Effect) -> &'static str {

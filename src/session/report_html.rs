@@ -26,6 +26,7 @@ pub fn html(leg: &str, d: &Diagnosis) -> Result<String> {
             )
         }
     );
+    s += &format!("<p>What it says: {}.</p>\n", escape(&r.verdict.claim));
     s += &format!("<p>{}</p>\n", escape(&r.summary));
     s += &facts_table(r);
     s += "<h2>Measured and predicted forces against attack angle</h2>\n<p>Grey: measured. Blue: baseline model (held-out). Red: with the correction (held-out).</p>\n";
@@ -92,17 +93,18 @@ fn candidates_table(r: &Report) -> String {
     }
     s += "</table>\n";
     if !r.steps.is_empty() {
-        s += "<h2>Significant effects, in order</h2>\n<table><tr><th>step</th><th>effect added</th><th>its share of the gap</th><th>gap closed so far</th><th>held-out RMSE (N)</th><th>held-out Psi</th><th>evidence</th></tr>\n";
+        s += "<h2>Significant effects, in order</h2>\n<table><tr><th>step</th><th>effect added</th><th>its share of the gap</th><th>gap closed so far</th><th>held-out RMSE (N)</th><th>held-out Psi</th><th>evidence</th><th>what it shows</th></tr>\n";
         for (i, st) in r.steps.iter().enumerate() {
             s += &format!(
-                "<tr><td>{}</td><td>{}</td><td>{:.0} %</td><td>{:.0} %</td><td>{:.3}</td><td>{:.4}</td><td>{}</td></tr>\n",
+                "<tr><td>{}</td><td>{}</td><td>{:.0} %</td><td>{:.0} %</td><td>{:.3}</td><td>{:.4}</td><td>{}</td><td style=\"text-align:left\">{}</td></tr>\n",
                 i + 1,
                 st.effect,
                 st.share_of_gap_pct,
                 st.gap_closed_pct,
                 st.heldout_rmse_n,
                 st.heldout_psi,
-                st.evidence
+                escape(&format!("{}: {:?}", st.evidence, st.basis)),
+                escape(&st.claim)
             );
         }
         s += "</table>\n";
