@@ -562,3 +562,139 @@ fn the_log_level_flag_is_honoured() {
         "{stderr}"
     );
 }
+
+/// The loop closed over DDS: a node started from the corrected.yaml `terzaghi diagnose` wrote
+/// for a log publishes, to a Cyclone DDS peer, the same corrected forces (and the bare force,
+/// each correction's part and the expected F/T reading) as `replay --reevaluate` of the node's
+/// own recording with the same file.
+#[test]
+fn a_node_started_from_corrected_yaml_publishes_what_replay_reevaluates() {
+    let _guard = shared();
+    let dir = tempfile::tempdir().unwrap();
+    let case = dir.path().join("case");
+    // Case 3 of the generated rotation hides surcharge.
+    let o = std::process::Command::new(terzaghi())
+        .args(["diagnose-eval", "--export-case", "3", "--export-dir"])
+        .arg(&case)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let info: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(case.join("case.json")).unwrap()).unwrap();
+    let flags: Vec<String> = info["flags"]
+        .as_array()
+        .expect("case.json has the geometry flags")
+        .iter()
+        .map(|f| f.as_str().unwrap().to_string())
+        .collect();
+    let log = case.join("session.csv");
+    let out = dir.path().join("diagnosis");
+    let o = std::process::Command::new(terzaghi())
+        .arg("diagnose")
+        .arg(&log)
+        .arg("--out")
+        .arg(&out)
+        .args(&flags)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let params = out.join("corrected.yaml");
+    let yaml = std::fs::read_to_string(&params).unwrap();
+    assert!(yaml.contains("surcharge"), "{yaml}");
+    let record = dir.path().join("node.mcap");
+    let peer = isolated_command(&python())
+        .arg(repo().join("tests/python/corrected_peer.py"))
+        .arg("--terzaghi")
+        .arg(terzaghi())
+        .arg("--params")
+        .arg(&params)
+        .arg("--log")
+        .arg(&log)
+        .args(["--leg", "session", "--samples", "2000", "--domain", "31"])
+        .arg("--record")
+        .arg(&record)
+        .current_dir(repo().join("tests/python"))
+        .output()
+        .expect("run the Python peer");
+    let stdout = String::from_utf8_lossy(&peer.stdout);
+    assert!(
+        peer.status.success(),
+        "peer failed: {stdout}\n{}",
+        String::from_utf8_lossy(&peer.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_str(stdout.trim()).expect("peer summary");
+    assert_eq!(v["node_exit_code"], 0, "{}", v["node_stderr_tail"]);
+    let got = v["leg_force"].as_object().unwrap();
+    // The node subscribes best effort, as ROS nodes do to match any publisher: a sample can be
+    // lost on the way; what arrives is compared.
+    assert!(
+        got.len() >= 1960,
+        "{} of 2000 joint states answered",
+        got.len()
+    );
+    // The node's own recording, re-evaluated with the same file.
+    let rows = dir.path().join("rows.csv");
+    let o = std::process::Command::new(terzaghi())
+        .arg("replay")
+        .arg(&record)
+        .args(["--reevaluate", "--params-file"])
+        .arg(&params)
+        .arg("-o")
+        .arg(&rows)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let mut rdr = csv::Reader::from_path(&rows).unwrap();
+    let h = rdr.headers().unwrap().clone();
+    let col = |name: &str| h.iter().position(|c| c == name).unwrap();
+    let mut offline = std::collections::HashMap::new();
+    for rec in rdr.records() {
+        let rec = rec.unwrap();
+        let f = |name: &str| rec[col(name)].parse::<f64>().unwrap();
+        offline.insert(
+            (f("t_s") * 1e9).round() as i64,
+            [
+                f("predicted_drag_n"),
+                f("predicted_lift_n"),
+                f("bare_drag_n"),
+                f("bare_lift_n"),
+                f("expected_reading_drag_n"),
+                f("expected_reading_lift_n"),
+            ],
+        );
+    }
+    let mut compared = 0;
+    let mut corrected_differs = false;
+    for (stamp, m) in got {
+        let t: i64 = stamp.parse().unwrap();
+        let want = offline
+            .get(&t)
+            .unwrap_or_else(|| panic!("no re-evaluated row at {t} ns"));
+        let have = [
+            "drag_n",
+            "lift_n",
+            "bare_drag_n",
+            "bare_lift_n",
+            "sensor_drag_n",
+            "sensor_lift_n",
+        ]
+        .map(|k| m[k].as_f64().unwrap());
+        for (w, h) in want.iter().zip(have) {
+            assert!(
+                (w - h).abs() <= 1e-9 * w.abs().max(1.0),
+                "at {t}: {want:?} against {have:?}"
+            );
+        }
+        let wrench = &v["predicted_wrench"][stamp.as_str()];
+        assert_eq!(wrench[0].as_f64(), Some(-have[0]), "at {t}");
+        assert_eq!(wrench[1].as_f64(), Some(have[1]), "at {t}");
+        if m["correction_names"].to_string().contains("surcharge")
+            && (have[0] - have[2]).abs() > 1e-6
+        {
+            corrected_differs = true;
+        }
+        compared += 1;
+    }
+    assert_eq!(compared, got.len());
+    assert!(corrected_differs, "the corrections change some predictions");
+}

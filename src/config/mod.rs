@@ -136,6 +136,14 @@ other_node:
         // The preset's Table 1 fit for a 60 mm plate when no b_k is given.
         let c = load("").unwrap();
         assert_eq!(c.legs[0].width.b_k(), 22.40);
+        // Corrections set as parameters, as a corrected.yaml or `param set` gives them.
+        let c = load(
+            "-p left.corrections.effects:=[sensor_bias] -p left.corrections.sensor_bias.drag_n:=1.5 -p left.corrections.sensor_bias.lift_n:=-0.5",
+        )
+        .unwrap();
+        let k = c.legs[0].corrections.as_ref().unwrap();
+        assert_eq!(k.terms[0].coefficients, vec![1.5, -0.5]);
+        assert!(c.legs[1].corrections.is_none());
     }
 
     #[test]
@@ -152,6 +160,25 @@ other_node:
             ("-p right.phi_deg:=95", "95"),
             ("-p left.length_m:=abc", "abc"),
             ("-r __node:=9bad", "9bad"),
+            // Corrections: of a leg the node does not have, unknown, out of bounds, or on a
+            // model they are not terms of.
+            (
+                "-p rear.corrections.effects:=[surcharge]",
+                "corrections for a leg \"rear\"",
+            ),
+            ("-p left.corrections.effects:=[moisture]", "moisture"),
+            (
+                "-p left.corrections.effects:=[sensor_bias] -p left.corrections.sensor_bias.drag_n:=1e6 -p left.corrections.sensor_bias.lift_n:=0.0",
+                "left.corrections.sensor_bias.drag_n = 1000000",
+            ),
+            (
+                "-p left.corrections.effects:=[sensor_bias]",
+                "left.corrections.sensor_bias.drag_n is required",
+            ),
+            (
+                "-p model:=conventional -p left.corrections.effects:=[sensor_bias] -p left.corrections.sensor_bias.drag_n:=1.0 -p left.corrections.sensor_bias.lift_n:=0.0",
+                "terms of the improved model",
+            ),
         ];
         for (extra, needle) in cases {
             let e = load(extra).unwrap_err().to_string();
