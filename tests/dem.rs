@@ -277,3 +277,79 @@ fn the_committed_campaign_holds_its_figures() {
     );
     assert_eq!(f["samples"].as_u64().unwrap() as usize, base.samples);
 }
+
+/// Six strokes of the committed baseline and its checks (deeper bed, halved time step and
+/// damping, larger box, another levelled bed) joined into one session: the online estimator
+/// stays bounded and converges, with and without `--fit-delta`, near the batch fit of the same
+/// strokes. Each joined stroke is another bed, and the DEM's force builds sooner at entry than
+/// the model's: with `--fit-delta` the change detection fires at strokes' starts, and the
+/// start-up after it sees only a few degrees of angle. Fitted there, `a` ran to its bound of 100
+/// (and `b_k` to 10,000) and stayed; it is now held until the start-up's samples spread.
+#[test]
+fn the_online_estimator_converges_on_six_joined_dem_strokes() {
+    fn with_delta(mut a: Vec<&str>, delta: bool) -> Vec<&str> {
+        if delta {
+            a.push("--fit-delta");
+        }
+        a
+    }
+    let runs = common::repo().join("tests/dem/campaign/runs");
+    let dir = tempfile::tempdir().unwrap();
+    let six = dir.path().join("six.mcap");
+    let mut args: Vec<String> = vec!["import-dem".into()];
+    for r in [
+        "qs_b030_h040",
+        "check_deep",
+        "check_dt_half",
+        "check_damping_half",
+        "check_big_box",
+        "dx_base_s1",
+    ] {
+        args.push(runs.join(format!("{r}.csv")).display().to_string());
+    }
+    args.extend(["-o".into(), six.display().to_string()]);
+    let o = terzaghi(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(o.status.success(), "{}", text(&o));
+    let six = six.to_str().unwrap();
+    for delta in [false, true] {
+        let flag = |a| with_delta(a, delta);
+        let json = |args: Vec<&str>| -> Value {
+            let o = terzaghi(&args);
+            assert!(o.status.success(), "{}", text(&o));
+            serde_json::from_slice(&o.stdout).unwrap()
+        };
+        let trace = dir.path().join(format!("trace_{delta}.csv"));
+        let mut online_args = flag(vec!["identify", six, "--online", "--json"]);
+        online_args.extend(["--trace", trace.to_str().unwrap()]);
+        let online = json(online_args);
+        let batch = json(flag(vec!["fit", six, "--json"]));
+        let f = |v: &Value, k: &str| v[k].as_f64().unwrap();
+        assert!(online["converged_at_s"].is_f64(), "delta {delta}: {online}");
+        for k in ["b_k", "a"] {
+            let rel = f(&online, k) / f(&batch, k) - 1.0;
+            assert!(
+                rel.abs() < 0.15,
+                "delta {delta}: {k} {} against the batch fit's {}",
+                f(&online, k),
+                f(&batch, k)
+            );
+        }
+        // Bounded all along: never near the bounds of b_k and a.
+        let mut rdr = csv::Reader::from_path(&trace).unwrap();
+        let h = rdr.headers().unwrap().clone();
+        let (ib, ia) = (
+            h.iter().position(|c| c == "b_k").unwrap(),
+            h.iter().position(|c| c == "a").unwrap(),
+        );
+        let (mut worst_b, mut worst_a) = (0.0f64, 0.0f64);
+        for rec in rdr.records() {
+            let rec = rec.unwrap();
+            worst_b = worst_b.max(rec[ib].parse::<f64>().unwrap());
+            worst_a = worst_a.max(rec[ia].parse::<f64>().unwrap());
+        }
+        assert!(
+            worst_b < 5.0 && worst_a < 3.0,
+            "delta {delta}: b_k up to {worst_b}, a up to {worst_a}"
+        );
+    }
+}

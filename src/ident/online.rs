@@ -32,6 +32,10 @@ use nalgebra::{Matrix2, Matrix3, Matrix3x2, Vector2, Vector3};
 use serde::Serialize;
 use std::f64::consts::FRAC_PI_2;
 
+/// The share of a stroke's penetration span the start-up's samples must cover before `a` is
+/// fitted (and the Gauss–Newton step takes over).
+pub const STARTUP_SPAN_FRAC: f64 = 0.25;
+
 /// How old information fades.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -262,6 +266,11 @@ pub struct OnlineEstimator {
     // Log-linear start-up: information matrix and vector in (ln b_k, ln a).
     start_info: Matrix2<f64>,
     start_vec: Vector2<f64>,
+    /// Attack angles the start-up's samples span (rad): until they span
+    /// [`STARTUP_SPAN_FRAC`] of a stroke's penetration, `ln a` is held where it started.
+    start_span: (f64, f64),
+    /// `ln a` when the start-up began.
+    start_ln_a: f64,
     est: Estimate,
     changes: Vec<ChangeEvent>,
     converged_at_s: Option<f64>,
@@ -291,6 +300,8 @@ impl OnlineEstimator {
             repeats: 0,
             start_info: Matrix2::zeros(),
             start_vec: Vector2::zeros(),
+            start_span: (f64::INFINITY, f64::NEG_INFINITY),
+            start_ln_a: 0.0,
             est: Estimate {
                 b_k: 0.0,
                 a: 0.0,
@@ -348,6 +359,13 @@ impl OnlineEstimator {
         self.startup_left = o.startup_samples;
         self.start_info = Matrix2::from_diagonal_element(1.0 / o.initial_std_ln.powi(2));
         self.start_vec = self.start_info * Vector2::new(self.theta[0], self.theta[1]);
+        self.start_span = (f64::INFINITY, f64::NEG_INFINITY);
+        self.start_ln_a = self.theta[1];
+    }
+
+    /// Whether the start-up's samples span enough attack angles to tell `b_k` from `a`.
+    fn start_spread(&self) -> bool {
+        self.start_span.1 - self.start_span.0 >= STARTUP_SPAN_FRAC * self.span_rad
     }
 
     fn initial_p(&self) -> Matrix3<f64> {
@@ -425,8 +443,8 @@ impl OnlineEstimator {
             return Err(Skip::NotExcited);
         }
         let (sin_b, cos_b) = f.beta_rad.sin_cos();
-        if self.startup_left > 0 {
-            self.startup_left -= 1;
+        if self.startup_left > 0 || !self.start_spread() {
+            self.startup_left = self.startup_left.saturating_sub(1);
             self.startup_update(f.beta_rad, f.drag_n, f.lift_n, s);
         } else {
             self.gauss_newton_update(f.beta_rad, sin_b, cos_b, f.normal_n, s, dbeta);
@@ -456,8 +474,19 @@ impl OnlineEstimator {
             self.start_info += w * h * h.transpose();
             self.start_vec += w * z * h;
         }
-        if let Some(cov) = self.start_info.try_inverse() {
-            let th = cov * self.start_vec;
+        self.start_span = (self.start_span.0.min(beta), self.start_span.1.max(beta));
+        // Samples over a narrow range of angles tell only `b_k a^(-beta)` there, not `a`: a
+        // local slope of the force's ratio to the model's (the DEM's force builds sooner at
+        // entry) would throw `a` to a bound. Until they spread, `ln a` stays where it was.
+        let mut info = self.start_info;
+        let mut vec = self.start_vec;
+        if !self.start_spread() {
+            let hold = 1.0 / 0.01f64.powi(2);
+            info[(1, 1)] += hold;
+            vec[1] += hold * self.start_ln_a;
+        }
+        if let Some(cov) = info.try_inverse() {
+            let th = cov * vec;
             self.theta[0] = th[0];
             self.theta[1] = th[1];
             self.project();
@@ -574,6 +603,7 @@ impl OnlineEstimator {
             self.p[(1, 1)].max(0.0).sqrt(),
         );
         let o = &self.opts;
+        let spread = self.start_spread();
         let e = &mut self.est;
         e.b_k = b_k;
         e.a = a;
@@ -585,6 +615,7 @@ impl OnlineEstimator {
         e.noise_n = self.noise_var.sqrt();
         e.converged = self.updates_since_reset >= o.converge_min_updates
             && self.startup_left == 0
+            && spread
             && sd0 < o.converge_rel_std
             && sd1 < o.converge_rel_std
             && self.cusum < 0.5 * o.cusum_alarm;
