@@ -61,8 +61,43 @@ criterion_main!(benches, node);
 
 /// The node's configuration for the six-legged robot of `launch_configs/rhex.yaml`.
 fn rhex_config() -> terzaghi::config::NodeConfig {
-    use terzaghi::config::{NodeConfig, defaults, parse_params_yaml};
+    rhex_config_with("")
+}
+
+/// The same robot with corrections on every leg, as a diagnosis writes them: surcharge,
+/// extraction, rate and the sensor's lag (coefficients of the demo's size).
+fn rhex_corrected_config() -> terzaghi::config::NodeConfig {
+    let mut extra = String::new();
+    for leg in [
+        "front_left",
+        "middle_left",
+        "rear_left",
+        "front_right",
+        "middle_right",
+        "rear_right",
+    ] {
+        extra += &format!(
+            "-p {leg}.corrections.effects:=[surcharge,extraction,rate,sensor_lag] \
+             -p {leg}.corrections.surcharge.normal_n_m4:=22500.0 -p {leg}.corrections.surcharge.tangential_n_m4:=500.0 \
+             -p {leg}.corrections.extraction.drag_scale:=-0.8 -p {leg}.corrections.extraction.lift_scale:=-1.2 -p {leg}.corrections.extraction.slope_per_rad:=-40.0 \
+             -p {leg}.corrections.rate.normal_kg_m3:=10.0 -p {leg}.corrections.rate.tangential_kg_m3:=1.0 -p {leg}.corrections.rate.ln_a_per_speed_excess:=0.05 -p {leg}.corrections.rate.scale_per_speed_excess:=0.1 -p {leg}.corrections.rate.speed_exponent:=1.0 \
+             -p {leg}.corrections.typical_speed_rad_s:=4.0 -p {leg}.corrections.sensor_lag.time_constant_s:=0.01 "
+        );
+    }
+    rhex_config_with(&extra)
+}
+
+fn rhex_config_with(ros_args: &str) -> terzaghi::config::NodeConfig {
+    use terzaghi::config::{NodeConfig, defaults, parse_params_yaml, parse_value};
     let mut p = defaults();
+    let words: Vec<&str> = ros_args.split_whitespace().collect();
+    let overrides: Vec<(String, terzaghi::config::ParamValue)> = words
+        .chunks(2)
+        .filter_map(|w| {
+            let (k, v) = w.get(1)?.split_once(":=")?;
+            Some((k.to_string(), parse_value(v)))
+        })
+        .collect();
     p.extend(
         parse_params_yaml(
             include_str!("../launch_configs/rhex.yaml"),
@@ -72,20 +107,29 @@ fn rhex_config() -> terzaghi::config::NodeConfig {
         )
         .unwrap(),
     );
+    p.extend(overrides);
     NodeConfig::from_params(&p, "terzaghi", "/", &[]).unwrap()
 }
 
 /// The node's work for one JointState of six legs, without DDS: what `node_processing`
 /// contains besides the publishes.
 fn node_core(c: &mut Criterion) {
+    node_core_with(c, "node_core_joint_state_6_legs", rhex_config());
+    node_core_with(
+        c,
+        "node_core_joint_state_6_legs_corrected",
+        rhex_corrected_config(),
+    );
+}
+
+fn node_core_with(c: &mut Criterion, name: &str, cfg: terzaghi::config::NodeConfig) {
     use terzaghi::msgs::{Header, JointState, Time};
     use terzaghi::node::NodeCore;
-    let cfg = rhex_config();
     let names: Vec<String> = cfg.legs.iter().map(|l| l.joint.clone()).collect();
     let mut core = NodeCore::new(cfg);
     let mut out = Vec::new();
     let mut k = 0i64;
-    c.bench_function("node_core_joint_state_6_legs", |b| {
+    c.bench_function(name, |b| {
         b.iter(|| {
             k += 1;
             let beta = (k as f64 * 0.004) % std::f64::consts::TAU;
