@@ -146,6 +146,24 @@ pub struct LegForce {
     pub sensor_lift_n: f64,
 }
 
+/// `terzaghi_msgs/Gap` (msgs/msg/Gap.msg)
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct Gap {
+    pub header: Header,
+    pub strokes: u32,
+    pub samples: u64,
+    pub heldout_rmse_n: f64,
+    pub noise_n: f64,
+    pub gap_real: bool,
+    pub verdict: String,
+    pub effects: Vec<String>,
+    pub share_of_gap_pct: Vec<f64>,
+    pub basis: Vec<String>,
+    pub claim: Vec<String>,
+    pub new_effects: Vec<String>,
+    pub error: String,
+}
+
 /// `terzaghi_msgs/ModelParams` (msgs/msg/ModelParams.msg)
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct ModelParams {
@@ -219,6 +237,7 @@ pub fn definition(t: (&str, &str)) -> Option<&'static str> {
         }
         ("terzaghi_msgs", "LegForce") => include_str!("../msgs/msg/LegForce.msg"),
         ("terzaghi_msgs", "ModelParams") => include_str!("../msgs/msg/ModelParams.msg"),
+        ("terzaghi_msgs", "Gap") => include_str!("../msgs/msg/Gap.msg"),
         _ => return None,
     })
 }
@@ -260,6 +279,7 @@ ros_message!(
 );
 ros_message!(LegForce, "terzaghi_msgs", "LegForce", [HEADER, TIME]);
 ros_message!(ModelParams, "terzaghi_msgs", "ModelParams", [HEADER, TIME]);
+ros_message!(Gap, "terzaghi_msgs", "Gap", [HEADER, TIME]);
 
 /// CDR bytes of a message as they travel and as MCAP stores them: the 4-byte encapsulation
 /// header (CDR, little endian) then the payload.

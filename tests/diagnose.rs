@@ -726,3 +726,106 @@ fn the_corrected_model_closes_the_reported_share_on_held_out_strokes() {
         "the DEM cases whose held-out share falls short"
     );
 }
+
+/// The node watching its own gap (gap_check): a six-legged session at 1 kHz, run through the
+/// node's core as a recording; an F/T offset of 10 % of the peak force that appears half way is
+/// reported as a `Gap` naming sensor_bias, which the model does not correct, within 10 strokes;
+/// the same session without it gives no such warning.
+#[test]
+fn the_node_reports_an_offset_that_appears_and_nothing_without_one() {
+    use std::f64::consts::TAU;
+    use terzaghi::session::reevaluate::{Output, reevaluate};
+    use terzaghi::sim::robot::{Gait, Truth, rhex, simulate, write_recording};
+    let (params, cfg) = rhex().unwrap();
+    assert!(cfg.gap_check.every_strokes > 0, "on by default");
+    let truth = Truth {
+        b_k: 24.0,
+        a: 1.9,
+        effects: vec![],
+        magnitude: 0.0,
+        noise_frac: 0.015,
+    };
+    let gait = Gait {
+        seconds: 60.0,
+        rate_hz: 1000.0,
+        mean_speed_rad_s: 4.0,
+        seed: 5,
+    };
+    let clean = simulate(&cfg, &truth, &gait);
+    let t_on = 30.0;
+    let mut offset = clean.clone();
+    for leg in &mut offset.legs {
+        let peak = leg
+            .iter()
+            .map(|s| s.drag_n.abs().max(s.lift_n.abs()))
+            .fold(0.0, f64::max);
+        for s in leg.iter_mut().filter(|s| s.t_s.unwrap() >= t_on) {
+            s.drag_n += 0.1 * peak;
+            s.lift_n += 0.1 * peak;
+        }
+    }
+    let t0_ns = 1_700_000_000_000_000_000i64;
+    let gaps = |session: &terzaghi::sim::robot::Session| {
+        let mut bytes = std::io::Cursor::new(Vec::new());
+        write_recording(&mut bytes, &params, &cfg, session, t0_ns).unwrap();
+        let bytes = bytes.into_inner();
+        let mut out: Vec<(usize, f64, Vec<String>, String)> = Vec::new();
+        reevaluate(
+            &bytes[..],
+            cfg.clone(),
+            |_| {},
+            |o| {
+                if let Output::Gap(_, leg, g) = o {
+                    let t = (g.header.stamp.to_nanos() - t0_ns) as f64 * 1e-9;
+                    out.push((leg, t, g.new_effects.clone(), g.error.clone()));
+                }
+            },
+        )
+        .unwrap();
+        out
+    };
+    let without = gaps(&clean);
+    assert!(without.len() >= 30, "{} diagnoses", without.len());
+    for (leg, t, new, error) in &without {
+        assert!(error.is_empty(), "leg {leg} at {t:.1} s: {error}");
+        assert!(
+            new.is_empty(),
+            "false warning: leg {leg} at {t:.1} s: {new:?}"
+        );
+    }
+    let with = gaps(&offset);
+    for leg in 0..cfg.legs.len() {
+        let first = with
+            .iter()
+            .find(|(l, _, new, _)| *l == leg && new.iter().any(|e| e == "sensor_bias"))
+            .unwrap_or_else(|| panic!("leg {leg}: the offset is never reported: {with:?}"));
+        assert!(
+            first.1 >= t_on,
+            "leg {leg}: reported before it appears: {first:?}"
+        );
+        // Strokes from the offset's start to the report, from the leg's own angle.
+        let angle_at = |t: f64| {
+            let k = offset
+                .t_s
+                .partition_point(|&x| x < t)
+                .min(offset.t_s.len() - 1);
+            offset.legs[leg][k].beta_rad
+        };
+        let mut unwrapped = 0.0;
+        let mut prev = angle_at(t_on);
+        for k in
+            offset.t_s.partition_point(|&x| x < t_on)..offset.t_s.partition_point(|&x| x <= first.1)
+        {
+            let b = offset.legs[leg][k].beta_rad;
+            let d = (b - prev + std::f64::consts::PI).rem_euclid(TAU) - std::f64::consts::PI;
+            unwrapped += d;
+            prev = b;
+        }
+        let strokes = unwrapped.abs() / TAU;
+        eprintln!(
+            "leg {leg}: reported {:.1} s, {strokes:.1} strokes after it appeared",
+            first.1 - t_on
+        );
+        assert!(strokes <= 10.0, "leg {leg}: {strokes:.1} strokes");
+    }
+}

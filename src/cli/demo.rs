@@ -177,6 +177,7 @@ impl Publish for LiveView {
         }
     }
     fn diagnostics(&self, _msg: DiagnosticArray) {}
+    fn gap(&self, _leg: usize, _msg: crate::msgs::Gap) {}
 }
 
 impl Watch for LiveView {

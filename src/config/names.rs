@@ -53,6 +53,8 @@ pub struct LegTopics {
     pub force: String,
     /// `<leg>/model_params` (terzaghi_msgs/ModelParams).
     pub params: String,
+    /// `<leg>/gap` (terzaghi_msgs/Gap).
+    pub gap: String,
 }
 
 /// Every topic the node publishes, resolved under its namespace and node name with `remaps`
@@ -76,6 +78,7 @@ impl OutputTopics {
                     wrench: resolve(&format!("{}/predicted_wrench", l.name)),
                     force: resolve(&format!("{}/leg_force", l.name)),
                     params: resolve(&format!("{}/model_params", l.name)),
+                    gap: resolve(&format!("{}/gap", l.name)),
                 })
                 .collect(),
             diagnostics: resolve("/diagnostics"),

@@ -125,8 +125,28 @@ pub struct NodeConfig {
     pub model_params_rate_hz: f64,
     /// MCAP file to record the session to, if any.
     pub record: Option<PathBuf>,
+    /// The node's own diagnosis of each leg's recent strokes.
+    pub gap_check: GapCheck,
     /// `-r from:=to`, resolved.
     pub remaps: Vec<(String, String)>,
+}
+
+/// How the node diagnoses each leg's recent strokes while it runs (`gap_check.*`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct GapCheck {
+    /// A diagnosis every this many strokes of a leg (0: none).
+    pub every_strokes: usize,
+    /// Of the last this many strokes (at least 4).
+    pub window_strokes: usize,
+}
+
+impl Default for GapCheck {
+    fn default() -> Self {
+        GapCheck {
+            every_strokes: 3,
+            window_strokes: 10,
+        }
+    }
 }
 
 /// Parameters whose change needs a restart (subscriptions and the recorder are made once).
@@ -194,6 +214,15 @@ pub fn defaults() -> ParamMap {
         ParamValue::Double(d.converge_rel_std),
     );
     put("estimator.cusum_alarm", ParamValue::Double(d.cusum_alarm));
+    let g = GapCheck::default();
+    put(
+        "gap_check.every_strokes",
+        ParamValue::Int(g.every_strokes as i64),
+    );
+    put(
+        "gap_check.window_strokes",
+        ParamValue::Int(g.window_strokes as i64),
+    );
     m
 }
 
@@ -394,6 +423,10 @@ impl NodeConfig {
             queue_depth: g.count("queue_depth", 1, 1_000_000)?,
             model_params_rate_hz: positive("model_params_rate_hz")?,
             record,
+            gap_check: GapCheck {
+                every_strokes: g.count("gap_check.every_strokes", 0, 1_000_000)?,
+                window_strokes: g.count("gap_check.window_strokes", 4, 1000)?,
+            },
             remaps: remaps.to_vec(),
         })
     }

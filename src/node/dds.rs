@@ -4,13 +4,15 @@
 
 use super::clock::NodeClock;
 use super::core::{LegOutput, NodeCore};
-use super::handle::{Publish, Topics, diagnostics_done, joint_state_done, wrench_done};
+use super::handle::{Publish, Topics, diagnostics_done, gap_done, joint_state_done, wrench_done};
 use super::latency::Histogram;
 use super::live::Live as LiveView;
 use super::log::{LogSettings, NodeLog};
 use crate::config::{LogLevel, NodeConfig, ParamMap, ParamValue, STARTUP_ONLY};
 use crate::log_site;
-use crate::msgs::{DiagnosticArray, JointState, LegForce, ModelParams, RosMessage, WrenchStamped};
+use crate::msgs::{
+    DiagnosticArray, Gap, JointState, LegForce, ModelParams, RosMessage, WrenchStamped,
+};
 use crate::record::RecordOptions;
 use crate::record::recorder::Recorder;
 use anyhow::{Context as _, Result, anyhow};
@@ -57,6 +59,8 @@ pub struct RunSummary {
 /// What the message tasks share.
 struct Shared {
     core: Mutex<Core>,
+    /// Runs the node's own diagnoses off the message path (none when `gap_check` is off).
+    gap: Option<super::gap_worker::GapWorker>,
     hist: Mutex<Histogram>,
     dropped: AtomicU64,
     log: Arc<NodeLog>,
@@ -85,6 +89,7 @@ struct Pubs {
     wrench: Vec<Publisher<WrenchStamped>>,
     force: Vec<Publisher<LegForce>>,
     params: Vec<Publisher<ModelParams>>,
+    gap: Vec<Publisher<Gap>>,
     diagnostics: Publisher<DiagnosticArray>,
     errors: Arc<AtomicU64>,
     /// Asked, before each write, whether anyone subscribes: writing to nobody costs a DDS
@@ -120,6 +125,9 @@ impl Publish for Pubs {
             l.params[leg].log(&msg);
         }
         self.send(&self.params[leg], msg);
+    }
+    fn gap(&self, leg: usize, msg: Gap) {
+        self.send(&self.gap[leg], msg);
     }
     fn diagnostics(&self, msg: DiagnosticArray) {
         if let Some(l) = &self.live {
@@ -412,7 +420,7 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
     }
     let spinner = node.spinner().context("cannot start the node's spinner")?;
     let spin_task = tokio::spawn(spinner.spin());
-    let (wrench, force, params, diagnostics) = publishers(&mut node, &cfg)?;
+    let (wrench, force, params, gap, diagnostics) = publishers(&mut node, &cfg)?;
 
     let depth = cfg.queue_depth;
     let js_sub = subscription_with_depth::<JointState>(&mut node, &cfg.joint_states_topic, depth)?;
@@ -439,6 +447,14 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
             core: NodeCore::new(cfg.clone()),
             live: live_rx,
         }),
+        gap: if cfg.gap_check.every_strokes > 0 {
+            Some(
+                super::gap_worker::GapWorker::start()
+                    .context("cannot start the diagnosis thread")?,
+            )
+        } else {
+            None
+        },
         hist: Mutex::new(Histogram::default()),
         dropped: AtomicU64::new(0),
         log: log.clone(),
@@ -449,6 +465,7 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
         wrench,
         force,
         params,
+        gap,
         diagnostics,
         errors: publish_errors.clone(),
         node: node.clone(),
@@ -481,6 +498,20 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
         tokio::select! {
             _ = &mut shutdown => break,
             _ = diag_tick.tick() => {
+                if let Some(worker) = &shared.gap {
+                    let mut done = Vec::new();
+                    worker.done(&mut done);
+                    let now = clock.log_time_ns();
+                    for (job, result) in &done {
+                        let warning = {
+                            let core = &mut shared.lock_core().core;
+                            gap_done(recorder.as_deref(), &topics, core, job, result, now, &*pubs)
+                        };
+                        if let Some(w) = warning {
+                            log.log(LogLevel::Warn, &w, log_site!());
+                        }
+                    }
+                }
                 let d = node_status(&shared, &publish_errors, &recorder, record_error.as_deref());
                 watch.report(&shared, recorder.as_deref(), &cfg);
                 let now = clock.log_time_ns();
@@ -664,13 +695,15 @@ type Publishers = (
     Vec<Publisher<WrenchStamped>>,
     Vec<Publisher<LegForce>>,
     Vec<Publisher<ModelParams>>,
+    Vec<Publisher<Gap>>,
     Publisher<DiagnosticArray>,
 );
 
 /// Every leg's publishers (predicted wrench, leg force, model parameters) and `/diagnostics`.
 fn publishers(node: &mut Node, cfg: &NodeConfig) -> Result<Publishers> {
     let topics = crate::config::OutputTopics::of(cfg, &cfg.remaps);
-    let (mut wrench, mut force, mut params) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut wrench, mut force, mut params, mut gap) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for leg in &topics.legs {
         wrench.push(publisher::<WrenchStamped>(node, &leg.wrench)?);
         force.push(publisher::<LegForce>(node, &leg.force)?);
@@ -680,9 +713,11 @@ fn publishers(node: &mut Node, cfg: &NodeConfig) -> Result<Publishers> {
             &leg.params,
             qos_latched(),
         )?);
+        // The latest diagnosis of the leg's own strokes, for subscribers that join later.
+        gap.push(publisher_with_qos::<Gap>(node, &leg.gap, qos_latched())?);
     }
     let diagnostics = publisher::<DiagnosticArray>(node, &topics.diagnostics)?;
-    Ok((wrench, force, params, diagnostics))
+    Ok((wrench, force, params, gap, diagnostics))
 }
 
 /// The recorder, if the configuration asks for one; a failure to start is reported (and shown
@@ -829,6 +864,7 @@ async fn wrench_task(
 ) {
     let mut gaps = SequenceGaps::default();
     let mut params_out = Vec::new();
+    let mut jobs = Vec::new();
     loop {
         let msg = next_sample(&sub, &mut gaps, &sh.dropped).await;
         if let Some(ch) = pubs.live.as_ref().and_then(|l| l.ft[leg].as_ref()) {
@@ -840,6 +876,13 @@ async fn wrench_task(
             let before = skipped_wrenches(core, leg);
             core.on_wrench(leg, &msg);
             core.take_params(&mut params_out);
+            core.take_gap_jobs(&mut jobs);
+            for job in jobs.drain(..) {
+                let leg = job.leg;
+                if !sh.gap.as_ref().is_some_and(|g| g.submit(job)) {
+                    core.gap_job_skipped(leg);
+                }
+            }
             skipped_wrenches(core, leg) - before
         };
         if skipped > 0 {

@@ -3,8 +3,10 @@
 //! record the input. Both transports call these, so both run the same code path.
 
 use super::core::LegOutput;
+use super::core::{GapJob, NodeCore};
 use crate::config::NodeConfig;
-use crate::msgs::{DiagnosticArray, JointState, LegForce, ModelParams, WrenchStamped};
+use crate::diagnose::Report;
+use crate::msgs::{DiagnosticArray, Gap, JointState, LegForce, ModelParams, WrenchStamped};
 use crate::record::recorder::{Record, Recorder};
 use std::sync::Arc;
 
@@ -14,6 +16,7 @@ pub trait Publish {
     fn force(&self, leg: usize, msg: LegForce);
     fn params(&self, leg: usize, msg: ModelParams);
     fn diagnostics(&self, msg: DiagnosticArray);
+    fn gap(&self, leg: usize, msg: Gap);
 }
 
 /// Topic names of what the node reads and writes, resolved once.
@@ -23,6 +26,7 @@ pub struct Topics {
     pub wrench: Vec<Arc<str>>,
     pub force: Vec<Arc<str>>,
     pub params: Vec<Arc<str>>,
+    pub gap: Vec<Arc<str>>,
     pub diagnostics: Arc<str>,
 }
 
@@ -42,6 +46,7 @@ impl Topics {
             wrench: per_leg(|l| &l.wrench),
             force: per_leg(|l| &l.force),
             params: per_leg(|l| &l.params),
+            gap: per_leg(|l| &l.gap),
             diagnostics: out.diagnostics.as_str().into(),
         }
     }
@@ -137,4 +142,35 @@ pub fn diagnostics_done(
         ));
     }
     out.diagnostics(msg);
+}
+
+/// A diagnosis of the node's own recent strokes came back: the core makes its `Gap` message,
+/// which is recorded and published. Returns the leg's warning when this report starts one (an
+/// effect the leg's model does not correct), for the log.
+pub fn gap_done(
+    rec: Option<&Recorder>,
+    topics: &Topics,
+    core: &mut NodeCore,
+    job: &GapJob,
+    result: &Result<Report, String>,
+    log_ns: u64,
+    out: &impl Publish,
+) -> Option<String> {
+    let had = !core.gap_warning(job.leg).is_empty();
+    let msg = core.on_gap_report(job, result);
+    let warning = core.gap_warning(job.leg);
+    if let Some(r) = rec {
+        r.record(Record::Gap(
+            topics.gap[job.leg].clone(),
+            msg.clone(),
+            log_ns,
+        ));
+    }
+    out.gap(job.leg, msg);
+    (!had && !warning.is_empty()).then(|| {
+        format!(
+            "leg {}: its own diagnosis finds {warning}, which the model does not correct",
+            core.leg_name(job.leg).unwrap_or("?")
+        )
+    })
 }

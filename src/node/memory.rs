@@ -4,7 +4,8 @@
 //! demo, which needs no network.
 
 use super::core::{LegOutput, NodeCore};
-use super::handle::{Publish, Topics, diagnostics_done, joint_state_done, wrench_done};
+use super::gap_worker::GapWorker;
+use super::handle::{Publish, Topics, diagnostics_done, gap_done, joint_state_done, wrench_done};
 use crate::config::{NodeConfig, ParamMap};
 use crate::msgs::{JointState, ModelParams, WrenchStamped};
 use crate::record::RecordOptions;
@@ -60,6 +61,13 @@ pub fn run<P: Publish>(
     let mut params_out: Vec<(usize, ModelParams)> = Vec::new();
     let mut run = MemoryRun::default();
     let mut next_diag_ns: Option<i64> = None;
+    // The node's own diagnoses, off the message path as on DDS.
+    let worker = if core.config().gap_check.every_strokes > 0 {
+        Some(GapWorker::start()?)
+    } else {
+        None
+    };
+    let (mut jobs, mut done) = (Vec::new(), Vec::new());
     for input in rx {
         // The transport's clock is the messages' own: a simulated robot runs faster than real time.
         let stamp_ns = match &input {
@@ -87,6 +95,13 @@ pub fn run<P: Publish>(
                 run.wrenches += 1;
                 core.on_wrench(*leg, w);
                 core.take_params(&mut params_out);
+                core.take_gap_jobs(&mut jobs);
+                for job in jobs.drain(..) {
+                    let leg = job.leg;
+                    if !worker.as_ref().is_some_and(|g| g.submit(job)) {
+                        core.gap_job_skipped(leg);
+                    }
+                }
                 wrench_done(
                     recorder.as_ref(),
                     &topics,
@@ -104,6 +119,20 @@ pub fn run<P: Publish>(
                 diagnostics_done(recorder.as_ref(), &topics, d, log_ns, out);
             }
             next_diag_ns = Some(stamp_ns + period_ns);
+        }
+        if let Some(g) = &worker {
+            g.done(&mut done);
+            for (job, result) in done.drain(..) {
+                gap_done(
+                    recorder.as_ref(),
+                    &topics,
+                    &mut core,
+                    &job,
+                    &result,
+                    log_ns,
+                    out,
+                );
+            }
         }
         between(&core, &input);
     }

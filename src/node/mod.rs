@@ -7,6 +7,7 @@
 pub mod clock;
 pub mod core;
 pub mod dds;
+pub mod gap_worker;
 pub mod handle;
 pub mod latency;
 pub mod live;

@@ -61,3 +61,36 @@ pub fn set_realtime(priority: i32) -> Result<()> {
         bail!("SCHED_FIFO is supported on Linux only")
     }
 }
+
+/// Makes the calling thread a background one, whatever the thread that started it was: free to
+/// run on any online CPU, under SCHED_IDLE (it gets a CPU only when nothing else wants it), so
+/// that it never takes time from the message handling. Best effort: `Err` says what was refused.
+pub fn set_background() -> Result<()> {
+    #[cfg(target_os = "linux")]
+    {
+        let online = std::thread::available_parallelism().map_or(1, |n| n.get());
+        // SAFETY: as in `pin_to_cpus` and `set_realtime`: a zeroed set, CPUs below
+        // CPU_SETSIZE, and calls that change only this thread.
+        let (affinity, policy) = unsafe {
+            let mut set: libc::cpu_set_t = std::mem::zeroed();
+            for cpu in 0..online.min(libc::CPU_SETSIZE as usize) {
+                libc::CPU_SET(cpu, &mut set);
+            }
+            let a = libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set);
+            let param = libc::sched_param { sched_priority: 0 };
+            let p = libc::sched_setscheduler(0, libc::SCHED_IDLE, &param);
+            (a, p)
+        };
+        if affinity != 0 || policy != 0 {
+            bail!(
+                "cannot make the thread a background one: {}",
+                std::io::Error::last_os_error()
+            );
+        }
+        Ok(())
+    }
+    #[cfg(not(target_os = "linux"))]
+    {
+        Ok(())
+    }
+}

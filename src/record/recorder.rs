@@ -3,7 +3,7 @@
 //! (full disk, file gone) stops recording and is reported, never a crash of the node.
 
 use super::{OfferedQos, RecordOptions, SessionWriter};
-use crate::msgs::{DiagnosticArray, JointState, LegForce, ModelParams, WrenchStamped};
+use crate::msgs::{DiagnosticArray, Gap, JointState, LegForce, ModelParams, WrenchStamped};
 use std::fs::File;
 use std::io::BufWriter;
 use std::path::{Path, PathBuf};
@@ -21,6 +21,7 @@ pub enum Record {
     Force(Arc<str>, LegForce, u64),
     Params(Arc<str>, ModelParams, u64),
     Diagnostics(Arc<str>, DiagnosticArray, u64),
+    Gap(Arc<str>, Gap, u64),
 }
 
 /// What the node reads of the recorder's state.
@@ -143,6 +144,9 @@ fn run(mut w: SessionWriter<BufWriter<File>>, rx: Receiver<Record>, st: &Recorde
                 w.write_output(t, rel, m, *log, m.header.stamp.to_nanos().max(0) as u64)
             }
             Record::Diagnostics(t, m, log) => {
+                w.write_output(t, rel, m, *log, m.header.stamp.to_nanos().max(0) as u64)
+            }
+            Record::Gap(t, m, log) => {
                 w.write_output(t, rel, m, *log, m.header.stamp.to_nanos().max(0) as u64)
             }
         };

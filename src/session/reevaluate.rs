@@ -8,8 +8,10 @@ use super::files::{refuse_existing_recording, write_atomically};
 use crate::config::{NodeConfig, ParamMap, RosArgs, defaults, load_params, parse_value};
 use crate::ident::{Estimate, FitSums, Sample};
 use crate::model::Regime;
-use crate::msgs::{DecodeInto, JointState, LegForce, ModelParams, RosMessage, Time, WrenchStamped};
-use crate::node::core::{CoreMode, LegOutput, Matched, NodeCore};
+use crate::msgs::{
+    DecodeInto, Gap, JointState, LegForce, ModelParams, RosMessage, Time, WrenchStamped,
+};
+use crate::node::core::{CoreMode, GapJob, LegOutput, Matched, NodeCore};
 use crate::node::matcher::{FtMatcher, Match, usable_stamp_ns};
 use crate::record::read::{MessageView, Scan, Source, TopicInfo, same_type, scan_topics};
 use crate::record::{OfferedQos, RecordError, RecordOptions, SessionWriter};
@@ -78,6 +80,9 @@ pub enum Output<'a> {
     Input(&'a Scan, &'a MessageView<'a>),
     Prediction(u64, &'a LegOutput),
     Params(u64, usize, &'a ModelParams),
+    /// The node's own diagnosis of a leg's recent strokes (run in line here, in the background
+    /// in the node).
+    Gap(u64, usize, &'a Gap),
 }
 
 #[derive(Debug, Clone, Default, serde::Serialize)]
@@ -290,6 +295,7 @@ struct Driver {
     outputs: Vec<LegOutput>,
     params: Vec<(usize, ModelParams)>,
     matches: Vec<(usize, Matched)>,
+    jobs: Vec<GapJob>,
 }
 
 impl Driver {
@@ -307,6 +313,7 @@ impl Driver {
             outputs: Vec::new(),
             params: Vec::new(),
             matches: Vec::new(),
+            jobs: Vec::new(),
         }
     }
 
@@ -355,6 +362,12 @@ impl Driver {
         core.take_params(&mut self.params);
         for (leg, p) in self.params.drain(..) {
             on_output(Output::Params(log_ns, leg, &p));
+        }
+        core.take_gap_jobs(&mut self.jobs);
+        for job in self.jobs.drain(..) {
+            let result = job.run();
+            let msg = core.on_gap_report(&job, &result);
+            on_output(Output::Gap(log_ns, job.leg, &msg));
         }
         core.take_matches(&mut self.matches);
         for (leg, mt) in self.matches.drain(..) {
@@ -833,6 +846,16 @@ pub fn reevaluate_to_mcap(
                         let stamp = m.header.stamp.to_nanos().max(0) as u64;
                         writer.write_output(
                             &topics.legs[leg].params,
+                            OfferedQos::RELIABLE,
+                            m,
+                            log,
+                            stamp,
+                        )
+                    }
+                    Output::Gap(log, leg, m) => {
+                        let stamp = m.header.stamp.to_nanos().max(0) as u64;
+                        writer.write_output(
+                            &topics.legs[leg].gap,
                             OfferedQos::RELIABLE,
                             m,
                             log,

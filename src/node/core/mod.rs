@@ -2,7 +2,10 @@
 //! wrenches out; measured wrenches in, identified parameters out. The DDS adapter and the
 //! in-memory demo both drive this same code.
 
+mod gap;
 mod status;
+
+pub use gap::{GapJob, MAX_WINDOW_SAMPLES};
 
 use super::matcher::{FtMatcher, Match, NoAngle, usable_stamp_ns};
 use crate::config::{ModelKind, NodeConfig};
@@ -57,6 +60,8 @@ struct Leg {
     counters: LegCounters,
     /// Counters at the last diagnostics, for rates.
     at_last_diag: LegCounters,
+    /// Its recent strokes, for the node's own diagnosis.
+    gap: gap::GapWatch,
 }
 
 /// Predictions kept per corrected leg for the rows of a re-evaluation, by their angle's stamp.
@@ -182,6 +187,8 @@ pub struct NodeCore {
     decided: Vec<Match>,
     /// Matched F/T samples kept for [`NodeCore::take_matches`] ([`CoreMode::Reevaluation`]).
     matches: Vec<(usize, Matched)>,
+    /// Diagnoses due, for [`NodeCore::take_gap_jobs`].
+    gap_jobs: Vec<GapJob>,
 }
 
 impl NodeCore {
@@ -200,6 +207,7 @@ impl NodeCore {
             mode,
             decided: Vec::new(),
             matches: Vec::new(),
+            gap_jobs: Vec::new(),
         };
         core.legs = (0..core.cfg.legs.len()).map(|i| core.new_leg(i)).collect();
         core
@@ -231,6 +239,7 @@ impl NodeCore {
             last_params_ns: None,
             counters: LegCounters::default(),
             at_last_diag: LegCounters::default(),
+            gap: gap::GapWatch::default(),
         }
     }
 
@@ -487,10 +496,47 @@ impl NodeCore {
                 if self.mode != CoreMode::Node {
                     self.matches.push((leg, mt));
                 }
+                self.watch_gap(leg, &mt);
                 if let Some(p) = self.learn(leg, &mt) {
                     self.params_out.push((leg, p));
                 }
             }
+        }
+    }
+
+    /// Keeps a matched sample for the leg's own diagnosis; makes the job when one is due (one
+    /// waiting per leg at most).
+    fn watch_gap(&mut self, leg: usize, mt: &Matched) {
+        let g = self.cfg.gap_check;
+        if self.mode == CoreMode::ReevaluationRows {
+            return;
+        }
+        let Some(l) = self.legs.get_mut(leg) else {
+            return;
+        };
+        let s = Sample {
+            t_s: Some(mt.t_ns as f64 * 1e-9),
+            beta_rad: mt.beta_rad,
+            drag_n: mt.drag_n,
+            lift_n: mt.lift_n,
+        };
+        if !l.gap.push(s, g.every_strokes, g.window_strokes) {
+            return;
+        }
+        let lc = &self.cfg.legs[leg];
+        let job = GapJob {
+            leg,
+            samples: l.gap.samples(),
+            model: TerzaghiModel::conventional(lc.plate, lc.medium),
+            stamp_ns: mt.t_ns,
+            strokes: l.gap.strokes(),
+        };
+        match self.gap_jobs.iter_mut().find(|j| j.leg == leg) {
+            Some(waiting) => {
+                *waiting = job;
+                self.legs[leg].gap.skipped += 1;
+            }
+            None => self.gap_jobs.push(job),
         }
     }
 

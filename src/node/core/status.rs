@@ -83,6 +83,16 @@ impl NodeCore {
                     "identifying".into()
                 };
             }
+            if self.cfg.gap_check.every_strokes > 0 && self.cfg.legs[i].ft_topic.is_some() {
+                values.extend([
+                    kv("gap_checks", l.gap.reports.to_string()),
+                    kv("gap_checks_skipped", l.gap.skipped.to_string()),
+                    kv(
+                        "gap_verdict",
+                        l.gap.last_verdict.clone().unwrap_or_else(|| "-".into()),
+                    ),
+                ]);
+            }
             let bad_now = c.invalid_position > p.invalid_position
                 || c.missing_joint > p.missing_joint
                 || c.stamps_backwards > p.stamps_backwards
@@ -90,13 +100,17 @@ impl NodeCore {
             let silent = c.predictions == p.predictions;
             let level = if silent {
                 DiagnosticStatus::STALE
-            } else if bad_now {
+            } else if bad_now || l.gap.warning.is_some() {
                 DiagnosticStatus::WARN
             } else {
                 DiagnosticStatus::OK
             };
             if silent {
                 message = "no joint angles".into();
+            } else if let Some(w) = &l.gap.warning {
+                message = format!(
+                    "gap: {w}, which the model does not correct (adopt a correction with <leg>.corrections, see terzaghi diagnose)"
+                );
             }
             status.push(DiagnosticStatus {
                 level,

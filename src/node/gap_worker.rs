@@ -1,0 +1,78 @@
+//! The thread that runs the node's own diagnoses ([`GapJob`]s), off the message path: jobs go in
+//! through a queue of one (a job that finds it full is refused, and the core counts it), reports
+//! come back through another, which the transport drains when it publishes diagnostics. The
+//! thread runs in the background (SCHED_IDLE, any CPU): it takes no time from the message
+//! handling, and its memory is one window per waiting job.
+
+use super::core::GapJob;
+use crate::diagnose::Report;
+use std::sync::Mutex;
+use std::sync::mpsc::{Receiver, SyncSender, TryRecvError, TrySendError, channel, sync_channel};
+use std::thread::JoinHandle;
+
+/// A diagnosis done: the job and what came of it.
+pub type GapDone = (GapJob, Result<Report, String>);
+
+pub struct GapWorker {
+    tx: Option<SyncSender<GapJob>>,
+    /// Behind a lock only so that the worker can be shared between the node's tasks.
+    rx: Mutex<Receiver<GapDone>>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl GapWorker {
+    /// Starts the thread.
+    pub fn start() -> std::io::Result<GapWorker> {
+        let (tx, jobs) = sync_channel::<GapJob>(1);
+        let (done, rx) = channel::<GapDone>();
+        let thread = std::thread::Builder::new()
+            .name("terzaghi-gap".into())
+            .spawn(move || {
+                // Best effort: where the policy cannot be changed, the thread still runs.
+                let _ = super::realtime::set_background();
+                for job in jobs {
+                    let r = job.run();
+                    if done.send((job, r)).is_err() {
+                        break;
+                    }
+                }
+            })?;
+        Ok(GapWorker {
+            tx: Some(tx),
+            rx: Mutex::new(rx),
+            thread: Some(thread),
+        })
+    }
+
+    /// Hands a job to the thread; never blocks. `false` when it is busy with another (or gone).
+    pub fn submit(&self, job: GapJob) -> bool {
+        let Some(tx) = &self.tx else {
+            return false;
+        };
+        match tx.try_send(job) {
+            Ok(()) => true,
+            Err(TrySendError::Full(_) | TrySendError::Disconnected(_)) => false,
+        }
+    }
+
+    /// The diagnoses done since the last call.
+    pub fn done(&self, out: &mut Vec<GapDone>) {
+        let rx = self.rx.lock().unwrap_or_else(|p| p.into_inner());
+        loop {
+            match rx.try_recv() {
+                Ok(d) => out.push(d),
+                Err(TryRecvError::Empty | TryRecvError::Disconnected) => return,
+            }
+        }
+    }
+}
+
+impl Drop for GapWorker {
+    /// Stops the thread once its current diagnosis (if any) is done.
+    fn drop(&mut self) {
+        self.tx = None;
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
