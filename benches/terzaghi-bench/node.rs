@@ -62,6 +62,18 @@ pub struct BenchNodeArgs {
     /// An argument for `terzaghi node` (repeatable), e.g. --node-arg=--foxglove=127.0.0.1:8765.
     #[arg(long, value_name = "ARG", allow_hyphen_values = true)]
     pub node_arg: Vec<String>,
+    /// Also publish every leg's F/T with each JointState to the node (the model's force at the
+    /// leg's angle, in its sensor's frame, with noise), so that the node identifies and watches
+    /// its gap as on a robot with sensors.
+    #[arg(long)]
+    pub ft: bool,
+    /// Set the node's gap_check.every_strokes (0: no diagnosis of its own strokes).
+    #[arg(long, value_name = "N")]
+    pub gap_check_every: Option<usize>,
+    /// Run this terzaghi as the node instead of the one beside the benchmark (the previous
+    /// release, say, to compare in one run).
+    #[arg(long, value_name = "PATH")]
+    pub node_exe: Option<std::path::PathBuf>,
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
@@ -125,6 +137,10 @@ struct Report {
     node_dropped: u64,
     node_lost_replies: u64,
     echo_lost_replies: u64,
+    /// The node's diagnoses of its own strokes during the run, and those superseded by a newer
+    /// one of their leg while they waited for its diagnosis thread; none from a node without
+    /// them.
+    node_gap_checks: Option<(u64, u64)>,
 }
 
 struct Killer(Vec<Child>);
@@ -152,7 +168,11 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
     if a.seconds == 0 {
         bail!("--seconds must be at least 1");
     }
-    let exe = crate::terzaghi_exe()?;
+    let exe = match &a.node_exe {
+        Some(p) if p.exists() => p.clone(),
+        Some(p) => bail!("--node-exe {}: no such file", p.display()),
+        None => crate::terzaghi_exe()?,
+    };
     let bench_exe = std::env::current_exe().context("cannot find the terzaghi-bench executable")?;
     let dir = tempdir()?;
     let params = dir.join("rhex.yaml");
@@ -161,6 +181,7 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
     // The node's legs, joints and output topics, as it reads them from the same file.
     let (_, cfg) = terzaghi::sim::robot::rhex()?;
     let legs = RobotTopics {
+        ft: if a.ft { Some(cfg.clone()) } else { None },
         joint_states: cfg.joint_states_topic.clone(),
         joints: cfg.legs.iter().map(|l| l.joint.clone()).collect(),
         wrenches: terzaghi::config::OutputTopics::of(&cfg, &cfg.remaps)
@@ -181,6 +202,12 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
             .args(&a.node_arg)
             .args(["--ros-args", "--params-file"])
             .arg(&params)
+            .args(
+                a.gap_check_every
+                    .map(|n| ["-p".to_string(), format!("gap_check.every_strokes:={n}")])
+                    .into_iter()
+                    .flatten(),
+            )
             .stderr(std::fs::File::create(&node_log)?)
             .spawn()
             .context("cannot start terzaghi node")?,
@@ -303,6 +330,7 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
         node_dropped: summary.dropped,
         node_lost_replies: lost_node,
         echo_lost_replies: lost_echo,
+        node_gap_checks: gap_line(&text),
     };
     if a.json {
         return print_out(&(serde_json::to_string_pretty(&report)? + "\n"));
@@ -326,6 +354,11 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
         "round trip: client -> bare echo -> client",
         &report.echo_round_trip,
     );
+    if let Some((made, skipped)) = report.node_gap_checks {
+        s += &format!(
+            "the node's own diagnoses during the run: {made} ({skipped} superseded while waiting)\n"
+        );
+    }
     s += &format!(
         "round trip node / echo: p50 {:.2}x, p99 {:.2}x; node dropped {} inputs; replies lost: node {}, echo {}\n",
         report.round_trip_ratio_p50,
@@ -349,6 +382,9 @@ type Sent = Arc<Mutex<HashMap<i64, Instant>>>;
 /// trips and how many replies never came.
 /// What the client publishes to and listens on.
 struct RobotTopics {
+    /// With `--ft`: the robot's configuration, whose legs' F/T topics, frames and models the
+    /// client's simulated sensors follow.
+    ft: Option<terzaghi::config::NodeConfig>,
     joint_states: String,
     joints: Vec<String>,
     /// Each leg's predicted wrench.
@@ -364,6 +400,22 @@ async fn client(
 ) -> Result<(Histogram, Histogram, u64, u64, LoadFigures)> {
     let mut node = tool_node("terzaghi_bench_client").context("cannot create the client node")?;
     let to_node = publisher::<JointState>(&mut node, &legs.joint_states)?;
+    // Each leg's F/T: its publisher, model, frame, direction and offset.
+    let mut sensors = Vec::new();
+    if let Some(cfg) = &legs.ft {
+        for (i, l) in cfg.legs.iter().enumerate() {
+            let Some(topic) = &l.ft_topic else { continue };
+            sensors.push((
+                i,
+                publisher::<WrenchStamped>(&mut node, topic)?,
+                cfg.leg_model(i, l.width, None)?,
+                l.ft_frame,
+                l.direction,
+                l.angle_offset_rad,
+            ));
+        }
+    }
+    let mut noise = 0x9E37_79B9_7F4A_7C15u64;
     let to_echo = publisher::<JointState>(&mut node, "/bench/echo_in")?;
     let from_echo = subscription::<JointState>(&mut node, "/bench/echo_out")?;
     let mut wrench_subs = Vec::new();
@@ -480,8 +532,39 @@ async fn client(
                     .unwrap_or_else(|p| p.into_inner())
                     .insert(stamp_ns, Instant::now());
             }
+            let positions = msg.position.clone();
             if publ.publish(msg).is_ok() {
                 figures.sent += 1;
+            }
+            if !to_echo_now {
+                for (i, p, model, frame, direction, offset) in &sensors {
+                    let beta = direction * (positions[*i] - offset);
+                    let Ok(f) = model.predict(beta) else { continue };
+                    // Noise of about 0.3 N from a xorshift: the client needs no generator.
+                    let mut n = || {
+                        noise ^= noise << 13;
+                        noise ^= noise >> 7;
+                        noise ^= noise << 17;
+                        (noise >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+                    };
+                    let (fx, fz) = (-f.drag_n + 0.6 * n(), f.lift_n + 0.6 * n());
+                    let (wx, wz) = terzaghi::sim::robot::ft_components(*frame, fx, fz, f.beta_rad);
+                    let w = WrenchStamped {
+                        header: Header {
+                            stamp: Time::from_nanos(stamp_ns).unwrap_or_default(),
+                            frame_id: String::new(),
+                        },
+                        wrench: terzaghi::msgs::Wrench {
+                            force: terzaghi::msgs::Vector3 {
+                                x: wx,
+                                y: 0.0,
+                                z: wz,
+                            },
+                            torque: terzaghi::msgs::Vector3::default(),
+                        },
+                    };
+                    let _ = p.publish(w);
+                }
             }
         }
     }
@@ -561,6 +644,19 @@ fn stop_line(log: &str) -> Option<RunSummary> {
         processing_max_ns: (max * 1e3) as u64,
         processing_count: js as u64,
     })
+}
+
+/// The node's count of its own diagnoses, from its log: "the node's own diagnoses: N of recent
+/// strokes, M skipped ...".
+fn gap_line(log: &str) -> Option<(u64, u64)> {
+    let line = log
+        .lines()
+        .find_map(|l| l.split_once("the node's own diagnoses: ").map(|x| x.1))?;
+    let n: Vec<u64> = line
+        .split(|c: char| !c.is_ascii_digit())
+        .filter_map(|w| w.parse().ok())
+        .collect();
+    Some((*n.first()?, *n.get(1)?))
 }
 
 /// Peak resident memory of process `pid` (kB), from /proc (Linux).

@@ -527,6 +527,22 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
         let _ = t.await;
     }
     let summary = run_summary(&shared, cfg.legs.len());
+    if shared.gap.is_some() {
+        let (made, skipped) = {
+            let guard = shared.core.lock().unwrap_or_else(|p| p.into_inner());
+            (0..cfg.legs.len()).fold((0, 0), |(m, s), i| {
+                let (a, b) = guard.core.gap_counts(i);
+                (m + a, s + b)
+            })
+        };
+        log.log(
+            LogLevel::Info,
+            &format!(
+                "the node's own diagnoses: {made} of recent strokes, {skipped} superseded while waiting for the diagnosis thread"
+            ),
+            log_site!(),
+        );
+    }
     log.log(LogLevel::Info, &summary_line(&summary), log_site!());
     if let Some(r) = recorder.and_then(|r| Arc::try_unwrap(r).ok()) {
         finish_recording(r, &log);
@@ -864,7 +880,6 @@ async fn wrench_task(
 ) {
     let mut gaps = SequenceGaps::default();
     let mut params_out = Vec::new();
-    let mut jobs = Vec::new();
     loop {
         let msg = next_sample(&sub, &mut gaps, &sh.dropped).await;
         if let Some(ch) = pubs.live.as_ref().and_then(|l| l.ft[leg].as_ref()) {
@@ -876,12 +891,8 @@ async fn wrench_task(
             let before = skipped_wrenches(core, leg);
             core.on_wrench(leg, &msg);
             core.take_params(&mut params_out);
-            core.take_gap_jobs(&mut jobs);
-            for job in jobs.drain(..) {
-                let leg = job.leg;
-                if !sh.gap.as_ref().is_some_and(|g| g.submit(job)) {
-                    core.gap_job_skipped(leg);
-                }
+            if let Some(g) = &sh.gap {
+                g.offer(core);
             }
             skipped_wrenches(core, leg) - before
         };

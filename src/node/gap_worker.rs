@@ -1,5 +1,6 @@
 //! The thread that runs the node's own diagnoses ([`GapJob`]s), off the message path: jobs go in
-//! through a queue of one (a job that finds it full is refused, and the core counts it), reports
+//! through a queue of one (a job that finds it full waits in the core, one per leg, a newer one
+//! replacing it), reports
 //! come back through another, which the transport drains when it publishes diagnostics. The
 //! thread runs in the background (SCHED_IDLE, any CPU): it takes no time from the message
 //! handling, and its memory is one window per waiting job.
@@ -44,14 +45,26 @@ impl GapWorker {
         })
     }
 
-    /// Hands a job to the thread; never blocks. `false` when it is busy with another (or gone).
-    pub fn submit(&self, job: GapJob) -> bool {
+    /// Hands a job to the thread; never blocks. The job back when the thread is busy with
+    /// another (or gone), for the core to keep until the next try.
+    pub fn submit(&self, job: GapJob) -> Result<(), Box<GapJob>> {
         let Some(tx) = &self.tx else {
-            return false;
+            return Err(Box::new(job));
         };
         match tx.try_send(job) {
-            Ok(()) => true,
-            Err(TrySendError::Full(_) | TrySendError::Disconnected(_)) => false,
+            Ok(()) => Ok(()),
+            Err(TrySendError::Full(j) | TrySendError::Disconnected(j)) => Err(Box::new(j)),
+        }
+    }
+
+    /// Offers `core`'s waiting diagnoses to the thread, as many as it takes; the others wait in
+    /// the core.
+    pub fn offer(&self, core: &mut super::core::NodeCore) {
+        while let Some(job) = core.next_gap_job() {
+            if let Err(job) = self.submit(job) {
+                core.return_gap_job(*job);
+                return;
+            }
         }
     }
 

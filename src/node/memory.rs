@@ -67,7 +67,7 @@ pub fn run<P: Publish>(
     } else {
         None
     };
-    let (mut jobs, mut done) = (Vec::new(), Vec::new());
+    let mut done = Vec::new();
     for input in rx {
         // The transport's clock is the messages' own: a simulated robot runs faster than real time.
         let stamp_ns = match &input {
@@ -95,12 +95,8 @@ pub fn run<P: Publish>(
                 run.wrenches += 1;
                 core.on_wrench(*leg, w);
                 core.take_params(&mut params_out);
-                core.take_gap_jobs(&mut jobs);
-                for job in jobs.drain(..) {
-                    let leg = job.leg;
-                    if !worker.as_ref().is_some_and(|g| g.submit(job)) {
-                        core.gap_job_skipped(leg);
-                    }
+                if let Some(g) = &worker {
+                    g.offer(&mut core);
                 }
                 wrench_done(
                     recorder.as_ref(),

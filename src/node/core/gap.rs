@@ -11,11 +11,12 @@ use crate::model::TerzaghiModel;
 use crate::msgs::{Gap, Header, Time};
 use std::collections::VecDeque;
 use std::f64::consts::{PI, TAU};
+use std::sync::Arc;
 
 /// Most F/T samples a leg keeps for its diagnosis, whatever the rate: the memory bound.
 pub const MAX_WINDOW_SAMPLES: usize = 60_000;
 
-/// Most samples handed to one diagnosis.
+/// Most samples one diagnosis is given, joined from the strokes' blocks on the worker.
 pub const JOB_SAMPLES: usize = 16_000;
 
 /// Most samples one diagnosis analyses (longer windows are thinned evenly).
@@ -25,7 +26,9 @@ pub const GAP_MAX_POINTS: usize = 4_000;
 #[derive(Debug, Clone)]
 pub struct GapJob {
     pub leg: usize,
-    pub samples: Vec<Sample>,
+    /// The strokes' samples, a shared block per stroke: handing them over copies nothing on
+    /// the message path; [`GapJob::samples`] joins them, on the worker.
+    pub strokes_samples: Vec<Arc<Vec<Sample>>>,
     /// The leg's conventional model (plate and medium; the diagnosis fits the width).
     pub model: TerzaghiModel,
     /// Stamp of the newest sample (ns).
@@ -34,28 +37,53 @@ pub struct GapJob {
 }
 
 impl GapJob {
+    /// Samples in the job.
+    pub fn len(&self) -> usize {
+        self.strokes_samples.iter().map(|s| s.len()).sum()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The samples, evenly thinned to at most [`JOB_SAMPLES`] (the diagnosis thins to
+    /// [`GAP_MAX_POINTS`] anyway, after taking speed and acceleration from what it is given).
+    pub fn samples(&self) -> Vec<Sample> {
+        let stride = self.len().div_ceil(JOB_SAMPLES).max(1);
+        self.strokes_samples
+            .iter()
+            .flat_map(|s| s.iter())
+            .step_by(stride)
+            .copied()
+            .collect()
+    }
+
     /// Runs the diagnosis of the job: what a worker does, off the message path.
     pub fn run(&self) -> Result<Report, String> {
         let opts = DiagnoseOptions {
             max_points: GAP_MAX_POINTS,
             ..Default::default()
         };
-        diagnose(&self.model, &self.samples, &opts)
+        diagnose(&self.model, &self.samples(), &opts)
             .map(|d| d.report)
             .map_err(|e| e.to_string())
     }
 }
 
-/// A leg's window of matched samples, by stroke.
+/// A leg's recent strokes: each finished stroke's samples in a block of its own, and the
+/// stroke under way.
 #[derive(Debug, Clone, Default)]
 pub(super) struct GapWatch {
-    window: VecDeque<(usize, Sample)>,
+    finished: VecDeque<(usize, Arc<Vec<Sample>>)>,
+    current: Vec<Sample>,
+    held: usize,
     start_rad: Option<f64>,
     last_rad: Option<f64>,
     stroke: usize,
     next_check: usize,
-    /// Jobs the transport could not take (its worker busy).
-    pub skipped: u64,
+    /// Diagnoses due that were never run: a newer one of the leg came while they waited for the
+    /// worker.
+    pub superseded: u64,
     /// Diagnoses made.
     pub reports: u64,
     /// The latest report's effects the leg's model does not correct, with their share and
@@ -65,8 +93,8 @@ pub(super) struct GapWatch {
 }
 
 impl GapWatch {
-    /// Keeps `s` (a matched sample); `true` when a diagnosis is due (every `every` strokes,
-    /// once `window` strokes... at least four are held).
+    /// Keeps `s` (a matched sample); `true` when a diagnosis is due: every `every` strokes,
+    /// once at least four finished strokes are held (of the last `window`).
     pub(super) fn push(&mut self, s: Sample, every: usize, window: usize) -> bool {
         if every == 0 {
             return false;
@@ -86,43 +114,56 @@ impl GapWatch {
         };
         self.last_rad = Some(u);
         let start = *self.start_rad.get_or_insert(u);
-        self.stroke = ((u - start) / TAU).floor().max(0.0) as usize;
+        let stroke = ((u - start) / TAU).floor().max(0.0) as usize;
         if self.next_check == 0 {
             self.next_check = 4.max(every);
         }
-        self.window.push_back((self.stroke, s));
-        while self
-            .window
-            .front()
-            .is_some_and(|(k, _)| k + window <= self.stroke)
-            || self.window.len() > MAX_WINDOW_SAMPLES
-        {
-            self.window.pop_front();
+        if stroke != self.stroke && !self.current.is_empty() {
+            // The stroke is finished: its block is kept as it is, moved, not copied.
+            let capacity = self.current.len();
+            let block = std::mem::replace(&mut self.current, Vec::with_capacity(capacity));
+            self.finished.push_back((self.stroke, Arc::new(block)));
         }
-        let held = self.stroke - self.window.front().map_or(self.stroke, |w| w.0);
-        if self.stroke >= self.next_check && held >= 4 {
-            self.next_check = self.stroke + every;
+        self.stroke = stroke;
+        self.current.push(s);
+        self.held += 1;
+        while self
+            .finished
+            .front()
+            .is_some_and(|(k, _)| k + window <= stroke)
+            || (self.held > MAX_WINDOW_SAMPLES && !self.finished.is_empty())
+        {
+            if let Some((_, f)) = self.finished.pop_front() {
+                self.held -= f.len();
+            }
+        }
+        if self.current.len() > MAX_WINDOW_SAMPLES {
+            // A leg that never finishes a stroke: its oldest samples go.
+            let n = self.current.len() / 2;
+            self.current.drain(..n);
+            self.held -= n;
+        }
+        if stroke >= self.next_check && self.finished.len() >= 4 {
+            self.next_check = stroke + every;
             return true;
         }
         false
     }
 
-    /// The window's samples, evenly thinned to at most [`JOB_SAMPLES`]: the copy is made on the
-    /// message path, and the diagnosis thins to [`GAP_MAX_POINTS`] anyway (after taking speed
-    /// and acceleration from what it is given).
-    pub(super) fn samples(&self) -> Vec<Sample> {
-        let stride = self.window.len().div_ceil(JOB_SAMPLES).max(1);
-        self.window.iter().step_by(stride).map(|w| w.1).collect()
+    /// The finished strokes, shared.
+    pub(super) fn blocks(&self) -> Vec<Arc<Vec<Sample>>> {
+        self.finished.iter().map(|f| f.1.clone()).collect()
     }
 
     pub(super) fn strokes(&self) -> usize {
-        self.stroke - self.window.front().map_or(self.stroke, |w| w.0)
+        self.finished.len()
     }
 }
 
 impl NodeCore {
-    /// The diagnoses due since the last call, one per leg at most, for the transport to run off
-    /// the message path (see [`GapJob::run`]).
+    /// The diagnoses due, one per leg at most, for a transport that runs them in line (see
+    /// [`GapJob::run`]); the node's transports hand them to a worker instead, as it takes them
+    /// ([`NodeCore::next_gap_job`]).
     pub fn take_gap_jobs(&mut self, out: &mut Vec<GapJob>) {
         out.append(&mut self.gap_jobs);
     }
@@ -136,10 +177,24 @@ impl NodeCore {
             .unwrap_or_default()
     }
 
-    /// A job the transport could not run (its worker busy): counted.
-    pub fn gap_job_skipped(&mut self, leg: usize) {
-        if let Some(l) = self.legs.get_mut(leg) {
-            l.gap.skipped += 1;
+    /// Diagnoses of the leg's own strokes made, and those superseded while they waited for the
+    /// worker.
+    pub fn gap_counts(&self, leg: usize) -> (u64, u64) {
+        self.legs
+            .get(leg)
+            .map_or((0, 0), |l| (l.gap.reports, l.gap.superseded))
+    }
+
+    /// The oldest diagnosis waiting, for the transport's worker.
+    pub fn next_gap_job(&mut self) -> Option<GapJob> {
+        (!self.gap_jobs.is_empty()).then(|| self.gap_jobs.remove(0))
+    }
+
+    /// A job the worker could not take yet: it waits again, first in line, unless a newer one
+    /// of its leg came meanwhile.
+    pub fn return_gap_job(&mut self, job: GapJob) {
+        if !self.gap_jobs.iter().any(|j| j.leg == job.leg) {
+            self.gap_jobs.insert(0, job);
         }
     }
 
@@ -158,7 +213,7 @@ impl NodeCore {
         let mut msg = Gap {
             header,
             strokes: job.strokes.min(u32::MAX as usize) as u32,
-            samples: job.samples.len() as u64,
+            samples: job.len() as u64,
             ..Default::default()
         };
         let corrected: Vec<crate::model::Effect> = self
@@ -236,7 +291,11 @@ mod tests {
         }
         // 40 rad: six strokes; due at stroke 4, then 7 is not reached.
         assert_eq!(due, vec![4]);
-        assert!(w.samples().len() <= MAX_WINDOW_SAMPLES);
+        // The window holds the last five strokes with the one under way: four finished ones, of
+        // 2 pi / 2 rad/s at 1 kHz each.
+        let held: usize = w.blocks().iter().map(|b| b.len()).sum();
+        assert_eq!(w.strokes(), 4);
+        assert!((held as f64 - 4.0 * 3141.6).abs() < 10.0, "{held}");
         let mut off = GapWatch::default();
         assert!(!(0..20_000).any(|i| off.push(
             Sample {

@@ -526,7 +526,7 @@ impl NodeCore {
         let lc = &self.cfg.legs[leg];
         let job = GapJob {
             leg,
-            samples: l.gap.samples(),
+            strokes_samples: l.gap.blocks(),
             model: TerzaghiModel::conventional(lc.plate, lc.medium),
             stamp_ns: mt.t_ns,
             strokes: l.gap.strokes(),
@@ -534,7 +534,7 @@ impl NodeCore {
         match self.gap_jobs.iter_mut().find(|j| j.leg == leg) {
             Some(waiting) => {
                 *waiting = job;
-                self.legs[leg].gap.skipped += 1;
+                self.legs[leg].gap.superseded += 1;
             }
             None => self.gap_jobs.push(job),
         }

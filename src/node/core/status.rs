@@ -86,7 +86,7 @@ impl NodeCore {
             if self.cfg.gap_check.every_strokes > 0 && self.cfg.legs[i].ft_topic.is_some() {
                 values.extend([
                     kv("gap_checks", l.gap.reports.to_string()),
-                    kv("gap_checks_skipped", l.gap.skipped.to_string()),
+                    kv("gap_checks_superseded", l.gap.superseded.to_string()),
                     kv(
                         "gap_verdict",
                         l.gap.last_verdict.clone().unwrap_or_else(|| "-".into()),
