@@ -1,9 +1,9 @@
 //! The thread that runs the node's own diagnoses ([`GapJob`]s), off the message path: jobs go in
 //! through a queue of one (a job that finds it full waits in the core, one per leg, a newer one
-//! replacing it), reports
-//! come back through another, which the transport drains when it publishes diagnostics. The
-//! thread runs in the background (SCHED_IDLE, any CPU): it takes no time from the message
-//! handling, and its memory is one window per waiting job.
+//! superseding it), reports come back through another, which the transport drains when it
+//! publishes diagnostics. The thread runs in the background (SCHED_IDLE, off the CPUs the node is
+//! pinned to): it takes no time from the message handling, and its memory is the windows of the
+//! jobs in flight.
 
 use super::core::GapJob;
 use crate::diagnose::Report;

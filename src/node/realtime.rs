@@ -62,21 +62,33 @@ pub fn set_realtime(priority: i32) -> Result<()> {
     }
 }
 
-/// Makes the calling thread a background one, whatever the thread that started it was: free to
-/// run on any online CPU, under SCHED_IDLE (it gets a CPU only when nothing else wants it), so
-/// that it never takes time from the message handling. Best effort: `Err` says what was refused.
+/// Makes the calling thread a background one, whatever the thread that started it was: on the
+/// CPUs the node is not pinned to (all of them when it is pinned to none, or to every one), under
+/// SCHED_IDLE (it gets a CPU only when nothing else wants it), so that it takes no time, and no
+/// cache, from the message handling. Best effort: `Err` says what was refused.
 pub fn set_background() -> Result<()> {
     #[cfg(target_os = "linux")]
     {
         let online = std::thread::available_parallelism().map_or(1, |n| n.get());
-        // SAFETY: as in `pin_to_cpus` and `set_realtime`: a zeroed set, CPUs below
-        // CPU_SETSIZE, and calls that change only this thread.
+        let cpus = online.min(libc::CPU_SETSIZE as usize);
+        // SAFETY: as in `pin_to_cpus` and `set_realtime`: zeroed sets, CPUs below CPU_SETSIZE,
+        // and calls that read or change only this thread.
         let (affinity, policy) = unsafe {
-            let mut set: libc::cpu_set_t = std::mem::zeroed();
-            for cpu in 0..online.min(libc::CPU_SETSIZE as usize) {
-                libc::CPU_SET(cpu, &mut set);
+            let mut inherited: libc::cpu_set_t = std::mem::zeroed();
+            let got =
+                libc::sched_getaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &mut inherited);
+            let mut others: libc::cpu_set_t = std::mem::zeroed();
+            let mut all: libc::cpu_set_t = std::mem::zeroed();
+            let mut n_others = 0;
+            for cpu in 0..cpus {
+                libc::CPU_SET(cpu, &mut all);
+                if got == 0 && !libc::CPU_ISSET(cpu, &inherited) {
+                    libc::CPU_SET(cpu, &mut others);
+                    n_others += 1;
+                }
             }
-            let a = libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set);
+            let set = if n_others > 0 { &others } else { &all };
+            let a = libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), set);
             let param = libc::sched_param { sched_priority: 0 };
             let p = libc::sched_setscheduler(0, libc::SCHED_IDLE, &param);
             (a, p)
