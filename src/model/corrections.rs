@@ -808,13 +808,7 @@ impl MotionTracker {
                     self.angles.clear();
                     self.speeds.clear();
                 }
-                let mut d = b - p.rem_euclid(TAU);
-                if d < -PI {
-                    d += TAU;
-                } else if d > PI {
-                    d -= TAU;
-                }
-                p + d
+                unwrap_after(p, b)
             }
             None => b,
         };
@@ -846,6 +840,18 @@ impl MotionTracker {
             stroke,
         }
     }
+}
+
+/// The angle `beta_rad` (any turn) made continuous after the unwrapped angle `prev_rad`: the
+/// short way round.
+pub fn unwrap_after(prev_rad: f64, beta_rad: f64) -> f64 {
+    let mut d = beta_rad.rem_euclid(TAU) - prev_rad.rem_euclid(TAU);
+    if d < -PI {
+        d += TAU;
+    } else if d > PI {
+        d -= TAU;
+    }
+    prev_rad + d
 }
 
 fn push_window(w: &mut std::collections::VecDeque<(f64, f64)>, p: (f64, f64), window_s: f64) {

@@ -22,17 +22,7 @@ from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
-from ros_types import JointState, LegForce, WrenchStamped, Header, stamp
-
-
-def wait_matched(entities, timeout_s=30.0):
-    end = time.time() + timeout_s
-    while time.time() < end:
-        if all((e.get_publication_matched_status().current_count if isinstance(e, DataWriter)
-                else e.get_subscription_matched_status().current_count) > 0 for e in entities):
-            return True
-        time.sleep(0.05)
-    return False
+from ros_types import JointState, LegForce, WrenchStamped, Header, stamp, wait_matched
 
 
 def main():

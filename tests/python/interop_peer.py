@@ -22,22 +22,12 @@ from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
-from ros_types import JointState, ModelParams, WrenchStamped, Header, Wrench, Vector3, stamp
+from ros_types import JointState, ModelParams, WrenchStamped, Header, Wrench, Vector3, stamp, wait_matched
 
 def predict_table(binary, flags, spec):
     out = subprocess.run([binary, "predict", *flags, "--beta-deg", spec, "--format", "json"],
                          check=True, capture_output=True, text=True)
     return json.loads(out.stdout)
-
-
-def wait_matched(entities, timeout_s=30.0):
-    end = time.time() + timeout_s
-    while time.time() < end:
-        if all((e.get_publication_matched_status().current_count if isinstance(e, DataWriter)
-                else e.get_subscription_matched_status().current_count) > 0 for e in entities):
-            return True
-        time.sleep(0.05)
-    return False
 
 
 def main():

@@ -1,4 +1,4 @@
-"""ROS 2 message types as Cyclone DDS IDL structs (the wire names ROS uses), for test peers."""
+"""ROS 2 message types as Cyclone DDS IDL structs (the wire names ROS uses), and a wait for peers to match, for test peers."""
 from dataclasses import dataclass, field
 
 from cyclonedds.idl import IdlStruct
@@ -88,3 +88,16 @@ class LegForce(IdlStruct, typename="terzaghi_msgs::msg::dds_::LegForce_"):
 def stamp(t_s):
     sec = int(t_s // 1)
     return Time(sec=sec, nanosec=int(round((t_s - sec) * 1e9)) % 1_000_000_000)
+
+
+def wait_matched(entities, timeout_s=30.0):
+    """Waits until every writer and reader of `entities` has matched a peer; False on time-out."""
+    import time
+    from cyclonedds.pub import DataWriter
+    end = time.time() + timeout_s
+    while time.time() < end:
+        if all((e.get_publication_matched_status().current_count if isinstance(e, DataWriter)
+                else e.get_subscription_matched_status().current_count) > 0 for e in entities):
+            return True
+        time.sleep(0.05)
+    return False

@@ -8,9 +8,10 @@ use super::NodeCore;
 use crate::diagnose::{DiagnoseOptions, Report, diagnose};
 use crate::ident::Sample;
 use crate::model::TerzaghiModel;
+use crate::model::corrections::unwrap_after;
 use crate::msgs::{Gap, Header, Time};
 use std::collections::VecDeque;
-use std::f64::consts::{PI, TAU};
+use std::f64::consts::TAU;
 use std::sync::Arc;
 
 /// Most F/T samples a leg keeps for its diagnosis, whatever the rate: the memory bound.
@@ -100,18 +101,7 @@ impl GapWatch {
             return false;
         }
         let b = s.beta_rad.rem_euclid(TAU);
-        let u = match self.last_rad {
-            Some(p) => {
-                let mut d = b - p.rem_euclid(TAU);
-                if d < -PI {
-                    d += TAU;
-                } else if d > PI {
-                    d -= TAU;
-                }
-                p + d
-            }
-            None => b,
-        };
+        let u = self.last_rad.map_or(b, |p| unwrap_after(p, b));
         self.last_rad = Some(u);
         let start = *self.start_rad.get_or_insert(u);
         let stroke = ((u - start) / TAU).floor().max(0.0) as usize;

@@ -152,6 +152,40 @@ impl RowPrediction {
     }
 }
 
+/// The leg force message of prediction `p` by `model` with fitting width and friction
+/// `(b_k, a, delta_deg)`; the bare force and the expected reading are the prediction's own (a
+/// leg with corrections sets them).
+fn leg_force(
+    header: Header,
+    p: &Prediction,
+    model: &str,
+    (b_k, a, delta_deg): (f64, f64, f64),
+    identified: bool,
+) -> LegForce {
+    LegForce {
+        header,
+        attack_angle_rad: p.beta_rad,
+        submerged_length_m: p.submerged_m,
+        depth_m: p.depth_m,
+        drag_n: p.drag_n,
+        lift_n: p.lift_n,
+        hip_torque_nm: p.hip_torque_nm,
+        regime: p.regime.code(),
+        model: model.to_string(),
+        b_k,
+        a,
+        delta_deg,
+        identified,
+        bare_drag_n: p.drag_n,
+        bare_lift_n: p.lift_n,
+        correction_names: Vec::new(),
+        correction_drag_n: Vec::new(),
+        correction_lift_n: Vec::new(),
+        sensor_drag_n: p.drag_n,
+        sensor_lift_n: p.lift_n,
+    }
+}
+
 /// What the core is run for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum CoreMode {
@@ -373,24 +407,13 @@ impl NodeCore {
                 stamp: msg.header.stamp,
                 frame_id: leg.hip_frame.clone(),
             };
+            let model = self.cfg.model.as_str();
             let force = match corrected {
                 Some(Some(p)) => {
                     let c = leg.corrected.as_ref().map(|c| c.model.corrections());
                     let (b_k, a) = c.map_or((0.0, 0.0), |c| (c.b_k, c.a));
+                    let medium = RowPrediction::corrected(&p).medium;
                     LegForce {
-                        header,
-                        attack_angle_rad: p.bare.beta_rad,
-                        submerged_length_m: p.submerged_m,
-                        depth_m: p.depth_m,
-                        drag_n: p.drag_n,
-                        lift_n: p.lift_n,
-                        hip_torque_nm: p.hip_torque_nm,
-                        regime: p.regime.code(),
-                        model: self.cfg.model.as_str().to_string(),
-                        b_k,
-                        a,
-                        delta_deg: lc.medium.delta_deg(),
-                        identified: false,
                         bare_drag_n: p.bare.drag_n,
                         bare_lift_n: p.bare.lift_n,
                         correction_names: p.parts.iter().map(|(e, _)| e.name().into()).collect(),
@@ -398,6 +421,13 @@ impl NodeCore {
                         correction_lift_n: p.parts.iter().map(|(_, v)| v[1]).collect(),
                         sensor_drag_n: p.sensor_drag_n,
                         sensor_lift_n: p.sensor_lift_n,
+                        ..leg_force(
+                            header,
+                            &medium,
+                            model,
+                            (b_k, a, lc.medium.delta_deg()),
+                            false,
+                        )
                     }
                 }
                 Some(None) => {
@@ -409,7 +439,7 @@ impl NodeCore {
                         leg.counters.invalid_position += 1;
                         continue;
                     };
-                    let (b_k, a, delta_deg) = match (&leg.identified, self.cfg.use_identified) {
+                    let width = match (&leg.identified, self.cfg.use_identified) {
                         (Some(e), true) => (
                             e.b_k,
                             e.a,
@@ -421,28 +451,8 @@ impl NodeCore {
                         ),
                         _ => (lc.width.b_k(), lc.width.a(), lc.medium.delta_deg()),
                     };
-                    LegForce {
-                        header,
-                        attack_angle_rad: p.beta_rad,
-                        submerged_length_m: p.submerged_m,
-                        depth_m: p.depth_m,
-                        drag_n: p.drag_n,
-                        lift_n: p.lift_n,
-                        hip_torque_nm: p.hip_torque_nm,
-                        regime: p.regime.code(),
-                        model: self.cfg.model.as_str().to_string(),
-                        b_k,
-                        a,
-                        delta_deg,
-                        identified: leg.identified.is_some() && self.cfg.use_identified,
-                        bare_drag_n: p.drag_n,
-                        bare_lift_n: p.lift_n,
-                        correction_names: Vec::new(),
-                        correction_drag_n: Vec::new(),
-                        correction_lift_n: Vec::new(),
-                        sensor_drag_n: p.drag_n,
-                        sensor_lift_n: p.lift_n,
-                    }
+                    let identified = leg.identified.is_some() && self.cfg.use_identified;
+                    leg_force(header, &p, model, width, identified)
                 }
             };
             leg.counters.predictions += 1;
