@@ -8,7 +8,7 @@ use crate::model::corrections::{
     TermInputs, moved_unit_model, stronger_unit_model, submerged_geometry,
 };
 use crate::model::{FittingWidth, Regime, TerzaghiModel};
-use std::f64::consts::{FRAC_PI_2, TAU};
+use std::f64::consts::TAU;
 
 /// One analysed sample.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -263,15 +263,6 @@ impl Context {
         self.points
             .iter()
             .filter(move |p| !p.in_medium() && (p.beta_rad < lo || p.beta_rad > hi))
-    }
-
-    /// The angle past vertical for extraction points (rad), 0 elsewhere.
-    pub fn past_vertical_rad(p: &Point) -> f64 {
-        if p.extraction() {
-            (p.beta_rad - FRAC_PI_2).max(0.0)
-        } else {
-            0.0
-        }
     }
 }
 

@@ -5,7 +5,7 @@
 mod gap;
 mod status;
 
-pub use gap::{GapJob, MAX_WINDOW_SAMPLES};
+pub use gap::GapJob;
 
 use super::matcher::{FtMatcher, Match, NoAngle, usable_stamp_ns};
 use crate::config::{ModelKind, NodeConfig};
