@@ -7,9 +7,12 @@
 //! Sessions: the demo's six legs, the generated cases of [`crate::withheld`], and the DEM
 //! campaign's cases ([`crate::dem::cases`]).
 
-use crate::config::{LegConfig, NodeConfig};
+use crate::config::{DEFAULT_CORRECTIONS_MEMORY_STROKES, LegConfig, NodeConfig};
 use crate::diagnose::{DiagnoseOptions, Effect, diagnose, kinematics};
-use crate::ident::Sample;
+use crate::ident::corrected::learn_samples;
+use crate::ident::online::Forgetting;
+use crate::ident::{CorrectedEstimator, OnlineOptions, Sample};
+use crate::model::corrections::{CorrectedModel, Corrections};
 use crate::model::{FittingWidth, Medium, Plate};
 use crate::session::reevaluate::{RowErrors, reevaluate_samples};
 
@@ -291,4 +294,242 @@ mod tests {
         assert!(m > 90.0 && h.reported_pct > 90.0, "{h:?}");
         assert!(h.corrected.rmse_n < 0.5 * h.bare.rmse_n, "{h:?}");
     }
+}
+
+/// The generated cases `diagnose-eval --online` learns: one of each kind with a single hidden
+/// effect of the library.
+pub const ONLINE_CASES: std::ops::RangeInclusive<usize> = 1..=9;
+/// The cases followed by a stronger medium, and how much stronger.
+pub const STEP_CASES: [usize; 4] = [3, 4, 6, 8];
+pub const STEP_FACTOR: f64 = 1.4;
+
+/// One linear value of a corrected model: as the diagnosis fitted it on a whole session, and as
+/// the node's online identification had it at the session's end.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct LearntValue {
+    /// `b_k`, `a`, or `<effect>.<param>`.
+    pub name: String,
+    pub batch: f64,
+    pub online: f64,
+    /// The online standard deviation.
+    pub std: f64,
+}
+
+impl LearntValue {
+    /// Whether the session determines the value: `b_k` and `a` always; a coefficient whose batch
+    /// value is more than three online standard deviations from zero.
+    pub fn determined(&self) -> bool {
+        matches!(self.name.as_str(), "b_k" | "a") || self.batch.abs() > 3.0 * self.std
+    }
+
+    /// The online value within 10 % of the batch one.
+    pub fn within_10_pct(&self) -> bool {
+        (self.online - self.batch).abs() <= 0.1 * self.batch.abs()
+    }
+
+    pub fn diff_pct(&self) -> f64 {
+        100.0 * (self.online - self.batch) / self.batch.abs().max(f64::MIN_POSITIVE)
+    }
+}
+
+/// A session's corrected model learnt online from the conventional start (`b_k = a = 1`, every
+/// coefficient 0) against the batch diagnosis.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct LearntOnline {
+    pub case: String,
+    pub truth: String,
+    pub strokes: usize,
+    pub values: Vec<LearntValue>,
+    pub converged: bool,
+    pub changes_detected: u64,
+}
+
+impl LearntOnline {
+    /// Converged at the end, and every value the session determines within 10 % of the batch
+    /// one.
+    pub fn holds(&self) -> bool {
+        self.converged
+            && self
+                .values
+                .iter()
+                .all(|v| !v.determined() || v.within_10_pct())
+    }
+}
+
+/// The values of `batch` against an estimator's.
+fn learnt_values(batch: &Corrections, est: &CorrectedEstimator) -> Vec<LearntValue> {
+    let e = est.estimate();
+    let mut values = vec![
+        LearntValue {
+            name: "b_k".into(),
+            batch: batch.b_k,
+            online: e.b_k,
+            std: e.std_b_k,
+        },
+        LearntValue {
+            name: "a".into(),
+            batch: batch.a,
+            online: e.a,
+            std: e.std_a,
+        },
+    ];
+    let batch_coefficients = batch.terms.iter().flat_map(|t| t.coefficients.iter());
+    for (c, b) in est.coefficients().iter().zip(batch_coefficients) {
+        values.push(LearntValue {
+            name: format!("{}.{}", c.effect, c.param),
+            batch: *b,
+            online: c.value,
+            std: c.std,
+        });
+    }
+    values
+}
+
+/// `corrections` with the conventional start: `b_k = a = 1` and every coefficient 0.
+fn from_scratch(corrections: &Corrections) -> Corrections {
+    let mut c = corrections.clone();
+    c.b_k = 1.0;
+    c.a = 1.0;
+    for t in &mut c.terms {
+        t.coefficients.iter_mut().for_each(|v| *v = 0.0);
+    }
+    c
+}
+
+/// The node's online options for a leg with corrections (its default parameters).
+fn online_options() -> OnlineOptions {
+    OnlineOptions {
+        forgetting: Forgetting::Strokes(DEFAULT_CORRECTIONS_MEMORY_STROKES),
+        ..Default::default()
+    }
+}
+
+/// Generated case `i` of a run seeded with `seed` ([`crate::withheld`]): diagnosed whole, then
+/// its corrected model learnt online from scratch over the same session.
+pub fn learnt_online(i: usize, seed: u64) -> Result<LearntOnline, HeldOutError> {
+    let (case, samples) = crate::withheld::case_session(i, seed);
+    let err = |message: String| HeldOutError {
+        case: format!("case {i}"),
+        message,
+    };
+    let model = crate::model::TerzaghiModel::conventional(case.plate, case.medium);
+    let d =
+        diagnose(&model, &samples, &DiagnoseOptions::default()).map_err(|e| err(e.to_string()))?;
+    let batch = d.report.corrected_model.clone();
+    let start = CorrectedModel::new(case.plate, case.medium, from_scratch(&batch))
+        .map_err(|e| err(format!("the corrected model is refused: {e}")))?;
+    let mut est =
+        CorrectedEstimator::new(start, online_options()).map_err(|e| err(e.to_string()))?;
+    learn_samples(&mut est, &samples);
+    Ok(LearntOnline {
+        case: format!("case {i}"),
+        truth: truth_of(&case),
+        strokes: case.strokes,
+        values: learnt_values(&batch, &est),
+        converged: est.estimate().converged,
+        changes_detected: est.estimate().changes_detected,
+    })
+}
+
+fn truth_of(case: &crate::sim::generator::Case) -> String {
+    if case.effects.is_empty() {
+        return "none".to_string();
+    }
+    case.effects
+        .iter()
+        .map(|e| e.name())
+        .collect::<Vec<_>>()
+        .join("+")
+}
+
+/// A medium that changes: generated case `i`'s session, then the same motion again in a medium
+/// `factor` times as strong (`b_k` scaled). Each part is diagnosed alone; the corrected model
+/// (the first part's terms) is learnt online from scratch over both.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct LearntStep {
+    /// The first part against its diagnosis, at the step.
+    pub before: LearntOnline,
+    /// The whole session's end against the second part's diagnosis.
+    pub after: LearntOnline,
+    /// Strokes from the step to the first change the estimator detected after it.
+    pub detected_after_strokes: Option<f64>,
+}
+
+/// See [`LearntStep`].
+pub fn learnt_step(i: usize, seed: u64, factor: f64) -> Result<LearntStep, HeldOutError> {
+    let (case, first) = crate::withheld::case_session(i, seed);
+    let err = |message: String| HeldOutError {
+        case: format!("case {i} with a step"),
+        message,
+    };
+    let mut stronger = case.clone();
+    stronger.b_k *= factor;
+    let (second, _) = crate::sim::generator::generate(&stronger, &[]);
+    // The second part goes on where the first ended: time after it, whole turns further on.
+    let (t_end, beta_end) = first
+        .last()
+        .map_or((0.0, 0.0), |s| (s.t_s.unwrap_or(0.0), s.beta_rad));
+    let dt = first
+        .get(1)
+        .and_then(|s| Some(s.t_s? - first[0].t_s?))
+        .unwrap_or(0.004);
+    let turns =
+        ((beta_end - second.first().map_or(0.0, |s| s.beta_rad)) / std::f64::consts::TAU).ceil();
+    let shifted: Vec<Sample> = second
+        .iter()
+        .map(|s| Sample {
+            t_s: s.t_s.map(|t| t + t_end + dt),
+            beta_rad: s.beta_rad + turns * std::f64::consts::TAU,
+            ..*s
+        })
+        .collect();
+    let model = crate::model::TerzaghiModel::conventional(case.plate, case.medium);
+    let opts = DiagnoseOptions::default();
+    let batch_first = diagnose(&model, &first, &opts)
+        .map_err(|e| err(e.to_string()))?
+        .report
+        .corrected_model;
+    let batch_second = diagnose(&model, &shifted, &opts)
+        .map_err(|e| err(e.to_string()))?
+        .report
+        .corrected_model;
+    let start = CorrectedModel::new(case.plate, case.medium, from_scratch(&batch_first))
+        .map_err(|e| err(format!("the corrected model is refused: {e}")))?;
+    let mut est =
+        CorrectedEstimator::new(start, online_options()).map_err(|e| err(e.to_string()))?;
+    learn_samples(&mut est, &first);
+    let part = |name: &str, batch: &Corrections, est: &CorrectedEstimator| LearntOnline {
+        case: format!("case {i}, {name}"),
+        truth: truth_of(&case),
+        strokes: case.strokes,
+        values: learnt_values(batch, est),
+        converged: est.estimate().converged,
+        changes_detected: est.estimate().changes_detected,
+    };
+    let before = part("before the step", &batch_first, &est);
+    let changes_before = est.changes().len();
+    learn_samples(&mut est, &shifted);
+    let stroke_s = t_end / case.strokes.max(1) as f64;
+    let detected_after_strokes = est.changes()[changes_before..]
+        .first()
+        .and_then(|c| c.t_s)
+        .map(|t| (t - t_end) / stroke_s);
+    // The second part's diagnosis may keep other terms: compare what both models have.
+    let after = if batch_second
+        .terms
+        .iter()
+        .map(|t| t.effect)
+        .eq(batch_first.terms.iter().map(|t| t.effect))
+    {
+        part("after the step", &batch_second, &est)
+    } else {
+        let mut p = part("after the step", &batch_second, &est);
+        p.values.truncate(2);
+        p
+    };
+    Ok(LearntStep {
+        before,
+        after,
+        detected_after_strokes,
+    })
 }

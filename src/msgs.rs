@@ -179,6 +179,11 @@ pub struct ModelParams {
     pub innovation_rms_n: f64,
     pub converged: bool,
     pub changes_detected: u32,
+    /// For a leg with corrections, each learnt coefficient as `<effect>.<param>`, its value and
+    /// standard deviation (empty otherwise).
+    pub correction_params: Vec<String>,
+    pub correction_values: Vec<f64>,
+    pub correction_stds: Vec<f64>,
 }
 
 /// A message type: its ROS name and its definition.

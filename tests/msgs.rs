@@ -134,6 +134,9 @@ fn every_message_decodes_with_its_definition_in_mcap_ros2() {
             innovation_rms_n: 1.2,
             converged: true,
             changes_detected: 4_000_000_000,
+            correction_params: vec!["cohesion.normal_pa".into(), "cohesion.tangential_pa".into()],
+            correction_values: vec![6466.3, -1142.2],
+            correction_stds: vec![17.7, 10.1],
         }),
     ];
     let (input, want): (Vec<_>, Vec<_>) = items.into_iter().unzip();

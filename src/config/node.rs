@@ -105,6 +105,9 @@ impl LegConfig {
     }
 }
 
+/// The default memory (strokes) of the online identification of a leg with corrections.
+pub const DEFAULT_CORRECTIONS_MEMORY_STROKES: f64 = 30.0;
+
 /// The whole node, validated.
 #[derive(Debug, Clone)]
 pub struct NodeConfig {
@@ -116,6 +119,9 @@ pub struct NodeConfig {
     pub use_identified: bool,
     pub legs: Vec<LegConfig>,
     pub estimator: OnlineOptions,
+    /// Memory (strokes) of the online identification of a leg with corrections: it learns more
+    /// values than the bare model's two, from effects that show in some strokes only.
+    pub corrections_memory_strokes: f64,
     pub rft_elements: usize,
     pub diagnostics_period_s: f64,
     /// Largest time between an F/T sample and the joint angle it is matched with.
@@ -204,6 +210,10 @@ pub fn defaults() -> ParamMap {
     };
     put("estimator.memory_strokes", ParamValue::Double(mem));
     put("estimator.forgetting_factor", ParamValue::Double(0.0));
+    put(
+        "estimator.corrections_memory_strokes",
+        ParamValue::Double(DEFAULT_CORRECTIONS_MEMORY_STROKES),
+    );
     put(
         "estimator.min_unit_force_n",
         ParamValue::Double(d.min_unit_force_n),
@@ -417,6 +427,7 @@ impl NodeConfig {
             use_identified: g.bool("use_identified")?.unwrap_or(true),
             legs,
             estimator: est,
+            corrections_memory_strokes: positive("estimator.corrections_memory_strokes")?,
             rft_elements,
             diagnostics_period_s: positive("diagnostics_period_s")?,
             max_match_dt_s: positive("max_match_dt_s")?,

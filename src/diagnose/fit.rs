@@ -11,7 +11,7 @@
 use super::context::Context;
 use super::effects::{Effect, nonlinear_grid};
 pub use crate::model::corrections::Nonlinear;
-use crate::model::corrections::lag_step;
+use crate::model::corrections::{LN_A_GRID, lag_step, ln_a_grid};
 use nalgebra::{DMatrix, DVector};
 
 /// A design: the effects added to the baseline, and the nonlinear values of the ones already
@@ -61,11 +61,6 @@ impl Fit {
         self.heldout_sse / (2 * self.heldout_n.len().max(1)) as f64
     }
 }
-
-// `ln a` from -2.58 to 3.4 in steps of 0.46 (`a` from 0.08 to 30): the paper's media have `a` of
-// 0.5 to 20; a DEM bed of coarse grains fits below 0.3 where `delta` is held at the contact
-// friction.
-const LN_A_GRID: (f64, f64, usize) = (-2.58, 3.4, 14);
 
 /// Fits `design` plus, if given, `search`: a new effect (its nonlinear parameter, if any, is
 /// chosen per fold on the training strokes from its grid).
@@ -272,9 +267,7 @@ impl Sums {
 /// Searches `ln a` for every fold `k` (and `k = folds`: everything) with nonlinear values `nl[k]`.
 fn fit_ln_a(ctx: &Context, effects: &[Effect], nl: &[Nonlinear]) -> Vec<Candidate> {
     let (lo, hi, steps) = LN_A_GRID;
-    let grid: Vec<f64> = (0..steps)
-        .map(|i| lo + (hi - lo) * i as f64 / (steps - 1) as f64)
-        .collect();
+    let grid: Vec<f64> = ln_a_grid().collect();
     let k_all = ctx.folds;
     // Folds sharing a nonlinear setting share the passes.
     let mut groups: Vec<(Nonlinear, Vec<usize>)> = Vec::new();

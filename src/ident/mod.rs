@@ -7,10 +7,12 @@
 //! `t = tan(delta)`. [`UnitSample`] carries that.
 
 pub mod batch;
+pub mod corrected;
 pub mod metrics;
 pub mod online;
 
 pub use batch::{BatchFit, BatchOptions, fit_batch};
+pub use corrected::{Coefficient, CorrectedEstimator};
 pub use metrics::{ComponentFit, FitSums, GoodnessOfFit, goodness_of_fit};
 pub use online::{Estimate, OnlineEstimator, OnlineOptions};
 

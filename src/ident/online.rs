@@ -217,7 +217,7 @@ pub struct ChangeEvent {
 }
 
 /// The estimate after a sample, as the node publishes it.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
 pub struct Estimate {
     pub b_k: f64,
     pub a: f64,
@@ -252,17 +252,12 @@ pub struct OnlineEstimator {
     span_rad: f64,
     theta: Vector3<f64>,
     p: Matrix3<f64>,
-    noise_var: f64,
-    innov_ms: f64,
-    cusum: f64,
+    innov: Innovations,
     updates_since_reset: u64,
     /// Start-up samples still to be taken by the log-linear fit.
     startup_left: usize,
-    /// The CUSUM runs once the estimate has converged since the last reset or change.
-    cusum_armed: bool,
     prev_beta: Option<f64>,
-    last_meas: Option<(f64, f64)>,
-    repeats: usize,
+    stuck: StuckDetector,
     // Log-linear start-up: information matrix and vector in (ln b_k, ln a).
     start_info: Matrix2<f64>,
     start_vec: Vector2<f64>,
@@ -289,15 +284,11 @@ impl OnlineEstimator {
             span_rad: span_rad.max(0.05),
             theta: Vector3::zeros(),
             p: Matrix3::zeros(),
-            noise_var: 0.0,
-            innov_ms: 0.0,
-            cusum: 0.0,
+            innov: Innovations::new(opts.initial_noise_n),
             updates_since_reset: 0,
             startup_left: 0,
-            cusum_armed: false,
             prev_beta: None,
-            last_meas: None,
-            repeats: 0,
+            stuck: StuckDetector::default(),
             start_info: Matrix2::zeros(),
             start_vec: Vector2::zeros(),
             start_span: (f64::INFINITY, f64::NEG_INFINITY),
@@ -333,11 +324,9 @@ impl OnlineEstimator {
             o.initial_a.ln(),
             self.unit.medium().delta_rad(),
         );
-        self.noise_var = o.initial_noise_n.powi(2);
-        self.innov_ms = 0.0;
+        self.innov = Innovations::new(o.initial_noise_n);
         self.prev_beta = None;
-        self.last_meas = None;
-        self.repeats = 0;
+        self.stuck = StuckDetector::default();
         self.restart();
         self.changes.clear();
         self.converged_at_s = None;
@@ -353,8 +342,7 @@ impl OnlineEstimator {
     fn restart(&mut self) {
         let o = &self.opts;
         self.p = self.initial_p();
-        self.cusum = 0.0;
-        self.cusum_armed = false;
+        self.innov.disarm();
         self.updates_since_reset = 0;
         self.startup_left = o.startup_samples;
         self.start_info = Matrix2::from_diagonal_element(1.0 / o.initial_std_ln.powi(2));
@@ -419,13 +407,7 @@ impl OnlineEstimator {
         {
             return Err(Skip::NonFinite);
         }
-        // Stuck sensor: the same reading again and again.
-        if self.last_meas == Some((s.drag_n, s.lift_n)) {
-            self.repeats += 1;
-        } else {
-            self.repeats = 1;
-            self.last_meas = Some((s.drag_n, s.lift_n));
-        }
+        let stuck = self.stuck.see(s.drag_n, s.lift_n) >= self.opts.stuck_samples;
         let f = self
             .unit
             .evaluate(s.beta_rad)
@@ -435,7 +417,7 @@ impl OnlineEstimator {
             .map(|p| angle_step(p, f.beta_rad))
             .unwrap_or(0.0);
         self.prev_beta = Some(f.beta_rad);
-        if self.repeats >= self.opts.stuck_samples {
+        if stuck {
             return Err(Skip::Stuck);
         }
         let unit_mag = f.drag_n.hypot(f.lift_n);
@@ -452,7 +434,7 @@ impl OnlineEstimator {
         self.updates_since_reset += 1;
         self.refresh_estimate();
         if self.est.converged {
-            self.cusum_armed = true;
+            self.innov.arm();
             if self.converged_at_s.is_none() {
                 self.converged_at_s = s.t_s;
             }
@@ -463,7 +445,7 @@ impl OnlineEstimator {
     /// Log-linear RLS: `ln(meas / unit) = ln b_k - beta ln a`, for the rows whose measured and
     /// unit forces share a sign and are clear of zero. Relative noise `sigma / |meas|`.
     fn startup_update(&mut self, beta: f64, unit_d: f64, unit_l: f64, s: &Sample) {
-        let sigma = self.noise_var.sqrt();
+        let sigma = self.innov.noise_var.sqrt();
         for (unit, meas) in [(unit_d, s.drag_n), (unit_l, s.lift_n)] {
             if unit * meas <= 0.0 || meas.abs() < 3.0 * sigma {
                 continue;
@@ -522,29 +504,14 @@ impl OnlineEstimator {
 
         let hp = ht.transpose() * self.p;
         let hph = hp * ht;
-        // Huber weights on standardized innovations: a large one counts as noisier.
         let mut r = Matrix2::zeros();
         let mut nis = 0.0;
         for i in 0..2 {
-            let var = hph[(i, i)] + self.noise_var;
-            let z = e[i] / var.sqrt();
-            let w = if z.abs() <= o.huber_k {
-                1.0
-            } else {
-                o.huber_k / z.abs()
-            };
-            r[(i, i)] = self.noise_var / w;
-            nis += (z * z).min(o.huber_k * o.huber_k);
-            // Noise variance from clipped innovations, slowly, and not while the CUSUM builds
-            // up: a change of the medium must not pass for noise.
-            if self.cusum < 0.25 * o.cusum_alarm {
-                let clipped = e[i].abs().min(o.huber_k * var.sqrt());
-                self.noise_var =
-                    0.998 * self.noise_var + 0.002 * (clipped * clipped - hph[(i, i)]).max(0.0);
-            }
-            self.innov_ms = 0.99 * self.innov_ms + 0.01 * e[i] * e[i];
+            let (r_i, nis_i) = self.innov.row(e[i], hph[(i, i)], &o);
+            r[(i, i)] = r_i;
+            nis += nis_i;
         }
-        self.noise_var = self.noise_var.max(1e-12);
+        self.innov.floor_noise();
 
         let Some(s_inv) = (hph + r).try_inverse() else {
             return;
@@ -553,22 +520,12 @@ impl OnlineEstimator {
         self.theta += k * e;
         let ikh = Matrix3::identity() - k * ht.transpose();
         self.p = ikh * self.p * ikh.transpose() + k * r * k.transpose();
-        let lambda = match o.forgetting {
-            Forgetting::Strokes(m) => (-dbeta.min(0.2) / (m * self.span_rad)).exp(),
-            Forgetting::PerSample(l) => l,
-        };
-        self.p /= lambda;
+        self.p /= forgetting_factor(&o, dbeta, self.span_rad);
         self.p = 0.5 * (self.p + self.p.transpose());
         self.bound_covariance();
         self.project();
 
-        // CUSUM of clipped NIS (two rows: mean 2 without a change), once converged: before
-        // that, large innovations are the estimate still moving, not the medium.
-        if !self.cusum_armed {
-            return;
-        }
-        self.cusum = (self.cusum + nis - 2.0 - o.cusum_drift).max(0.0);
-        if self.cusum > o.cusum_alarm {
+        if self.innov.change_alarm(nis, 2.0, &o) {
             self.changes.push(ChangeEvent {
                 t_s: s.t_s,
                 b_k_before: self.theta[0].exp(),
@@ -611,19 +568,118 @@ impl OnlineEstimator {
         e.std_b_k = b_k * sd0;
         e.std_a = a * sd1;
         e.std_delta_deg = self.p[(2, 2)].max(0.0).sqrt().to_degrees();
-        e.innovation_rms_n = self.innov_ms.sqrt();
-        e.noise_n = self.noise_var.sqrt();
+        e.innovation_rms_n = self.innov.innov_ms.sqrt();
+        e.noise_n = self.innov.noise_var.sqrt();
         e.converged = self.updates_since_reset >= o.converge_min_updates
             && self.startup_left == 0
             && spread
             && sd0 < o.converge_rel_std
             && sd1 < o.converge_rel_std
-            && self.cusum < 0.5 * o.cusum_alarm;
+            && self.innov.cusum < 0.5 * o.cusum_alarm;
+    }
+}
+
+/// What the estimators learn from their innovations (measured minus predicted force): the sensor
+/// noise, the recent RMS, Huber weights, and the CUSUM of change detection.
+#[derive(Debug, Clone)]
+pub(crate) struct Innovations {
+    pub(crate) noise_var: f64,
+    pub(crate) innov_ms: f64,
+    pub(crate) cusum: f64,
+    /// The CUSUM runs once the estimate has converged since the last reset or change.
+    armed: bool,
+}
+
+impl Innovations {
+    pub(crate) fn new(initial_noise_n: f64) -> Innovations {
+        Innovations {
+            noise_var: initial_noise_n.powi(2),
+            innov_ms: 0.0,
+            cusum: 0.0,
+            armed: false,
+        }
+    }
+
+    /// After a reset or a detected change: the CUSUM starts again, unarmed.
+    pub(crate) fn disarm(&mut self) {
+        self.cusum = 0.0;
+        self.armed = false;
+    }
+
+    pub(crate) fn arm(&mut self) {
+        self.armed = true;
+    }
+
+    /// One row's innovation `e` with the prediction's variance `hph` there: its noise variance
+    /// for the update (a large standardized innovation counts as noisier, Huber) and its clipped
+    /// squared standardized innovation.
+    pub(crate) fn row(&mut self, e: f64, hph: f64, o: &OnlineOptions) -> (f64, f64) {
+        let var = hph + self.noise_var;
+        let z = e / var.sqrt();
+        let w = if z.abs() <= o.huber_k {
+            1.0
+        } else {
+            o.huber_k / z.abs()
+        };
+        let r = self.noise_var / w;
+        let nis = (z * z).min(o.huber_k * o.huber_k);
+        // Noise variance from clipped innovations, slowly, and not while the CUSUM builds up: a
+        // change of the medium must not pass for noise.
+        if self.cusum < 0.25 * o.cusum_alarm {
+            let clipped = e.abs().min(o.huber_k * var.sqrt());
+            self.noise_var = 0.998 * self.noise_var + 0.002 * (clipped * clipped - hph).max(0.0);
+        }
+        self.innov_ms = 0.99 * self.innov_ms + 0.01 * e * e;
+        (r, nis)
+    }
+
+    pub(crate) fn floor_noise(&mut self) {
+        self.noise_var = self.noise_var.max(1e-12);
+    }
+
+    /// The CUSUM of clipped NIS over `rows` rows (mean `rows` without a change), once armed:
+    /// before that, large innovations are the estimate still moving, not the medium. True on an
+    /// alarm.
+    pub(crate) fn change_alarm(&mut self, nis: f64, rows: f64, o: &OnlineOptions) -> bool {
+        if !self.armed {
+            return false;
+        }
+        self.cusum = (self.cusum + nis - rows - o.cusum_drift).max(0.0);
+        self.cusum > o.cusum_alarm
+    }
+}
+
+/// Counts how many times in a row the sensor gave the same reading.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct StuckDetector {
+    last: Option<(f64, f64)>,
+    repeats: usize,
+}
+
+impl StuckDetector {
+    /// The reading `(drag, lift)`; how many times in a row it has now been seen.
+    pub(crate) fn see(&mut self, drag_n: f64, lift_n: f64) -> usize {
+        if self.last == Some((drag_n, lift_n)) {
+            self.repeats += 1;
+        } else {
+            self.repeats = 1;
+            self.last = Some((drag_n, lift_n));
+        }
+        self.repeats
+    }
+}
+
+/// The forgetting factor of one update that swept `dbeta` (rad), for a stroke whose penetration
+/// spans `span_rad`.
+pub(crate) fn forgetting_factor(o: &OnlineOptions, dbeta: f64, span_rad: f64) -> f64 {
+    match o.forgetting {
+        Forgetting::Strokes(m) => (-dbeta.min(0.2) / (m * span_rad)).exp(),
+        Forgetting::PerSample(l) => l,
     }
 }
 
 /// Angle swept between two wrapped angles, the short way round.
-fn angle_step(from: f64, to: f64) -> f64 {
+pub(crate) fn angle_step(from: f64, to: f64) -> f64 {
     let d = (to - from).abs();
     d.min(std::f64::consts::TAU - d)
 }

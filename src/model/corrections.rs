@@ -20,6 +20,17 @@ use super::{Medium, ModelError, Plate, Prediction, Regime, TerzaghiModel};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use std::fmt;
 
+/// The values of `ln a` a fit of the corrected model searches, `(low, high, count)`: from -2.58
+/// to 3.4 in steps of 0.46 (`a` from 0.08 to 30). The paper's media have `a` of 0.5 to 20; a DEM
+/// bed of coarse grains fits below 0.3 where `delta` is held at the contact friction.
+pub const LN_A_GRID: (f64, f64, usize) = (-2.58, 3.4, 14);
+
+/// The values of [`LN_A_GRID`], low to high.
+pub fn ln_a_grid() -> impl Iterator<Item = f64> {
+    let (lo, hi, steps) = LN_A_GRID;
+    (0..steps).map(move |i| lo + (hi - lo) * i as f64 / (steps - 1) as f64)
+}
+
 /// An effect the baseline leaves out, and its correction term.
 #[derive(
     Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize,
@@ -533,6 +544,10 @@ pub struct Motion {
     pub stroke: usize,
 }
 
+/// Window of the slopes that give a corrected leg's speed and acceleration (s): the node's and
+/// the online identification's.
+pub const MOTION_WINDOW_S: f64 = 0.03;
+
 /// Each part of a corrected prediction.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CorrectedPrediction {
@@ -602,6 +617,10 @@ impl CorrectedModel {
         self.unit.plate()
     }
 
+    pub fn medium(&self) -> &Medium {
+        self.unit.medium()
+    }
+
     /// The inputs of the terms at `beta_rad` with the leg moving as `motion`, and the unit
     /// model's force there (`None` where it cannot evaluate).
     pub fn inputs(
@@ -638,6 +657,58 @@ impl CorrectedModel {
             unit_per_phi_n_deg: per_phi,
         };
         Ok((x, f))
+    }
+
+    /// The design row at `beta_rad` with the leg moving as `motion` and the baseline's `a`, as
+    /// the diagnosis fits it: the prediction is `b_k row[0] + sum_j c_j row[1 + j]`, the `c_j`
+    /// the terms' coefficients in order. `row[0]` is `a^(-beta) F_unit(beta)` at the corrected
+    /// surface. Into `fixed` goes the part of each column that does not scale with
+    /// `a^(-beta)`: a column's derivative in `ln a` is `-beta (row - fixed)`. Returns the wrapped
+    /// angle and the regime at the configured surface.
+    pub fn design_row(
+        &self,
+        beta_rad: f64,
+        motion: &Motion,
+        a: f64,
+        row: &mut Vec<[f64; 2]>,
+        fixed: &mut Vec<[f64; 2]>,
+    ) -> Result<(f64, Regime), ModelError> {
+        let (x, f) = self.inputs(beta_rad, motion)?;
+        let w = (-a.ln() * x.beta_rad).exp();
+        let g = match &self.moved {
+            Some(m) => m.evaluate(x.beta_rad)?,
+            None => f,
+        };
+        let base = [w * g.drag_n, w * g.lift_n];
+        row.clear();
+        fixed.clear();
+        row.push(base);
+        fixed.push([0.0, 0.0]);
+        let nl = &self.corrections.nonlinear;
+        for t in &self.corrections.terms {
+            t.effect.push_columns(&x, base, w, nl, row);
+            t.effect.push_columns(&x, [0.0, 0.0], 0.0, nl, fixed);
+        }
+        Ok((x.beta_rad, f.regime))
+    }
+
+    /// The same model with other linear values: the baseline's `b_k, a` and the terms'
+    /// coefficients in order (as many as the terms have), each kept inside its bound.
+    pub fn set_linear(&mut self, b_k: f64, a: f64, coefficients: impl IntoIterator<Item = f64>) {
+        let c = &mut self.corrections;
+        c.b_k = b_k;
+        c.a = a;
+        let mut k = coefficients.into_iter();
+        for t in &mut c.terms {
+            for (v, name) in t.coefficients.iter_mut().zip(t.effect.linear_params()) {
+                if let Some(x) = k.next()
+                    && x.is_finite()
+                {
+                    let bound = t.effect.linear_bound(name);
+                    *v = x.clamp(-bound, bound);
+                }
+            }
+        }
     }
 
     /// The corrected prediction at `beta_rad` with the leg moving as `motion`. The sensor's lag,

@@ -435,9 +435,20 @@ fn run_core(
 /// finite time, angle or force are counted as the node counts such messages.
 pub fn reevaluate_samples(
     samples: &[Sample],
+    cfg: NodeConfig,
+    leg: usize,
+    on_row: impl FnMut(&Row),
+) -> Result<Summary, RecordError> {
+    reevaluate_samples_with(samples, cfg, leg, on_row, |_| {})
+}
+
+/// [`reevaluate_samples`], with the node's other outputs (its parameters, its gap reports).
+pub fn reevaluate_samples_with(
+    samples: &[Sample],
     mut cfg: NodeConfig,
     leg: usize,
     mut on_row: impl FnMut(&Row),
+    mut on_output: impl FnMut(Output),
 ) -> Result<Summary, RecordError> {
     let Some(lc) = cfg.legs.get_mut(leg) else {
         return Ok(Summary::default());
@@ -459,7 +470,6 @@ pub fn reevaluate_samples(
         complete: true,
         ..Default::default()
     };
-    let mut none = |_: Output| {};
     for s in samples {
         let stamp = s
             .t_s
@@ -473,12 +483,12 @@ pub fn reevaluate_samples(
         js.header.stamp = stamp;
         js.position[0] = direction * s.beta_rad + offset;
         sum.joint_states += 1;
-        driver.input(Input::Joints(&js), log_ns, &mut on_row, &mut none);
+        driver.input(Input::Joints(&js), log_ns, &mut on_row, &mut on_output);
         w.header.stamp = stamp;
         w.wrench.force.x = -s.drag_n;
         w.wrench.force.z = s.lift_n;
         sum.ft_samples += 1;
-        driver.input(Input::Wrench(leg, &w), log_ns, &mut on_row, &mut none);
+        driver.input(Input::Wrench(leg, &w), log_ns, &mut on_row, &mut on_output);
     }
     Ok(driver.finish(sum))
 }

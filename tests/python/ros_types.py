@@ -59,6 +59,9 @@ class ModelParams(IdlStruct, typename="terzaghi_msgs::msg::dds_::ModelParams_"):
     innovation_rms_n: float64 = 0.0
     converged: bool = False
     changes_detected: uint32 = 0
+    correction_params: sequence[str] = field(default_factory=list)
+    correction_values: sequence[float64] = field(default_factory=list)
+    correction_stds: sequence[float64] = field(default_factory=list)
 
 
 @dataclass

@@ -9,9 +9,10 @@ pub use gap::GapJob;
 
 use super::matcher::{FtMatcher, Match, NoAngle, usable_stamp_ns};
 use crate::config::{ModelKind, NodeConfig};
-use crate::ident::{Estimate, OnlineEstimator, Sample};
+use crate::ident::{CorrectedEstimator, Estimate, OnlineEstimator, Sample};
 use crate::model::corrections::{
-    CorrectedModel, CorrectedPrediction, Effect, MotionTracker, SensorLagFilter,
+    CorrectedModel, CorrectedPrediction, Effect, MOTION_WINDOW_S, Motion, MotionTracker,
+    SensorLagFilter,
 };
 use crate::model::{FittingWidth, ForceModel, Prediction, TerzaghiModel, wrap_beta_rad};
 use crate::msgs::{
@@ -53,7 +54,7 @@ struct Leg {
     corrected: Option<CorrectedLeg>,
     /// `<leg>_hip`, the frame of the predictions (made once, not per message).
     hip_frame: String,
-    estimator: Option<OnlineEstimator>,
+    estimator: Option<Learner>,
     /// The estimate currently used for predictions (converged and `use_identified`).
     identified: Option<Estimate>,
     last_params_ns: Option<i64>,
@@ -67,8 +68,24 @@ struct Leg {
 /// Predictions kept per corrected leg for the rows of a re-evaluation, by their angle's stamp.
 const RECENT_PREDICTIONS: usize = 1024;
 
-/// Window of the slopes that give a corrected leg's speed and acceleration (s).
-const MOTION_WINDOW_S: f64 = 0.03;
+/// Motions kept per corrected leg, by their angle's stamp, for the F/T samples matched to them.
+const RECENT_MOTIONS: usize = 256;
+
+/// A leg's online identification: of the bare model's fitting width, or of its corrected model
+/// (`b_k`, `a` and the corrections' coefficients).
+enum Learner {
+    Bare(Box<OnlineEstimator>),
+    Corrected(Box<CorrectedEstimator>),
+}
+
+impl Learner {
+    fn estimate(&self) -> &Estimate {
+        match self {
+            Learner::Bare(e) => e.estimate(),
+            Learner::Corrected(e) => e.estimate(),
+        }
+    }
+}
 
 /// A leg predicted by the corrected model: the model, the leg's motion followed from its angles,
 /// the sensor's lag, and (when re-evaluating) its recent predictions.
@@ -77,6 +94,9 @@ struct CorrectedLeg {
     tracker: MotionTracker,
     lag: SensorLagFilter,
     recent: VecDeque<(i64, RowPrediction)>,
+    /// The leg's motion at its recent angles, by their stamps: what the online identification
+    /// of the corrections reads at a matched F/T sample.
+    motions: VecDeque<(i64, Motion)>,
 }
 
 impl CorrectedLeg {
@@ -86,6 +106,7 @@ impl CorrectedLeg {
             tracker: MotionTracker::new(MOTION_WINDOW_S),
             lag: SensorLagFilter::default(),
             recent: VecDeque::new(),
+            motions: VecDeque::with_capacity(RECENT_MOTIONS),
         }
     }
 
@@ -98,6 +119,10 @@ impl CorrectedLeg {
         let motion = self
             .tracker
             .update(t_s, beta_rad, submerged, plate.length_m());
+        if self.motions.len() == RECENT_MOTIONS {
+            self.motions.pop_front();
+        }
+        self.motions.push_back((stamp_ns, motion));
         let mut p = self.model.evaluate(beta_rad, &motion).ok()?;
         let c = self.model.corrections();
         if c.has(Effect::SensorLag) {
@@ -249,7 +274,20 @@ impl NodeCore {
 
     fn new_leg(&self, i: usize) -> Leg {
         let lc = &self.cfg.legs[i];
+        let corrected = self.corrected_model(i);
         let estimator = lc.ft_topic.as_ref().and_then(|_| {
+            if let Some(m) = &corrected {
+                let opts = crate::ident::OnlineOptions {
+                    fit_delta: false,
+                    forgetting: crate::ident::online::Forgetting::Strokes(
+                        self.cfg.corrections_memory_strokes,
+                    ),
+                    ..self.cfg.estimator
+                };
+                return CorrectedEstimator::new(m.clone(), opts)
+                    .ok()
+                    .map(|e| Learner::Corrected(Box::new(e)));
+            }
             let base = TerzaghiModel::conventional(lc.plate, lc.medium);
             let opts = crate::ident::OnlineOptions {
                 initial_b_k: lc.width.b_k().clamp(
@@ -262,11 +300,13 @@ impl NodeCore {
                     .clamp(self.cfg.estimator.a_range.0, self.cfg.estimator.a_range.1),
                 ..self.cfg.estimator
             };
-            OnlineEstimator::new(&base, opts).ok()
+            OnlineEstimator::new(&base, opts)
+                .ok()
+                .map(|e| Learner::Bare(Box::new(e)))
         });
         Leg {
             model: self.model_for(i, None),
-            corrected: self.corrected_model(i).map(CorrectedLeg::new),
+            corrected: corrected.map(CorrectedLeg::new),
             hip_frame: format!("{}_hip", lc.name),
             estimator,
             identified: None,
@@ -339,7 +379,9 @@ impl NodeCore {
             let relearn = o.plate != n.plate
                 || o.medium != n.medium
                 || o.ft_topic != n.ft_topic
-                || old.estimator != self.cfg.estimator;
+                || o.corrections != n.corrections
+                || old.estimator != self.cfg.estimator
+                || old.corrections_memory_strokes != self.cfg.corrections_memory_strokes;
             if relearn {
                 let fresh = self.new_leg(i);
                 let leg = &mut self.legs[i];
@@ -354,9 +396,10 @@ impl NodeCore {
             self.legs[i].model = self.model_for(i, identified.as_ref());
             self.legs[i].hip_frame = format!("{}_hip", n.name);
             // New corrections take effect at once; the leg's motion is followed on.
+            let configured = o.corrections != n.corrections || o.plate != n.plate;
             match (self.corrected_model(i), &mut self.legs[i].corrected) {
                 (Some(m), Some(c)) => {
-                    if c.model.corrections() != m.corrections() || c.model.plate() != m.plate() {
+                    if configured {
                         c.model = m;
                         c.lag.reset();
                         c.recent.clear();
@@ -563,14 +606,34 @@ impl NodeCore {
         let stamp = Time::from_nanos(mt.t_ns).unwrap_or_default();
         let t_ns = mt.t_ns;
         let l = self.legs.get_mut(leg)?;
-        let est = l.estimator.as_mut()?;
-        let before = *est.estimate();
-        let _ = est.update(&Sample {
+        let sample = Sample {
             t_s: Some(stamp.to_secs()),
             beta_rad: mt.beta_rad,
             drag_n: mt.drag_n,
             lift_n: mt.lift_n,
-        });
+        };
+        let est = l.estimator.as_mut()?;
+        let before = *est.estimate();
+        match est {
+            Learner::Bare(e) => {
+                let _ = e.update(&sample);
+            }
+            Learner::Corrected(e) => {
+                // The motion at the angle the sample was matched with (the newest, should it
+                // have left the buffer).
+                let motions = l.corrected.as_ref().map(|c| &c.motions);
+                let motion = motions
+                    .and_then(|ms| {
+                        ms.iter()
+                            .rev()
+                            .find(|(t, _)| *t == mt.angle_t_ns)
+                            .or(ms.back())
+                    })
+                    .map(|(_, m)| *m)
+                    .unwrap_or_default();
+                let _ = e.update(&sample, &motion);
+            }
+        }
         let e = *est.estimate();
         let event =
             e.converged != before.converged || e.changes_detected != before.changes_detected;
@@ -588,9 +651,23 @@ impl NodeCore {
             self.follow_identified(leg);
         }
         let l = &mut self.legs[leg];
+        // The corrected model predicts with what is learnt while it is converged.
+        if let (Some(Learner::Corrected(e)), Some(c), Some(x), true) = (
+            &l.estimator,
+            &mut l.corrected,
+            &l.identified,
+            changed && self.cfg.use_identified,
+        ) {
+            c.model
+                .set_linear(x.b_k, x.a, e.coefficients().iter().map(|c| c.value));
+        }
         if !(due || event) {
             return None;
         }
+        let coefficients = match &l.estimator {
+            Some(Learner::Corrected(e)) => e.coefficients(),
+            _ => &[],
+        };
         l.last_params_ns = Some(t_ns);
         Some(ModelParams {
             header: Header {
@@ -612,6 +689,12 @@ impl NodeCore {
             innovation_rms_n: e.innovation_rms_n,
             converged: e.converged,
             changes_detected: e.changes_detected.min(u32::MAX as u64) as u32,
+            correction_params: coefficients
+                .iter()
+                .map(|c| format!("{}.{}", c.effect, c.param))
+                .collect(),
+            correction_values: coefficients.iter().map(|c| c.value).collect(),
+            correction_stds: coefficients.iter().map(|c| c.std).collect(),
         })
     }
 

@@ -1,0 +1,766 @@
+//! Online identification of a corrected model's linear values: the baseline's `b_k` and `a`, and
+//! each kept correction's coefficients, sample by sample.
+//!
+//! The corrected model predicts `y = b_k X_0(a) + sum_j c_j X_j(a)` (the design of the
+//! diagnosis, [`CorrectedModel::design_row`]): linear in `b_k` and the `c_j`, and in `a` only
+//! through `a^(-beta)`. The state is `theta = (b_k, ln a, c_1 .. c_m)`; the update is the same
+//! recursive Gauss–Newton (extended Kalman) step as [`super::OnlineEstimator`]'s, on the raw drag
+//! and lift, with the same options: forgetting by strokes, Huber weights, a stuck sensor, bounds
+//! (`b_k_range`, `a_range`, each coefficient's [`Effect::linear_bound`]) and the CUSUM of change
+//! detection, which re-opens the covariance on an alarm. The nonlinear values (speed exponent,
+//! surface level, lag, the change's stroke) and the set of terms stay as configured.
+//!
+//! What differs from the bare estimator, and why:
+//! - The start-up is a least squares over the first [`STARTUP_TURNS`] turns, for every `ln a`
+//!   of the diagnosis's grid at once (at another `a` a column's `a^(-beta)` part only scales),
+//!   then one Gauss–Newton step in all values from the best grid point: the state and its
+//!   covariance handed over are the diagnosis's own fit of those strokes. Coefficients come in
+//!   every unit, and no prior could be scaled for them all.
+//! - Every sample in the medium updates (the terms act in extraction too), and out of it every
+//!   sample that the sensor's terms reach (its offset, the tail of its lag). Out of the medium
+//!   the innovations are the sensor's noise alone; they are kept apart, and only in-medium
+//!   innovations feed change detection, which waits a turn after the start-up.
+//! - A coefficient whose column was zero through the start-up (a term that has not acted yet)
+//!   opens its covariance when the column first shows, to the size that lets the column alone
+//!   explain the largest force seen.
+//! - With a kept `sensor_lag`, every column goes through the sensor's lag, as in the diagnosis.
+//!
+//! Convergence: the relative standard deviations of `b_k` and `a` below `converge_rel_std`, and
+//! each seen coefficient's contribution (its standard deviation times the largest its column has
+//! been) below `converge_rel_std` of the largest force seen; after `converge_min_updates` updates
+//! and with the CUSUM below half its alarm level.
+
+use super::Sample;
+use super::online::{
+    ChangeEvent, Estimate, Innovations, OnlineOptions, OnlineOptionsError, Skip, StuckDetector,
+    angle_step, forgetting_factor,
+};
+use crate::model::corrections::{
+    CorrectedModel, Effect, MOTION_WINDOW_S, Motion, MotionTracker, lag_step, ln_a_grid,
+};
+use crate::model::{Regime, wrap_beta_rad};
+use serde::Serialize;
+use std::f64::consts::{FRAC_PI_2, TAU};
+
+/// Turns of the leg the start-up's least squares takes before the Gauss–Newton step.
+pub const STARTUP_TURNS: f64 = 2.0;
+
+/// How much wider than the start-up's least squares claim the handed-over covariance is: its
+/// `ln a` lies on a grid and its residuals are not white.
+const STARTUP_INFLATION: f64 = 4.0;
+
+/// Standard deviation of `ln a` handed over: half a step of the grid.
+const STARTUP_STD_LN_A: f64 = 0.23;
+
+/// The start-up: for every `ln a` of a grid, the sums of a Gauss–Newton step in the linear
+/// values (`b_k`, then the coefficients) and `ln a`, accumulated over the samples. With `x` a
+/// sample's design row and `d` its part that scales with `a^(-beta)`, the column of `ln a` is
+/// `-beta d . theta`: its products need `sum beta x d^T`, `sum beta^2 d d^T` and `sum beta d y`.
+#[derive(Debug, Clone)]
+struct Startup {
+    grid: Vec<f64>,
+    m: usize,
+    xtx: Vec<f64>,
+    xty: Vec<f64>,
+    yty: Vec<f64>,
+    /// `sum beta x d^T`, `sum beta^2 d d^T` (upper triangle), `sum beta d y`.
+    bxd: Vec<f64>,
+    bdd: Vec<f64>,
+    bdy: Vec<f64>,
+    samples: usize,
+    swept_rad: f64,
+    /// The lag's state per grid point and component: raw input and output of the row and of
+    /// `beta d`; the previous sample's time.
+    lag: Vec<f64>,
+    lag_t_s: Option<f64>,
+    x: Vec<f64>,
+    d: Vec<f64>,
+}
+
+/// The start-up's solution at one point of its grid.
+struct StartupFit {
+    sse: f64,
+    /// The linear values, then `ln a`.
+    theta: Vec<f64>,
+    /// The inverse of the Gauss–Newton information over the same values.
+    cov: nalgebra::DMatrix<f64>,
+    seen: Vec<bool>,
+}
+
+impl Startup {
+    /// The grid of the diagnosis and `ln_a_now`, for `m` linear values.
+    fn new(ln_a_now: f64, m: usize) -> Startup {
+        let mut grid: Vec<f64> = ln_a_grid().collect();
+        grid.push(ln_a_now);
+        let g = grid.len();
+        Startup {
+            grid,
+            m,
+            xtx: vec![0.0; g * m * m],
+            xty: vec![0.0; g * m],
+            yty: vec![0.0; g],
+            bxd: vec![0.0; g * m * m],
+            bdd: vec![0.0; g * m * m],
+            bdy: vec![0.0; g * m],
+            samples: 0,
+            swept_rad: 0.0,
+            lag: vec![0.0; g * 2 * 4 * m],
+            lag_t_s: None,
+            x: vec![0.0; m],
+            d: vec![0.0; m],
+        }
+    }
+
+    /// One sample at `t_s`: its design row at `ln_a_now` and the part of it that does not
+    /// scale with `a^(-beta)`; at another `ln a` the rest scales by
+    /// `exp(-(ln a - ln_a_now) beta)`. With a lag of `lag_s` (0: none), the row at every point of
+    /// the grid goes through it, as the sensor's reading does.
+    #[allow(clippy::too_many_arguments)]
+    fn add(
+        &mut self,
+        row: &[[f64; 2]],
+        fixed: &[[f64; 2]],
+        beta: f64,
+        ln_a_now: f64,
+        y: [f64; 2],
+        t_s: f64,
+        lag_s: f64,
+    ) {
+        let m = self.m;
+        self.samples += 1;
+        let dt = self.lag_t_s.map(|t0| t_s - t0);
+        self.lag_t_s = Some(t_s);
+        for (g, &ln_a) in self.grid.iter().enumerate() {
+            let k = (-(ln_a - ln_a_now) * beta).exp();
+            let mm = g * m * m..(g + 1) * m * m;
+            let (xtx, bxd, bdd) = (
+                &mut self.xtx[mm.clone()],
+                &mut self.bxd[mm.clone()],
+                &mut self.bdd[mm],
+            );
+            let xty = &mut self.xty[g * m..(g + 1) * m];
+            let bdy = &mut self.bdy[g * m..(g + 1) * m];
+            for c in 0..2 {
+                // The row and `beta d` (the column of ln a is `-theta . beta d`), lagged.
+                for (j, (r, f)) in row.iter().zip(fixed).enumerate() {
+                    let d = k * (r[c] - f[c]);
+                    self.x[j] = f[c] + d;
+                    self.d[j] = beta * d;
+                }
+                if lag_s > 0.0 {
+                    let state = &mut self.lag[(g * 2 + c) * 4 * m..(g * 2 + c + 1) * 4 * m];
+                    for j in 0..m {
+                        for (v, q) in [(&mut self.x[j], j), (&mut self.d[j], m + j)] {
+                            let (x0, y0) = (state[2 * q], state[2 * q + 1]);
+                            let out = match dt {
+                                Some(dt) if dt >= 0.0 => lag_step(x0, *v, y0, dt, lag_s),
+                                _ => *v,
+                            };
+                            state[2 * q] = *v;
+                            state[2 * q + 1] = out;
+                            *v = out;
+                        }
+                    }
+                }
+                for i in 0..m {
+                    let (xi, di) = (self.x[i], self.d[i]);
+                    if xi != 0.0 {
+                        for j in i..m {
+                            xtx[i * m + j] += xi * self.x[j];
+                        }
+                        xty[i] += xi * y[c];
+                    }
+                    if di != 0.0 {
+                        for j in 0..m {
+                            bxd[j * m + i] += self.x[j] * di;
+                        }
+                        for j in i..m {
+                            bdd[i * m + j] += di * self.d[j];
+                        }
+                        bdy[i] += di * y[c];
+                    }
+                }
+                self.yty[g] += y[c] * y[c];
+            }
+        }
+    }
+
+    /// The least squares at grid point `g`, and one Gauss–Newton step from there in the linear
+    /// values and `ln a` together (so that `ln a` leaves the grid).
+    fn solve(&self, g: usize) -> Option<StartupFit> {
+        use nalgebra::{DMatrix, DVector};
+        let m = self.m;
+        let mm = g * m * m;
+        let sym = |v: &[f64], i: usize, j: usize| v[mm + i.min(j) * m + i.max(j)];
+        let a = DMatrix::from_fn(m, m, |i, j| sym(&self.xtx, i, j));
+        let b = DVector::from_column_slice(&self.xty[g * m..(g + 1) * m]);
+        let seen: Vec<bool> = (0..m).map(|i| a[(i, i)] > 0.0).collect();
+        let mut a_reg = a.clone();
+        for i in 0..m {
+            a_reg[(i, i)] = if seen[i] {
+                a[(i, i)] * (1.0 + 1e-9)
+            } else {
+                1.0
+            };
+        }
+        let x = a_reg.clone().cholesky()?.solve(&b);
+        let sse = self.yty[g] - 2.0 * x.dot(&b) + x.dot(&(&a * &x));
+        // The column of ln a, -beta d . theta, against the others, itself and the residual.
+        let bxd = DMatrix::from_fn(m, m, |j, k| self.bxd[mm + j * m + k]);
+        let bdd = DMatrix::from_fn(m, m, |i, j| sym(&self.bdd, i, j));
+        let bdy = DVector::from_column_slice(&self.bdy[g * m..(g + 1) * m]);
+        let ha_x = -(&bxd * &x);
+        let ha_ha = x.dot(&(&bdd * &x));
+        let ha_r = -(x.dot(&bdy) - x.dot(&(bxd.transpose() * &x)));
+        let mut info = a_reg.clone().insert_row(m, 0.0).insert_column(m, 0.0);
+        for j in 0..m {
+            info[(m, j)] = ha_x[j];
+            info[(j, m)] = ha_x[j];
+        }
+        info[(m, m)] = ha_ha.max(0.0) + 1e-12;
+        let cov = info.cholesky()?.inverse();
+        // The linear values are least squares at this `ln a`: their gradient is zero.
+        let mut grad = DVector::zeros(m + 1);
+        grad[m] = ha_r;
+        let step = &cov * grad;
+        let ln_a = self.grid[g] + step[m].clamp(-STARTUP_STD_LN_A, STARTUP_STD_LN_A);
+        let mut theta: Vec<f64> = x.iter().copied().collect();
+        let scale = if step[m].abs() > STARTUP_STD_LN_A {
+            STARTUP_STD_LN_A / step[m].abs()
+        } else {
+            1.0
+        };
+        for (t, s) in theta.iter_mut().zip(step.iter()) {
+            *t += scale * s;
+        }
+        theta.push(ln_a);
+        (sse.is_finite() && theta.iter().all(|v| v.is_finite())).then_some(StartupFit {
+            sse,
+            theta,
+            cov,
+            seen,
+        })
+    }
+}
+
+/// One learnt coefficient of a correction.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Coefficient {
+    pub effect: Effect,
+    /// Its name with unit, as [`Effect::linear_params`] gives it.
+    pub param: &'static str,
+    pub value: f64,
+    /// Standard deviation from the covariance; `|value|` until its column has been seen.
+    pub std: f64,
+}
+
+/// The online estimator of a corrected leg.
+#[derive(Debug, Clone)]
+pub struct CorrectedEstimator {
+    model: CorrectedModel,
+    opts: OnlineOptions,
+    span_rad: f64,
+    /// `(b_k, ln a, c_1 .. c_m)`.
+    theta: Vec<f64>,
+    /// Covariance of `theta`, row-major `n x n`.
+    p: Vec<f64>,
+    /// The state's starting value (the configured corrections), for a reset.
+    theta0: Vec<f64>,
+    /// Whether each coefficient's column has been non-zero since the last (re)start.
+    seen: Vec<bool>,
+    /// Largest magnitude of each column since the last (re)start.
+    col_max: Vec<f64>,
+    /// Largest measured force since the last (re)start (N).
+    force_max_n: f64,
+    /// Innovations of the samples in the medium (they alone feed change detection) and out of
+    /// it (the sensor's offset and lag tail, far smaller: one noise for both would make every
+    /// in-medium innovation look like a change).
+    innov: Innovations,
+    innov_out: Innovations,
+    stuck: StuckDetector,
+    updates_since_reset: u64,
+    /// Angle swept since the start-up handed over (rad): change detection waits a turn, until
+    /// the noise in the medium is learnt from the step's own innovations.
+    swept_since_startup_rad: f64,
+    prev_beta: Option<f64>,
+    /// The start-up's sums, until it hands over to the Gauss–Newton step.
+    startup: Option<Startup>,
+    /// The sensor's lag on the columns: the previous sample's time, raw and lagged values.
+    lag_prev: Option<(f64, Vec<f64>, Vec<f64>)>,
+    est: Estimate,
+    coefficients: Vec<Coefficient>,
+    changes: Vec<ChangeEvent>,
+    // Scratch, so that an update does not allocate.
+    row: Vec<[f64; 2]>,
+    fixed: Vec<[f64; 2]>,
+    raw: Vec<f64>,
+    h: [Vec<f64>; 2],
+    u: [Vec<f64>; 2],
+}
+
+impl CorrectedEstimator {
+    /// An estimator that starts from `model`'s corrections (its `b_k, a` and coefficients) and
+    /// learns them with `opts` (`fit_delta` does not apply: `delta` stays the medium's).
+    pub fn new(
+        model: CorrectedModel,
+        opts: OnlineOptions,
+    ) -> Result<CorrectedEstimator, OnlineOptionsError> {
+        opts.validate()?;
+        let c = model.corrections();
+        let mut theta0 = vec![c.b_k, c.a.ln()];
+        let mut coefficients = Vec::new();
+        for t in &c.terms {
+            for (v, name) in t.coefficients.iter().zip(t.effect.linear_params()) {
+                theta0.push(*v);
+                coefficients.push(Coefficient {
+                    effect: t.effect,
+                    param: name,
+                    value: *v,
+                    std: v.abs(),
+                });
+            }
+        }
+        let n = theta0.len();
+        let span_rad = FRAC_PI_2 - model.plate().entry_beta_rad().unwrap_or(0.0);
+        let mut s = CorrectedEstimator {
+            model,
+            opts,
+            span_rad: span_rad.max(0.05),
+            theta: theta0.clone(),
+            p: vec![0.0; n * n],
+            theta0,
+            seen: vec![false; n],
+            col_max: vec![0.0; n],
+            force_max_n: 0.0,
+            innov: Innovations::new(opts.initial_noise_n),
+            innov_out: Innovations::new(opts.initial_noise_n),
+            stuck: StuckDetector::default(),
+            updates_since_reset: 0,
+            swept_since_startup_rad: 0.0,
+            prev_beta: None,
+            startup: None,
+            lag_prev: None,
+            est: Estimate::default(),
+            coefficients,
+            changes: Vec::new(),
+            row: Vec::with_capacity(n),
+            fixed: Vec::with_capacity(n),
+            raw: Vec::with_capacity(4 * n),
+            h: [vec![0.0; n], vec![0.0; n]],
+            u: [vec![0.0; n], vec![0.0; n]],
+        };
+        s.reset();
+        Ok(s)
+    }
+
+    /// Back to the configured corrections; counters and change history are cleared too.
+    pub fn reset(&mut self) {
+        self.theta.clone_from(&self.theta0);
+        self.innov = Innovations::new(self.opts.initial_noise_n);
+        self.innov_out = Innovations::new(self.opts.initial_noise_n);
+        self.stuck = StuckDetector::default();
+        self.prev_beta = None;
+        self.lag_prev = None;
+        self.changes.clear();
+        self.est = Estimate::default();
+        self.restart();
+        self.refresh_estimate();
+    }
+
+    /// Starts again from the current estimate with the start-up's least squares.
+    fn restart(&mut self) {
+        self.p.iter_mut().for_each(|v| *v = 0.0);
+        self.seen.iter_mut().for_each(|v| *v = false);
+        self.col_max.iter_mut().for_each(|v| *v = 0.0);
+        self.force_max_n = 0.0;
+        self.startup = Some(Startup::new(self.theta[1], self.theta.len() - 1));
+        self.innov.disarm();
+        self.updates_since_reset = 0;
+        self.swept_since_startup_rad = 0.0;
+    }
+
+    pub fn options(&self) -> &OnlineOptions {
+        &self.opts
+    }
+
+    /// The current estimate of `b_k` and `a` (`delta` the medium's, with no deviation).
+    pub fn estimate(&self) -> &Estimate {
+        &self.est
+    }
+
+    /// The current coefficients, in the order of the terms and their parameters.
+    pub fn coefficients(&self) -> &[Coefficient] {
+        &self.coefficients
+    }
+
+    /// The corrected model with the current estimate.
+    pub fn model(&self) -> &CorrectedModel {
+        &self.model
+    }
+
+    pub fn changes(&self) -> &[ChangeEvent] {
+        &self.changes
+    }
+
+    /// Feeds one sample with the leg's motion at its angle; `Ok(())` if it updated the
+    /// estimate, otherwise why not.
+    pub fn update(&mut self, s: &Sample, motion: &Motion) -> Result<(), Skip> {
+        let r = self.update_inner(s, motion);
+        match r {
+            Ok(()) => self.est.samples_used += 1,
+            Err(Skip::NonFinite) => self.est.samples_non_finite += 1,
+            Err(Skip::NotExcited) => self.est.samples_not_excited += 1,
+            Err(Skip::Stuck) => self.est.samples_stuck += 1,
+        }
+        r
+    }
+
+    fn update_inner(&mut self, s: &Sample, motion: &Motion) -> Result<(), Skip> {
+        if !(s.beta_rad.is_finite() && s.drag_n.is_finite() && s.lift_n.is_finite())
+            || s.t_s.is_some_and(|t| !t.is_finite())
+        {
+            return Err(Skip::NonFinite);
+        }
+        let stuck = self.stuck.see(s.drag_n, s.lift_n) >= self.opts.stuck_samples;
+        let (beta, regime) = self.columns(s, motion).ok_or(Skip::NonFinite)?;
+        let dbeta = self.prev_beta.map_or(0.0, |p| angle_step(p, beta));
+        self.prev_beta = Some(beta);
+        if stuck {
+            return Err(Skip::Stuck);
+        }
+        // Out of the medium, a sample tells only the sensor's side: its offset, and the force
+        // still coming through its lag.
+        let excited = regime != Regime::OutOfMedium
+            || self.model.corrections().has(Effect::SensorBias)
+            || self.h.iter().flatten().any(|v| *v != 0.0);
+        if !excited {
+            return Err(Skip::NotExcited);
+        }
+        if let Some(st) = &mut self.startup {
+            let c = self.model.corrections();
+            let lag_s = if c.has(Effect::SensorLag) {
+                c.nonlinear.lag_s
+            } else {
+                0.0
+            };
+            st.add(
+                &self.row,
+                &self.fixed,
+                beta,
+                self.theta[1],
+                [s.drag_n, s.lift_n],
+                s.t_s.unwrap_or(0.0),
+                lag_s,
+            );
+            st.swept_rad += dbeta;
+            let done =
+                st.swept_rad >= STARTUP_TURNS * TAU && st.samples >= self.opts.startup_samples;
+            for (m, col) in self.col_max[2..].iter_mut().zip(&self.row[1..]) {
+                *m = m.max(col[0].abs()).max(col[1].abs());
+            }
+            self.force_max_n = self.force_max_n.max(s.drag_n.abs()).max(s.lift_n.abs());
+            if done {
+                self.finish_startup();
+            }
+        } else {
+            self.swept_since_startup_rad += dbeta;
+            self.step(s, dbeta, regime != Regime::OutOfMedium);
+        }
+        self.updates_since_reset += 1;
+        self.refresh_estimate();
+        if self.est.converged && self.swept_since_startup_rad >= TAU {
+            self.innov.arm();
+        }
+        Ok(())
+    }
+
+    /// The Jacobian rows `h` (drag, lift) at this sample, through the sensor's lag when kept.
+    fn columns(&mut self, s: &Sample, motion: &Motion) -> Option<(f64, Regime)> {
+        let a = self.theta[1].exp();
+        let (beta, regime) = self
+            .model
+            .design_row(s.beta_rad, motion, a, &mut self.row, &mut self.fixed)
+            .ok()?;
+        let n = self.theta.len();
+        // Raw values: the columns of b_k and the coefficients, then the derivative in ln a of
+        // the prediction, for drag and lift.
+        self.raw.clear();
+        for c in 0..2 {
+            let mut d_ln_a = 0.0;
+            for (j, (col, fix)) in self.row.iter().zip(&self.fixed).enumerate() {
+                let k = if j == 0 {
+                    self.theta[0]
+                } else {
+                    self.theta[j + 1]
+                };
+                d_ln_a -= beta * k * (col[c] - fix[c]);
+            }
+            self.raw.push(self.row[0][c]);
+            self.raw.push(d_ln_a);
+            self.raw.extend(self.row[1..].iter().map(|col| col[c]));
+        }
+        let tau = self.model.corrections().nonlinear.lag_s;
+        let t = s.t_s.unwrap_or(0.0);
+        if self.model.corrections().has(Effect::SensorLag) && tau > 0.0 {
+            match &mut self.lag_prev {
+                Some((t0, x0, y0)) if t >= *t0 => {
+                    for q in 0..2 * n {
+                        let y = lag_step(x0[q], self.raw[q], y0[q], t - *t0, tau);
+                        x0[q] = self.raw[q];
+                        y0[q] = y;
+                        self.raw[q] = y;
+                    }
+                    *t0 = t;
+                }
+                _ => self.lag_prev = Some((t, self.raw.clone(), self.raw.clone())),
+            }
+        }
+        for c in 0..2 {
+            self.h[c].copy_from_slice(&self.raw[c * n..(c + 1) * n]);
+        }
+        self.h[0]
+            .iter()
+            .chain(&self.h[1])
+            .all(|v| v.is_finite())
+            .then_some((beta, regime))
+    }
+
+    // Index loops over the state: the update reads as its formulas.
+    #[allow(clippy::needless_range_loop)]
+    fn step(&mut self, s: &Sample, dbeta: f64, in_medium: bool) {
+        let o = self.opts;
+        let n = self.theta.len();
+        let y = [s.drag_n, s.lift_n];
+        self.force_max_n = self.force_max_n.max(y[0].abs()).max(y[1].abs());
+        let force_scale = self.force_max_n.max(3.0 * self.innov.noise_var.sqrt());
+        // The prediction, from the columns: b_k h[0] + sum c_j h[j + 1] (h[1] is ln a's).
+        let mut e = [0.0; 2];
+        for c in 0..2 {
+            let h = &self.h[c];
+            let mut pred = self.theta[0] * h[0];
+            for j in 2..n {
+                pred += self.theta[j] * h[j];
+            }
+            e[c] = y[c] - pred;
+        }
+        // Coefficients seen for the first time: their covariance opens.
+        for j in 2..n {
+            let mag = self.h[0][j].abs().max(self.h[1][j].abs());
+            self.col_max[j] = self.col_max[j].max(mag);
+            if !self.seen[j] && mag > 0.0 {
+                self.seen[j] = true;
+                self.p[j * n + j] = (force_scale / mag).powi(2);
+            }
+        }
+        // u_c = P h_c; S = H P H^T + R.
+        for c in 0..2 {
+            for i in 0..n {
+                let row = &self.p[i * n..(i + 1) * n];
+                self.u[c][i] = row.iter().zip(&self.h[c]).map(|(a, b)| a * b).sum();
+            }
+        }
+        let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
+        let mut hph = [[0.0; 2]; 2];
+        for a in 0..2 {
+            for b in 0..2 {
+                hph[a][b] = dot(&self.h[a], &self.u[b]);
+            }
+        }
+        let mut nis = 0.0;
+        let mut r = [0.0; 2];
+        let innov = if in_medium {
+            &mut self.innov
+        } else {
+            &mut self.innov_out
+        };
+        for c in 0..2 {
+            let (r_c, nis_c) = innov.row(e[c], hph[c][c], &o);
+            r[c] = r_c;
+            nis += nis_c;
+        }
+        innov.floor_noise();
+        let s00 = hph[0][0] + r[0];
+        let s11 = hph[1][1] + r[1];
+        let s01 = 0.5 * (hph[0][1] + hph[1][0]);
+        let det = s00 * s11 - s01 * s01;
+        if !(det.is_finite() && det > 0.0) {
+            return;
+        }
+        let si = [[s11 / det, -s01 / det], [-s01 / det, s00 / det]];
+        // K = U S^-1: theta += K e, P -= U S^-1 U^T.
+        let g = [
+            si[0][0] * e[0] + si[0][1] * e[1],
+            si[1][0] * e[0] + si[1][1] * e[1],
+        ];
+        for i in 0..n {
+            self.theta[i] += self.u[0][i] * g[0] + self.u[1][i] * g[1];
+        }
+        let lambda = forgetting_factor(&o, dbeta, self.span_rad);
+        for i in 0..n {
+            let ki = [
+                self.u[0][i] * si[0][0] + self.u[1][i] * si[1][0],
+                self.u[0][i] * si[0][1] + self.u[1][i] * si[1][1],
+            ];
+            for j in i..n {
+                let v = (self.p[i * n + j] - ki[0] * self.u[0][j] - ki[1] * self.u[1][j]) / lambda;
+                self.p[i * n + j] = v;
+                self.p[j * n + i] = v;
+            }
+        }
+        // Unseen directions stay closed.
+        for j in 2..n {
+            if !self.seen[j] {
+                for i in 0..n {
+                    self.p[i * n + j] = 0.0;
+                    self.p[j * n + i] = 0.0;
+                }
+            }
+        }
+        for i in 0..n {
+            if self.p[i * n + i] < 0.0 {
+                self.p[i * n + i] = 0.0;
+            }
+        }
+        self.bound_covariance();
+        self.project();
+
+        if in_medium && self.innov.change_alarm(nis, 2.0, &o) {
+            self.changes.push(ChangeEvent {
+                t_s: s.t_s,
+                b_k_before: self.theta[0],
+                a_before: self.theta[1].exp(),
+            });
+            self.est.changes_detected += 1;
+            self.restart();
+        }
+    }
+
+    /// The start-up's least squares: at the `ln a` of the grid with the least squared residual,
+    /// one Gauss–Newton step, and its covariance.
+    fn finish_startup(&mut self) {
+        let Some(st) = self.startup.take() else {
+            return;
+        };
+        let n = self.theta.len();
+        let m = n - 1;
+        let best = (0..st.grid.len())
+            .filter_map(|g| st.solve(g))
+            .min_by(|a, b| a.sse.total_cmp(&b.sse));
+        let Some(fit) = best else {
+            // Nothing to solve (no force seen): start again.
+            self.startup = Some(Startup::new(self.theta[1], m));
+            return;
+        };
+        let rows = (2 * st.samples).saturating_sub(n).max(1);
+        let noise_var = (fit.sse / rows as f64).max(1e-12);
+        self.innov.noise_var = noise_var;
+        self.innov_out.noise_var = noise_var;
+        // State index of the start-up's value `i` (the linear values, then ln a).
+        let index = |i: usize| match i {
+            0 => 0,
+            i if i == m => 1,
+            i => i + 1,
+        };
+        let seen = |i: usize| i == m || fit.seen[i];
+        for i in 0..=m {
+            self.seen[index(i)] = seen(i);
+            if seen(i) {
+                self.theta[index(i)] = fit.theta[i];
+            }
+        }
+        for i in 0..=m {
+            for j in 0..=m {
+                if seen(i) && seen(j) {
+                    self.p[index(i) * n + index(j)] =
+                        STARTUP_INFLATION * noise_var * fit.cov[(i, j)];
+                }
+            }
+        }
+        self.project();
+    }
+
+    /// No wind-up: `b_k` and `a` within `max_std_ln` (relative), each coefficient's contribution
+    /// within `max_std_ln` of the largest force.
+    fn bound_covariance(&mut self) {
+        let n = self.theta.len();
+        let max = self.opts.max_std_ln.powi(2);
+        let mut worst = self.p[0] / self.theta[0].powi(2).max(1e-300) / max;
+        worst = worst.max(self.p[n + 1] / max);
+        let force = self.force_max_n.max(1e-9);
+        for j in 2..n {
+            if self.seen[j] && self.col_max[j] > 0.0 {
+                worst = worst.max(self.p[j * n + j] * (self.col_max[j] / force).powi(2) / max);
+            }
+        }
+        if worst > 1.0 {
+            self.p.iter_mut().for_each(|v| *v /= worst);
+        }
+    }
+
+    fn project(&mut self) {
+        let o = &self.opts;
+        self.theta[0] = self.theta[0].clamp(o.b_k_range.0, o.b_k_range.1);
+        self.theta[1] = self.theta[1].clamp(o.a_range.0.ln(), o.a_range.1.ln());
+        for (v, c) in self.theta[2..].iter_mut().zip(&self.coefficients) {
+            let bound = c.effect.linear_bound(c.param);
+            *v = v.clamp(-bound, bound);
+        }
+    }
+
+    fn refresh_estimate(&mut self) {
+        let n = self.theta.len();
+        let o = &self.opts;
+        let (b_k, a) = (self.theta[0], self.theta[1].exp());
+        // During the start-up nothing is learnt yet: the deviations are the prior's.
+        let starting = self.startup.is_some();
+        let prior = [o.initial_std_ln * b_k, o.initial_std_ln];
+        let sd = |i: usize| match (starting, i) {
+            (true, 0 | 1) => prior[i],
+            (true, _) => self.theta[i].abs(),
+            _ => self.p[i * n + i].max(0.0).sqrt(),
+        };
+        let force = self.force_max_n.max(1e-9);
+        let mut coefficients_known = true;
+        for (j, c) in (2..n).zip(self.coefficients.iter_mut()) {
+            c.value = self.theta[j];
+            let seen = self.seen[j] && !starting;
+            c.std = if seen { sd(j) } else { c.value.abs() };
+            if seen && sd(j) * self.col_max[j] >= o.converge_rel_std * force {
+                coefficients_known = false;
+            }
+        }
+        self.model
+            .set_linear(b_k, a, self.theta[2..].iter().copied());
+        let e = &mut self.est;
+        e.b_k = b_k;
+        e.a = a;
+        e.delta_deg = self.model.medium().delta_deg();
+        e.std_b_k = sd(0);
+        e.std_a = a * sd(1);
+        e.std_delta_deg = 0.0;
+        e.innovation_rms_n = self.innov.innov_ms.sqrt();
+        e.noise_n = self.innov.noise_var.sqrt();
+        e.converged = self.updates_since_reset >= o.converge_min_updates
+            && self.startup.is_none()
+            && sd(0) < o.converge_rel_std * b_k
+            && sd(1) < o.converge_rel_std
+            && coefficients_known
+            && self.innov.cusum < 0.5 * o.cusum_alarm;
+    }
+}
+
+/// Feeds one leg's samples to `est` in the order given, the leg's motion followed from their own
+/// angles and times as the node follows it from its joint angles ([`MOTION_WINDOW_S`]). Samples
+/// without a time are fed with the motion of the last timed one.
+pub fn learn_samples(est: &mut CorrectedEstimator, samples: &[Sample]) {
+    let plate = *est.model().plate();
+    let mut tracker = MotionTracker::new(MOTION_WINDOW_S);
+    let mut motion = Motion::default();
+    for s in samples {
+        if let Some(t) = s.t_s {
+            let submerged = plate.submerged_length_m(wrap_beta_rad(s.beta_rad));
+            motion = tracker.update(t, s.beta_rad, submerged, plate.length_m());
+        }
+        let _ = est.update(s, &motion);
+    }
+}
