@@ -56,7 +56,55 @@ fn online_update(c: &mut Criterion) {
     });
 }
 
-criterion_group!(benches, models, online_update);
+/// One online update of a corrected leg past its start-up: the robot's front-left leg with the
+/// corrections of `rhex_corrected_config` (surcharge, extraction, rate and the sensor's lag:
+/// eleven values learnt), fed a stroke of its own corrected forces with a wobble.
+fn online_update_corrected(c: &mut Criterion) {
+    use terzaghi::ident::{CorrectedEstimator, OnlineOptions, Sample};
+    use terzaghi::model::corrections::{CorrectedModel, MOTION_WINDOW_S, MotionTracker};
+    let cfg = rhex_corrected_config();
+    let leg = &cfg.legs[0];
+    let model =
+        CorrectedModel::new(leg.plate, leg.medium, leg.corrections.clone().unwrap()).unwrap();
+    let (omega, dt) = (4.0, 0.001);
+    let mut tracker = MotionTracker::new(MOTION_WINDOW_S);
+    let stroke: Vec<_> = (0..(std::f64::consts::TAU / omega / dt) as usize)
+        .map(|i| {
+            let (t, beta) = (i as f64 * dt, i as f64 * dt * omega);
+            let sub = leg.plate.submerged_length_m(beta);
+            let m = tracker.update(t, beta, sub, leg.plate.length_m());
+            let p = model.evaluate(beta, &m).unwrap();
+            let wobble = 0.3 * ((i * 7919) % 13) as f64 / 13.0 - 0.15;
+            (beta, m, p.drag_n + wobble, p.lift_n - wobble)
+        })
+        .collect();
+    let mut est = CorrectedEstimator::new(model, OnlineOptions::default()).unwrap();
+    let mut k = 0usize;
+    let mut next = move || {
+        let (beta, m, d, l) = stroke[k % stroke.len()];
+        let turns = (k / stroke.len()) as f64;
+        let s = Sample {
+            t_s: Some(k as f64 * dt),
+            beta_rad: beta + turns * std::f64::consts::TAU,
+            drag_n: d,
+            lift_n: l,
+        };
+        k += 1;
+        (s, m)
+    };
+    for _ in 0..20_000 {
+        let (s, m) = next();
+        let _ = est.update(&s, &m);
+    }
+    c.bench_function("online_update_corrected", |b| {
+        b.iter(|| {
+            let (s, m) = next();
+            est.update(black_box(&s), &m).is_ok()
+        })
+    });
+}
+
+criterion_group!(benches, models, online_update, online_update_corrected);
 criterion_main!(benches, node);
 
 /// The node's configuration for the six-legged robot of `launch_configs/rhex.yaml`.

@@ -103,6 +103,7 @@ fn the_node_learns_its_corrections_and_predicts_with_them() {
     use terzaghi::model::TerzaghiModel;
     use terzaghi::session::reevaluate::{Output, Row, reevaluate_samples_with};
     let i = ONLINE_CASES
+        .clone()
         .find(|&i| learnt_online(i, SEED).unwrap().truth == "cohesion")
         .unwrap();
     let (case, samples) = terzaghi::withheld::case_session(i, SEED);

@@ -289,8 +289,14 @@ def main():
         peer.create_subscription(ModelParams, "/leg/model_params", late.append, QoSProfile(
             depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL))
         wait_until(lambda: len(late) > 0, 5)
-        check("model_params_transient_local", len(late) > 0 and last is not None and late[0].b_k == last.b_k,
-              {"received": len(late), "b_k": late[0].b_k if late else None})
+        # The late subscriber's first message is one the node published, no older than the last
+        # one seen before it joined (the node may publish another meanwhile).
+        with peer.lock:
+            seen = [(secs(m.header.stamp), m.b_k) for m in peer.params]
+        first = (secs(late[0].header.stamp), late[0].b_k) if late else None
+        check("model_params_transient_local",
+              first is not None and last is not None and first in seen and first[0] >= secs(last.header.stamp),
+              {"received": len(late), "first": first, "last_before_joining": (secs(last.header.stamp), last.b_k) if last else None})
 
         # 4. Simulated time: diagnostics stamped with /clock's time.
         def fresh_diagnostics():
