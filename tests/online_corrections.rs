@@ -171,3 +171,31 @@ fn the_node_learns_its_corrections_and_predicts_with_them() {
     assert!(learnt <= 1.05 * with_batch, "{learnt} against {with_batch}");
     assert!(learnt < 0.5 * unlearnt, "{learnt} against {unlearnt}");
 }
+
+/// The README's tables of the corrections learnt online are what the command prints.
+#[test]
+fn the_readme_tables_are_what_diagnose_eval_online_prints() {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_terzaghi"))
+        .args(["diagnose-eval", "--online"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let printed = String::from_utf8(out.stdout).unwrap();
+    let readme =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/README.md")).unwrap();
+    let rows: Vec<&str> = printed
+        .lines()
+        .filter(|l| {
+            l.strip_prefix("| case ")
+                .is_some_and(|r| r.starts_with(|c: char| c.is_ascii_digit()))
+        })
+        .collect();
+    assert_eq!(rows.len(), 9 + STEP_CASES.len(), "{printed}");
+    for row in rows {
+        assert!(readme.contains(row), "the README lacks the row\n{row}");
+    }
+}
