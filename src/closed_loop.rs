@@ -342,6 +342,9 @@ pub struct LearntOnline {
     pub values: Vec<LearntValue>,
     pub converged: bool,
     pub changes_detected: u64,
+    /// Changes the bare estimator (`b_k, a`, the node's defaults) detects in the same session,
+    /// which has none: what its change detection makes of the same misfit.
+    pub bare_changes_detected: u64,
 }
 
 impl LearntOnline {
@@ -421,6 +424,11 @@ pub fn learnt_online(i: usize, seed: u64) -> Result<LearntOnline, HeldOutError> 
     let mut est =
         CorrectedEstimator::new(start, online_options()).map_err(|e| err(e.to_string()))?;
     learn_samples(&mut est, &samples);
+    let mut bare = crate::ident::OnlineEstimator::new(&model, OnlineOptions::default())
+        .map_err(|e| err(e.to_string()))?;
+    for s in &samples {
+        let _ = bare.update(s);
+    }
     Ok(LearntOnline {
         case: format!("case {i}"),
         truth: truth_of(&case),
@@ -428,6 +436,7 @@ pub fn learnt_online(i: usize, seed: u64) -> Result<LearntOnline, HeldOutError> 
         values: learnt_values(&batch, &est),
         converged: est.estimate().converged,
         changes_detected: est.estimate().changes_detected,
+        bare_changes_detected: bare.estimate().changes_detected,
     })
 }
 
@@ -505,6 +514,7 @@ pub fn learnt_step(i: usize, seed: u64, factor: f64) -> Result<LearntStep, HeldO
         values: learnt_values(batch, est),
         converged: est.estimate().converged,
         changes_detected: est.estimate().changes_detected,
+        bare_changes_detected: 0,
     };
     let before = part("before the step", &batch_first, &est);
     let changes_before = est.changes().len();

@@ -181,7 +181,7 @@ pub fn render_online(
 ) -> String {
     use crate::closed_loop::{LearntOnline, STEP_FACTOR};
     let mut s = String::from(
-        "Corrected model learnt online from b_k = a = 1 and zero coefficients, against the batch diagnosis of the same session\n(a value counts as determined when its batch value is over three online standard deviations from zero; b_k and a always)\n\n| case | hidden effect | strokes | determined values within 10 % | largest difference of a determined value | converged | changes detected | holds |\n|---|---|---|---|---|---|---|---|\n",
+        "Corrected model learnt online from b_k = a = 1 and zero coefficients, against the batch diagnosis of the same session\n(a value counts as determined when its batch value is over three online standard deviations from zero; b_k and a always)\n\n| case | hidden effect | strokes | determined values within 10 % | largest difference of a determined value | converged | changes detected (the bare estimator's) | holds |\n|---|---|---|---|---|---|---|---|\n",
     );
     let worst = |c: &LearntOnline| {
         c.values
@@ -202,7 +202,7 @@ pub fn render_online(
     };
     for c in cases {
         s += &format!(
-            "| {} | {} | {} | {} | {} | {} | {} | {} |\n",
+            "| {} | {} | {} | {} | {} | {} | {} ({}) | {} |\n",
             c.case,
             c.truth,
             c.strokes,
@@ -210,6 +210,7 @@ pub fn render_online(
             worst(c),
             if c.converged { "yes" } else { "no" },
             c.changes_detected,
+            c.bare_changes_detected,
             if c.holds() { "yes" } else { "no" }
         );
     }
