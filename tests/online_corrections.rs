@@ -199,4 +199,3 @@ fn the_readme_tables_are_what_diagnose_eval_online_prints() {
         assert!(readme.contains(row), "the README lacks the row\n{row}");
     }
 }
-

@@ -764,3 +764,112 @@ pub fn learn_samples(est: &mut CorrectedEstimator, samples: &[Sample]) {
         let _ = est.update(s, &motion);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::corrections::{Corrections, Nonlinear, Term};
+    use crate::model::{Medium, Plate};
+
+    fn model(b_k: f64, a: f64, cohesion: [f64; 2], bias: [f64; 2]) -> CorrectedModel {
+        let c = Corrections {
+            b_k,
+            a,
+            terms: vec![
+                Term {
+                    effect: Effect::Cohesion,
+                    coefficients: cohesion.to_vec(),
+                },
+                Term {
+                    effect: Effect::SensorBias,
+                    coefficients: bias.to_vec(),
+                },
+            ],
+            nonlinear: Nonlinear::default(),
+            typical_speed_rad_s: 2.0,
+            session_strokes: 10,
+        };
+        CorrectedModel::new(
+            Plate::new(0.25, 0.06, 0.15).unwrap(),
+            Medium::new(16170.0, 32.0, 19.0).unwrap(),
+            c,
+        )
+        .unwrap()
+    }
+
+    /// A leg turning at 2 rad/s, sampled at 500 Hz: what `truth`'s sensor reads, with a small
+    /// deterministic wobble.
+    fn session(truth: &CorrectedModel, turns: f64) -> Vec<Sample> {
+        let (omega, dt) = (2.0, 0.002);
+        let mut tracker = MotionTracker::new(MOTION_WINDOW_S);
+        (0..(turns * TAU / omega / dt) as usize)
+            .map(|i| {
+                let (t, beta) = (i as f64 * dt, 0.3 + i as f64 * dt * omega);
+                let sub = truth.plate().submerged_length_m(wrap_beta_rad(beta));
+                let m = tracker.update(t, beta, sub, truth.plate().length_m());
+                let p = truth.evaluate(beta, &m).unwrap();
+                let wobble = 0.05 * ((i * 7919) % 13) as f64 / 13.0 - 0.025;
+                Sample {
+                    t_s: Some(t),
+                    beta_rad: beta,
+                    drag_n: p.sensor_drag_n + wobble,
+                    lift_n: p.sensor_lift_n - wobble,
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn learns_a_corrected_model_from_scratch_and_skips_bad_samples() {
+        let truth = model(2.5, 1.6, [3000.0, 500.0], [1.5, -2.0]);
+        let mut samples = session(&truth, 12.0);
+        for k in (100..samples.len()).step_by(997) {
+            samples[k].drag_n = f64::NAN;
+        }
+        let nan = samples.iter().filter(|s| s.drag_n.is_nan()).count() as u64;
+        let scratch = model(1.0, 1.0, [0.0, 0.0], [0.0, 0.0]);
+        let mut est = CorrectedEstimator::new(scratch, OnlineOptions::default()).unwrap();
+        learn_samples(&mut est, &samples);
+        let e = est.estimate();
+        assert!(e.converged, "{e:?}");
+        assert_eq!(e.samples_non_finite, nan);
+        assert!((e.b_k / 2.5 - 1.0).abs() < 0.01, "{e:?}");
+        assert!((e.a / 1.6 - 1.0).abs() < 0.01, "{e:?}");
+        let want = [3000.0, 500.0, 1.5, -2.0];
+        for (c, w) in est.coefficients().iter().zip(want) {
+            assert!((c.value - w).abs() < 0.02 * w.abs(), "{c:?} against {w}");
+            assert!(c.std.is_finite() && c.std > 0.0);
+        }
+        // The model it holds predicts with what it learnt.
+        assert_eq!(est.model().corrections().b_k, e.b_k);
+    }
+
+    #[test]
+    fn a_step_of_the_medium_is_detected_and_followed() {
+        let before = model(2.5, 1.6, [3000.0, 500.0], [1.5, -2.0]);
+        let after = model(3.5, 1.6, [3000.0, 500.0], [1.5, -2.0]);
+        let first = session(&before, 10.0);
+        let t_end = first.last().unwrap().t_s.unwrap();
+        let second: Vec<Sample> = session(&after, 10.0)
+            .into_iter()
+            .map(|s| Sample {
+                t_s: s.t_s.map(|t| t + t_end + 0.002),
+                beta_rad: s.beta_rad + 10.0 * TAU,
+                ..s
+            })
+            .collect();
+        let scratch = model(1.0, 1.0, [0.0, 0.0], [0.0, 0.0]);
+        let mut est = CorrectedEstimator::new(scratch, OnlineOptions::default()).unwrap();
+        learn_samples(&mut est, &first);
+        assert_eq!(est.estimate().changes_detected, 0);
+        learn_samples(&mut est, &second);
+        let e = est.estimate();
+        assert_eq!(e.changes_detected, 1, "{e:?}");
+        let t_change = est.changes()[0].t_s.unwrap();
+        assert!(
+            t_change > t_end && t_change < t_end + TAU / 2.0,
+            "{t_change}"
+        );
+        assert!(e.converged && (e.b_k / 3.5 - 1.0).abs() < 0.01, "{e:?}");
+    }
+}
