@@ -239,11 +239,13 @@ fn the_committed_campaign_holds_its_figures() {
         assert!(t.transferred.r2_lift > 0.45, "{t:?}");
         assert!(t.transferred.r2_drag <= t.own.r2_drag + 1e-9, "{t:?}");
     }
-    // The C-leg: RFT from the DEM predicts it; the flat-plate model, fitted to it, does not
+    // The C-leg, its stroke from the arc's own entry: RFT from the DEM predicts its drag, and
+    // its lift less well (the DEM's lift runs well above RFT's through the first half of the
+    // stroke: README, "Checked against DEM"); the flat-plate model, fitted to it, does not
     // describe its lift.
     let cl = r.c_leg.as_ref().expect("the campaign has a C-leg run");
     assert!(cl.samples > 300, "{cl:?}");
-    assert!(cl.rft.r2_drag > 0.75 && cl.rft.r2_lift > 0.85, "{cl:?}");
+    assert!(cl.rft.r2_drag > 0.75 && cl.rft.r2_lift > 0.7, "{cl:?}");
     assert!(cl.flat_plate_fit.r2_lift < 0.0, "{cl:?}");
     // Each controlled variation changes the forces by more than the testbed's own checks do.
     for v in [

@@ -118,21 +118,20 @@ fn render(m: &serde_json::Value, r: &CampaignReport) -> String {
             dx["seconds"].as_f64().unwrap_or(0.0) / 60.0,
             dx["command"].as_str().unwrap_or("")
         );
-        // Runs added to the part later, each batch with the command that made it.
+        // Runs added or run again later, each batch with the command that made it and why.
         let added = dx["added"].as_array().map_or(&[][..], |v| v.as_slice());
-        let later: usize = added
-            .iter()
-            .map(|a| a["runs"].as_array().map_or(0, |v| v.len()))
-            .sum();
-        if later > 0 {
+        if !added.is_empty() {
             s.pop();
-            s += &format!("; {} of them added later:\n", later);
+            s += "; later:\n";
             for a in added {
                 s += &format!(
-                    "  {} runs, {:.1} min ({})\n",
+                    "  {} runs, {:.1} min ({}){}\n",
                     a["runs"].as_array().map_or(0, |v| v.len()),
                     a["seconds"].as_f64().unwrap_or(0.0) / 60.0,
-                    a["command"].as_str().unwrap_or("")
+                    a["command"].as_str().unwrap_or(""),
+                    a["note"]
+                        .as_str()
+                        .map_or(String::new(), |n| format!(": {n}"))
                 );
             }
         }

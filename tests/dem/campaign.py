@@ -410,14 +410,27 @@ def make_drain(cfg, workdir):
 # Strokes
 
 
-def stroke_schedule(h_actual, length, omega, strokes, margin=0.08, return_omega=10.0):
-    """The rotation: from just before the tip touches the surface to just after it leaves,
+def entry_exit(shape, h_actual, length):
+    """The attack angles at which the leg's lowest point reaches the surface, h_actual below the
+    hip, and leaves it. A flat plate's tip enters at asin(h / L) and leaves at pi - asin(h / L).
+    A C-leg's arc (a half circle on the chord, convex toward the travel) reaches
+    L/2 (1 + sin beta) below the hip up to beta = pi/2, past it L sin beta (the tip): it enters at
+    asin(2 h / L - 1), about -11.5 deg for the testbed's C-leg, well before the chord's tip
+    would, and leaves as the flat plate does."""
+    exit_ = math.pi - math.asin(min(1.0, h_actual / length))
+    if shape == "flat":
+        return math.asin(min(1.0, h_actual / length)), exit_
+    return math.asin(max(-1.0, min(1.0, 2.0 * h_actual / length - 1.0))), exit_
+
+
+def stroke_schedule(h_actual, length, omega, strokes, shape="flat", margin=0.08, return_omega=10.0):
+    """The rotation: from just before the leg touches the surface to just after it leaves,
     at omega; between strokes the leg swings back over the top at return_omega (as a wheel-leg
     does), so that the next stroke passes through the same trough. Returns the start angle and
     the segments (omega, duration)."""
-    b_in = math.asin(min(1.0, h_actual / length))
+    b_in, b_out = entry_exit(shape, h_actual, length)
     beta0 = b_in - margin
-    sweep = math.pi - 2 * b_in + 2 * margin
+    sweep = b_out - b_in + 2 * margin
     segs = []
     for k in range(strokes):
         if k:
@@ -434,7 +447,7 @@ def run_stroke(cfg, name, workdir, bed, width_m, hip_height_m, omega, shape="fla
     dt = cfg["dt"] * (overrides or {}).get("dt_factor", 1.0)
     h_actual = hip_height_m + hip_offset_m
     hip_z = bed["surface_z_m"] + h_actual
-    beta0, segs = stroke_schedule(h_actual, length, omega, strokes)
+    beta0, segs = stroke_schedule(h_actual, length, omega, strokes, shape)
     write_stl(os.path.join(workdir, name + ".stl"),
               leg_tris(shape, length, width_m, cfg["thickness"], beta0, hip_z))
     nav = max(1, round(1.0 / SAMPLE_HZ / dt))
@@ -885,6 +898,9 @@ def diagnosis_plan(cohesion):
     # large misfit of the flat-plate model at several speeds.
     for k, w in ((1, 2.5), (2, 5.0), (3, 7.5)):
         plan.append(("dx_cleg_w%03d_s%d" % (round(w * 10), k), "base", k, {"omega": w, "shape": "c"}))
+    # The campaign's own C-leg stroke at 1 rad/s, on its bed levelled again from the same seed:
+    # its first runs started at the flat plate's entry angle, the arc already inside the bed.
+    plan.append(("cleg", "base", 0, {"shape": "c"}))
     return plan
 
 
@@ -948,6 +964,8 @@ def run_diagnosis_part(args):
         for f in [pool.submit(go, *r) for r in order]:
             f.result()
     names = {r["name"] for r in camp.runs}
+    # A run on the campaign's own bed (seed index 0) is the campaign's, run again: not the part's.
+    own = {r[0] for r in plan if r[2] == 0}
     refused = import_sessions(out, camp.terzaghi, camp.log, only=names)
     manifest["runs"] = sorted([r for r in manifest["runs"] if r["name"] not in names] + camp.runs,
                               key=lambda r: r["name"])
@@ -961,7 +979,7 @@ def run_diagnosis_part(args):
         # Runs added to an existing diagnosis part: recorded beside it, the part's run list
         # grown by them.
         part = manifest["diagnosis"]
-        part["runs"] = sorted(set(part["runs"]) | names)
+        part["runs"] = sorted(set(part["runs"]) | (names - own))
         part.setdefault("added", []).append({
             "command": command + " --only " + args.only,
             "engine": camp.engine,
@@ -973,7 +991,7 @@ def run_diagnosis_part(args):
             "command": command,
             "engine": camp.engine,
             "seeds": DIAGNOSIS_SEEDS,
-            "runs": sorted(names),
+            "runs": sorted(names - own),
             "seconds": seconds,
         }
     with open(path, "w") as f:
