@@ -355,3 +355,53 @@ fn the_online_estimator_converges_on_six_joined_dem_strokes() {
         );
     }
 }
+
+/// The node predicts the DEM's C-leg (`<leg>.shape: c_leg`, `model: rft`, coefficients fitted to
+/// the campaign's own intrusions, nothing fitted to the leg), through its own code: `replay
+/// --reevaluate` of the C-leg's session with `launch_configs/dem_cleg.yaml`. Its figures are the
+/// offline comparison's (`dem-report`), over the same stroke.
+#[test]
+fn the_node_predicts_the_dem_c_leg_with_rft_from_the_dem() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let out = std::env::temp_dir().join(format!("terzaghi-cleg-{}.csv", std::process::id()));
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_terzaghi"))
+        .current_dir(dir)
+        .args([
+            "replay",
+            "tests/dem/campaign/runs/cleg.mcap",
+            "--reevaluate",
+            "--params-file",
+            "launch_configs/dem_cleg.yaml",
+            "-o",
+            out.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    let _ = std::fs::remove_file(&out);
+    assert!(o.status.success(), "{}", text(&o));
+    let printed = text(&o);
+    let r2 = |what: &str| -> f64 {
+        let at = printed.find(what).unwrap_or_else(|| panic!("{printed}")) + what.len();
+        printed[at..]
+            .split([',', ')'])
+            .next()
+            .unwrap()
+            .trim()
+            .parse()
+            .unwrap()
+    };
+    let (drag, lift) = (r2("R^2 drag "), r2("lift "));
+    let c = terzaghi::dem::read_campaign(&dir.join("tests/dem/campaign")).unwrap();
+    let fit = terzaghi::model::RftFit::fit_to_points(&c.rft_grid).unwrap();
+    let offline = terzaghi::dem::fidelity::c_leg_fidelity(
+        c.run("cleg").unwrap(),
+        &terzaghi::model::RftCoefficients::Fit(fit),
+    )
+    .unwrap();
+    println!("{printed}offline: {:?}", offline.rft);
+    assert!((drag - offline.rft.r2_drag).abs() < 0.02, "{drag}");
+    assert!((lift - offline.rft.r2_lift).abs() < 0.02, "{lift}");
+    // Drag at R^2 0.8 and more; lift short of it (README, "Checked against DEM").
+    assert!(drag > 0.8, "{drag}");
+    assert!(lift > 0.7, "{lift}");
+}

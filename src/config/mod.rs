@@ -147,6 +147,33 @@ other_node:
     }
 
     #[test]
+    fn a_leg_of_another_shape_is_predicted_by_rft_over_its_profile() {
+        let c = load(
+            "-p model:=rft -p left.rft_coeffs:=poppy_lp -p right.rft_coeffs:=poppy_lp -p left.shape:=c_leg -p left.length_m:=0.1 -p left.hip_height_m:=0.04",
+        )
+        .unwrap();
+        let p = c.legs[0].profile.as_ref().unwrap();
+        assert_eq!(p.shape, "c_leg");
+        // A half circle on the 100 mm chord, by default.
+        let last = p.line.last().unwrap();
+        assert!(
+            (last.0 - 0.1).abs() < 1e-9 && last.1.abs() < 1e-9,
+            "{last:?}"
+        );
+        let m = c.leg_model(0, c.legs[0].width, None).unwrap();
+        let crate::model::ForceModel::Rft(r) = &m else {
+            panic!("{m:?}")
+        };
+        assert!(r.profile().is_some());
+        assert!(c.legs[1].profile.is_none());
+        let c = load(
+            "-p model:=rft -p left.rft_coeffs:=poppy_lp -p right.rft_coeffs:=poppy_lp -p left.shape:=polyline -p left.profile:=[0.0,0.0,0.1,0.02,0.2,0.0]",
+        )
+        .unwrap();
+        assert_eq!(c.legs[0].profile.as_ref().unwrap().line.len(), 3);
+    }
+
+    #[test]
     fn bad_values_name_parameter_and_value() {
         let cases = [
             ("-p left.width_m:=-1", "left.width_m"),
@@ -167,6 +194,22 @@ other_node:
                 "corrections for a leg \"rear\"",
             ),
             ("-p left.corrections.effects:=[moisture]", "moisture"),
+            // Shapes: only RFT predicts a leg that is not a flat plate; an arc must span the
+            // leg's length; a profile needs pairs of coordinates; a grid file must be read.
+            ("-p left.shape:=c_leg", "set model to rft"),
+            ("-p left.shape:=wheel", "wheel"),
+            (
+                "-p model:=rft -p left.rft_coeffs:=poppy_lp -p right.rft_coeffs:=poppy_lp -p left.shape:=c_leg -p left.c_leg.radius_m:=0.5",
+                "left.c_leg.radius_m",
+            ),
+            (
+                "-p model:=rft -p left.rft_coeffs:=poppy_lp -p right.rft_coeffs:=poppy_lp -p left.shape:=polyline -p left.profile:=[0.0,0.0,0.1]",
+                "left.profile",
+            ),
+            (
+                "-p model:=rft -p right.rft_coeffs:=poppy_lp -p left.rft_grid_file:=/nonexistent/grid.csv",
+                "/nonexistent/grid.csv",
+            ),
             (
                 "-p left.corrections.effects:=[sensor_bias] -p left.corrections.sensor_bias.drag_n:=1e6 -p left.corrections.sensor_bias.lift_n:=0.0",
                 "left.corrections.sensor_bias.drag_n = 1000000",

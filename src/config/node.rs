@@ -78,6 +78,9 @@ pub struct LegConfig {
     pub ft_topic: Option<String>,
     pub ft_frame: FtFrame,
     pub rft: Option<RftCoefficients>,
+    /// The leg's shape: `None` for a flat plate, else its mid-line (`<leg>.shape` `c_leg` or
+    /// `polyline`), which only RFT predicts.
+    pub profile: Option<LegProfile>,
     /// The corrected model's terms (`<leg>.corrections.*`), with `width` as its baseline.
     pub corrections: Option<Corrections>,
 }
@@ -100,6 +103,7 @@ impl LegConfig {
             ft_topic: None,
             ft_frame: FtFrame::Hip,
             rft: None,
+            profile: None,
             corrections: None,
         }
     }
@@ -107,6 +111,15 @@ impl LegConfig {
 
 /// The default memory (strokes) of the online identification of a leg with corrections.
 pub const DEFAULT_CORRECTIONS_MEMORY_STROKES: f64 = 30.0;
+
+/// A leg that is not a flat plate.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LegProfile {
+    /// `c_leg` or `polyline`, as configured.
+    pub shape: &'static str,
+    /// Its mid-line in the leg's frame: `s` along the chord from the hip, `q` toward the travel.
+    pub line: Vec<(f64, f64)>,
+}
 
 /// The whole node, validated.
 #[derive(Debug, Clone)]
@@ -165,7 +178,7 @@ pub const STARTUP_ONLY: [&str; 5] = [
 ];
 
 /// Names of the per-leg parameters (`<leg>.<name>`).
-pub const LEG_KEYS: [&str; 16] = [
+pub const LEG_KEYS: [&str; 21] = [
     "joint",
     "direction",
     "angle_offset_rad",
@@ -182,6 +195,11 @@ pub const LEG_KEYS: [&str; 16] = [
     "ft_frame",
     "rft_coeffs",
     "rft_zeta",
+    "rft_grid_file",
+    "shape",
+    "profile",
+    "c_leg.radius_m",
+    "c_leg.span_deg",
 ];
 
 /// Global parameters and their defaults.
@@ -525,9 +543,17 @@ impl NodeConfig {
             ModelKind::Conventional => {
                 ForceModel::Terzaghi(TerzaghiModel::conventional(leg.plate, medium))
             }
-            ModelKind::Rft => match &leg.rft {
-                Some(c) => ForceModel::Rft(RftModel::new(leg.plate, c.clone(), self.rft_elements)?),
-                None => ForceModel::Terzaghi(TerzaghiModel::new(leg.plate, medium, width)),
+            ModelKind::Rft => match (&leg.rft, &leg.profile) {
+                (Some(c), Some(p)) => ForceModel::Rft(RftModel::with_profile(
+                    leg.plate,
+                    c.clone(),
+                    self.rft_elements,
+                    p.line.clone(),
+                )?),
+                (Some(c), None) => {
+                    ForceModel::Rft(RftModel::new(leg.plate, c.clone(), self.rft_elements)?)
+                }
+                (None, _) => ForceModel::Terzaghi(TerzaghiModel::new(leg.plate, medium, width)),
             },
         })
     }
@@ -616,16 +642,38 @@ fn leg_config(
             })
         });
     let zeta = g.f64(&k("rft_zeta"))?.filter(|z| *z != 0.0); // 0: not set
-    let rft = match rft_name.clone() {
-        Some(n) => Some(RftCoefficients::by_name(&n, zeta).map_err(model_err(&k("rft_coeffs")))?),
-        None if model == ModelKind::Rft => {
+    let grid_file = g.str(&k("rft_grid_file"))?.filter(|f| !f.is_empty());
+    let rft_name = match (&grid_file, rft_name) {
+        (Some(f), _) => Some(format!("grid file {f}")),
+        (None, n) => n,
+    };
+    let rft = match (&grid_file, rft_name.clone()) {
+        (Some(f), _) => Some(rft_from_grid_file(&k("rft_grid_file"), f)?),
+        (None, Some(n)) => {
+            Some(RftCoefficients::by_name(&n, zeta).map_err(model_err(&k("rft_coeffs")))?)
+        }
+        (None, None) if model == ModelKind::Rft => {
             return Err(ConfigError::Missing {
                 name: k("rft_coeffs"),
-                hint: "model rft needs RFT coefficients (poppy_lp, poppy_cp, poppy_lp_grid, generic with rft_zeta) or a medium that has them".into(),
+                hint: "model rft needs RFT coefficients (poppy_lp, poppy_cp, poppy_lp_grid, generic with rft_zeta, or rft_grid_file) or a medium that has them".into(),
             });
         }
-        None => None,
+        (None, None) => None,
     };
+    let profile = leg_profile(g, leg, &plate)?;
+    if let Some(p) = &profile
+        && model != ModelKind::Rft
+    {
+        return Err(invalid(
+            &k("shape"),
+            &p.shape,
+            format!(
+                "a {} leg is not a flat plate: the {} model is a flat plate's; set model to rft",
+                p.shape,
+                model.as_str()
+            ),
+        ));
+    }
     let joint = g
         .str(&k("joint"))?
         .filter(|j| !j.is_empty())
@@ -644,6 +692,103 @@ fn leg_config(
         ft_topic,
         ft_frame,
         rft,
+        profile,
         corrections,
     })
+}
+
+/// RFT coefficients fitted to a calibration grid: a CSV of `beta_rad,gamma_rad,alpha_x,alpha_z`
+/// rows (N/cm^3), the format of the DEM campaign's `rft_grid.csv`.
+fn rft_from_grid_file(name: &str, path: &str) -> Result<RftCoefficients, ConfigError> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| invalid(name, &path, format!("cannot read it: {e}")))?;
+    let points = crate::model::RftGrid::parse(&text)
+        .map_err(|e| invalid(name, &path, format!("not an RFT grid: {e}")))?
+        .points();
+    crate::model::RftFit::fit_to_points(&points)
+        .map(RftCoefficients::Fit)
+        .ok_or_else(|| {
+            invalid(
+                name,
+                &path,
+                format!(
+                    "{} points do not determine RFT's coefficients (at least 5, spread over beta and gamma)",
+                    points.len()
+                ),
+            )
+        })
+}
+
+/// `<leg>.shape` and what it needs: `plate` (the default), `c_leg` (`c_leg.radius_m`, default
+/// half of `length_m`, and `c_leg.span_deg`, default 180: an arc whose chord must be `length_m`),
+/// or `polyline` (`profile`: `[s0, q0, s1, q1, ...]` in metres).
+fn leg_profile(g: &Get, leg: &str, plate: &Plate) -> Result<Option<LegProfile>, ConfigError> {
+    let k = |s: &str| format!("{leg}.{s}");
+    let shape = g.str(&k("shape"))?.unwrap_or_else(|| "plate".into());
+    match shape.as_str() {
+        "plate" => Ok(None),
+        "c_leg" => {
+            let length = plate.length_m();
+            let radius = g.f64(&k("c_leg.radius_m"))?.unwrap_or(length / 2.0);
+            let span_deg = g.f64(&k("c_leg.span_deg"))?.unwrap_or(180.0);
+            if radius <= 0.0 {
+                return Err(invalid(&k("c_leg.radius_m"), &radius, "must be > 0"));
+            }
+            if !(span_deg > 0.0 && span_deg < 360.0) {
+                return Err(invalid(
+                    &k("c_leg.span_deg"),
+                    &span_deg,
+                    "must lie in (0, 360)",
+                ));
+            }
+            let chord = 2.0 * radius * (span_deg.to_radians() / 2.0).sin();
+            if (chord - length).abs() > 0.01 * length {
+                return Err(invalid(
+                    &k("c_leg.radius_m"),
+                    &radius,
+                    format!(
+                        "the arc's chord, 2 radius sin(span / 2) = {chord:.4} m, must be length_m ({length} m), the hip-to-tip distance"
+                    ),
+                ));
+            }
+            Ok(Some(LegProfile {
+                shape: "c_leg",
+                line: crate::model::c_leg_profile(radius, span_deg.to_radians(), 32),
+            }))
+        }
+        "polyline" => {
+            let v = match g.0.get(&k("profile")) {
+                Some(ParamValue::DoubleArray(v)) => v.clone(),
+                Some(v) => {
+                    return Err(invalid(
+                        &k("profile"),
+                        v,
+                        "expected [s0, q0, s1, q1, ...] in metres",
+                    ));
+                }
+                None => {
+                    return Err(ConfigError::Missing {
+                        name: k("profile"),
+                        hint: "shape polyline needs the leg's mid-line as [s0, q0, s1, q1, ...] in metres (s from the hip along the chord, q toward the travel)".into(),
+                    });
+                }
+            };
+            if v.len() < 4 || v.len() % 2 != 0 || v.iter().any(|x| !x.is_finite()) {
+                return Err(invalid(
+                    &k("profile"),
+                    &format!("{v:?}"),
+                    "expected an even number (at least 4) of finite coordinates: [s0, q0, s1, q1, ...]",
+                ));
+            }
+            Ok(Some(LegProfile {
+                shape: "polyline",
+                line: v.chunks(2).map(|p| (p[0], p[1])).collect(),
+            }))
+        }
+        other => Err(invalid(
+            &k("shape"),
+            &other,
+            "expected plate, c_leg or polyline",
+        )),
+    }
 }

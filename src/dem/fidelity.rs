@@ -255,12 +255,7 @@ pub struct CLegFidelity {
 /// The C-leg's mid-line in its frame: a half circle on the chord, convex side toward the travel
 /// (the campaign's mesh, `tests/dem/campaign.py`).
 pub fn c_leg_line(chord_m: f64, segments: usize) -> Vec<(f64, f64)> {
-    (0..=segments)
-        .map(|i| {
-            let t = PI * i as f64 / segments as f64;
-            (chord_m / 2.0 * (1.0 - t.cos()), chord_m / 2.0 * t.sin())
-        })
-        .collect()
+    crate::model::c_leg_profile(chord_m / 2.0, PI, segments)
 }
 
 pub fn c_leg_fidelity(run: &DemRun, rft: &RftCoefficients) -> Result<CLegFidelity, IdentError> {

@@ -23,7 +23,7 @@ pub mod terzaghi;
 pub use corrections::{CorrectedModel, CorrectedPrediction, Corrections, Effect};
 pub use medium::{FittingWidth, Medium, MediumPreset, Provenance};
 pub use plate::{Plate, wrap_beta_rad};
-pub use rft::{RftCoefficients, RftFit, RftGrid, RftModel, rft_leg};
+pub use rft::{RftCoefficients, RftFit, RftGrid, RftModel, c_leg_profile, rft_leg};
 pub use terzaghi::{Terms, TerzaghiForce, TerzaghiModel};
 
 use serde::Serialize;

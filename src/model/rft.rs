@@ -319,6 +319,9 @@ pub struct RftModel {
     plate: Plate,
     coefficients: RftCoefficients,
     elements: usize,
+    /// A leg that is not a flat plate: its mid-line `(s, q)` in the leg's frame (see
+    /// [`rft_leg`]); `None` for the plate itself.
+    profile: Option<Vec<(f64, f64)>>,
 }
 
 impl RftModel {
@@ -339,11 +342,81 @@ impl RftModel {
             plate,
             coefficients,
             elements,
+            profile: None,
         })
+    }
+
+    /// RFT for a leg whose mid-line is `profile` (at least two points, in the leg's frame: `s`
+    /// along the chord from the hip, `q` toward the travel; [`c_leg_profile`] for a C-leg), of
+    /// `plate`'s width, its hip `plate`'s hip height above the surface; about `elements`
+    /// elements in all.
+    pub fn with_profile(
+        plate: Plate,
+        coefficients: RftCoefficients,
+        elements: usize,
+        profile: Vec<(f64, f64)>,
+    ) -> Result<Self, ModelError> {
+        if profile.len() < 2 {
+            return Err(ModelError::NotPositive {
+                name: "leg profile points beyond the first",
+                value: profile.len().saturating_sub(1) as f64,
+            });
+        }
+        for &(s, q) in &profile {
+            finite("leg profile coordinate (m)", s)?;
+            finite("leg profile coordinate (m)", q)?;
+        }
+        let mut m = RftModel::new(plate, coefficients, elements)?;
+        m.profile = Some(profile);
+        Ok(m)
     }
 
     pub fn plate(&self) -> &Plate {
         &self.plate
+    }
+
+    /// The leg's mid-line, where it is not a flat plate.
+    pub fn profile(&self) -> Option<&[(f64, f64)]> {
+        self.profile.as_deref()
+    }
+
+    /// [`Self::evaluate`] for a leg of another shape: RFT element by element over its mid-line.
+    fn evaluate_profile(&self, beta: f64, line: &[(f64, f64)]) -> Prediction {
+        let per_segment = (self.elements / (line.len() - 1)).max(1);
+        let (drag, lift, torque) = rft_leg(
+            &self.coefficients,
+            line,
+            self.plate.width_m(),
+            self.plate.hip_height_m(),
+            beta,
+            per_segment,
+        );
+        // Depth of the lowest point, and the length of the mid-line below the surface.
+        let (sin_b, cos_b) = beta.sin_cos();
+        let depth_at = |(s, q): (f64, f64)| s * sin_b + q * cos_b - self.plate.hip_height_m();
+        let depth = line.iter().map(|p| depth_at(*p)).fold(0.0f64, f64::max);
+        let submerged: f64 = line
+            .windows(2)
+            .filter(|w| depth_at(((w[0].0 + w[1].0) / 2.0, (w[0].1 + w[1].1) / 2.0)) > 0.0)
+            .map(|w| (w[1].0 - w[0].0).hypot(w[1].1 - w[0].1))
+            .sum();
+        let regime = if depth <= 0.0 {
+            Regime::OutOfMedium
+        } else if beta <= FRAC_PI_2 || beta > 3.0 * FRAC_PI_2 {
+            // Past 270 deg the leg is entering, before the chord's own entry.
+            Regime::Penetration
+        } else {
+            Regime::Extraction
+        };
+        Prediction {
+            beta_rad: beta,
+            submerged_m: submerged,
+            depth_m: depth,
+            drag_n: drag,
+            lift_n: lift,
+            hip_torque_nm: torque,
+            regime,
+        }
     }
 
     /// Drag, lift and hip torque at attack angle `beta_rad` (wrapped to `[0, 2pi)`).
@@ -357,6 +430,9 @@ impl RftModel {
     /// ```
     pub fn evaluate(&self, beta_rad: f64) -> Result<Prediction, ModelError> {
         let beta = wrap_beta_rad(finite("attack angle beta (rad)", beta_rad)?);
+        if let Some(line) = &self.profile {
+            return Ok(self.evaluate_profile(beta, line));
+        }
         let l_s = self.plate.submerged_length_m(beta);
         if l_s <= 0.0 {
             return Ok(Prediction {
@@ -471,6 +547,20 @@ pub fn rft_leg(
     (drag, lift, torque)
 }
 
+/// The mid-line of a C-leg (an arc of `radius_m` spanning `span_rad`, from the hip to the tip,
+/// its convex side toward the travel) in the leg's frame of [`rft_leg`], as `segments + 1`
+/// points. A half circle (`span_rad` = pi) is the DEM testbed's C-leg, its chord `2 radius_m`.
+pub fn c_leg_profile(radius_m: f64, span_rad: f64, segments: usize) -> Vec<(f64, f64)> {
+    let half = span_rad / 2.0;
+    let (cx, cq) = (radius_m * half.sin(), -radius_m * half.cos());
+    (0..=segments.max(1))
+        .map(|i| {
+            let alpha = FRAC_PI_2 + half - span_rad * i as f64 / segments.max(1) as f64;
+            (cx + radius_m * alpha.cos(), cq + radius_m * alpha.sin())
+        })
+        .collect()
+}
+
 /// A line's angle folded into `[-pi/2, pi/2]` (a plate has no head or tail).
 /// Both ends, `-pi/2` and `pi/2`, are the same vertical plate and give the same stress.
 fn wrap_half_pi(angle: f64) -> f64 {
@@ -493,6 +583,32 @@ mod tests {
         let (ax, az) = fit.alpha(beta_r, FRAC_PI_2 - beta);
         let k = N_CM3_TO_N_M3 * 0.06 * beta.sin() * l_s * l_s / 2.0;
         (ax * k, az * k)
+    }
+
+    #[test]
+    fn a_half_circle_c_leg_profile_is_the_dem_testbeds() {
+        let p = c_leg_profile(0.05, PI, 16);
+        assert!(p[0].0.abs() < 1e-12 && p[0].1.abs() < 1e-12, "{p:?}");
+        assert!(
+            (p[16].0 - 0.1).abs() < 1e-12 && p[16].1.abs() < 1e-12,
+            "{p:?}"
+        );
+        assert!(
+            (p[8].0 - 0.05).abs() < 1e-12 && (p[8].1 - 0.05).abs() < 1e-12,
+            "{p:?}"
+        );
+        // A profile model predicts what rft_leg does over it, and nothing out of the medium.
+        let c = RftCoefficients::Fit(RftFit::POPPY_LP);
+        let plate = Plate::new(0.1, 0.03, 0.04).unwrap();
+        let m = RftModel::with_profile(plate, c.clone(), 160, p.clone()).unwrap();
+        let beta = 40f64.to_radians();
+        let (d, l, _) = rft_leg(&c, &p, 0.03, 0.04, beta, 10);
+        let q = m.evaluate(beta).unwrap();
+        assert_eq!((q.drag_n, q.lift_n), (d, l));
+        assert_eq!(q.regime, Regime::Penetration);
+        let air = m.evaluate(-40f64.to_radians()).unwrap();
+        assert_eq!((air.drag_n, air.regime), (0.0, Regime::OutOfMedium));
+        assert!(RftModel::with_profile(plate, c, 160, vec![(0.0, 0.0)]).is_err());
     }
 
     #[test]

@@ -275,35 +275,40 @@ impl NodeCore {
     fn new_leg(&self, i: usize) -> Leg {
         let lc = &self.cfg.legs[i];
         let corrected = self.corrected_model(i);
-        let estimator = lc.ft_topic.as_ref().and_then(|_| {
-            if let Some(m) = &corrected {
+        // A leg of another shape has no flat plate's width to identify.
+        let estimator = lc
+            .ft_topic
+            .as_ref()
+            .filter(|_| lc.profile.is_none())
+            .and_then(|_| {
+                if let Some(m) = &corrected {
+                    let opts = crate::ident::OnlineOptions {
+                        fit_delta: false,
+                        forgetting: crate::ident::online::Forgetting::Strokes(
+                            self.cfg.corrections_memory_strokes,
+                        ),
+                        ..self.cfg.estimator
+                    };
+                    return CorrectedEstimator::new(m.clone(), opts)
+                        .ok()
+                        .map(|e| Learner::Corrected(Box::new(e)));
+                }
+                let base = TerzaghiModel::conventional(lc.plate, lc.medium);
                 let opts = crate::ident::OnlineOptions {
-                    fit_delta: false,
-                    forgetting: crate::ident::online::Forgetting::Strokes(
-                        self.cfg.corrections_memory_strokes,
+                    initial_b_k: lc.width.b_k().clamp(
+                        self.cfg.estimator.b_k_range.0,
+                        self.cfg.estimator.b_k_range.1,
                     ),
+                    initial_a: lc
+                        .width
+                        .a()
+                        .clamp(self.cfg.estimator.a_range.0, self.cfg.estimator.a_range.1),
                     ..self.cfg.estimator
                 };
-                return CorrectedEstimator::new(m.clone(), opts)
+                OnlineEstimator::new(&base, opts)
                     .ok()
-                    .map(|e| Learner::Corrected(Box::new(e)));
-            }
-            let base = TerzaghiModel::conventional(lc.plate, lc.medium);
-            let opts = crate::ident::OnlineOptions {
-                initial_b_k: lc.width.b_k().clamp(
-                    self.cfg.estimator.b_k_range.0,
-                    self.cfg.estimator.b_k_range.1,
-                ),
-                initial_a: lc
-                    .width
-                    .a()
-                    .clamp(self.cfg.estimator.a_range.0, self.cfg.estimator.a_range.1),
-                ..self.cfg.estimator
-            };
-            OnlineEstimator::new(&base, opts)
-                .ok()
-                .map(|e| Learner::Bare(Box::new(e)))
-        });
+                    .map(|e| Learner::Bare(Box::new(e)))
+            });
         Leg {
             model: self.model_for(i, None),
             corrected: corrected.map(CorrectedLeg::new),
@@ -561,7 +566,8 @@ impl NodeCore {
     /// waiting per leg at most).
     fn watch_gap(&mut self, leg: usize, mt: &Matched) {
         let g = self.cfg.gap_check;
-        if self.mode == CoreMode::ReevaluationRows {
+        // The diagnosis is of a flat plate's gap: a leg of another shape is not watched.
+        if self.mode == CoreMode::ReevaluationRows || self.cfg.legs[leg].profile.is_some() {
             return;
         }
         let Some(l) = self.legs.get_mut(leg) else {
