@@ -1,5 +1,6 @@
 //! Identification of the fitting width `b_k, a` (Eq. 11), and optionally `delta`, from measured
-//! drag and lift. Pure: samples in, estimates out.
+//! drag and lift; online, also of a corrected model's coefficients ([`corrected`]). Pure:
+//! samples in, estimates out.
 //!
 //! Every Terzaghi force is `b_k a^(-beta) F_unit(beta)`, and `delta` enters only through
 //! `F_pT = F_pN tan(delta)`, so a prediction at a sample needs just the unit normal force

@@ -1,8 +1,10 @@
-//! Force models for a flat leg (plate) rotating about a hip axis through a granular medium.
+//! Force models for a leg rotating about a hip axis through a granular medium: a flat plate,
+//! and (by RFT) a leg of any profile in the plane of rotation, a C-leg say.
 //!
 //! - [`terzaghi`]: the improved Terzaghi model of Yang et al. (2020), Eqs. (1)–(25), with the
 //!   fitting width of Eq. (11); the conventional model is the same with `b_e = b`.
-//! - [`rft`]: resistive force theory (Li, Zhang & Goldman 2013), the reference users know.
+//! - [`rft`]: resistive force theory (Li, Zhang & Goldman 2013), the reference users know, for
+//!   a plate or over a leg's mid-line ([`RftModel::with_profile`], [`c_leg_profile`]).
 //! - [`medium`]: soil values and the paper's identified fitting widths, as named presets.
 //! - [`plate`]: the leg's geometry, the attack angle and the submerged length.
 //! - [`corrections`]: the corrected model: the improved model plus terms for what it leaves out
