@@ -388,17 +388,6 @@ fn learnt_values(batch: &Corrections, est: &CorrectedEstimator) -> Vec<LearntVal
     values
 }
 
-/// `corrections` with the conventional start: `b_k = a = 1` and every coefficient 0.
-fn from_scratch(corrections: &Corrections) -> Corrections {
-    let mut c = corrections.clone();
-    c.b_k = 1.0;
-    c.a = 1.0;
-    for t in &mut c.terms {
-        t.coefficients.iter_mut().for_each(|v| *v = 0.0);
-    }
-    c
-}
-
 /// The node's online options for a leg with corrections (its default parameters).
 fn online_options() -> OnlineOptions {
     OnlineOptions {
@@ -419,7 +408,7 @@ pub fn learnt_online(i: usize, seed: u64) -> Result<LearntOnline, HeldOutError> 
     let d =
         diagnose(&model, &samples, &DiagnoseOptions::default()).map_err(|e| err(e.to_string()))?;
     let batch = d.report.corrected_model.clone();
-    let start = CorrectedModel::new(case.plate, case.medium, from_scratch(&batch))
+    let start = CorrectedModel::new(case.plate, case.medium, batch.unlearnt())
         .map_err(|e| err(format!("the corrected model is refused: {e}")))?;
     let mut est =
         CorrectedEstimator::new(start, online_options()).map_err(|e| err(e.to_string()))?;
@@ -502,7 +491,7 @@ pub fn learnt_step(i: usize, seed: u64, factor: f64) -> Result<LearntStep, HeldO
         .map_err(|e| err(e.to_string()))?
         .report
         .corrected_model;
-    let start = CorrectedModel::new(case.plate, case.medium, from_scratch(&batch_first))
+    let start = CorrectedModel::new(case.plate, case.medium, batch_first.unlearnt())
         .map_err(|e| err(format!("the corrected model is refused: {e}")))?;
     let mut est =
         CorrectedEstimator::new(start, online_options()).map_err(|e| err(e.to_string()))?;

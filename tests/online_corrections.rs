@@ -3,6 +3,8 @@
 //! effects are written in forms of their own): learnt from the conventional start (`b_k = a = 1`,
 //! every coefficient 0) with the node's default options.
 
+mod common;
+
 use terzaghi::closed_loop::{
     LearntOnline, ONLINE_CASES, STEP_CASES, STEP_FACTOR, learnt_online, learnt_step,
 };
@@ -102,22 +104,18 @@ fn the_node_learns_its_corrections_and_predicts_with_them() {
     use terzaghi::diagnose::{DiagnoseOptions, diagnose};
     use terzaghi::model::TerzaghiModel;
     use terzaghi::session::reevaluate::{Output, Row, reevaluate_samples_with};
-    let i = ONLINE_CASES
+    use terzaghi::sim::generator::Hidden;
+    let (case, samples) = ONLINE_CASES
         .clone()
-        .find(|&i| learnt_online(i, SEED).unwrap().truth == "cohesion")
+        .map(|i| terzaghi::withheld::case_session(i, SEED))
+        .find(|(case, _)| case.effects == [Hidden::Cohesion])
         .unwrap();
-    let (case, samples) = terzaghi::withheld::case_session(i, SEED);
     let model = TerzaghiModel::conventional(case.plate, case.medium);
     let batch = diagnose(&model, &samples, &DiagnoseOptions::default())
         .unwrap()
         .report
         .corrected_model;
-    let mut scratch = batch.clone();
-    scratch.b_k = 1.0;
-    scratch.a = 1.0;
-    for t in &mut scratch.terms {
-        t.coefficients.iter_mut().for_each(|v| *v = 0.0);
-    }
+    let scratch = batch.unlearnt();
     let t_end = samples.last().unwrap().t_s.unwrap();
     let run = |corrections, learn: bool| {
         let mut leg = LegConfig::new("leg", "leg", case.plate, case.medium);
@@ -175,7 +173,7 @@ fn the_node_learns_its_corrections_and_predicts_with_them() {
 /// The README's tables of the corrections learnt online are what the command prints.
 #[test]
 fn the_readme_tables_are_what_diagnose_eval_online_prints() {
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_terzaghi"))
+    let out = std::process::Command::new(common::terzaghi())
         .args(["diagnose-eval", "--online"])
         .output()
         .unwrap();

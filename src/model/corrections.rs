@@ -459,6 +459,18 @@ impl Corrections {
         }
     }
 
+    /// The same terms and nonlinear values with nothing learnt: `b_k = a = 1` (the conventional
+    /// model) and every coefficient 0, where an online identification from scratch starts.
+    pub fn unlearnt(&self) -> Corrections {
+        let mut c = self.clone();
+        c.b_k = 1.0;
+        c.a = 1.0;
+        for t in &mut c.terms {
+            t.coefficients.iter_mut().for_each(|v| *v = 0.0);
+        }
+        c
+    }
+
     pub fn has(&self, e: Effect) -> bool {
         self.terms.iter().any(|t| t.effect == e)
     }
