@@ -342,7 +342,7 @@ impl Demo {
             &session,
             ReevaluateOptions {
                 params_file: Some(corrected.to_path_buf()),
-                progress: None,
+                ..Default::default()
             },
             |_| {},
         )?;

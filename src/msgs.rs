@@ -90,6 +90,47 @@ pub struct WrenchStamped {
     pub wrench: Wrench,
 }
 
+/// `geometry_msgs/Quaternion` (ROS's default is the identity, `w = 1`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Quaternion {
+    pub x: f64,
+    pub y: f64,
+    pub z: f64,
+    pub w: f64,
+}
+
+impl Default for Quaternion {
+    fn default() -> Self {
+        Quaternion {
+            x: 0.0,
+            y: 0.0,
+            z: 0.0,
+            w: 1.0,
+        }
+    }
+}
+
+/// `geometry_msgs/Transform`
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Transform {
+    pub translation: Vector3,
+    pub rotation: Quaternion,
+}
+
+/// `geometry_msgs/TransformStamped`: the pose of `child_frame_id` in `header.frame_id`.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct TransformStamped {
+    pub header: Header,
+    pub child_frame_id: String,
+    pub transform: Transform,
+}
+
+/// `tf2_msgs/TFMessage`, as `/tf` and `/tf_static` carry it.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct TfMessage {
+    pub transforms: Vec<TransformStamped>,
+}
+
 /// `diagnostic_msgs/KeyValue`
 #[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub struct KeyValue {
@@ -144,6 +185,11 @@ pub struct LegForce {
     pub correction_lift_n: Vec<f64>,
     pub sensor_drag_n: f64,
     pub sensor_lift_n: f64,
+    pub hip_height_m: f64,
+    pub body_pitch_rad: f64,
+    pub hip_forward_m_s: f64,
+    pub hip_up_m_s: f64,
+    pub robot_state: bool,
 }
 
 /// `terzaghi_msgs/Gap` (msgs/msg/Gap.msg)
@@ -215,6 +261,9 @@ const TIME: (&str, &str) = ("builtin_interfaces", "Time");
 const HEADER: (&str, &str) = ("std_msgs", "Header");
 const VECTOR3: (&str, &str) = ("geometry_msgs", "Vector3");
 const WRENCH: (&str, &str) = ("geometry_msgs", "Wrench");
+const QUATERNION: (&str, &str) = ("geometry_msgs", "Quaternion");
+const TRANSFORM: (&str, &str) = ("geometry_msgs", "Transform");
+const TRANSFORM_STAMPED: (&str, &str) = ("geometry_msgs", "TransformStamped");
 const KEY_VALUE: (&str, &str) = ("diagnostic_msgs", "KeyValue");
 const DIAG_STATUS: (&str, &str) = ("diagnostic_msgs", "DiagnosticStatus");
 
@@ -233,6 +282,12 @@ pub fn definition(t: (&str, &str)) -> Option<&'static str> {
         ("geometry_msgs", "Vector3") => "float64 x\nfloat64 y\nfloat64 z\n",
         ("geometry_msgs", "Wrench") => "Vector3 force\nVector3 torque\n",
         ("geometry_msgs", "WrenchStamped") => "std_msgs/Header header\nWrench wrench\n",
+        ("geometry_msgs", "Quaternion") => "float64 x 0\nfloat64 y 0\nfloat64 z 0\nfloat64 w 1\n",
+        ("geometry_msgs", "Transform") => "Vector3 translation\nQuaternion rotation\n",
+        ("geometry_msgs", "TransformStamped") => {
+            "std_msgs/Header header\nstring child_frame_id\nTransform transform\n"
+        }
+        ("tf2_msgs", "TFMessage") => "geometry_msgs/TransformStamped[] transforms\n",
         ("diagnostic_msgs", "KeyValue") => "string key\nstring value\n",
         ("diagnostic_msgs", "DiagnosticStatus") => {
             "byte OK=0\nbyte WARN=1\nbyte ERROR=2\nbyte STALE=3\nbyte level\nstring name\nstring message\nstring hardware_id\nKeyValue[] values\n"
@@ -268,6 +323,19 @@ ros_message!(
     "geometry_msgs",
     "WrenchStamped",
     [HEADER, TIME, WRENCH, VECTOR3]
+);
+ros_message!(
+    TfMessage,
+    "tf2_msgs",
+    "TFMessage",
+    [
+        TRANSFORM_STAMPED,
+        HEADER,
+        TIME,
+        TRANSFORM,
+        VECTOR3,
+        QUATERNION
+    ]
 );
 ros_message!(KeyValue, "diagnostic_msgs", "KeyValue", []);
 ros_message!(

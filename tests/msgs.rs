@@ -120,6 +120,36 @@ fn every_message_decodes_with_its_definition_in_mcap_ros2() {
             correction_lift_n: vec![5.639865, 0.0],
             sensor_drag_n: 40.0,
             sensor_lift_n: 45.0,
+            hip_height_m: 0.1375,
+            body_pitch_rad: -0.0625,
+            hip_forward_m_s: 0.25,
+            hip_up_m_s: -0.03125,
+            robot_state: true,
+        }),
+        item(&TfMessage {
+            transforms: vec![
+                TransformStamped {
+                    header: Header {
+                        stamp: header.stamp,
+                        frame_id: "odom".into(),
+                    },
+                    child_frame_id: "base_link".into(),
+                    transform: Transform {
+                        translation: Vector3 {
+                            x: 1.5,
+                            y: -0.25,
+                            z: 0.125,
+                        },
+                        rotation: Quaternion {
+                            x: 0.0,
+                            y: 0.6,
+                            z: 0.0,
+                            w: 0.8,
+                        },
+                    },
+                },
+                TransformStamped::default(),
+            ],
         }),
         item(&ModelParams {
             header,

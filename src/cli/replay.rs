@@ -24,6 +24,10 @@ pub struct ReplayArgs {
     /// --reevaluate: node parameters to use instead of the recorded ones.
     #[arg(long, value_name = "FILE")]
     pub params_file: Option<PathBuf>,
+    /// --reevaluate: set a node parameter over the recorded ones (or the file's), as the node's
+    /// `-p name:=value` does; repeatable. `-p leg.hip_frame:=` clears one.
+    #[arg(short = 'p', long = "param", value_name = "NAME:=VALUE")]
+    pub params: Vec<String>,
     /// --reevaluate: write to this file, .mcap (inputs and new outputs) or .csv (predictions next
     /// to measurements); default: CSV on standard output.
     #[arg(short, long, value_name = "OUT")]
@@ -57,8 +61,8 @@ pub fn run(a: ReplayArgs) -> Result<()> {
     if a.reevaluate {
         return run_reevaluate(&a);
     }
-    if a.params_file.is_some() || a.output.is_some() {
-        bail!("--params-file and --output go with --reevaluate");
+    if a.params_file.is_some() || a.output.is_some() || !a.params.is_empty() {
+        bail!("--params-file, --param and --output go with --reevaluate");
     }
     if !(a.rate.is_finite() && a.rate > 0.0) {
         bail!("--rate must be a positive number, got {}", a.rate);
@@ -67,11 +71,24 @@ pub fn run(a: ReplayArgs) -> Result<()> {
 }
 
 fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
+    let params = a
+        .params
+        .iter()
+        .map(|p| match p.split_once(":=") {
+            Some((name, value)) if !name.is_empty() => {
+                Ok((name.to_string(), crate::config::parse_value(value)))
+            }
+            _ => Err(anyhow::anyhow!(
+                "--param {p:?}: expected NAME:=VALUE, e.g. -p leg.hip_frame:=leg_hip"
+            )),
+        })
+        .collect::<Result<Vec<_>>>()?;
     let pb = progress(0, "re-evaluating");
     let opts = || {
         let pb = pb.clone();
         ReevaluateOptions {
             params_file: a.params_file.clone(),
+            params: params.clone(),
             progress: Some(Box::new(move |n, total| {
                 pb.set_length(total);
                 pb.set_position(n);

@@ -85,3 +85,8 @@ impl OutputTopics {
         }
     }
 }
+
+/// The robot's transforms, as tf2 publishes them (absolute names: not in the node's namespace).
+pub const TF_TOPIC: &str = "/tf";
+/// Transforms that do not change (transient local).
+pub const TF_STATIC_TOPIC: &str = "/tf_static";

@@ -83,6 +83,9 @@ pub struct LegConfig {
     pub profile: Option<LegProfile>,
     /// The corrected model's terms (`<leg>.corrections.*`), with `width` as its baseline.
     pub corrections: Option<Corrections>,
+    /// The hip's frame in `/tf` (`<leg>.hip_frame`): its height, the body's pitch and the hip's
+    /// velocity come from the robot's state; `None`, the fixed `hip_height_m`.
+    pub hip_frame: Option<String>,
 }
 
 impl LegConfig {
@@ -100,6 +103,7 @@ impl LegConfig {
             medium,
             preset: None,
             width: FittingWidth::CONVENTIONAL,
+            hip_frame: None,
             ft_topic: None,
             ft_frame: FtFrame::Hip,
             rft: None,
@@ -146,6 +150,8 @@ pub struct NodeConfig {
     pub record: Option<PathBuf>,
     /// The node's own diagnosis of each leg's recent strokes.
     pub gap_check: GapCheck,
+    /// Where the robot's state (`/tf`) is read from, for the legs with a `hip_frame`.
+    pub robot_state: RobotStateConfig,
     /// `-r from:=to`, resolved.
     pub remaps: Vec<(String, String)>,
 }
@@ -168,6 +174,28 @@ impl Default for GapCheck {
     }
 }
 
+/// How the hips' state is read from `/tf` (`robot_state.*`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RobotStateConfig {
+    /// The frame the surface is level in (`odom` by default).
+    pub world_frame: String,
+    /// The surface: the plane `z = surface_height_m` of the world frame.
+    pub surface_height_m: f64,
+    /// A transform older (or newer) than this at a JointState's stamp is stale: the leg falls
+    /// back to its configured height, counted in `/diagnostics`.
+    pub max_age_s: f64,
+}
+
+impl Default for RobotStateConfig {
+    fn default() -> Self {
+        RobotStateConfig {
+            world_frame: "odom".into(),
+            surface_height_m: 0.0,
+            max_age_s: 0.05,
+        }
+    }
+}
+
 /// Parameters whose change needs a restart (subscriptions and the recorder are made once).
 pub const STARTUP_ONLY: [&str; 5] = [
     "legs",
@@ -178,7 +206,7 @@ pub const STARTUP_ONLY: [&str; 5] = [
 ];
 
 /// Names of the per-leg parameters (`<leg>.<name>`).
-pub const LEG_KEYS: [&str; 21] = [
+pub const LEG_KEYS: [&str; 22] = [
     "joint",
     "direction",
     "angle_offset_rad",
@@ -200,6 +228,7 @@ pub const LEG_KEYS: [&str; 21] = [
     "profile",
     "c_leg.radius_m",
     "c_leg.span_deg",
+    "hip_frame",
 ];
 
 /// Global parameters and their defaults.
@@ -242,6 +271,13 @@ pub fn defaults() -> ParamMap {
         ParamValue::Double(d.converge_rel_std),
     );
     put("estimator.cusum_alarm", ParamValue::Double(d.cusum_alarm));
+    let r = RobotStateConfig::default();
+    put("robot_state.world_frame", ParamValue::String(r.world_frame));
+    put(
+        "robot_state.surface_height_m",
+        ParamValue::Double(r.surface_height_m),
+    );
+    put("robot_state.max_age_s", ParamValue::Double(r.max_age_s));
     let g = GapCheck::default();
     put(
         "gap_check.every_strokes",
@@ -437,6 +473,21 @@ impl NodeConfig {
         if topic.is_empty() {
             return Err(invalid("joint_states_topic", &topic, "must not be empty"));
         }
+        let world_frame = g
+            .str("robot_state.world_frame")?
+            .unwrap_or_else(|| "odom".into());
+        if world_frame.trim_start_matches('/').is_empty() {
+            return Err(invalid(
+                "robot_state.world_frame",
+                &world_frame,
+                "must name a frame",
+            ));
+        }
+        let robot_state = RobotStateConfig {
+            world_frame,
+            surface_height_m: g.need_f64("robot_state.surface_height_m", "no default")?,
+            max_age_s: positive("robot_state.max_age_s")?,
+        };
         Ok(NodeConfig {
             node_name: node_name.to_string(),
             namespace: namespace.to_string(),
@@ -456,6 +507,7 @@ impl NodeConfig {
                 every_strokes: g.count("gap_check.every_strokes", 0, 1_000_000)?,
                 window_strokes: g.count("gap_check.window_strokes", 4, 1000)?,
             },
+            robot_state,
             remaps: remaps.to_vec(),
         })
     }
@@ -515,6 +567,10 @@ impl NodeConfig {
             put("ft_frame", ParamValue::String(l.ft_frame.as_str().into()));
             put("rft_coeffs", ParamValue::String(l.rft_name.clone()));
             put("rft_zeta", ParamValue::Double(0.0));
+            put(
+                "hip_frame",
+                ParamValue::String(l.hip_frame.clone().unwrap_or_default()),
+            );
             if let Some(c) = &l.corrections {
                 for (k, v) in corrections_params(&l.name, &l.plate, &l.medium, c) {
                     m.entry(k).or_insert(v);
@@ -678,6 +734,26 @@ fn leg_config(
         .str(&k("joint"))?
         .filter(|j| !j.is_empty())
         .unwrap_or_else(|| leg.to_string());
+    let hip_frame = g
+        .str(&k("hip_frame"))?
+        .filter(|f| !f.is_empty())
+        .map(|f| f.trim_start_matches('/').to_string());
+    if let Some(f) = &hip_frame {
+        if f.is_empty() || f.chars().any(char::is_whitespace) {
+            return Err(invalid(
+                &k("hip_frame"),
+                f,
+                "expected a frame name of /tf (no spaces)",
+            ));
+        }
+        if corrections.is_some() {
+            return Err(invalid(
+                &k("hip_frame"),
+                f,
+                "the corrected model is fitted at the configured hip height (its hip_height term is a fixed offset): leave hip_frame out, or the corrections",
+            ));
+        }
+    }
     Ok(LegConfig {
         name: leg.to_string(),
         ft_topic_given: g.str(&k("ft_topic"))?.unwrap_or_default(),
@@ -694,6 +770,7 @@ fn leg_config(
         rft,
         profile,
         corrections,
+        hip_frame,
     })
 }
 

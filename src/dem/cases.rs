@@ -518,6 +518,7 @@ mod tests {
                 drag_n: if (50..150).contains(&i) { 5.0 } else { 0.0 },
                 lift_n: 0.0,
                 hip_torque_nm: 0.0,
+                hip_m: None,
             })
             .collect();
         DemRun {

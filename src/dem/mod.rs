@@ -13,10 +13,13 @@
 pub mod cases;
 pub mod fidelity;
 
-use crate::config::{ParamMap, ParamValue, defaults};
+use crate::config::{ParamMap, ParamValue, TF_TOPIC, defaults};
 use crate::ident::Sample;
 use crate::model::{Medium, ModelError, Plate};
-use crate::msgs::{Header, JointState, Time, Vector3, Wrench, WrenchStamped};
+use crate::msgs::{
+    Header, JointState, Quaternion, TfMessage, Time, Transform, TransformStamped, Vector3, Wrench,
+    WrenchStamped,
+};
 use crate::record::{OfferedQos, RecordError, RecordOptions, SessionWriter};
 use std::collections::BTreeMap;
 use std::io::{Seek, Write};
@@ -88,7 +91,14 @@ pub struct DemSample {
     pub drag_n: f64,
     pub lift_n: f64,
     pub hip_torque_nm: f64,
+    /// Where the hip was, for a run whose hip moves (columns `hip_x_m,hip_z_m`): its travel
+    /// forward from its start and its height above the surface (m).
+    pub hip_m: Option<[f64; 2]>,
 }
+
+/// The world frame of a session whose hip moves: the bed's surface at `z = 0`, `x` the robot's
+/// forward; the hip's frame is `<leg>_hip` ([`LEG`]).
+pub const WORLD_FRAME: &str = "odom";
 
 /// The leg's shape.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
@@ -175,7 +185,9 @@ impl DemRun {
     /// Writes the run as a session: `sensor_msgs/JointState` (the joint's angle and speed) and
     /// `geometry_msgs/WrenchStamped` (force on the leg and torque about the hip, in the hip
     /// frame `leg_hip`: `F_x = -drag`, `F_z = lift`, `M_y = hip torque`) at each sample's time,
-    /// the node's parameters, and the run's description as the metadata record `dem_run`.
+    /// for a moving hip its pose on `/tf` (`leg_hip` in [`WORLD_FRAME`]), the node's parameters
+    /// (the fixed hip height the run states), and the run's description as the metadata record
+    /// `dem_run`.
     pub fn write_session<W: Write + Seek>(&self, w: W) -> Result<W, RecordError> {
         let opts = RecordOptions::with_node_params(&self.node_params(), "terzaghi", "/");
         let mut s = SessionWriter::new(w, opts)?;
@@ -219,6 +231,22 @@ impl DemRun {
                 },
             };
             s.write(FT_TOPIC, OfferedQos::BEST_EFFORT, &wrench, t_ns, t_ns)?;
+            if let Some([x, z]) = smp.hip_m {
+                let tf = TfMessage {
+                    transforms: vec![TransformStamped {
+                        header: Header {
+                            stamp,
+                            frame_id: WORLD_FRAME.into(),
+                        },
+                        child_frame_id: format!("{LEG}_hip"),
+                        transform: Transform {
+                            translation: Vector3 { x, y: 0.0, z },
+                            rotation: Quaternion::default(),
+                        },
+                    }],
+                };
+                s.write(TF_TOPIC, OfferedQos::RELIABLE, &tf, t_ns, t_ns)?;
+            }
         }
         s.finish()
     }
@@ -272,6 +300,7 @@ pub fn join_runs(runs: Vec<DemRun>) -> Result<DemRun, DemError> {
                 drag_n: 0.0,
                 lift_n: 0.0,
                 hip_torque_nm: 0.0,
+                hip_m: last.hip_m,
             });
         }
         let dt = last.t_s + steps as f64 * period - first.t_s;
@@ -352,6 +381,8 @@ fn parse_grid(text: &str, path: &str) -> Result<Vec<(f64, f64, f64, f64)>, DemEr
 }
 
 const COLUMNS: [&str; 5] = ["t_s", "beta_rad", "drag_n", "lift_n", "hip_torque_nm"];
+/// The columns after [`COLUMNS`] of a run whose hip moves.
+const HIP_COLUMNS: [&str; 2] = ["hip_x_m", "hip_z_m"];
 
 /// Reads and checks a run's file.
 pub fn read_run(path: &Path) -> Result<DemRun, DemError> {
@@ -426,32 +457,42 @@ pub fn parse_run(text: &str, path: &str) -> Result<DemRun, DemError> {
         });
     };
     let found: Vec<&str> = header.split(',').map(str::trim).collect();
-    if found != COLUMNS {
+    let columns: Vec<&str> = COLUMNS.iter().chain(&HIP_COLUMNS).copied().collect();
+    let columns = if found == COLUMNS {
+        &columns[..COLUMNS.len()]
+    } else if found == columns {
+        &columns[..]
+    } else {
         return Err(DemError::Malformed {
             path: path.to_string(),
             line: header_at + 1,
-            message: format!("header {:?}, expected {}", header.trim(), COLUMNS.join(",")),
+            message: format!(
+                "header {:?}, expected {} (and {} for a moving hip)",
+                header.trim(),
+                COLUMNS.join(","),
+                HIP_COLUMNS.join(",")
+            ),
         });
-    }
+    };
     let mut samples = Vec::new();
     for (i, line) in lines {
         if line.trim().is_empty() {
             continue;
         }
         let cells: Vec<&str> = line.split(',').map(str::trim).collect();
-        if cells.len() != COLUMNS.len() {
+        if cells.len() != columns.len() {
             return Err(DemError::Malformed {
                 path: path.to_string(),
                 line: i + 1,
-                message: format!("{} fields, expected {}", cells.len(), COLUMNS.len()),
+                message: format!("{} fields, expected {}", cells.len(), columns.len()),
             });
         }
-        let mut v = [0.0; 5];
+        let mut v = [0.0; 7];
         for (k, cell) in cells.iter().enumerate() {
             let x: f64 = cell.parse().map_err(|_| DemError::Malformed {
                 path: path.to_string(),
                 line: i + 1,
-                message: format!("{} = {cell:?} is not a number", COLUMNS[k]),
+                message: format!("{} = {cell:?} is not a number", columns[k]),
             })?;
             if k == 0 && x < 0.0 {
                 return Err(DemError::Malformed {
@@ -464,7 +505,7 @@ pub fn parse_run(text: &str, path: &str) -> Result<DemRun, DemError> {
                 return Err(DemError::NonFinite {
                     path: path.to_string(),
                     line: i + 1,
-                    column: COLUMNS[k],
+                    column: columns[k],
                     value: x,
                 });
             }
@@ -476,6 +517,7 @@ pub fn parse_run(text: &str, path: &str) -> Result<DemRun, DemError> {
             drag_n: v[2],
             lift_n: v[3],
             hip_torque_nm: v[4],
+            hip_m: (columns.len() > COLUMNS.len()).then_some([v[5], v[6]]),
         });
     }
     if let Some(w) = samples.windows(2).position(|w| w[1].t_s <= w[0].t_s) {

@@ -25,7 +25,7 @@ pub mod terzaghi;
 pub use corrections::{CorrectedModel, CorrectedPrediction, Corrections, Effect};
 pub use medium::{FittingWidth, Medium, MediumPreset, Provenance};
 pub use plate::{Plate, wrap_beta_rad};
-pub use rft::{RftCoefficients, RftFit, RftGrid, RftModel, c_leg_profile, rft_leg};
+pub use rft::{RftCoefficients, RftFit, RftGrid, RftModel, c_leg_profile, rft_leg, rft_leg_moving};
 pub use terzaghi::{Terms, TerzaghiForce, TerzaghiModel};
 
 use serde::Serialize;
@@ -154,11 +154,57 @@ pub enum ForceModel {
     Rft(RftModel),
 }
 
+/// Where a leg's hip is and how it moves at one sample, as the robot's state tells it (the
+/// configured plate is a hip at a fixed height that does not move).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
+pub struct HipMotion {
+    /// The hip axis's height above the surface (m).
+    pub height_m: f64,
+    /// The body's pitch, added to the joint's attack angle (rad; ROS's pitch, about the hip
+    /// frame's y axis, positive nose down, which turns the leg the way its stroke does).
+    pub pitch_rad: f64,
+    /// The leg's rotation rate (rad/s, positive as the attack angle grows).
+    pub omega_rad_s: f64,
+    /// The hip's velocity along the robot's forward, horizontal (m/s).
+    pub forward_m_s: f64,
+    /// The hip's vertical velocity, up (m/s).
+    pub up_m_s: f64,
+}
+
+impl HipMotion {
+    /// A hip at `height_m` that does not move, on a level body.
+    pub fn still(height_m: f64) -> HipMotion {
+        HipMotion {
+            height_m,
+            ..HipMotion::default()
+        }
+    }
+
+    /// The hip's velocity in the leg's frame, `[x, z]`: x along the submerged tip's travel, the
+    /// robot's backward.
+    pub fn leg_frame_velocity_m_s(&self) -> [f64; 2] {
+        [-self.forward_m_s, self.up_m_s]
+    }
+}
+
 impl ForceModel {
     pub fn predict(&self, beta_rad: f64) -> Result<Prediction, ModelError> {
         match self {
             ForceModel::Terzaghi(m) => m.evaluate(beta_rad).map(|f| f.prediction()),
             ForceModel::Rft(m) => m.evaluate(beta_rad),
+        }
+    }
+
+    /// The prediction with the hip where the robot's state puts it: the flat-plate model at
+    /// `hip.height_m` and the attack angle shifted by the body's pitch (it is quasi-static: the
+    /// hip's velocity does not enter it); RFT with each element's own velocity as well.
+    pub fn predict_moving(&self, beta_rad: f64, hip: &HipMotion) -> Result<Prediction, ModelError> {
+        match self {
+            ForceModel::Terzaghi(m) => m
+                .with_hip_height_m(hip.height_m)?
+                .evaluate(finite("attack angle beta (rad)", beta_rad)? + hip.pitch_rad)
+                .map(|f| f.prediction()),
+            ForceModel::Rft(m) => m.evaluate_moving(beta_rad, hip),
         }
     }
 

@@ -12,7 +12,7 @@
 //! direction come from its own tangent and its own velocity about the hip, so that the same
 //! routine serves a plate, and every element may look up the measured grid.
 
-use super::{ModelError, Plate, Prediction, Regime, finite, positive, wrap_beta_rad};
+use super::{HipMotion, ModelError, Plate, Prediction, Regime, finite, positive, wrap_beta_rad};
 use std::f64::consts::{FRAC_PI_2, PI};
 use std::sync::OnceLock;
 
@@ -381,19 +381,20 @@ impl RftModel {
     }
 
     /// [`Self::evaluate`] for a leg of another shape: RFT element by element over its mid-line.
-    fn evaluate_profile(&self, beta: f64, line: &[(f64, f64)]) -> Prediction {
+    fn evaluate_profile(&self, beta: f64, line: &[(f64, f64)], hip: &HipMotion) -> Prediction {
         let per_segment = (self.elements / (line.len() - 1)).max(1);
-        let (drag, lift, torque) = rft_leg(
+        let (drag, lift, torque) = rft_leg_moving(
             &self.coefficients,
             line,
             self.plate.width_m(),
-            self.plate.hip_height_m(),
+            hip.height_m,
             beta,
             per_segment,
+            (hip.omega_rad_s, hip.leg_frame_velocity_m_s()),
         );
         // Depth of the lowest point, and the length of the mid-line below the surface.
         let (sin_b, cos_b) = beta.sin_cos();
-        let depth_at = |(s, q): (f64, f64)| s * sin_b + q * cos_b - self.plate.hip_height_m();
+        let depth_at = |(s, q): (f64, f64)| s * sin_b + q * cos_b - hip.height_m;
         let depth = line.iter().map(|p| depth_at(*p)).fold(0.0f64, f64::max);
         let submerged: f64 = line
             .windows(2)
@@ -429,11 +430,24 @@ impl RftModel {
     /// assert!((p.drag_n - 14.3).abs() < 0.05 && (p.lift_n - 11.6).abs() < 0.05);
     /// ```
     pub fn evaluate(&self, beta_rad: f64) -> Result<Prediction, ModelError> {
-        let beta = wrap_beta_rad(finite("attack angle beta (rad)", beta_rad)?);
+        self.evaluate_moving(beta_rad, &HipMotion::still(self.plate.hip_height_m()))
+    }
+
+    /// [`Self::evaluate`] with the hip where the robot says it is: `hip.height_m` above the
+    /// surface (instead of the plate's), the body's pitch added to `beta_rad`, and each element
+    /// intruding along its own velocity, the leg's rotation at `hip.omega_rad_s` plus the hip's.
+    pub fn evaluate_moving(
+        &self,
+        beta_rad: f64,
+        hip: &HipMotion,
+    ) -> Result<Prediction, ModelError> {
+        let beta = wrap_beta_rad(finite("attack angle beta (rad)", beta_rad)? + hip.pitch_rad);
+        let h = finite("hip height (m)", hip.height_m)?;
         if let Some(line) = &self.profile {
-            return Ok(self.evaluate_profile(beta, line));
+            return Ok(self.evaluate_profile(beta, line, hip));
         }
-        let l_s = self.plate.submerged_length_m(beta);
+        let plate = Plate::new(self.plate.length_m(), self.plate.width_m(), h.max(0.0))?;
+        let l_s = plate.submerged_length_m(beta);
         if l_s <= 0.0 {
             return Ok(Prediction {
                 beta_rad: beta,
@@ -446,14 +460,15 @@ impl RftModel {
             });
         }
         let l = self.plate.length_m();
-        let h = self.plate.hip_height_m();
         let ds = l_s / self.elements as f64;
         let area = self.plate.width_m() * ds;
         // Unit vector from the hip along the plate, and the element velocity direction for a
         // rotation that increases beta (the tip travels along +x at beta = pi/2).
         let (sin_b, cos_b) = beta.sin_cos();
         let (ux, uz) = (-cos_b, -sin_b);
-        let (vx, vz) = (sin_b, -cos_b);
+        let (nx, nz) = (sin_b, -cos_b);
+        let v_hip = hip.leg_frame_velocity_m_s();
+        let moving = v_hip != [0.0, 0.0] && hip.omega_rad_s.is_finite();
         let (mut drag, mut lift, mut torque) = (0.0, 0.0, 0.0);
         for i in 0..self.elements {
             let r = (l - l_s) + (i as f64 + 0.5) * ds; // distance from the hip
@@ -461,18 +476,32 @@ impl RftModel {
             if depth <= 0.0 {
                 continue;
             }
+            // The element's velocity: the rotation's (along n), plus the hip's when it moves.
+            let (vx, vz) = if moving {
+                (
+                    hip.omega_rad_s * r * nx + v_hip[0],
+                    hip.omega_rad_s * r * nz + v_hip[1],
+                )
+            } else {
+                (nx, nz)
+            };
+            if vx == 0.0 && vz == 0.0 {
+                continue;
+            }
+            // Mirror x when the element moves toward -x (RFT's frame moves toward +x).
+            let m = if vx < 0.0 { -1.0 } else { 1.0 };
             // The element's own attack angle in [-pi/2, pi/2] and intrusion angle.
-            let beta_r = wrap_half_pi(uz.atan2(ux) + PI);
-            let gamma = (-vz).atan2(vx);
+            let beta_r = wrap_half_pi(uz.atan2(m * ux) + PI);
+            let gamma = (-vz).atan2(m * vx);
             let (ax, az) = self.coefficients.alpha(beta_r, gamma);
             let (d_drag, d_lift) = (
-                ax * N_CM3_TO_N_M3 * depth * area,
+                m * ax * N_CM3_TO_N_M3 * depth * area,
                 az * N_CM3_TO_N_M3 * depth * area,
             );
             drag += d_drag;
             lift += d_lift;
-            // Resisting moment: the component of the element force against its velocity.
-            torque += r * (d_drag * vx - d_lift * vz);
+            // Resisting moment: the component of the element force against the rotation.
+            torque += r * (d_drag * nx - d_lift * nz);
         }
         Ok(Prediction {
             beta_rad: beta,
@@ -507,6 +536,37 @@ pub fn rft_leg(
     beta_rad: f64,
     per_segment: usize,
 ) -> (f64, f64, f64) {
+    rft_leg_moving(
+        coefficients,
+        line,
+        width_m,
+        hip_height_m,
+        beta_rad,
+        per_segment,
+        (1.0, [0.0, 0.0]),
+    )
+}
+
+/// [`rft_leg`] for a leg turning at `omega_rad_s` about a hip that moves at
+/// `hip_velocity_m_s = [x, z]` in the leg's frame (x along the submerged tip's travel, which is
+/// backward for a robot walking forward; z up): each element's intrusion direction is its own
+/// velocity, the rotation's plus the hip's. A leg that neither turns nor moves is evaluated as
+/// if turning forward at its angle.
+pub fn rft_leg_moving(
+    coefficients: &RftCoefficients,
+    line: &[(f64, f64)],
+    width_m: f64,
+    hip_height_m: f64,
+    beta_rad: f64,
+    per_segment: usize,
+    (omega_rad_s, hip_velocity_m_s): (f64, [f64; 2]),
+) -> (f64, f64, f64) {
+    let still = omega_rad_s == 0.0 && hip_velocity_m_s == [0.0, 0.0];
+    let (omega, v_hip) = if still || !omega_rad_s.is_finite() {
+        (1.0, [0.0, 0.0])
+    } else {
+        (omega_rad_s, hip_velocity_m_s)
+    };
     let (sin_b, cos_b) = beta_rad.sin_cos();
     let (u, n) = ((-cos_b, -sin_b), (sin_b, -cos_b));
     let world = |(s, q): (f64, f64)| (s * u.0 + q * n.0, s * u.1 + q * n.1);
@@ -527,7 +587,10 @@ pub fn rft_leg(
             let len =
                 ((b.0 - a.0).powi(2) + (b.1 - a.1).powi(2)).sqrt() / per_segment.max(1) as f64;
             let (tx, tz) = (b.0 - a.0, b.1 - a.1);
-            let (vx, vz) = (s * n.0 - q * u.0, s * n.1 - q * u.1);
+            let (vx, vz) = (
+                omega * (s * n.0 - q * u.0) + v_hip[0],
+                omega * (s * n.1 - q * u.1) + v_hip[1],
+            );
             if vx == 0.0 && vz == 0.0 {
                 continue;
             }

@@ -171,6 +171,19 @@ impl TerzaghiModel {
         }
     }
 
+    /// The same plate with its hip at `hip_height_m` above the surface (the medium's constants
+    /// kept): the model of a hip the robot's state places, sample by sample. A hip below the
+    /// surface is clamped to it (the model's plate rotates above the medium).
+    pub fn with_hip_height_m(&self, hip_height_m: f64) -> Result<Self, ModelError> {
+        let h = finite("hip height (m)", hip_height_m)?.max(0.0);
+        let plate = Plate::new(self.plate.length_m(), self.plate.width_m(), h)?;
+        Ok(TerzaghiModel {
+            plate,
+            submerged_rad: submerged_range_rad(&plate),
+            ..self.clone()
+        })
+    }
+
     /// Forces at attack angle `beta_rad` (wrapped to `[0, 2pi)`); an error only for a
     /// non-finite angle.
     ///

@@ -4,14 +4,16 @@
 
 use super::clock::NodeClock;
 use super::core::{LegOutput, NodeCore};
-use super::handle::{Publish, Topics, diagnostics_done, gap_done, joint_state_done, wrench_done};
+use super::handle::{
+    Publish, Topics, diagnostics_done, gap_done, joint_state_done, tf_done, wrench_done,
+};
 use super::latency::Histogram;
 use super::live::Live as LiveView;
 use super::log::{LogSettings, NodeLog};
 use crate::config::{LogLevel, NodeConfig, ParamMap, ParamValue, STARTUP_ONLY};
 use crate::log_site;
 use crate::msgs::{
-    DiagnosticArray, Gap, JointState, LegForce, ModelParams, RosMessage, WrenchStamped,
+    DiagnosticArray, Gap, JointState, LegForce, ModelParams, RosMessage, TfMessage, WrenchStamped,
 };
 use crate::record::RecordOptions;
 use crate::record::recorder::Recorder;
@@ -424,6 +426,33 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
 
     let depth = cfg.queue_depth;
     let js_sub = subscription_with_depth::<JointState>(&mut node, &cfg.joint_states_topic, depth)?;
+    // The robot's state, for the legs it places: /tf as any input, /tf_static reliable and
+    // transient local, as tf2's static broadcaster offers it (so that transforms sent before
+    // the node started reach it).
+    let mut tf_subs = Vec::new();
+    if cfg.legs.iter().any(|l| l.hip_frame.is_some()) {
+        use crate::config::{TF_STATIC_TOPIC, TF_TOPIC};
+        tf_subs.push((
+            false,
+            subscription_with_depth::<TfMessage>(&mut node, TF_TOPIC, depth)?,
+        ));
+        let latched = QosProfile::subscription_default()
+            .reliability_reliable(WhenFull::DEFAULT)
+            .durability(Durability::TransientLocal)
+            .history(History::KeepLast { depth: 100 });
+        let t = node
+            .create_topic(
+                &topic_name(TF_STATIC_TOPIC)?,
+                message_type::<TfMessage>(),
+                &latched,
+            )
+            .context("cannot create /tf_static")?;
+        tf_subs.push((
+            true,
+            node.create_subscription::<TfMessage>(&t, Some(latched))
+                .context("cannot subscribe to /tf_static")?,
+        ));
+    }
     let mut ft_subs = Vec::new();
     for (i, leg) in cfg.legs.iter().enumerate() {
         if let Some(topic) = &leg.ft_topic {
@@ -479,6 +508,14 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
         recorder.clone(),
         topics.clone(),
     ))];
+    for (fixed, sub) in tf_subs {
+        tasks.push(tokio::spawn(tf_task(
+            fixed,
+            sub,
+            shared.clone(),
+            recorder.clone(),
+        )));
+    }
     for (i, sub) in ft_subs {
         tasks.push(tokio::spawn(wrench_task(
             i,
@@ -865,6 +902,25 @@ async fn joint_states_task(
                 sh.hist.lock().unwrap_or_else(|p| p.into_inner()).record(ns);
             },
         );
+    }
+}
+
+/// Takes `/tf` (or `/tf_static`, `fixed`) off DDS into the core's transform tree, and records
+/// it.
+async fn tf_task(
+    fixed: bool,
+    sub: Subscription<TfMessage>,
+    sh: Arc<Shared>,
+    rec: Option<Arc<Recorder>>,
+) {
+    use crate::config::{TF_STATIC_TOPIC, TF_TOPIC};
+    let topic: Arc<str> = if fixed { TF_STATIC_TOPIC } else { TF_TOPIC }.into();
+    let mut gaps = SequenceGaps::default();
+    loop {
+        let msg = next_sample(&sub, &mut gaps, &sh.dropped).await;
+        let log_ns = sh.clock.log_time_ns();
+        sh.lock_core().core.on_tf(&msg, fixed);
+        tf_done(rec.as_deref(), &topic, msg, log_ns);
     }
 }
 

@@ -6,7 +6,9 @@ use super::core::LegOutput;
 use super::core::{GapJob, NodeCore};
 use crate::config::NodeConfig;
 use crate::diagnose::Report;
-use crate::msgs::{DiagnosticArray, Gap, JointState, LegForce, ModelParams, WrenchStamped};
+use crate::msgs::{
+    DiagnosticArray, Gap, JointState, LegForce, ModelParams, TfMessage, WrenchStamped,
+};
 use crate::record::recorder::{Record, Recorder};
 use std::sync::Arc;
 
@@ -123,6 +125,13 @@ pub fn wrench_done(
     }
     for (l, p) in params_out.drain(..) {
         out.params(l, p);
+    }
+}
+
+/// After the core took a `/tf` or `/tf_static` message: records it.
+pub fn tf_done(rec: Option<&Recorder>, topic: &Arc<str>, msg: TfMessage, log_ns: u64) {
+    if let Some(r) = rec {
+        r.record(Record::Tf(topic.clone(), msg, log_ns));
     }
 }
 

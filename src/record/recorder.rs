@@ -3,7 +3,9 @@
 //! (full disk, file gone) stops recording and is reported, never a crash of the node.
 
 use super::{OfferedQos, RecordOptions, SessionWriter};
-use crate::msgs::{DiagnosticArray, Gap, JointState, LegForce, ModelParams, WrenchStamped};
+use crate::msgs::{
+    DiagnosticArray, Gap, JointState, LegForce, ModelParams, TfMessage, WrenchStamped,
+};
 use std::fs::File;
 use std::io::BufWriter;
 use std::path::{Path, PathBuf};
@@ -22,6 +24,8 @@ pub enum Record {
     Params(Arc<str>, ModelParams, u64),
     Diagnostics(Arc<str>, DiagnosticArray, u64),
     Gap(Arc<str>, Gap, u64),
+    /// `/tf` or `/tf_static`, an input: published time is the first transform's stamp.
+    Tf(Arc<str>, TfMessage, u64),
 }
 
 /// What the node reads of the recorder's state.
@@ -148,6 +152,13 @@ fn run(mut w: SessionWriter<BufWriter<File>>, rx: Receiver<Record>, st: &Recorde
             }
             Record::Gap(t, m, log) => {
                 w.write_output(t, rel, m, *log, m.header.stamp.to_nanos().max(0) as u64)
+            }
+            Record::Tf(t, m, log) => {
+                let stamp = m
+                    .transforms
+                    .first()
+                    .map_or(*log as i64, |x| x.header.stamp.to_nanos());
+                w.write(t, rel, m, *log, stamp.max(0) as u64)
             }
         };
         match res {

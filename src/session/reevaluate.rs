@@ -6,10 +6,12 @@ use super::Opened;
 use super::csv_rows::{CSV_HEADER, CsvRows};
 use super::files::{refuse_existing_recording, write_atomically};
 use crate::config::{NodeConfig, ParamMap, RosArgs, defaults, load_params, parse_value};
+use crate::config::{TF_STATIC_TOPIC, TF_TOPIC};
 use crate::ident::{Estimate, FitSums, Sample};
 use crate::model::Regime;
 use crate::msgs::{
-    DecodeInto, Gap, JointState, LegForce, ModelParams, RosMessage, Time, WrenchStamped,
+    DecodeInto, Gap, JointState, LegForce, ModelParams, RosMessage, TfMessage, Time, WrenchStamped,
+    from_cdr,
 };
 use crate::node::core::{CoreMode, GapJob, LegOutput, Matched, NodeCore};
 use crate::node::matcher::{FtMatcher, Match, usable_stamp_ns};
@@ -162,6 +164,8 @@ pub fn reevaluate_rows<'a>(
 enum Role {
     Joints,
     Ft(usize),
+    /// `/tf` (false) or `/tf_static` (true), for the legs with a `hip_frame`.
+    Tf(bool),
     Skip,
 }
 
@@ -178,6 +182,11 @@ fn role_of(cfg: &NodeConfig) -> impl Fn(&TopicInfo) -> Role + '_ {
             && same_type(&t.type_name, &WrenchStamped::type_name())
         {
             Role::Ft(i)
+        } else if cfg.legs.iter().any(|l| l.hip_frame.is_some())
+            && (t.topic == TF_TOPIC || t.topic == TF_STATIC_TOPIC)
+            && same_type(&t.type_name, &TfMessage::type_name())
+        {
+            Role::Tf(t.topic == TF_STATIC_TOPIC)
         } else {
             Role::Skip
         }
@@ -188,6 +197,7 @@ fn role_of(cfg: &NodeConfig) -> impl Fn(&TopicInfo) -> Role + '_ {
 enum Input<'m> {
     Joints(&'m JointState),
     Wrench(usize, &'m WrenchStamped),
+    Tf(&'m TfMessage, bool),
 }
 
 /// Reads the inputs of `cfg` in `source` (its JointState topic and the legs' F/T topics), each
@@ -235,6 +245,10 @@ fn scan_inputs(
                     sum.ft_samples += 1;
                     on_input(Input::Wrench(leg, w), scan, &m);
                 }
+                Role::Tf(fixed) => match from_cdr::<TfMessage>(m.data) {
+                    Ok(tf) => on_input(Input::Tf(&tf, fixed), scan, &m),
+                    Err(_) => sum.undecodable += 1,
+                },
                 Role::Skip => {}
             }
         },
@@ -281,6 +295,7 @@ pub fn measured_samples<'a>(
         Input::Wrench(leg, w) => {
             matcher.on_wrench(leg, w, |m| keep(leg, m));
         }
+        Input::Tf(..) => {}
     })?;
     sum.rows = out.iter().map(|s| s.len() as u64).sum();
     Ok((out, sum))
@@ -358,6 +373,7 @@ impl Driver {
                 }
             }
             Input::Wrench(leg, w) => core.on_wrench(leg, w),
+            Input::Tf(tf, fixed) => core.on_tf(tf, fixed),
         }
         core.take_params(&mut self.params);
         for (leg, p) in self.params.drain(..) {
@@ -503,6 +519,8 @@ fn regime_of(f: &LegForce) -> Regime {
 pub struct ReevaluateOptions {
     /// Node parameters (a ROS 2 parameter file) to use instead of the recorded ones.
     pub params_file: Option<PathBuf>,
+    /// Parameters set over those (`-p name:=value`), in order.
+    pub params: Vec<(String, crate::config::ParamValue)>,
     /// Called now and then with the inputs (joint states and F/T) read so far and in all.
     pub progress: Option<Box<dyn FnMut(u64, u64)>>,
 }
@@ -540,12 +558,22 @@ pub fn session_config(
     head: &Scan,
     file: &Path,
 ) -> Result<(NodeConfig, ParamMap)> {
+    session_config_with(params_file, &[], head, file)
+}
+
+/// [`session_config`] with the parameters `set` over the file's or the recording's.
+pub fn session_config_with(
+    params_file: Option<&Path>,
+    set: &[(String, crate::config::ParamValue)],
+    head: &Scan,
+    file: &Path,
+) -> Result<(NodeConfig, ParamMap)> {
     let recorded = recorded_params(head);
     let (node, ns) = recorded
         .as_ref()
         .map(|r| (r.1.clone(), r.2.clone()))
         .unwrap_or(("terzaghi".into(), "/".into()));
-    let params = match (params_file, recorded) {
+    let mut params = match (params_file, recorded) {
         (Some(path), _) => {
             let ros = RosArgs {
                 params_files: vec![path.to_path_buf()],
@@ -559,6 +587,9 @@ pub fn session_config(
             file.display()
         ),
     };
+    for (name, value) in set {
+        params.insert(name.clone(), value.clone());
+    }
     let cfg = NodeConfig::from_params(&params, &node, &ns, &[])?;
     Ok((cfg, params))
 }
@@ -583,7 +614,12 @@ fn prepare(file: &Path, opts: &ReevaluateOptions) -> Result<Prepared> {
     let Some(opened) = Opened::mcap(file)? else {
         return prepare_csv(file, opts);
     };
-    let (cfg, params) = session_config(opts.params_file.as_deref(), opened.head(), file)?;
+    let (cfg, params) = session_config_with(
+        opts.params_file.as_deref(),
+        &opts.params,
+        opened.head(),
+        file,
+    )?;
     // Progress counts the inputs read (joint states and F/T), which is what takes the time.
     let inputs = {
         let role = role_of(&cfg);
@@ -615,6 +651,7 @@ fn prepare_csv(file: &Path, opts: &ReevaluateOptions) -> Result<Prepared> {
     let samples = crate::dataset::read_samples_csv(file)?;
     let ros = RosArgs {
         params_files: vec![params_file.to_path_buf()],
+        params: opts.params.clone(),
         ..Default::default()
     };
     let params = load_params(&ros, "terzaghi", "/")?;

@@ -440,28 +440,70 @@ def stroke_schedule(h_actual, length, omega, strokes, shape="flat", margin=0.08,
 
 
 def run_stroke(cfg, name, workdir, bed, width_m, hip_height_m, omega, shape="flat",
-               strokes=1, overrides=None, hip_offset_m=0.0):
+               strokes=1, overrides=None, hip_offset_m=0.0, forward_m_s=0.0, heave_m=0.0,
+               heave_phase_deg=0.0):
     """One run: the leg's hip at hip_height_m + hip_offset_m above the measured surface
-    (hip_height_m is what the model is told). Returns the run's record and its samples."""
+    (hip_height_m is what the model is told). Returns the run's record and its samples.
+
+    With forward_m_s or heave_m the hip moves too, as a walking robot's does: forward (the
+    engine's -x, against the tip's travel through the bed) at forward_m_s, and up and down by
+    heave_m once per stroke, -heave_m cos(2 pi t / T + phase) with T the stroke's period, the
+    sweep and the swing back over the top (at phase 0 lowest where each stroke starts). The engine moves the mesh by a translation with the rotation
+    superposed on it (its rotation axis travels with the hip); each sample then carries the
+    hip's forward travel and height above the surface."""
     length = cfg["length_m"]
     dt = cfg["dt"] * (overrides or {}).get("dt_factor", 1.0)
+    moving = forward_m_s != 0.0 or heave_m != 0.0
     h_actual = hip_height_m + hip_offset_m
-    hip_z = bed["surface_z_m"] + h_actual
-    beta0, segs = stroke_schedule(h_actual, length, omega, strokes, shape)
-    write_stl(os.path.join(workdir, name + ".stl"),
-              leg_tris(shape, length, width_m, cfg["thickness"], beta0, hip_z))
+    # The schedule's sweep from the lowest hip: it enters earliest and leaves latest there.
+    beta0, segs = stroke_schedule(h_actual - abs(heave_m), length, omega, strokes, shape)
     nav = max(1, round(1.0 / SAMPLE_HZ / dt))
     lines = []
     step_segments = []
-    for i, (w, dur) in enumerate(segs):
-        n = max(1, round(dur / dt))
+    for (w, dur) in segs:
+        step_segments.append((w, max(1, round(dur / dt))))
+    total_steps = sum(n for _, n in step_segments)
+    # The hip's travel: centred on the bed, so that it stays as far from the walls as a
+    # standing hip's leg does.
+    x0 = forward_m_s * total_steps * dt / 2.0
+    phase = math.radians(heave_phase_deg)
+    hip_z = bed["surface_z_m"] + h_actual - heave_m * math.cos(phase)
+    write_stl(os.path.join(workdir, name + ".stl"),
+              [tuple((px + x0, py, pz) for (px, py, pz) in tri)
+               for tri in leg_tris(shape, length, width_m, cfg["thickness"], beta0, hip_z)])
+    if moving:
+        n_sweep = step_segments[0][1]
+        return_omega = 10.0
+        sweep_rad = omega * n_sweep * dt
+        # The swing back as stroke_schedule makes it, a single stroke's too.
+        n_cycle = n_sweep + max(1, round((2 * math.pi - sweep_rad) / return_omega / dt))
+        if len(step_segments) > 1:
+            n_cycle = n_sweep + step_segments[1][1]
+        w_heave = 2 * math.pi / (n_cycle * dt)
         lines += [
-            "fix rot%d all move/mesh mesh leg rotate origin 0.0 0.0 %.9g axis 0 -1 0 period %.9g"
-            % (i, hip_z, 2 * math.pi / w),
-            "run %d" % n,
-            "unfix rot%d" % i,
+            "variable k0 equal ${s0}",
+            "variable k equal step-v_k0",
+            "variable zero equal 0",
+            "variable hip_vx equal %.9g" % -forward_m_s,
+            "variable hip_vz equal %.9g*sin(%.9g*v_k*dt+%.9g)" % (heave_m * w_heave, w_heave, phase),
+            "variable phase equal v_k-floor(v_k/%d)*%d" % (n_cycle, n_cycle),
+            'variable om equal "(v_phase<%d)*%.9g+(v_phase>=%d)*%.9g"'
+            % (n_sweep, omega, n_sweep, return_omega),
+            # The translation first: the rotation superposed on it turns about an axis that
+            # travels with the mesh.
+            "fix hip all move/mesh mesh leg linear/variable v_hip_vx v_zero v_hip_vz",
+            "fix rot all move/mesh mesh leg rotate/variable origin %.9g 0.0 %.9g axis 0 -1 0 omega v_om"
+            % (x0, hip_z),
+            "run %d" % total_steps,
         ]
-        step_segments.append((w, n))
+    else:
+        for i, (w, n) in enumerate(step_segments):
+            lines += [
+                "fix rot%d all move/mesh mesh leg rotate origin 0.0 0.0 %.9g axis 0 -1 0 period %.9g"
+                % (i, hip_z, 2 * math.pi / w),
+                "run %d" % n,
+                "unfix rot%d" % i,
+            ]
     seg_path = os.path.join(workdir, name + ".segments.in")
     with open(seg_path, "w") as f:
         f.write("\n".join(lines) + "\n")
@@ -473,6 +515,7 @@ def run_stroke(cfg, name, workdir, bed, width_m, hip_height_m, omega, shape="fla
         hx=bed["hx"],
         hy=bed["hy"],
         stl=name + ".stl",
+        hip_x=x0,
         hip_z=hip_z,
         nav=nav,
         segments=seg_path,
@@ -498,8 +541,13 @@ def run_stroke(cfg, name, workdir, bed, width_m, hip_height_m, omega, shape="fla
                 break
         fx, fy, fz, tx, ty, tz = row[1:7]
         # The hip frame: drag = -F_x, lift = F_z, hip torque = M_y about the hip (resisting a
-        # rotation that increases beta, which turns about -y).
-        samples.append((step * dt, beta, -fx, fz, ty))
+        # rotation that increases beta, which turns about -y; the engine moves its reference
+        # point with the mesh).
+        sample = (step * dt, beta, -fx, fz, ty)
+        if moving:
+            t = step * dt
+            sample += (forward_m_s * t, h_actual - heave_m * math.cos(w_heave * t + phase))
+        samples.append(sample)
     run = {
         "name": name,
         "shape": shape,
@@ -509,6 +557,9 @@ def run_stroke(cfg, name, workdir, bed, width_m, hip_height_m, omega, shape="fla
         "hip_offset_m": hip_offset_m,
         "omega_rad_s": omega,
         "strokes": strokes,
+        "forward_m_s": forward_m_s,
+        "heave_m": heave_m,
+        "heave_phase_deg": heave_phase_deg,
         "dt_s": dt,
         "sample_hz": 1.0 / (nav * dt),
         "bed": bed["name"],
@@ -542,12 +593,22 @@ def write_run_csv(path, run, bed, medium, samples, engine):
         ("grain_radius_m", medium["grain_radius_m"]),
         ("sample_hz", run["sample_hz"]),
     ] + [(k, v) for k, v in run.get("sensor", {}).items()]
+    moving = bool(samples) and len(samples[0]) > 5
+    if moving:
+        meta += [("forward_m_s", run["forward_m_s"]), ("heave_m", run["heave_m"]),
+                 ("heave_phase_deg", run["heave_phase_deg"])]
     with open(path, "w") as f:
         for k, v in meta:
             f.write("# %s: %s\n" % (k, v))
-        f.write("t_s,beta_rad,drag_n,lift_n,hip_torque_nm\n")
-        for s in samples:
-            f.write("%.6f,%.6f,%.6g,%.6g,%.6g\n" % s)
+        if moving:
+            # The hip's forward travel from its start and its height above the surface.
+            f.write("t_s,beta_rad,drag_n,lift_n,hip_torque_nm,hip_x_m,hip_z_m\n")
+            for s in samples:
+                f.write("%.6f,%.6f,%.6g,%.6g,%.6g,%.6f,%.6f\n" % s)
+        else:
+            f.write("t_s,beta_rad,drag_n,lift_n,hip_torque_nm\n")
+            for s in samples:
+                f.write("%.6f,%.6f,%.6g,%.6g,%.6g\n" % s)
 
 
 def sensor_variant(samples, kind, peak, seed=7):
@@ -901,6 +962,22 @@ def diagnosis_plan(cohesion):
     # The campaign's own C-leg stroke at 1 rad/s, on its bed levelled again from the same seed:
     # its first runs started at the flat plate's entry angle, the arc already inside the bed.
     plan.append(("cleg", "base", 0, {"shape": "c"}))
+    # A walking robot's hip: heaving +-1 cm once per stroke, and moving forward at 2 cm/s as
+    # well, two strokes at 2.5 rad/s, the flat plate and the C-leg; what the node is told by
+    # the session's /tf against its fixed hip height.
+    for name, shape, fwd in (("mv_heave", "flat", 0.0), ("mv_walk", "flat", 0.02),
+                             ("mv_cleg_walk", "c", 0.02)):
+        plan.append((name, "base", 0, {"omega": 2.5, "strokes": 2, "shape": shape,
+                                       "forward_m_s": fwd, "heave_m": 0.01}))
+    # The second of those strokes passes through the first one's trough (the hip moves 3 cm
+    # between them; the trough is 18 cm long): single strokes into the settled bed, the hip
+    # walking forward and heaving at four phases of the stroke (the flat leg) and two (the
+    # C-leg), so that every stroke meets the surface the runs' hip height is measured from.
+    for shape, tag, phases in (("flat", "", (0, 90, 180, 270)), ("c", "_cleg", (0, 180))):
+        for ph in phases:
+            plan.append(("mv%s_phase%03d" % (tag, ph), "base", 0,
+                         {"omega": 2.5, "shape": shape, "forward_m_s": 0.02, "heave_m": 0.01,
+                          "heave_phase_deg": float(ph)}))
     return plan
 
 

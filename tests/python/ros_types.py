@@ -86,6 +86,11 @@ class LegForce(IdlStruct, typename="terzaghi_msgs::msg::dds_::LegForce_"):
     correction_lift_n: sequence[float64] = field(default_factory=list)
     sensor_drag_n: float64 = 0.0
     sensor_lift_n: float64 = 0.0
+    hip_height_m: float64 = 0.0
+    body_pitch_rad: float64 = 0.0
+    hip_forward_m_s: float64 = 0.0
+    hip_up_m_s: float64 = 0.0
+    robot_state: bool = False
 
 
 def stamp(t_s):

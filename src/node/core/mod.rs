@@ -3,9 +3,11 @@
 //! in-memory demo both drive this same code.
 
 mod gap;
+mod robot_state;
 mod status;
 
 pub use gap::GapJob;
+pub use robot_state::{NoState, TfTree};
 
 use super::matcher::{FtMatcher, Match, NoAngle, usable_stamp_ns};
 use crate::config::{ModelKind, NodeConfig};
@@ -14,9 +16,9 @@ use crate::model::corrections::{
     CorrectedModel, CorrectedPrediction, Effect, MOTION_WINDOW_S, Motion, MotionTracker,
     SensorLagFilter,
 };
-use crate::model::{FittingWidth, ForceModel, Prediction, TerzaghiModel, wrap_beta_rad};
+use crate::model::{FittingWidth, ForceModel, HipMotion, Prediction, TerzaghiModel, wrap_beta_rad};
 use crate::msgs::{
-    Header, JointState, LegForce, ModelParams, Time, Vector3, Wrench, WrenchStamped,
+    Header, JointState, LegForce, ModelParams, TfMessage, Time, Vector3, Wrench, WrenchStamped,
 };
 use std::collections::VecDeque;
 
@@ -38,6 +40,13 @@ pub struct LegCounters {
     pub ft_unmatched: u64,
     /// F/T samples with a non-finite value or an invalid stamp.
     pub ft_invalid: u64,
+    /// Predictions with the hip placed by the robot's state (`<leg>.hip_frame`).
+    pub state_used: u64,
+    /// Predictions of a leg with a `hip_frame` at its configured height instead: no transform
+    /// linked the hip to the world frame (or it was invalid).
+    pub state_missing: u64,
+    /// The same, because the transforms were older than `robot_state.max_age_s`.
+    pub state_stale: u64,
 }
 
 /// Node-wide counters, since start.
@@ -63,6 +72,9 @@ struct Leg {
     at_last_diag: LegCounters,
     /// Its recent strokes, for the node's own diagnosis.
     gap: gap::GapWatch,
+    /// Its last angle and stamp, for its rotation rate, and that rate.
+    last_angle: Option<(i64, f64)>,
+    omega_rad_s: f64,
 }
 
 /// Predictions kept per corrected leg for the rows of a re-evaluation, by their angle's stamp.
@@ -208,6 +220,11 @@ fn leg_force(
         correction_lift_n: Vec::new(),
         sensor_drag_n: p.drag_n,
         sensor_lift_n: p.lift_n,
+        hip_height_m: 0.0,
+        body_pitch_rad: 0.0,
+        hip_forward_m_s: 0.0,
+        hip_up_m_s: 0.0,
+        robot_state: false,
     }
 }
 
@@ -248,6 +265,8 @@ pub struct NodeCore {
     matches: Vec<(usize, Matched)>,
     /// Diagnoses due, for [`NodeCore::take_gap_jobs`].
     gap_jobs: Vec<GapJob>,
+    /// The robot's state from `/tf` and `/tf_static`.
+    tf: TfTree,
 }
 
 impl NodeCore {
@@ -267,6 +286,7 @@ impl NodeCore {
             decided: Vec::new(),
             matches: Vec::new(),
             gap_jobs: Vec::new(),
+            tf: TfTree::default(),
         };
         core.legs = (0..core.cfg.legs.len()).map(|i| core.new_leg(i)).collect();
         core
@@ -319,6 +339,8 @@ impl NodeCore {
             counters: LegCounters::default(),
             at_last_diag: LegCounters::default(),
             gap: gap::GapWatch::default(),
+            last_angle: None,
+            omega_rad_s: 0.0,
         }
     }
 
@@ -415,6 +437,46 @@ impl NodeCore {
         }
     }
 
+    /// Takes a `/tf` (`fixed` false) or `/tf_static` message: the robot's state, read by the legs
+    /// with a `hip_frame`.
+    pub fn on_tf(&mut self, msg: &TfMessage, fixed: bool) {
+        self.tf.insert(msg, fixed);
+    }
+
+    /// Transforms of `/tf` refused (non-finite, zero rotation, invalid stamp or frames).
+    pub fn tf_invalid(&self) -> u64 {
+        self.tf.invalid
+    }
+
+    /// Where leg `i`'s hip is at `stamp_ns`, from the robot's state, for a leg with a
+    /// `hip_frame`; counted when it falls back to the configured height (`None`).
+    fn hip_motion(&mut self, i: usize, stamp_ns: i64, beta_rad: f64) -> Option<HipMotion> {
+        let omega = match self.legs[i].last_angle.replace((stamp_ns, beta_rad)) {
+            Some((t0, b0)) if stamp_ns > t0 => (beta_rad - b0) / ((stamp_ns - t0) as f64 * 1e-9),
+            _ => 0.0,
+        };
+        self.legs[i].omega_rad_s = omega;
+        let frame = self.cfg.legs[i].hip_frame.as_deref()?;
+        let c = &mut self.legs[i].counters;
+        match self
+            .tf
+            .hip_motion(&self.cfg.robot_state, frame, stamp_ns, omega)
+        {
+            Ok(h) => {
+                c.state_used += 1;
+                Some(h)
+            }
+            Err(NoState::Stale) => {
+                c.state_stale += 1;
+                None
+            }
+            Err(NoState::Unknown | NoState::Invalid) => {
+                c.state_missing += 1;
+                None
+            }
+        }
+    }
+
     /// Predicts every configured leg found in `msg`; appends one output per leg predicted.
     pub fn on_joint_state(&mut self, msg: &JointState, out: &mut Vec<LegOutput>) {
         self.counters.joint_states += 1;
@@ -442,6 +504,7 @@ impl NodeCore {
                     continue;
                 }
             };
+            let hip = self.hip_motion(i, stamp_ns, beta);
             let keep = self.mode != CoreMode::Node;
             let corrected = self.legs[i]
                 .corrected
@@ -469,6 +532,7 @@ impl NodeCore {
                         correction_lift_n: p.parts.iter().map(|(_, v)| v[1]).collect(),
                         sensor_drag_n: p.sensor_drag_n,
                         sensor_lift_n: p.sensor_lift_n,
+                        hip_height_m: lc.plate.hip_height_m(),
                         ..leg_force(
                             header,
                             &medium,
@@ -483,7 +547,11 @@ impl NodeCore {
                     continue;
                 }
                 None => {
-                    let Ok(p) = leg.model.predict(beta) else {
+                    let p = match &hip {
+                        Some(h) => leg.model.predict_moving(beta, h),
+                        None => leg.model.predict(beta),
+                    };
+                    let Ok(p) = p else {
                         leg.counters.invalid_position += 1;
                         continue;
                     };
@@ -500,7 +568,14 @@ impl NodeCore {
                         _ => (lc.width.b_k(), lc.width.a(), lc.medium.delta_deg()),
                     };
                     let identified = leg.identified.is_some() && self.cfg.use_identified;
-                    leg_force(header, &p, model, width, identified)
+                    let mut f = leg_force(header, &p, model, width, identified);
+                    let h = hip.unwrap_or_else(|| HipMotion::still(lc.plate.hip_height_m()));
+                    f.robot_state = hip.is_some();
+                    f.hip_height_m = h.height_m;
+                    f.body_pitch_rad = h.pitch_rad;
+                    f.hip_forward_m_s = h.forward_m_s;
+                    f.hip_up_m_s = h.up_m_s;
+                    f
                 }
             };
             leg.counters.predictions += 1;
@@ -728,7 +803,20 @@ impl NodeCore {
                 .rev()
                 .find(|(t, _)| *t == mt.angle_t_ns)
                 .map(|(_, p)| *p),
-            None => l.model.predict(mt.beta_rad).ok().map(RowPrediction::bare),
+            None => {
+                // Where the hip was at the angle's stamp, for a leg the robot's state places.
+                let hip = self.cfg.legs[leg].hip_frame.as_deref().and_then(|f| {
+                    self.tf
+                        .hip_motion(&self.cfg.robot_state, f, mt.angle_t_ns, l.omega_rad_s)
+                        .ok()
+                });
+                match hip {
+                    Some(h) => l.model.predict_moving(mt.beta_rad, &h),
+                    None => l.model.predict(mt.beta_rad),
+                }
+                .ok()
+                .map(RowPrediction::bare)
+            }
         }
     }
 
@@ -826,6 +914,98 @@ mod tests {
         assert_eq!(fl.wrench.wrench.torque.y, fl.force.hip_torque_nm);
         // direction -1 maps -60 deg to +60 deg.
         assert!((out[1].force.attack_angle_rad - 60f64.to_radians()).abs() < 1e-12);
+    }
+
+    fn hip_tf(t_ns: i64, z_m: f64, pitch_rad: f64) -> TfMessage {
+        use crate::msgs::{Quaternion, Transform, TransformStamped};
+        let (s, c) = (pitch_rad / 2.0).sin_cos();
+        TfMessage {
+            transforms: vec![TransformStamped {
+                header: Header {
+                    stamp: Time::from_nanos(t_ns).unwrap(),
+                    frame_id: "odom".into(),
+                },
+                child_frame_id: "fl_hip".into(),
+                transform: Transform {
+                    translation: Vector3 {
+                        x: 0.0,
+                        y: 0.0,
+                        z: z_m,
+                    },
+                    rotation: Quaternion {
+                        x: 0.0,
+                        y: s,
+                        z: 0.0,
+                        w: c,
+                    },
+                },
+            }],
+        }
+    }
+
+    #[test]
+    fn a_leg_with_a_hip_frame_predicts_where_tf_puts_its_hip_and_counts_when_it_cannot() {
+        let mut core = NodeCore::new(config("      hip_frame: fl_hip\n"));
+        let mut out = Vec::new();
+        let beta = 60f64.to_radians();
+        // No transform yet: the configured height, counted.
+        core.on_joint_state(&js(1_000_000, &["hip_fl"], &[beta]), &mut out);
+        let fixed = out[0].force.clone();
+        assert!(!fixed.robot_state);
+        assert_eq!(fixed.hip_height_m, 0.15);
+        assert_eq!(core.leg_counters(0).unwrap().state_missing, 1);
+        // The hip 2 cm lower and the body pitched 3 deg nose down: the model at 0.13 m and
+        // 63 deg.
+        let pitch = 3f64.to_radians();
+        core.on_tf(&hip_tf(2_000_000, 0.13, pitch), false);
+        out.clear();
+        core.on_joint_state(&js(2_000_000, &["hip_fl"], &[beta]), &mut out);
+        let f = &out[0].force;
+        let want = TerzaghiModel::new(
+            crate::model::Plate::new(0.25, 0.06, 0.13).unwrap(),
+            core.config().legs[0].medium,
+            FittingWidth::new(2.0, 1.5).unwrap(),
+        )
+        .evaluate(beta + pitch)
+        .unwrap();
+        assert!(f.robot_state);
+        assert!((f.hip_height_m - 0.13).abs() < 1e-12);
+        assert!((f.body_pitch_rad - pitch).abs() < 1e-12);
+        assert!(
+            (f.drag_n - want.drag_n).abs() < 1e-9,
+            "{} {}",
+            f.drag_n,
+            want.drag_n
+        );
+        assert!((f.lift_n - want.lift_n).abs() < 1e-9);
+        assert!(f.drag_n > fixed.drag_n);
+        // A second later the transform is stale: the configured height again, counted.
+        out.clear();
+        core.on_joint_state(&js(1_002_000_000, &["hip_fl"], &[beta]), &mut out);
+        assert!(!out[0].force.robot_state);
+        let c = core.leg_counters(0).unwrap();
+        assert_eq!((c.state_used, c.state_missing, c.state_stale), (1, 1, 1));
+        let d = core.diagnostics(1_003_000_000, 0, &[]);
+        let fl = &d.status[1];
+        assert_eq!(fl.level, DiagnosticStatus::WARN);
+        assert!(
+            fl.values
+                .iter()
+                .any(|k| k.key == "state_stale" && k.value == "1")
+        );
+        // The leg without a hip frame never reads /tf.
+        assert_eq!(core.leg_counters(1).unwrap().state_missing, 0);
+    }
+
+    #[test]
+    fn a_hip_frame_with_corrections_is_refused() {
+        let yaml = "/**:\n  ros__parameters:\n    legs: [fl]\n    fl:\n      length_m: 0.25\n      width_m: 0.06\n      hip_height_m: 0.15\n      medium: hit_sand\n      hip_frame: fl_hip\n      corrections:\n        effects: [sensor_bias]\n        sensor_bias: {drag_n: 1.0, lift_n: 0.5}\n";
+        let mut p = defaults();
+        p.extend(parse_params_yaml(yaml, "t", "terzaghi", "/").unwrap());
+        let e = NodeConfig::from_params(&p, "terzaghi", "/", &[])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("fl.hip_frame"), "{e}");
     }
 
     #[test]

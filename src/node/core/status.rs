@@ -65,6 +65,13 @@ impl NodeCore {
                 kv("ft_unmatched", c.ft_unmatched.to_string()),
                 kv("ft_invalid", c.ft_invalid.to_string()),
             ];
+            if self.cfg.legs[i].hip_frame.is_some() {
+                values.extend([
+                    kv("state_used", c.state_used.to_string()),
+                    kv("state_missing", c.state_missing.to_string()),
+                    kv("state_stale", c.state_stale.to_string()),
+                ]);
+            }
             let mut message = String::from("predicting");
             if let Some(e) = l.estimator.as_ref().map(|e| *e.estimate()) {
                 values.extend([
@@ -96,7 +103,9 @@ impl NodeCore {
             let bad_now = c.invalid_position > p.invalid_position
                 || c.missing_joint > p.missing_joint
                 || c.stamps_backwards > p.stamps_backwards
-                || c.ft_invalid > p.ft_invalid;
+                || c.ft_invalid > p.ft_invalid
+                || c.state_missing > p.state_missing
+                || c.state_stale > p.state_stale;
             let silent = c.predictions == p.predictions;
             let level = if silent {
                 DiagnosticStatus::STALE

@@ -1,0 +1,337 @@
+//! The robot's state from `/tf` and `/tf_static`: where each leg's hip is at a JointState's
+//! stamp. A transform tree as tf2 keeps it (each frame's parent and its recent poses in it),
+//! looked up from the hip's frame up to the world frame and interpolated in time; without I/O
+//! or a clock.
+
+use crate::config::RobotStateConfig;
+use crate::model::HipMotion;
+use crate::msgs::{TfMessage, TransformStamped};
+use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3};
+use std::collections::{HashMap, VecDeque};
+
+/// Poses kept per frame: the newest within this span of the newest (and at most
+/// [`MAX_POSES_PER_FRAME`]).
+const HISTORY_NS: i64 = 2_000_000_000;
+const MAX_POSES_PER_FRAME: usize = 4096;
+/// Frames followed from a hip up to the world, at most (a longer chain is a loop).
+const MAX_DEPTH: usize = 64;
+/// The hip's velocity: from its poses this long before the sample and at it.
+const VELOCITY_SPAN_NS: i64 = 20_000_000;
+
+/// Why the robot's state gave no hip at a stamp (the leg then uses its configured height).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NoState {
+    /// No transform links the hip's frame to the world frame (yet).
+    Unknown,
+    /// The transforms that link them are older (or newer) than `max_age_s` at the stamp.
+    Stale,
+    /// A transform was not a valid pose (non-finite, a zero quaternion).
+    Invalid,
+}
+
+/// A frame's pose in its parent: fixed (`/tf_static`) or its recent stamped poses.
+struct Link {
+    parent: String,
+    fixed: Option<Isometry3<f64>>,
+    poses: VecDeque<(i64, Isometry3<f64>)>,
+}
+
+/// The transform tree, fed by [`TfTree::insert`].
+#[derive(Default)]
+pub struct TfTree {
+    links: HashMap<String, Link>,
+    /// Transforms refused: non-finite values, a zero rotation, an invalid stamp, or a frame
+    /// that is its own parent.
+    pub invalid: u64,
+}
+
+fn isometry(t: &TransformStamped) -> Option<Isometry3<f64>> {
+    let (v, q) = (t.transform.translation, t.transform.rotation);
+    let values = [v.x, v.y, v.z, q.x, q.y, q.z, q.w];
+    if values.iter().any(|x| !x.is_finite()) {
+        return None;
+    }
+    let q = Quaternion::new(q.w, q.x, q.y, q.z);
+    if q.norm() < 1e-9 {
+        return None;
+    }
+    Some(Isometry3::from_parts(
+        Translation3::new(v.x, v.y, v.z),
+        UnitQuaternion::from_quaternion(q),
+    ))
+}
+
+/// Frame names as tf2 compares them: without a leading `/`.
+fn frame(name: &str) -> &str {
+    name.strip_prefix('/').unwrap_or(name)
+}
+
+impl TfTree {
+    /// Takes every transform of a `/tf` (`fixed` false) or `/tf_static` message; an invalid
+    /// one is counted and skipped. A frame's poses older than the newest by more than two
+    /// seconds are dropped.
+    pub fn insert(&mut self, msg: &TfMessage, fixed: bool) {
+        for t in &msg.transforms {
+            let (parent, child) = (frame(&t.header.frame_id), frame(&t.child_frame_id));
+            let stamp = t.header.stamp;
+            let stamp = stamp.is_valid().then(|| stamp.to_nanos());
+            let (Some(pose), Some(stamp)) = (isometry(t), stamp) else {
+                self.invalid += 1;
+                continue;
+            };
+            if parent.is_empty() || child.is_empty() || parent == child {
+                self.invalid += 1;
+                continue;
+            }
+            let link = self.links.entry(child.to_string()).or_insert_with(|| Link {
+                parent: parent.to_string(),
+                fixed: None,
+                poses: VecDeque::new(),
+            });
+            if link.parent != parent {
+                // Re-parented: its history was in another frame.
+                link.parent = parent.to_string();
+                link.fixed = None;
+                link.poses.clear();
+            }
+            if fixed {
+                link.fixed = Some(pose);
+                continue;
+            }
+            // Kept in stamp order; a late one is put in its place.
+            let at = link.poses.partition_point(|(s, _)| *s <= stamp);
+            if at > 0 && link.poses[at - 1].0 == stamp {
+                link.poses[at - 1].1 = pose;
+            } else {
+                link.poses.insert(at, (stamp, pose));
+            }
+            let newest = link.poses.back().map_or(stamp, |p| p.0);
+            while link.poses.len() > MAX_POSES_PER_FRAME
+                || link
+                    .poses
+                    .front()
+                    .is_some_and(|p| p.0 < newest - HISTORY_NS)
+            {
+                link.poses.pop_front();
+            }
+        }
+    }
+
+    /// A link's pose at `stamp`: interpolated between the poses around it, or the nearest
+    /// within `max_age_ns`.
+    fn link_at(link: &Link, stamp: i64, max_age_ns: i64) -> Result<Isometry3<f64>, NoState> {
+        if let Some(f) = link.fixed {
+            return Ok(f);
+        }
+        let at = link.poses.partition_point(|(s, _)| *s <= stamp);
+        let before = at.checked_sub(1).map(|i| link.poses[i]);
+        let after = link.poses.get(at).copied();
+        match (before, after) {
+            (Some((s0, p0)), Some((s1, p1))) => {
+                if s1 - s0 > 2 * max_age_ns && stamp - s0 > max_age_ns && s1 - stamp > max_age_ns {
+                    return Err(NoState::Stale);
+                }
+                let t = (stamp - s0) as f64 / (s1 - s0) as f64;
+                Ok(p0.lerp_slerp(&p1, t))
+            }
+            (Some((s, p)), None) | (None, Some((s, p))) => {
+                if (stamp - s).abs() <= max_age_ns {
+                    Ok(p)
+                } else {
+                    Err(NoState::Stale)
+                }
+            }
+            (None, None) => Err(NoState::Unknown),
+        }
+    }
+
+    /// The pose of `child` in `world` at `stamp`, through every frame between them.
+    pub fn lookup(
+        &self,
+        world: &str,
+        child: &str,
+        stamp: i64,
+        max_age_ns: i64,
+    ) -> Result<Isometry3<f64>, NoState> {
+        let world = frame(world);
+        let mut name = frame(child);
+        let mut pose = Isometry3::identity();
+        for _ in 0..MAX_DEPTH {
+            if name == world {
+                return Ok(pose);
+            }
+            let link = self.links.get(name).ok_or(NoState::Unknown)?;
+            pose = Self::link_at(link, stamp, max_age_ns)? * pose;
+            name = &link.parent;
+        }
+        Err(NoState::Unknown)
+    }
+
+    /// The hip of frame `hip_frame` at `stamp` as the model takes it: its height above the
+    /// surface plane, the body's pitch, its forward and vertical velocity (from its pose
+    /// 20 ms before, when the tree has it; else zero), and the leg's rotation rate
+    /// `omega_rad_s` passed through.
+    pub fn hip_motion(
+        &self,
+        cfg: &RobotStateConfig,
+        hip_frame: &str,
+        stamp: i64,
+        omega_rad_s: f64,
+    ) -> Result<HipMotion, NoState> {
+        let max_age = (cfg.max_age_s * 1e9) as i64;
+        let pose = self.lookup(&cfg.world_frame, hip_frame, stamp, max_age)?;
+        let p = pose.translation.vector;
+        let (_, pitch, _) = pose.rotation.euler_angles();
+        // The robot's forward: the hip frame's x, horizontal.
+        let x = pose.rotation * Vector3::x();
+        let horizontal = Vector3::new(x.x, x.y, 0.0);
+        let forward = if horizontal.norm() > 1e-9 {
+            horizontal.normalize()
+        } else {
+            Vector3::zeros()
+        };
+        let velocity = self
+            .lookup(
+                &cfg.world_frame,
+                hip_frame,
+                stamp - VELOCITY_SPAN_NS,
+                max_age,
+            )
+            .map(|before| (p - before.translation.vector) / (VELOCITY_SPAN_NS as f64 * 1e-9))
+            .unwrap_or_else(|_| Vector3::zeros());
+        let hip = HipMotion {
+            height_m: p.z - cfg.surface_height_m,
+            pitch_rad: pitch,
+            omega_rad_s,
+            forward_m_s: velocity.dot(&forward),
+            up_m_s: velocity.z,
+        };
+        let values = [hip.height_m, hip.pitch_rad, hip.forward_m_s, hip.up_m_s];
+        if values.iter().all(|v| v.is_finite()) {
+            Ok(hip)
+        } else {
+            Err(NoState::Invalid)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::msgs::{Header, Quaternion as Q, Time, Transform, Vector3 as V};
+
+    fn tf(parent: &str, child: &str, t_ns: i64, xyz: [f64; 3], pitch_rad: f64) -> TransformStamped {
+        let q = UnitQuaternion::from_euler_angles(0.0, pitch_rad, 0.0);
+        TransformStamped {
+            header: Header {
+                stamp: Time::from_nanos(t_ns).unwrap(),
+                frame_id: parent.into(),
+            },
+            child_frame_id: child.into(),
+            transform: Transform {
+                translation: V {
+                    x: xyz[0],
+                    y: xyz[1],
+                    z: xyz[2],
+                },
+                rotation: Q {
+                    x: q.i,
+                    y: q.j,
+                    z: q.k,
+                    w: q.w,
+                },
+            },
+        }
+    }
+
+    fn cfg() -> RobotStateConfig {
+        RobotStateConfig {
+            world_frame: "odom".into(),
+            surface_height_m: 0.01,
+            max_age_s: 0.05,
+        }
+    }
+
+    #[test]
+    fn a_hip_below_a_moving_body_is_interpolated_through_the_chain() {
+        let mut tree = TfTree::default();
+        // The body heaves from 0.20 to 0.22 m and moves 1 cm forward in 100 ms; the hip is
+        // fixed 0.1 m ahead of it and 0.05 m below.
+        tree.insert(
+            &TfMessage {
+                transforms: vec![tf("base_link", "fl_hip", 0, [0.1, 0.0, -0.05], 0.0)],
+            },
+            true,
+        );
+        for (t, z, x) in [(0, 0.20, 0.0), (100_000_000, 0.22, 0.01)] {
+            tree.insert(
+                &TfMessage {
+                    transforms: vec![tf("/odom", "base_link", t, [x, 0.0, z], 0.0)],
+                },
+                false,
+            );
+        }
+        let hip = tree.hip_motion(&cfg(), "fl_hip", 50_000_000, 2.0).unwrap();
+        assert!(
+            (hip.height_m - (0.21 - 0.05 - 0.01)).abs() < 1e-12,
+            "{hip:?}"
+        );
+        assert!((hip.up_m_s - 0.2).abs() < 1e-9, "{hip:?}");
+        assert!((hip.forward_m_s - 0.1).abs() < 1e-9, "{hip:?}");
+        assert_eq!(hip.omega_rad_s, 2.0);
+        // Past the newest pose by more than max_age: stale; a frame nobody sent: unknown.
+        assert_eq!(
+            tree.hip_motion(&cfg(), "fl_hip", 200_000_000, 0.0),
+            Err(NoState::Stale)
+        );
+        assert_eq!(
+            tree.hip_motion(&cfg(), "fr_hip", 50_000_000, 0.0),
+            Err(NoState::Unknown)
+        );
+    }
+
+    #[test]
+    fn the_body_pitch_is_the_hip_frame_pitch_in_the_world() {
+        let mut tree = TfTree::default();
+        let pitch = 5f64.to_radians();
+        tree.insert(
+            &TfMessage {
+                transforms: vec![
+                    tf("odom", "base_link", 0, [0.0, 0.0, 0.3], pitch),
+                    tf("base_link", "fl_hip", 0, [0.2, 0.0, 0.0], 0.0),
+                ],
+            },
+            false,
+        );
+        let hip = tree.hip_motion(&cfg(), "fl_hip", 0, 0.0).unwrap();
+        assert!((hip.pitch_rad - pitch).abs() < 1e-12);
+        // Pitched nose down by 5 deg, a hip 0.2 m ahead sits 0.2 sin 5 deg lower.
+        assert!((hip.height_m - (0.3 - 0.2 * pitch.sin() - 0.01)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn invalid_transforms_are_counted_and_skipped() {
+        let mut tree = TfTree::default();
+        let mut bad = tf("odom", "fl_hip", 0, [f64::NAN, 0.0, 0.1], 0.0);
+        let mut zero = tf("odom", "fl_hip", 0, [0.0, 0.0, 0.1], 0.0);
+        zero.transform.rotation = Q {
+            x: 0.0,
+            y: 0.0,
+            z: 0.0,
+            w: 0.0,
+        };
+        bad.header.frame_id = "odom".into();
+        let own_parent = tf("fl_hip", "fl_hip", 0, [0.0, 0.0, 0.1], 0.0);
+        tree.insert(
+            &TfMessage {
+                transforms: vec![bad, zero, own_parent],
+            },
+            false,
+        );
+        assert_eq!(tree.invalid, 3);
+        assert_eq!(
+            tree.hip_motion(&cfg(), "fl_hip", 0, 0.0),
+            Err(NoState::Unknown)
+        );
+    }
+}
