@@ -698,3 +698,94 @@ fn a_node_started_from_corrected_yaml_publishes_what_replay_reevaluates() {
     assert_eq!(compared, got.len());
     assert!(corrected_differs, "the corrections change some predictions");
 }
+
+/// The robot's state over DDS: a Cyclone DDS peer publishes the hip's place in the body on
+/// `/tf_static` (transient local, before the node starts) and the body's heaving, pitching pose
+/// on `/tf` with every joint angle; the node's `leg_force` reports the hip the peer placed
+/// (height and pitch), and `replay --reevaluate` of the node's own recording (which holds both
+/// transform topics) predicts the same forces.
+#[test]
+fn the_node_places_a_hip_from_tf_and_tf_static_of_a_cyclone_peer() {
+    let _guard = shared();
+    let dir = tempfile::tempdir().unwrap();
+    let params = dir.path().join("params.yaml");
+    std::fs::write(
+        &params,
+        "/**:\n  ros__parameters:\n    legs: [fl]\n    use_identified: false\n    fl:\n      joint: fl\n      length_m: 0.25\n      width_m: 0.06\n      hip_height_m: 0.15\n      medium: hit_sand\n      hip_frame: fl_hip\n",
+    )
+    .unwrap();
+    let record = dir.path().join("node.mcap");
+    let peer = isolated_command(&python())
+        .arg(repo().join("tests/python/tf_peer.py"))
+        .arg("--terzaghi")
+        .arg(terzaghi())
+        .arg("--params")
+        .arg(&params)
+        .args(["--leg", "fl", "--samples", "1000", "--domain", "32"])
+        .arg("--record")
+        .arg(&record)
+        .current_dir(repo().join("tests/python"))
+        .output()
+        .expect("run the Python peer");
+    let stdout = String::from_utf8_lossy(&peer.stdout);
+    assert!(
+        peer.status.success(),
+        "peer failed: {stdout}\n{}",
+        String::from_utf8_lossy(&peer.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_str(stdout.trim()).expect("peer summary");
+    assert_eq!(v["node_exit_code"], 0, "{}", v["node_stderr_tail"]);
+    let got = v["leg_force"].as_object().unwrap();
+    let sent = v["sent"].as_array().unwrap();
+    assert!(
+        got.len() >= 980,
+        "{} of 1000 joint states answered",
+        got.len()
+    );
+    // Each answer places the hip where the peer put it: exactly when its /tf came first (the
+    // peer sends it half a millisecond before the angle), else held from the pose before.
+    let (mut exact, mut compared) = (0, 0);
+    for s in sent {
+        let Some(f) = got.get(s["stamp"].as_str().unwrap()) else {
+            continue;
+        };
+        compared += 1;
+        assert_eq!(f["robot_state"], true, "{f}");
+        let dh = (f["hip_height_m"].as_f64().unwrap() - s["hip_height_m"].as_f64().unwrap()).abs();
+        let dp = (f["body_pitch_rad"].as_f64().unwrap() - s["pitch_rad"].as_f64().unwrap()).abs();
+        assert!(dh < 1e-3 && dp < 1e-2, "{f} {s}");
+        if dh < 1e-9 && dp < 1e-9 {
+            exact += 1;
+        }
+    }
+    assert!(exact * 10 >= compared * 9, "{exact} of {compared} exact");
+    // The node's own recording, re-evaluated as it ran.
+    let rows = dir.path().join("rows.csv");
+    let o = std::process::Command::new(terzaghi())
+        .arg("replay")
+        .arg(&record)
+        .args(["--reevaluate", "-o"])
+        .arg(&rows)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let mut rdr = csv::Reader::from_path(&rows).unwrap();
+    let h = rdr.headers().unwrap().clone();
+    let col = |name: &str| h.iter().position(|c| c == name).unwrap();
+    let mut same = 0;
+    let mut rows_n = 0;
+    for rec in rdr.records() {
+        let rec = rec.unwrap();
+        let t_ns = (rec[col("t_s")].parse::<f64>().unwrap() * 1e9).round() as i64;
+        let Some(f) = got.get(&t_ns.to_string()) else {
+            continue;
+        };
+        rows_n += 1;
+        let d: f64 = rec[col("predicted_drag_n")].parse().unwrap();
+        if (d - f["drag_n"].as_f64().unwrap()).abs() < 1e-6 {
+            same += 1;
+        }
+    }
+    assert!(rows_n >= 900, "{rows_n} rows matched the node's answers");
+    assert!(same * 100 >= rows_n * 95, "{same} of {rows_n} the same");
+}

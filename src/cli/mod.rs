@@ -16,6 +16,7 @@ mod predict;
 mod record;
 mod replay;
 mod simulate;
+mod simulate_robot;
 
 use crate::model::{FittingWidth, Medium, Plate, TerzaghiModel, medium as presets};
 use anyhow::{Context, Result, bail};
@@ -65,6 +66,9 @@ pub enum Command {
     Media(media::MediaArgs),
     /// Write a synthetic session (one leg in continuous rotation, with sensor noise) as CSV.
     Simulate(simulate::SimulateArgs),
+    /// Write a recording (MCAP) of the simulated six-legged robot walking with a heaving,
+    /// pitching, advancing body, its hips on /tf.
+    SimulateRobot(simulate_robot::SimulateRobotArgs),
     /// Diagnose the sim-to-real gap of a session: where model and measurement part, which
     /// unmodelled effect causes it, how far the gap shrinks with it (report.json, report.html).
     Diagnose(diagnose::DiagnoseArgs),
@@ -90,6 +94,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Node(a) => node::run(a),
         Command::Param(a) => param::run(a),
         Command::Simulate(a) => simulate::run(a),
+        Command::SimulateRobot(a) => simulate_robot::run(a),
         Command::Diagnose(a) => diagnose::run(a),
         Command::DiagnoseEval(a) => diagnose_eval::run_cmd(a),
     }

@@ -27,7 +27,7 @@
 //! CUSUM statistic is below half its alarm level.
 
 use super::Sample;
-use crate::model::{FittingWidth, ModelError, Regime, TerzaghiModel};
+use crate::model::{FittingWidth, HipMotion, ModelError, Regime, TerzaghiModel};
 use nalgebra::{Matrix2, Matrix3, Matrix3x2, Vector2, Vector3};
 use serde::Serialize;
 use std::f64::consts::FRAC_PI_2;
@@ -391,7 +391,13 @@ impl OnlineEstimator {
 
     /// Feeds one sample; `Ok(())` if it updated the estimate, otherwise why not.
     pub fn update(&mut self, s: &Sample) -> Result<(), Skip> {
-        let r = self.update_inner(s);
+        self.update_at(s, None)
+    }
+
+    /// [`Self::update`] for a sample taken with the hip where the robot's state put it (its
+    /// height and the body's pitch), instead of the configured plate's.
+    pub fn update_at(&mut self, s: &Sample, hip: Option<&HipMotion>) -> Result<(), Skip> {
+        let r = self.update_inner(s, hip);
         match r {
             Ok(()) => self.est.samples_used += 1,
             Err(Skip::NonFinite) => self.est.samples_non_finite += 1,
@@ -401,17 +407,21 @@ impl OnlineEstimator {
         r
     }
 
-    fn update_inner(&mut self, s: &Sample) -> Result<(), Skip> {
+    fn update_inner(&mut self, s: &Sample, hip: Option<&HipMotion>) -> Result<(), Skip> {
         if !(s.beta_rad.is_finite() && s.drag_n.is_finite() && s.lift_n.is_finite())
             || s.t_s.is_some_and(|t| !t.is_finite())
         {
             return Err(Skip::NonFinite);
         }
         let stuck = self.stuck.see(s.drag_n, s.lift_n) >= self.opts.stuck_samples;
-        let f = self
-            .unit
-            .evaluate(s.beta_rad)
-            .map_err(|_| Skip::NonFinite)?;
+        let f = match hip {
+            Some(h) => self
+                .unit
+                .with_hip_height_m(h.height_m)
+                .and_then(|m| m.evaluate(s.beta_rad + h.pitch_rad)),
+            None => self.unit.evaluate(s.beta_rad),
+        }
+        .map_err(|_| Skip::NonFinite)?;
         let dbeta = self
             .prev_beta
             .map(|p| angle_step(p, f.beta_rad))

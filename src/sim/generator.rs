@@ -125,6 +125,10 @@ pub struct MotionSample {
     pub omega_rad_s: f64,
     pub alpha_rad_s2: f64,
     pub stroke: usize,
+    /// The hip's height above the plate's configured one (m), and the body's pitch added to the
+    /// attack angle (rad): a body that heaves and pitches ([`crate::sim::robot::Body`]).
+    pub hip_dz_m: f64,
+    pub pitch_rad: f64,
 }
 
 /// The leg's motion of `case`: per stroke a speed around the mean, modulated within the stroke
@@ -152,6 +156,8 @@ pub fn motion(case: &Case) -> Vec<MotionSample> {
                 omega_rad_s: omega,
                 alpha_rad_s2: alpha,
                 stroke: k,
+                hip_dz_m: 0.0,
+                pitch_rad: 0.0,
             });
             t += dt;
             beta += omega * dt;
@@ -240,9 +246,21 @@ pub fn measure(case: &Case, motion: &[MotionSample], omit: &[Hidden]) -> (Vec<Sa
     let mut clean: Vec<[f64; 2]> = Vec::with_capacity(motion.len());
     let mut raw_effects: Vec<Vec<[f64; 2]>> = Vec::new();
     for x in motion {
-        let (t, beta, omega, alpha, stroke) =
-            (x.t_s, x.beta_rad, x.omega_rad_s, x.alpha_rad_s2, x.stroke);
-        let f = felt.evaluate(beta).expect("finite angle");
+        // The leg's attack angle in the world is the joint's plus the body's pitch.
+        let (t, beta, omega, alpha, stroke) = (
+            x.t_s,
+            x.beta_rad + x.pitch_rad,
+            x.omega_rad_s,
+            x.alpha_rad_s2,
+            x.stroke,
+        );
+        let f = if x.hip_dz_m != 0.0 {
+            felt.with_hip_height_m(felt.plate().hip_height_m() + x.hip_dz_m)
+                .and_then(|m| m.evaluate(beta))
+        } else {
+            felt.evaluate(beta)
+        }
+        .expect("finite angle and hip");
         let (mut d, mut li) = (f.drag_n, f.lift_n);
         let (s, c) = beta.rem_euclid(TAU).sin_cos();
         let l_s = f.submerged_m.max(0.0);

@@ -6,7 +6,10 @@
 
 use crate::config::{FtFrame, NodeConfig};
 use crate::ident::Sample;
-use crate::msgs::{Header, JointState, Time, Vector3, Wrench, WrenchStamped};
+use crate::msgs::{
+    Header, JointState, Quaternion, TfMessage, Time, Transform, TransformStamped, Vector3, Wrench,
+    WrenchStamped,
+};
 use crate::sim::generator::{Case, Hidden, MotionSample, measure};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
@@ -34,6 +37,63 @@ pub struct Gait {
     pub seed: u64,
 }
 
+/// How the robot's body moves while it walks. All zero (the default): a level body at the
+/// legs' hip height that stays put, what a node with a fixed `hip_height_m` assumes.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Body {
+    /// The body rises and falls by this much (m), twice per turn of the legs (once per tripod).
+    pub heave_m: f64,
+    /// It pitches by this much (rad; ROS's pitch, positive nose down), a quarter period after
+    /// the heave.
+    pub pitch_rad: f64,
+    /// It moves forward at this speed (m/s).
+    pub forward_m_s: f64,
+}
+
+impl Body {
+    pub fn is_still(&self) -> bool {
+        *self == Body::default()
+    }
+}
+
+/// The body's pose at one sample, in the world frame `odom` (the surface at z = 0).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BodyPose {
+    pub x_m: f64,
+    pub z_m: f64,
+    pub pitch_rad: f64,
+}
+
+/// The frame of the body (`base_link`, REP 105) and of the world the surface is level in.
+pub const BODY_FRAME: &str = "base_link";
+pub const WORLD_FRAME: &str = "odom";
+
+/// Where a leg's hip sits in the body frame, from its name (the shipped robot's): `front`,
+/// `middle` or `rear` along x (+-0.12 m), `left` or `right` along y (+-0.08 m); z is the leg's
+/// hip height less the body's (the first leg's), which the caller adds.
+pub fn hip_offset_m(leg_name: &str) -> [f64; 3] {
+    let x = if leg_name.contains("front") {
+        0.12
+    } else if leg_name.contains("rear") {
+        -0.12
+    } else {
+        0.0
+    };
+    let y = if leg_name.contains("left") {
+        0.08
+    } else if leg_name.contains("right") {
+        -0.08
+    } else {
+        0.0
+    };
+    [x, y, 0.0]
+}
+
+/// The hip frame's name that [`write_recording`] gives leg `leg_name` on `/tf`.
+pub fn hip_frame(leg_name: &str) -> String {
+    format!("{leg_name}_hip")
+}
+
 /// The simulated session: sample times, and per leg the unwrapped attack angle and what its
 /// F/T sensor reads (drag, lift).
 #[derive(Debug, Clone)]
@@ -42,6 +102,9 @@ pub struct Session {
     pub legs: Vec<Vec<Sample>>,
     /// True sensor noise per leg (N).
     pub noise_n: Vec<f64>,
+    /// The body's pose at each sample (empty for a still body), its frame `base_link` at the
+    /// first leg's hip height when level.
+    pub body: Vec<BodyPose>,
 }
 
 /// Tripod of a leg: legs 0, 2 and 4 of the configuration (front left, rear left, middle right
@@ -51,6 +114,13 @@ fn tripod_phase(leg: usize) -> f64 {
 }
 
 pub fn simulate(cfg: &NodeConfig, truth: &Truth, gait: &Gait) -> Session {
+    simulate_moving(cfg, truth, gait, &Body::default())
+}
+
+/// [`simulate`] with a body that heaves, pitches and moves forward: each leg's sensor reads the
+/// force at its hip's true height and attack angle (the joint's plus the pitch), while the joint
+/// angles are the same as a still body's.
+pub fn simulate_moving(cfg: &NodeConfig, truth: &Truth, gait: &Gait, body: &Body) -> Session {
     let mut rng = StdRng::seed_from_u64(gait.seed);
     let dt = 1.0 / gait.rate_hz;
     let n = (gait.seconds * gait.rate_hz).round().max(1.0) as usize;
@@ -73,19 +143,48 @@ pub fn simulate(cfg: &NodeConfig, truth: &Truth, gait: &Gait) -> Session {
         rot.push((t, theta, omega, alpha));
         theta += omega * dt;
     }
+    let h0 = cfg.legs.first().map_or(0.0, |l| l.plate.hip_height_m());
+    let poses: Vec<BodyPose> = if body.is_still() {
+        Vec::new()
+    } else {
+        rot.iter()
+            .map(|&(t, th, _, _)| BodyPose {
+                x_m: body.forward_m_s * t,
+                z_m: h0 + body.heave_m * (2.0 * th).sin(),
+                pitch_rad: body.pitch_rad * (2.0 * th).cos(),
+            })
+            .collect()
+    };
     let mut legs = Vec::with_capacity(cfg.legs.len());
     let mut noise = Vec::with_capacity(cfg.legs.len());
     for (i, leg) in cfg.legs.iter().enumerate() {
         let offset = tripod_phase(i);
         let first = rot.first().map_or(0.0, |r| r.1 + offset);
+        let [hx, _, _] = hip_offset_m(&leg.name);
+        // A leg whose hip is higher or lower than the first one's sits that much off the body.
+        let hz = leg.plate.hip_height_m() - h0;
         let motion: Vec<MotionSample> = rot
             .iter()
-            .map(|&(t, th, w, al)| MotionSample {
-                t_s: t,
-                beta_rad: th + offset,
-                omega_rad_s: w,
-                alpha_rad_s2: al,
-                stroke: ((th + offset - first) / TAU).floor().max(0.0) as usize,
+            .enumerate()
+            .map(|(k, &(t, th, w, al))| {
+                // The hip's height in the world: the body's, plus its offset turned by the pitch
+                // (nose down lowers the front hips).
+                let (dz, pitch) = poses.get(k).map_or((0.0, 0.0), |p| {
+                    let (s, c) = p.pitch_rad.sin_cos();
+                    (
+                        p.z_m - hx * s + hz * c - leg.plate.hip_height_m(),
+                        p.pitch_rad,
+                    )
+                });
+                MotionSample {
+                    t_s: t,
+                    beta_rad: th + offset,
+                    omega_rad_s: w,
+                    alpha_rad_s2: al,
+                    stroke: ((th + offset - first) / TAU).floor().max(0.0) as usize,
+                    hip_dz_m: dz,
+                    pitch_rad: pitch,
+                }
             })
             .collect();
         let case = Case {
@@ -109,6 +208,7 @@ pub fn simulate(cfg: &NodeConfig, truth: &Truth, gait: &Gait) -> Session {
         t_s: rot.iter().map(|r| r.0).collect(),
         legs,
         noise_n: noise,
+        body: poses,
     }
 }
 
@@ -168,6 +268,66 @@ pub fn wrench(cfg: &NodeConfig, s: &Session, leg: usize, k: usize, t0_ns: i64) -
             },
             torque: Vector3::default(),
         },
+    }
+}
+
+fn transform(
+    parent: &str,
+    child: &str,
+    t_ns: i64,
+    xyz: [f64; 3],
+    pitch_rad: f64,
+) -> TransformStamped {
+    let (s, c) = (pitch_rad / 2.0).sin_cos();
+    TransformStamped {
+        header: Header {
+            stamp: Time::from_nanos(t_ns).unwrap_or_default(),
+            frame_id: parent.into(),
+        },
+        child_frame_id: child.into(),
+        transform: Transform {
+            translation: Vector3 {
+                x: xyz[0],
+                y: xyz[1],
+                z: xyz[2],
+            },
+            rotation: Quaternion {
+                x: 0.0,
+                y: s,
+                z: 0.0,
+                w: c,
+            },
+        },
+    }
+}
+
+/// The body's pose at sample `k` on `/tf` (`odom` to `base_link`), for a moving body.
+pub fn body_tf(s: &Session, k: usize, t0_ns: i64) -> Option<TfMessage> {
+    let p = s.body.get(k)?;
+    Some(TfMessage {
+        transforms: vec![transform(
+            WORLD_FRAME,
+            BODY_FRAME,
+            stamp_ns(t0_ns, s.t_s[k]),
+            [p.x_m, 0.0, p.z_m],
+            p.pitch_rad,
+        )],
+    })
+}
+
+/// Every hip in the body, as `/tf_static` carries it (`base_link` to `<leg>_hip`).
+pub fn hips_tf(cfg: &NodeConfig, t0_ns: i64) -> TfMessage {
+    let h0 = cfg.legs.first().map_or(0.0, |l| l.plate.hip_height_m());
+    TfMessage {
+        transforms: cfg
+            .legs
+            .iter()
+            .map(|l| {
+                let [x, y, _] = hip_offset_m(&l.name);
+                let z = l.plate.hip_height_m() - h0;
+                transform(BODY_FRAME, &hip_frame(&l.name), t0_ns, [x, y, z], 0.0)
+            })
+            .collect(),
     }
 }
 
@@ -232,6 +392,20 @@ pub fn write_recording<W: std::io::Write + std::io::Seek>(
             )?;
         }
         messages += 1 + ft_topics.len() as u64;
+        if let Some(tf) = body_tf(session, k, t0_ns) {
+            if k == 0 {
+                w.write(
+                    crate::config::TF_STATIC_TOPIC,
+                    OfferedQos::RELIABLE,
+                    &hips_tf(cfg, t0_ns),
+                    t,
+                    t,
+                )?;
+                messages += 1;
+            }
+            w.write(crate::config::TF_TOPIC, OfferedQos::RELIABLE, &tf, t, t)?;
+            messages += 1;
+        }
     }
     w.finish()?;
     Ok(messages)

@@ -477,6 +477,16 @@ impl NodeCore {
         }
     }
 
+    /// Where leg `leg`'s hip was at `stamp_ns` (an angle a measurement was matched with), for a
+    /// leg the robot's state places; not counted (its prediction was).
+    fn hip_at(&self, leg: usize, stamp_ns: i64) -> Option<HipMotion> {
+        let frame = self.cfg.legs.get(leg)?.hip_frame.as_deref()?;
+        let omega = self.legs.get(leg)?.omega_rad_s;
+        self.tf
+            .hip_motion(&self.cfg.robot_state, frame, stamp_ns, omega)
+            .ok()
+    }
+
     /// Predicts every configured leg found in `msg`; appends one output per leg predicted.
     pub fn on_joint_state(&mut self, msg: &JointState, out: &mut Vec<LegOutput>) {
         self.counters.joint_states += 1;
@@ -641,8 +651,11 @@ impl NodeCore {
     /// waiting per leg at most).
     fn watch_gap(&mut self, leg: usize, mt: &Matched) {
         let g = self.cfg.gap_check;
-        // The diagnosis is of a flat plate's gap: a leg of another shape is not watched.
-        if self.mode == CoreMode::ReevaluationRows || self.cfg.legs[leg].profile.is_some() {
+        // The diagnosis is of a flat plate's gap at a fixed hip: a leg of another shape, or one
+        // the robot's state places, is not watched.
+        let lc = &self.cfg.legs[leg];
+        if self.mode == CoreMode::ReevaluationRows || lc.profile.is_some() || lc.hip_frame.is_some()
+        {
             return;
         }
         let Some(l) = self.legs.get_mut(leg) else {
@@ -686,6 +699,7 @@ impl NodeCore {
         let period_ns = (1e9 / self.cfg.model_params_rate_hz) as i64;
         let stamp = Time::from_nanos(mt.t_ns).unwrap_or_default();
         let t_ns = mt.t_ns;
+        let hip = self.hip_at(leg, mt.angle_t_ns);
         let l = self.legs.get_mut(leg)?;
         let sample = Sample {
             t_s: Some(stamp.to_secs()),
@@ -697,7 +711,7 @@ impl NodeCore {
         let before = *est.estimate();
         match est {
             Learner::Bare(e) => {
-                let _ = e.update(&sample);
+                let _ = e.update_at(&sample, hip.as_ref());
             }
             Learner::Corrected(e) => {
                 // The motion at the angle the sample was matched with (the newest, should it
@@ -803,20 +817,12 @@ impl NodeCore {
                 .rev()
                 .find(|(t, _)| *t == mt.angle_t_ns)
                 .map(|(_, p)| *p),
-            None => {
-                // Where the hip was at the angle's stamp, for a leg the robot's state places.
-                let hip = self.cfg.legs[leg].hip_frame.as_deref().and_then(|f| {
-                    self.tf
-                        .hip_motion(&self.cfg.robot_state, f, mt.angle_t_ns, l.omega_rad_s)
-                        .ok()
-                });
-                match hip {
-                    Some(h) => l.model.predict_moving(mt.beta_rad, &h),
-                    None => l.model.predict(mt.beta_rad),
-                }
-                .ok()
-                .map(RowPrediction::bare)
+            None => match self.hip_at(leg, mt.angle_t_ns) {
+                Some(h) => l.model.predict_moving(mt.beta_rad, &h),
+                None => l.model.predict(mt.beta_rad),
             }
+            .ok()
+            .map(RowPrediction::bare),
         }
     }
 

@@ -1,0 +1,122 @@
+//! `terzaghi simulate-robot`: a recording of the simulated six-legged robot walking, its body
+//! heaving, pitching and moving forward, with `/tf`.
+
+use crate::config::ParamValue;
+use crate::session::files::{refuse_existing_recording, write_atomically};
+use crate::sim::robot::{Body, Gait, Truth, hip_frame, rhex, simulate_moving, write_recording};
+use anyhow::{Result, bail};
+use clap::Args;
+use std::path::PathBuf;
+
+#[derive(Debug, Args)]
+pub struct SimulateRobotArgs {
+    /// Simulated seconds of walking.
+    #[arg(long, default_value_t = 20.0)]
+    pub seconds: f64,
+    /// The body rises and falls by this much (m), once per tripod.
+    #[arg(long, default_value_t = 0.01)]
+    pub heave_m: f64,
+    /// The body pitches by this much (deg), a quarter period after the heave.
+    #[arg(long, default_value_t = 3.0)]
+    pub pitch_deg: f64,
+    /// The body moves forward at this speed (m/s).
+    #[arg(long, default_value_t = 0.1)]
+    pub forward_m_s: f64,
+    /// Mean leg speed (rad/s).
+    #[arg(long, default_value_t = 4.0)]
+    pub speed_rad_s: f64,
+    /// Sensor noise, as a fraction of the RMS force in the medium (times 2.5).
+    #[arg(long, default_value_t = 0.015)]
+    pub noise_frac: f64,
+    /// Seed of the walk and of the sensors.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// The recording to write (ROS 2 MCAP).
+    #[arg(short, long, value_name = "OUT.mcap")]
+    pub output: PathBuf,
+    /// Replace OUT.mcap if it exists.
+    #[arg(long)]
+    pub overwrite: bool,
+}
+
+pub fn run(a: SimulateRobotArgs) -> Result<()> {
+    let checks = [
+        (
+            "--seconds",
+            a.seconds,
+            a.seconds > 0.0 && a.seconds <= 3600.0,
+        ),
+        ("--heave-m", a.heave_m, a.heave_m.abs() < 0.05),
+        ("--pitch-deg", a.pitch_deg, a.pitch_deg.abs() <= 30.0),
+        ("--forward-m-s", a.forward_m_s, a.forward_m_s.abs() <= 5.0),
+        (
+            "--speed-rad-s",
+            a.speed_rad_s,
+            a.speed_rad_s > 0.0 && a.speed_rad_s <= 50.0,
+        ),
+        (
+            "--noise-frac",
+            a.noise_frac,
+            (0.0..=1.0).contains(&a.noise_frac),
+        ),
+    ];
+    for (flag, v, ok) in checks {
+        if !(v.is_finite() && ok) {
+            bail!(
+                "{flag} {v}: out of range (seconds in (0, 3600], |heave| < 0.05 m, |pitch| <= 30 deg, |forward| <= 5 m/s, speed in (0, 50] rad/s, noise in [0, 1])"
+            );
+        }
+    }
+    refuse_existing_recording(&a.output, a.overwrite)?;
+    let (mut params, cfg) = rhex()?;
+    // The medium is what the robot is told (its preset's fit): what differs is the body.
+    let w = cfg.legs[0].width;
+    let truth = Truth {
+        b_k: w.b_k(),
+        a: w.a(),
+        effects: vec![],
+        magnitude: 0.0,
+        noise_frac: a.noise_frac,
+    };
+    let gait = Gait {
+        seconds: a.seconds,
+        rate_hz: crate::demo::RATE_HZ,
+        mean_speed_rad_s: a.speed_rad_s,
+        seed: a.seed,
+    };
+    let body = Body {
+        heave_m: a.heave_m,
+        pitch_rad: a.pitch_deg.to_radians(),
+        forward_m_s: a.forward_m_s,
+    };
+    let walk = simulate_moving(&cfg, &truth, &gait, &body);
+    // The recorded node reads every hip from /tf.
+    if !body.is_still() {
+        for l in &cfg.legs {
+            params.insert(
+                format!("{}.hip_frame", l.name),
+                ParamValue::String(hip_frame(&l.name)),
+            );
+        }
+    }
+    let t0_ns = 1_700_000_000_000_000_000;
+    let mut messages = 0;
+    write_atomically(&a.output, |f| {
+        messages = write_recording(f, &params, &cfg, &walk, t0_ns)?;
+        Ok(())
+    })?;
+    let noise = |f: fn(f64, f64) -> f64, init: f64| walk.noise_n.iter().copied().fold(init, f);
+    eprintln!(
+        "{messages} messages of {} s of walking written to {} (legs' hips on /tf: {}); the F/T sensors' noise {:.3}-{:.3} N",
+        a.seconds,
+        a.output.display(),
+        if body.is_still() {
+            "no, the body is still"
+        } else {
+            "yes"
+        },
+        noise(f64::min, f64::INFINITY),
+        noise(f64::max, 0.0),
+    );
+    Ok(())
+}

@@ -1,0 +1,80 @@
+//! The robot as it really moves: the simulated six-legged robot's body heaves, pitches and
+//! walks forward (`terzaghi simulate-robot`, its hips on `/tf`), and the node predicts each leg
+//! through its own code (`replay --reevaluate`) told the hips by `/tf` as recorded, and at the
+//! fixed hip height of `launch_configs/rhex.yaml` as before. The README's table holds every
+//! figure as printed.
+
+mod common;
+
+use std::process::Command;
+
+/// `(leg, RMSE, R^2 drag, R^2 lift)` of each leg line `LEG: RMSE X N (R^2 drag D, lift L)`.
+fn leg_errors(printed: &str) -> Vec<(String, f64, f64, f64)> {
+    printed
+        .lines()
+        .filter_map(|l| {
+            let (leg, rest) = l.split_once(": RMSE ")?;
+            let num = |after: &str| -> Option<f64> {
+                let at = rest.find(after)? + after.len();
+                rest[at..].split([',', ')', ' ']).next()?.parse().ok()
+            };
+            Some((leg.to_string(), num("")?, num("R^2 drag ")?, num("lift ")?))
+        })
+        .collect()
+}
+
+fn run(args: &[&str]) -> String {
+    let o = Command::new(common::terzaghi())
+        .current_dir(common::repo())
+        .args(args)
+        .output()
+        .unwrap();
+    let printed = format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(o.status.success(), "{args:?}: {printed}");
+    printed
+}
+
+#[test]
+fn told_its_hips_by_tf_the_node_predicts_a_heaving_pitching_robot_to_the_sensor_noise() {
+    let dir = tempfile::tempdir().unwrap();
+    let walk = dir.path().join("walk.mcap");
+    let walk = walk.to_str().unwrap();
+    let made = run(&["simulate-robot", "-o", walk]);
+    let noise_at = made.find("noise ").unwrap() + "noise ".len();
+    let noise_max: f64 = made[noise_at..]
+        .split(['-', ' '])
+        .nth(1)
+        .unwrap()
+        .parse()
+        .unwrap();
+    let with_tf = leg_errors(&run(&["replay", walk, "--reevaluate", "-o", "/dev/null"]));
+    let fixed = leg_errors(&run(&[
+        "replay",
+        walk,
+        "--reevaluate",
+        "--params-file",
+        "launch_configs/rhex.yaml",
+        "-o",
+        "/dev/null",
+    ]));
+    assert_eq!(with_tf.len(), 6, "{with_tf:?}");
+    assert_eq!(fixed.len(), 6, "{fixed:?}");
+    let readme = std::fs::read_to_string(common::repo().join("README.md")).unwrap();
+    for (t, f) in with_tf.iter().zip(&fixed) {
+        assert_eq!(t.0, f.0);
+        let row = format!(
+            "| `{}` | {:.3} | {:.3} / {:.3} | {:.3} | {:.3} / {:.3} |",
+            t.0, t.1, t.2, t.3, f.1, f.2, f.3
+        );
+        println!("{row}");
+        assert!(readme.contains(&row), "README lacks the row\n{row}");
+        // Told the hips, the node is at the sensor's noise; at the fixed height, far from it.
+        assert!(t.1 < 1.05 * noise_max, "{t:?} noise {noise_max}");
+        assert!(f.1 > 4.0 * t.1, "{t:?} {f:?}");
+        assert!(t.2 > 0.95 && t.3 > 0.9, "{t:?}");
+    }
+}
