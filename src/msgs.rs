@@ -190,6 +190,7 @@ pub struct LegForce {
     pub hip_forward_m_s: f64,
     pub hip_up_m_s: f64,
     pub robot_state: bool,
+    pub rft_scale: f64,
 }
 
 /// `terzaghi_msgs/Gap` (msgs/msg/Gap.msg)
@@ -230,6 +231,8 @@ pub struct ModelParams {
     pub correction_params: Vec<String>,
     pub correction_values: Vec<f64>,
     pub correction_stds: Vec<f64>,
+    pub rft_scale: f64,
+    pub std_rft_scale: f64,
 }
 
 /// A message type: its ROS name and its definition.

@@ -372,6 +372,8 @@ fn the_node_predicts_the_dem_c_leg_with_rft_from_the_dem() {
             "--reevaluate",
             "--params-file",
             "launch_configs/dem_cleg.yaml",
+            "-p",
+            "use_identified:=false",
             "-o",
             out.to_str().unwrap(),
         ])
@@ -404,6 +406,22 @@ fn the_node_predicts_the_dem_c_leg_with_rft_from_the_dem() {
     // Drag at R^2 0.8 and more; lift short of it (README, "Checked against DEM").
     assert!(drag > 0.8, "{drag}");
     assert!(lift > 0.7, "{lift}");
+    // With RFT's scale learnt online from the leg's F/T (the file's use_identified), better on
+    // both, lift past 0.8.
+    let (rmse_id, drag_id, lift_id) = reevaluated(
+        "tests/dem/campaign/runs/cleg.mcap",
+        "launch_configs/dem_cleg.yaml",
+        &[],
+    );
+    println!("learnt scale: RMSE {rmse_id} R^2 {drag_id} {lift_id}");
+    assert!(
+        drag_id > drag + 0.03 && lift_id > 0.8,
+        "{drag_id} {lift_id}"
+    );
+    let readme =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/README.md")).unwrap();
+    let line = format!("RMSE {rmse_id:.3} N (R^2 drag {drag_id:.3}, lift {lift_id:.3})");
+    assert!(readme.contains(&line), "README lacks {line}");
 }
 
 /// One `replay --reevaluate` of a DEM session through the node's own code: its printed

@@ -125,6 +125,7 @@ fn every_message_decodes_with_its_definition_in_mcap_ros2() {
             hip_forward_m_s: 0.25,
             hip_up_m_s: -0.03125,
             robot_state: true,
+            rft_scale: 0.875,
         }),
         item(&TfMessage {
             transforms: vec![
@@ -167,6 +168,8 @@ fn every_message_decodes_with_its_definition_in_mcap_ros2() {
             correction_params: vec!["cohesion.normal_pa".into(), "cohesion.tangential_pa".into()],
             correction_values: vec![6466.3, -1142.2],
             correction_stds: vec![17.7, 10.1],
+            rft_scale: 1.3271,
+            std_rft_scale: 0.0125,
         }),
     ];
     let (input, want): (Vec<_>, Vec<_>) = items.into_iter().unzip();

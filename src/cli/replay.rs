@@ -160,10 +160,18 @@ fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
         .zip(&done.config.legs)
         .filter_map(|(e, l)| {
             e.map(|e| {
-                format!(
-                    "{}: b_k {:.4} a {:.4} (converged: {})",
-                    l.name, e.b_k, e.a, e.converged
-                )
+                // An RFT leg learns RFT's scale (its estimate's b_k).
+                if done.config.model == crate::config::ModelKind::Rft && l.rft.is_some() {
+                    format!(
+                        "{}: rft_scale {:.4} +- {:.4} (converged: {})",
+                        l.name, e.b_k, e.std_b_k, e.converged
+                    )
+                } else {
+                    format!(
+                        "{}: b_k {:.4} a {:.4} (converged: {})",
+                        l.name, e.b_k, e.a, e.converged
+                    )
+                }
             })
         })
         .collect();

@@ -11,11 +11,13 @@ pub mod batch;
 pub mod corrected;
 pub mod metrics;
 pub mod online;
+pub mod scale;
 
 pub use batch::{BatchFit, BatchOptions, fit_batch};
 pub use corrected::{Coefficient, CorrectedEstimator};
 pub use metrics::{ComponentFit, FitSums, GoodnessOfFit, goodness_of_fit};
 pub use online::{Estimate, OnlineEstimator, OnlineOptions};
+pub use scale::ScaleEstimator;
 
 use crate::model::{ModelError, Regime, TerzaghiModel};
 

@@ -88,6 +88,8 @@ class ModelParams(IdlStruct, typename="terzaghi_msgs::msg::dds_::ModelParams_"):
     correction_params: sequence[str] = field(default_factory=list)
     correction_values: sequence[float64] = field(default_factory=list)
     correction_stds: sequence[float64] = field(default_factory=list)
+    rft_scale: float64 = 0.0
+    std_rft_scale: float64 = 0.0
 
 
 @dataclass
@@ -117,6 +119,7 @@ class LegForce(IdlStruct, typename="terzaghi_msgs::msg::dds_::LegForce_"):
     hip_forward_m_s: float64 = 0.0
     hip_up_m_s: float64 = 0.0
     robot_state: bool = False
+    rft_scale: float64 = 0.0
 
 
 def stamp(t_s):

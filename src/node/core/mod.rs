@@ -11,7 +11,7 @@ pub use robot_state::{NoState, TfTree};
 
 use super::matcher::{FtMatcher, Match, NoAngle, usable_stamp_ns};
 use crate::config::{ModelKind, NodeConfig};
-use crate::ident::{CorrectedEstimator, Estimate, OnlineEstimator, Sample};
+use crate::ident::{CorrectedEstimator, Estimate, OnlineEstimator, Sample, ScaleEstimator};
 use crate::model::corrections::{
     CorrectedModel, CorrectedPrediction, Effect, MOTION_WINDOW_S, Motion, MotionTracker,
     SensorLagFilter,
@@ -77,17 +77,39 @@ struct Leg {
     omega_rad_s: f64,
 }
 
+impl Leg {
+    /// The scale RFT's prediction is multiplied by: the learnt one while it is converged (and
+    /// used); `None` for a leg that does not learn one.
+    fn rft_scale(&self, use_identified: bool) -> Option<f64> {
+        match (&self.estimator, &self.identified, use_identified) {
+            (Some(Learner::RftScale(_)), Some(e), true) => Some(e.b_k),
+            _ => None,
+        }
+    }
+}
+
+/// `p` with its forces and torque multiplied by `scale` (RFT's learnt scale).
+fn scaled(p: Prediction, scale: f64) -> Prediction {
+    Prediction {
+        drag_n: p.drag_n * scale,
+        lift_n: p.lift_n * scale,
+        hip_torque_nm: p.hip_torque_nm * scale,
+        ..p
+    }
+}
+
 /// Predictions kept per corrected leg for the rows of a re-evaluation, by their angle's stamp.
 const RECENT_PREDICTIONS: usize = 1024;
 
 /// Motions kept per corrected leg, by their angle's stamp, for the F/T samples matched to them.
 const RECENT_MOTIONS: usize = 256;
 
-/// A leg's online identification: of the bare model's fitting width, or of its corrected model
-/// (`b_k`, `a` and the corrections' coefficients).
+/// A leg's online identification: of the bare model's fitting width, of its corrected model
+/// (`b_k`, `a` and the corrections' coefficients), or of RFT's scale (its estimate's `b_k`).
 enum Learner {
     Bare(Box<OnlineEstimator>),
     Corrected(Box<CorrectedEstimator>),
+    RftScale(Box<ScaleEstimator>),
 }
 
 impl Learner {
@@ -95,6 +117,7 @@ impl Learner {
         match self {
             Learner::Bare(e) => e.estimate(),
             Learner::Corrected(e) => e.estimate(),
+            Learner::RftScale(e) => e.estimate(),
         }
     }
 }
@@ -225,6 +248,7 @@ fn leg_force(
         hip_forward_m_s: 0.0,
         hip_up_m_s: 0.0,
         robot_state: false,
+        rft_scale: 1.0,
     }
 }
 
@@ -295,40 +319,44 @@ impl NodeCore {
     fn new_leg(&self, i: usize) -> Leg {
         let lc = &self.cfg.legs[i];
         let corrected = self.corrected_model(i);
-        // A leg of another shape has no flat plate's width to identify.
-        let estimator = lc
-            .ft_topic
-            .as_ref()
-            .filter(|_| lc.profile.is_none())
-            .and_then(|_| {
-                if let Some(m) = &corrected {
-                    let opts = crate::ident::OnlineOptions {
-                        fit_delta: false,
-                        forgetting: crate::ident::online::Forgetting::Strokes(
-                            self.cfg.corrections_memory_strokes,
-                        ),
-                        ..self.cfg.estimator
-                    };
-                    return CorrectedEstimator::new(m.clone(), opts)
-                        .ok()
-                        .map(|e| Learner::Corrected(Box::new(e)));
-                }
-                let base = TerzaghiModel::conventional(lc.plate, lc.medium);
+        // A leg predicted by RFT (a plate or another shape) learns RFT's scale.
+        let estimator = lc.ft_topic.as_ref().and_then(|_| {
+            if self.cfg.model == ModelKind::Rft && lc.rft.is_some() {
+                return Some(Learner::RftScale(Box::new(ScaleEstimator::new(
+                    self.cfg.estimator,
+                ))));
+            }
+            if lc.profile.is_some() {
+                return None;
+            }
+            if let Some(m) = &corrected {
                 let opts = crate::ident::OnlineOptions {
-                    initial_b_k: lc.width.b_k().clamp(
-                        self.cfg.estimator.b_k_range.0,
-                        self.cfg.estimator.b_k_range.1,
+                    fit_delta: false,
+                    forgetting: crate::ident::online::Forgetting::Strokes(
+                        self.cfg.corrections_memory_strokes,
                     ),
-                    initial_a: lc
-                        .width
-                        .a()
-                        .clamp(self.cfg.estimator.a_range.0, self.cfg.estimator.a_range.1),
                     ..self.cfg.estimator
                 };
-                OnlineEstimator::new(&base, opts)
+                return CorrectedEstimator::new(m.clone(), opts)
                     .ok()
-                    .map(|e| Learner::Bare(Box::new(e)))
-            });
+                    .map(|e| Learner::Corrected(Box::new(e)));
+            }
+            let base = TerzaghiModel::conventional(lc.plate, lc.medium);
+            let opts = crate::ident::OnlineOptions {
+                initial_b_k: lc.width.b_k().clamp(
+                    self.cfg.estimator.b_k_range.0,
+                    self.cfg.estimator.b_k_range.1,
+                ),
+                initial_a: lc
+                    .width
+                    .a()
+                    .clamp(self.cfg.estimator.a_range.0, self.cfg.estimator.a_range.1),
+                ..self.cfg.estimator
+            };
+            OnlineEstimator::new(&base, opts)
+                .ok()
+                .map(|e| Learner::Bare(Box::new(e)))
+        });
         Leg {
             model: self.model_for(i, None),
             corrected: corrected.map(CorrectedLeg::new),
@@ -561,11 +589,16 @@ impl NodeCore {
                         Some(h) => leg.model.predict_moving(beta, h),
                         None => leg.model.predict(beta),
                     };
-                    let Ok(p) = p else {
+                    let Ok(mut p) = p else {
                         leg.counters.invalid_position += 1;
                         continue;
                     };
-                    let width = match (&leg.identified, self.cfg.use_identified) {
+                    let rft_scale = leg.rft_scale(self.cfg.use_identified);
+                    if let Some(s) = rft_scale {
+                        p = scaled(p, s);
+                    }
+                    let is_rft = matches!(leg.estimator, Some(Learner::RftScale(_)));
+                    let width = match (&leg.identified, self.cfg.use_identified && !is_rft) {
                         (Some(e), true) => (
                             e.b_k,
                             e.a,
@@ -579,6 +612,7 @@ impl NodeCore {
                     };
                     let identified = leg.identified.is_some() && self.cfg.use_identified;
                     let mut f = leg_force(header, &p, model, width, identified);
+                    f.rft_scale = rft_scale.unwrap_or(1.0);
                     let h = hip.unwrap_or_else(|| HipMotion::still(lc.plate.hip_height_m()));
                     f.robot_state = hip.is_some();
                     f.hip_height_m = h.height_m;
@@ -728,6 +762,16 @@ impl NodeCore {
                     .unwrap_or_default();
                 let _ = e.update(&sample, &motion);
             }
+            Learner::RftScale(e) => {
+                // RFT's own prediction at the angle (and hip) the sample was matched with.
+                let unit = match &hip {
+                    Some(h) => l.model.predict_moving(mt.beta_rad, h),
+                    None => l.model.predict(mt.beta_rad),
+                };
+                if let Ok(u) = unit {
+                    let _ = e.update(&sample, [u.drag_n, u.lift_n]);
+                }
+            }
         }
         let e = *est.estimate();
         let event =
@@ -763,16 +807,22 @@ impl NodeCore {
             Some(Learner::Corrected(e)) => e.coefficients(),
             _ => &[],
         };
+        // An RFT leg's estimate is of its scale; its b_k and a are the configured ones.
+        let lc = &self.cfg.legs[leg];
+        let (b_k, a, std_b_k, rft_scale, std_rft_scale) = match &l.estimator {
+            Some(Learner::RftScale(_)) => (lc.width.b_k(), lc.width.a(), 0.0, e.b_k, e.std_b_k),
+            _ => (e.b_k, e.a, e.std_b_k, 1.0, 0.0),
+        };
         l.last_params_ns = Some(t_ns);
         Some(ModelParams {
             header: Header {
                 stamp,
-                frame_id: format!("{}_hip", self.cfg.legs[leg].name),
+                frame_id: format!("{}_hip", lc.name),
             },
-            b_k: e.b_k,
-            a: e.a,
+            b_k,
+            a,
             delta_deg: e.delta_deg,
-            std_b_k: e.std_b_k,
+            std_b_k,
             std_a: e.std_a,
             std_delta_deg: e.std_delta_deg,
             samples_used: e.samples_used,
@@ -790,6 +840,8 @@ impl NodeCore {
                 .collect(),
             correction_values: coefficients.iter().map(|c| c.value).collect(),
             correction_stds: coefficients.iter().map(|c| c.std).collect(),
+            rft_scale,
+            std_rft_scale,
         })
     }
 
@@ -817,12 +869,18 @@ impl NodeCore {
                 .rev()
                 .find(|(t, _)| *t == mt.angle_t_ns)
                 .map(|(_, p)| *p),
-            None => match self.hip_at(leg, mt.angle_t_ns) {
-                Some(h) => l.model.predict_moving(mt.beta_rad, &h),
-                None => l.model.predict(mt.beta_rad),
+            None => {
+                let p = match self.hip_at(leg, mt.angle_t_ns) {
+                    Some(h) => l.model.predict_moving(mt.beta_rad, &h),
+                    None => l.model.predict(mt.beta_rad),
+                }
+                .ok()?;
+                let p = match l.rft_scale(self.cfg.use_identified) {
+                    Some(s) => scaled(p, s),
+                    None => p,
+                };
+                Some(RowPrediction::bare(p))
             }
-            .ok()
-            .map(RowPrediction::bare),
         }
     }
 

@@ -73,7 +73,22 @@ impl NodeCore {
                 ]);
             }
             let mut message = String::from("predicting");
-            if let Some(e) = l.estimator.as_ref().map(|e| *e.estimate()) {
+            if let Some(super::Learner::RftScale(s)) = &l.estimator {
+                let e = s.estimate();
+                let (scale, std) = s.scale();
+                values.extend([
+                    kv("rft_scale", format!("{scale:.6}")),
+                    kv("std_rft_scale", format!("{std:.6}")),
+                    kv("samples_used", e.samples_used.to_string()),
+                    kv("converged", e.converged.to_string()),
+                    kv("changes_detected", e.changes_detected.to_string()),
+                ]);
+                message = if e.converged {
+                    "identified".into()
+                } else {
+                    "identifying".into()
+                };
+            } else if let Some(e) = l.estimator.as_ref().map(|e| *e.estimate()) {
                 values.extend([
                     kv("b_k", format!("{:.6}", e.b_k)),
                     kv("a", format!("{:.6}", e.a)),
