@@ -233,6 +233,9 @@ pub struct ModelParams {
     pub correction_stds: Vec<f64>,
     pub rft_scale: f64,
     pub std_rft_scale: f64,
+    pub surface_offset_m: f64,
+    pub std_surface_offset_m: f64,
+    pub surface_converged: bool,
 }
 
 /// A message type: its ROS name and its definition.

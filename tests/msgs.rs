@@ -170,6 +170,9 @@ fn every_message_decodes_with_its_definition_in_mcap_ros2() {
             correction_stds: vec![17.7, 10.1],
             rft_scale: 1.3271,
             std_rft_scale: 0.0125,
+            surface_offset_m: -0.0075,
+            std_surface_offset_m: 0.0005,
+            surface_converged: true,
         }),
     ];
     let (input, want): (Vec<_>, Vec<_>) = items.into_iter().unzip();

@@ -158,7 +158,19 @@ fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
         .estimates
         .iter()
         .zip(&done.config.legs)
-        .filter_map(|(e, l)| {
+        .enumerate()
+        .filter_map(|(i, (e, l))| {
+            let surface = summary
+                .surfaces
+                .get(i)
+                .copied()
+                .flatten()
+                .map_or(String::new(), |s| {
+                    format!(
+                        ", surface {:+.4} +- {:.4} m (converged: {})",
+                        s.offset_m, s.std_offset_m, s.converged
+                    )
+                });
             e.map(|e| {
                 // An RFT leg learns RFT's scale (its estimate's b_k).
                 if done.config.model == crate::config::ModelKind::Rft && l.rft.is_some() {
@@ -168,7 +180,7 @@ fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
                     )
                 } else {
                     format!(
-                        "{}: b_k {:.4} a {:.4} (converged: {})",
+                        "{}: b_k {:.4} a {:.4} (converged: {}){surface}",
                         l.name, e.b_k, e.a, e.converged
                     )
                 }

@@ -139,6 +139,9 @@ pub struct NodeConfig {
     /// Memory (strokes) of the online identification of a leg with corrections: it learns more
     /// values than the bare model's two, from effects that show in some strokes only.
     pub corrections_memory_strokes: f64,
+    /// Identify the surface's level online too (`estimator.fit_surface`), for flat legs of the
+    /// Terzaghi models with F/T.
+    pub fit_surface: bool,
     pub rft_elements: usize,
     pub diagnostics_period_s: f64,
     /// Largest time between an F/T sample and the joint angle it is matched with.
@@ -251,6 +254,7 @@ pub fn defaults() -> ParamMap {
     put("model_params_rate_hz", ParamValue::Double(10.0));
     put("record", ParamValue::String(String::new()));
     put("estimator.fit_delta", ParamValue::Bool(d.fit_delta));
+    put("estimator.fit_surface", ParamValue::Bool(false));
     let mem = match d.forgetting {
         Forgetting::Strokes(m) => m,
         Forgetting::PerSample(_) => 3.0,
@@ -497,6 +501,7 @@ impl NodeConfig {
             legs,
             estimator: est,
             corrections_memory_strokes: positive("estimator.corrections_memory_strokes")?,
+            fit_surface: g.bool("estimator.fit_surface")?.unwrap_or(false),
             rft_elements,
             diagnostics_period_s: positive("diagnostics_period_s")?,
             max_match_dt_s: positive("max_match_dt_s")?,

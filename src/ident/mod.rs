@@ -12,12 +12,14 @@ pub mod corrected;
 pub mod metrics;
 pub mod online;
 pub mod scale;
+pub mod surface;
 
 pub use batch::{BatchFit, BatchOptions, fit_batch};
 pub use corrected::{Coefficient, CorrectedEstimator};
 pub use metrics::{ComponentFit, FitSums, GoodnessOfFit, goodness_of_fit};
 pub use online::{Estimate, OnlineEstimator, OnlineOptions};
 pub use scale::ScaleEstimator;
+pub use surface::{SurfaceEstimate, SurfaceEstimator};
 
 use crate::model::{ModelError, Regime, TerzaghiModel};
 

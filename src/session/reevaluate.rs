@@ -102,6 +102,8 @@ pub struct Summary {
     pub stopped: Option<String>,
     /// Final estimate per leg with F/T.
     pub estimates: Vec<Option<Estimate>>,
+    /// Final surface estimate per leg that learns it (`estimator.fit_surface`).
+    pub surfaces: Vec<Option<crate::ident::SurfaceEstimate>>,
     /// Per leg, how far its predictions lie from its measurements.
     #[serde(skip)]
     pub errors: Vec<RowErrors>,
@@ -422,6 +424,9 @@ impl Driver {
         sum.errors = self.errors;
         sum.estimates = (0..self.core.legs())
             .map(|i| self.core.estimate(i))
+            .collect();
+        sum.surfaces = (0..self.core.legs())
+            .map(|i| self.core.surface_estimate(i))
             .collect();
         sum
     }

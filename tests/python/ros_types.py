@@ -90,6 +90,9 @@ class ModelParams(IdlStruct, typename="terzaghi_msgs::msg::dds_::ModelParams_"):
     correction_stds: sequence[float64] = field(default_factory=list)
     rft_scale: float64 = 0.0
     std_rft_scale: float64 = 0.0
+    surface_offset_m: float64 = 0.0
+    std_surface_offset_m: float64 = 0.0
+    surface_converged: bool = False
 
 
 @dataclass

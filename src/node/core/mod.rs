@@ -11,7 +11,9 @@ pub use robot_state::{NoState, TfTree};
 
 use super::matcher::{FtMatcher, Match, NoAngle, usable_stamp_ns};
 use crate::config::{ModelKind, NodeConfig};
-use crate::ident::{CorrectedEstimator, Estimate, OnlineEstimator, Sample, ScaleEstimator};
+use crate::ident::{
+    CorrectedEstimator, Estimate, OnlineEstimator, Sample, ScaleEstimator, SurfaceEstimator,
+};
 use crate::model::corrections::{
     CorrectedModel, CorrectedPrediction, Effect, MOTION_WINDOW_S, Motion, MotionTracker,
     SensorLagFilter,
@@ -75,6 +77,8 @@ struct Leg {
     /// Its last angle and stamp, for its rotation rate, and that rate.
     last_angle: Option<(i64, f64)>,
     omega_rad_s: f64,
+    /// The surface's level, learnt online (`estimator.fit_surface`).
+    surface: Option<SurfaceEstimator>,
 }
 
 impl Leg {
@@ -369,7 +373,22 @@ impl NodeCore {
             gap: gap::GapWatch::default(),
             last_angle: None,
             omega_rad_s: 0.0,
+            surface: self.surface_estimator(i),
         }
+    }
+
+    /// The surface estimator of leg `i`: a flat leg of the Terzaghi models with F/T and no
+    /// corrections (whose `hip_height` term is the surface's), when `estimator.fit_surface`.
+    fn surface_estimator(&self, i: usize) -> Option<SurfaceEstimator> {
+        let lc = &self.cfg.legs[i];
+        let flat_terzaghi = self.cfg.model != ModelKind::Rft && lc.profile.is_none();
+        (self.cfg.fit_surface && flat_terzaghi && lc.ft_topic.is_some() && lc.corrections.is_none())
+            .then(|| {
+                SurfaceEstimator::new(
+                    &TerzaghiModel::new(lc.plate, lc.medium, lc.width),
+                    self.cfg.estimator,
+                )
+            })
     }
 
     /// The corrected model of leg `i`, if it has corrections (validated with the configuration).
@@ -437,11 +456,12 @@ impl NodeCore {
                 || o.corrections != n.corrections
                 || old.estimator != self.cfg.estimator
                 || old.corrections_memory_strokes != self.cfg.corrections_memory_strokes;
-            if relearn {
+            if relearn || old.fit_surface != self.cfg.fit_surface {
                 let fresh = self.new_leg(i);
                 let leg = &mut self.legs[i];
                 leg.estimator = fresh.estimator;
                 leg.identified = None;
+                leg.surface = fresh.surface;
             }
             let identified = if self.cfg.use_identified {
                 self.legs[i].identified
@@ -515,6 +535,25 @@ impl NodeCore {
             .ok()
     }
 
+    /// The surface's offset leg `i` predicts with: the learnt one once converged (and used).
+    fn surface_offset_m(&self, i: usize) -> Option<f64> {
+        let e = self.legs.get(i)?.surface.as_ref()?.estimate();
+        (e.converged && self.cfg.use_identified).then_some(e.offset_m)
+    }
+
+    /// `hip` (the robot's state's, or the configured still hip when `None`) with the learnt
+    /// surface: that much lower above it.
+    fn with_surface(&self, i: usize, hip: Option<HipMotion>) -> Option<HipMotion> {
+        let Some(dz) = self.surface_offset_m(i) else {
+            return hip;
+        };
+        let base = hip.unwrap_or_else(|| HipMotion::still(self.cfg.legs[i].plate.hip_height_m()));
+        Some(HipMotion {
+            height_m: base.height_m - dz,
+            ..base
+        })
+    }
+
     /// Predicts every configured leg found in `msg`; appends one output per leg predicted.
     pub fn on_joint_state(&mut self, msg: &JointState, out: &mut Vec<LegOutput>) {
         self.counters.joint_states += 1;
@@ -543,6 +582,8 @@ impl NodeCore {
                 }
             };
             let hip = self.hip_motion(i, stamp_ns, beta);
+            let from_state = hip.is_some();
+            let hip = self.with_surface(i, hip);
             let keep = self.mode != CoreMode::Node;
             let corrected = self.legs[i]
                 .corrected
@@ -614,7 +655,7 @@ impl NodeCore {
                     let mut f = leg_force(header, &p, model, width, identified);
                     f.rft_scale = rft_scale.unwrap_or(1.0);
                     let h = hip.unwrap_or_else(|| HipMotion::still(lc.plate.hip_height_m()));
-                    f.robot_state = hip.is_some();
+                    f.robot_state = from_state;
                     f.hip_height_m = h.height_m;
                     f.body_pitch_rad = h.pitch_rad;
                     f.hip_forward_m_s = h.forward_m_s;
@@ -733,7 +774,10 @@ impl NodeCore {
         let period_ns = (1e9 / self.cfg.model_params_rate_hz) as i64;
         let stamp = Time::from_nanos(mt.t_ns).unwrap_or_default();
         let t_ns = mt.t_ns;
-        let hip = self.hip_at(leg, mt.angle_t_ns);
+        let state_hip = self.hip_at(leg, mt.angle_t_ns);
+        let hip = self.with_surface(leg, state_hip);
+        let nominal_height =
+            state_hip.map_or(self.cfg.legs[leg].plate.hip_height_m(), |h| h.height_m);
         let l = self.legs.get_mut(leg)?;
         let sample = Sample {
             t_s: Some(stamp.to_secs()),
@@ -741,6 +785,10 @@ impl NodeCore {
             drag_n: mt.drag_n,
             lift_n: mt.lift_n,
         };
+        let surface_before = l.surface.as_ref().map(|s| *s.estimate());
+        if let Some(s) = l.surface.as_mut() {
+            let _ = s.update(&sample, nominal_height);
+        }
         let est = l.estimator.as_mut()?;
         let before = *est.estimate();
         match est {
@@ -774,8 +822,13 @@ impl NodeCore {
             }
         }
         let e = *est.estimate();
-        let event =
-            e.converged != before.converged || e.changes_detected != before.changes_detected;
+        let surface_now = l.surface.as_ref().map(|s| *s.estimate());
+        let surface_event = surface_before.zip(surface_now).is_some_and(|(b, n)| {
+            b.converged != n.converged || b.changes_detected != n.changes_detected
+        });
+        let event = e.converged != before.converged
+            || e.changes_detected != before.changes_detected
+            || surface_event;
         // Predictions follow the estimate while it is converged.
         let now_identified = e.converged.then_some(e);
         let changed = now_identified.map(|x| (x.b_k, x.a, x.delta_deg))
@@ -790,6 +843,10 @@ impl NodeCore {
             self.follow_identified(leg);
         }
         let l = &mut self.legs[leg];
+        // The surface's G(beta) follows the identified width.
+        if let (true, Some(s), ForceModel::Terzaghi(m)) = (changed, l.surface.as_mut(), &l.model) {
+            s.set_model(m);
+        }
         // The corrected model predicts with what is learnt while it is converged.
         if let (Some(Learner::Corrected(e)), Some(c), Some(x), true) = (
             &l.estimator,
@@ -842,6 +899,9 @@ impl NodeCore {
             correction_stds: coefficients.iter().map(|c| c.std).collect(),
             rft_scale,
             std_rft_scale,
+            surface_offset_m: surface_now.map_or(0.0, |s| s.offset_m),
+            std_surface_offset_m: surface_now.map_or(0.0, |s| s.std_offset_m),
+            surface_converged: surface_now.is_some_and(|s| s.converged),
         })
     }
 
@@ -870,7 +930,7 @@ impl NodeCore {
                 .find(|(t, _)| *t == mt.angle_t_ns)
                 .map(|(_, p)| *p),
             None => {
-                let p = match self.hip_at(leg, mt.angle_t_ns) {
+                let p = match self.with_surface(leg, self.hip_at(leg, mt.angle_t_ns)) {
                     Some(h) => l.model.predict_moving(mt.beta_rad, &h),
                     None => l.model.predict(mt.beta_rad),
                 }
@@ -917,6 +977,11 @@ impl NodeCore {
 
     pub fn counters(&self) -> NodeCounters {
         self.counters
+    }
+
+    /// The surface's estimate of `leg`, for a leg that learns it.
+    pub fn surface_estimate(&self, leg: usize) -> Option<crate::ident::SurfaceEstimate> {
+        Some(*self.legs.get(leg)?.surface.as_ref()?.estimate())
     }
 
     pub fn estimate(&self, leg: usize) -> Option<Estimate> {

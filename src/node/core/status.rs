@@ -105,6 +105,14 @@ impl NodeCore {
                     "identifying".into()
                 };
             }
+            if let Some(s) = l.surface.as_ref().map(|s| *s.estimate()) {
+                values.extend([
+                    kv("surface_offset_m", format!("{:.5}", s.offset_m)),
+                    kv("std_surface_offset_m", format!("{:.5}", s.std_offset_m)),
+                    kv("surface_converged", s.converged.to_string()),
+                    kv("surface_changes_detected", s.changes_detected.to_string()),
+                ]);
+            }
             if self.cfg.gap_check.every_strokes > 0 && self.cfg.legs[i].ft_topic.is_some() {
                 values.extend([
                     kv("gap_checks", l.gap.reports.to_string()),
