@@ -125,6 +125,28 @@ pub struct TransformStamped {
     pub transform: Transform,
 }
 
+/// `geometry_msgs/Point`
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Point {
+    pub x: f64,
+    pub y: f64,
+    pub z: f64,
+}
+
+/// `geometry_msgs/Pose`
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Pose {
+    pub position: Point,
+    pub orientation: Quaternion,
+}
+
+/// `geometry_msgs/PoseStamped`: a body's pose in `header.frame_id`.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct PoseStamped {
+    pub header: Header,
+    pub pose: Pose,
+}
+
 /// `tf2_msgs/TFMessage`, as `/tf` and `/tf_static` carry it.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct TfMessage {
@@ -269,6 +291,8 @@ const VECTOR3: (&str, &str) = ("geometry_msgs", "Vector3");
 const WRENCH: (&str, &str) = ("geometry_msgs", "Wrench");
 const QUATERNION: (&str, &str) = ("geometry_msgs", "Quaternion");
 const TRANSFORM: (&str, &str) = ("geometry_msgs", "Transform");
+const POINT: (&str, &str) = ("geometry_msgs", "Point");
+const POSE: (&str, &str) = ("geometry_msgs", "Pose");
 const TRANSFORM_STAMPED: (&str, &str) = ("geometry_msgs", "TransformStamped");
 const KEY_VALUE: (&str, &str) = ("diagnostic_msgs", "KeyValue");
 const DIAG_STATUS: (&str, &str) = ("diagnostic_msgs", "DiagnosticStatus");
@@ -294,6 +318,9 @@ pub fn definition(t: (&str, &str)) -> Option<&'static str> {
             "std_msgs/Header header\nstring child_frame_id\nTransform transform\n"
         }
         ("tf2_msgs", "TFMessage") => "geometry_msgs/TransformStamped[] transforms\n",
+        ("geometry_msgs", "Point") => "float64 x\nfloat64 y\nfloat64 z\n",
+        ("geometry_msgs", "Pose") => "Point position\nQuaternion orientation\n",
+        ("geometry_msgs", "PoseStamped") => "std_msgs/Header header\nPose pose\n",
         ("diagnostic_msgs", "KeyValue") => "string key\nstring value\n",
         ("diagnostic_msgs", "DiagnosticStatus") => {
             "byte OK=0\nbyte WARN=1\nbyte ERROR=2\nbyte STALE=3\nbyte level\nstring name\nstring message\nstring hardware_id\nKeyValue[] values\n"
@@ -342,6 +369,12 @@ ros_message!(
         VECTOR3,
         QUATERNION
     ]
+);
+ros_message!(
+    PoseStamped,
+    "geometry_msgs",
+    "PoseStamped",
+    [HEADER, TIME, POSE, POINT, QUATERNION]
 );
 ros_message!(KeyValue, "diagnostic_msgs", "KeyValue", []);
 ros_message!(

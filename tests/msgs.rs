@@ -127,6 +127,22 @@ fn every_message_decodes_with_its_definition_in_mcap_ros2() {
             robot_state: true,
             rft_scale: 0.875,
         }),
+        item(&PoseStamped {
+            header: header.clone(),
+            pose: Pose {
+                position: Point {
+                    x: 0.5,
+                    y: -0.125,
+                    z: 0.2,
+                },
+                orientation: Quaternion {
+                    x: 0.0,
+                    y: 0.0,
+                    z: 0.6,
+                    w: 0.8,
+                },
+            },
+        }),
         item(&TfMessage {
             transforms: vec![
                 TransformStamped {

@@ -77,4 +77,18 @@ fn told_its_hips_by_tf_the_node_predicts_a_heaving_pitching_robot_to_the_sensor_
         assert!(f.1 > 4.0 * t.1, "{t:?} {f:?}");
         assert!(t.2 > 0.95 && t.3 > 0.9, "{t:?}");
     }
+    // A robot without TF: the same walk with the body's pose as PoseStamped and each hip's
+    // place in the body as a parameter predicts every leg as /tf does.
+    let posed = dir.path().join("posed.mcap");
+    let posed = posed.to_str().unwrap();
+    run(&["simulate-robot", "--pose-topic", "/body_pose", "-o", posed]);
+    let with_pose = leg_errors(&run(&["replay", posed, "--reevaluate", "-o", "/dev/null"]));
+    assert_eq!(with_pose.len(), 6, "{with_pose:?}");
+    for (p, t) in with_pose.iter().zip(&with_tf) {
+        assert_eq!(p.0, t.0);
+        assert!(
+            (p.1 - t.1).abs() < 1e-3 && (p.2 - t.2).abs() < 1e-3 && (p.3 - t.3).abs() < 1e-3,
+            "{p:?} {t:?}"
+        );
+    }
 }

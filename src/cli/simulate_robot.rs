@@ -3,7 +3,9 @@
 
 use crate::config::ParamValue;
 use crate::session::files::{refuse_existing_recording, write_atomically};
-use crate::sim::robot::{Body, Gait, Truth, hip_frame, rhex, simulate_moving, write_recording};
+use crate::sim::robot::{
+    Body, Gait, Truth, hip_frame, hip_offset_m, rhex, simulate_moving, write_recording,
+};
 use anyhow::{Result, bail};
 use clap::Args;
 use std::path::PathBuf;
@@ -31,6 +33,10 @@ pub struct SimulateRobotArgs {
     /// Seed of the walk and of the sensors.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Publish the body's pose as geometry_msgs/PoseStamped on this topic (a robot without TF;
+    /// the recorded parameters place each hip in the body, <leg>.hip_offset_m) instead of /tf.
+    #[arg(long, value_name = "TOPIC")]
+    pub pose_topic: Option<String>,
     /// The recording to write (ROS 2 MCAP).
     #[arg(short, long, value_name = "OUT.mcap")]
     pub output: PathBuf,
@@ -90,12 +96,33 @@ pub fn run(a: SimulateRobotArgs) -> Result<()> {
         forward_m_s: a.forward_m_s,
     };
     let walk = simulate_moving(&cfg, &truth, &gait, &body);
-    // The recorded node reads every hip from /tf.
+    // The recorded node reads every hip from /tf, or places it in the body whose pose it reads.
     if !body.is_still() {
+        let h0 = cfg.legs[0].plate.hip_height_m();
         for l in &cfg.legs {
+            match &a.pose_topic {
+                Some(_) => {
+                    let [x, y, _] = hip_offset_m(&l.name);
+                    params.insert(
+                        format!("{}.hip_offset_m", l.name),
+                        ParamValue::DoubleArray(vec![x, y, l.plate.hip_height_m() - h0]),
+                    );
+                }
+                None => {
+                    params.insert(
+                        format!("{}.hip_frame", l.name),
+                        ParamValue::String(hip_frame(&l.name)),
+                    );
+                }
+            }
+        }
+        if let Some(t) = &a.pose_topic {
+            if t.is_empty() || !t.starts_with('/') {
+                bail!("--pose-topic {t:?}: expected an absolute topic name, e.g. /body_pose");
+            }
             params.insert(
-                format!("{}.hip_frame", l.name),
-                ParamValue::String(hip_frame(&l.name)),
+                "robot_state.pose_topic".into(),
+                ParamValue::String(t.clone()),
             );
         }
     }

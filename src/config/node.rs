@@ -86,6 +86,10 @@ pub struct LegConfig {
     /// The hip's frame in `/tf` (`<leg>.hip_frame`): its height, the body's pitch and the hip's
     /// velocity come from the robot's state; `None`, the fixed `hip_height_m`.
     pub hip_frame: Option<String>,
+    /// The hip's place in the body's frame (`<leg>.hip_offset_m`, m), for a robot whose state
+    /// gives the body's pose only: the node adds it as a fixed transform from
+    /// `robot_state.body_frame` to the hip's frame (`<leg>_hip` unless `hip_frame` names one).
+    pub hip_offset_m: Option<[f64; 3]>,
 }
 
 impl LegConfig {
@@ -104,6 +108,7 @@ impl LegConfig {
             preset: None,
             width: FittingWidth::CONVENTIONAL,
             hip_frame: None,
+            hip_offset_m: None,
             ft_topic: None,
             ft_frame: FtFrame::Hip,
             rft: None,
@@ -187,6 +192,11 @@ pub struct RobotStateConfig {
     /// A transform older (or newer) than this at a JointState's stamp is stale: the leg falls
     /// back to its configured height, counted in `/diagnostics`.
     pub max_age_s: f64,
+    /// For robots without TF: the body's pose as `geometry_msgs/msg/PoseStamped` on this topic
+    /// (resolved; `None`: not read), the pose of `body_frame` in the message's frame (the world
+    /// frame when it names none).
+    pub pose_topic: Option<String>,
+    pub body_frame: String,
 }
 
 impl Default for RobotStateConfig {
@@ -195,6 +205,8 @@ impl Default for RobotStateConfig {
             world_frame: "odom".into(),
             surface_height_m: 0.0,
             max_age_s: 0.05,
+            pose_topic: None,
+            body_frame: "base_link".into(),
         }
     }
 }
@@ -209,7 +221,7 @@ pub const STARTUP_ONLY: [&str; 5] = [
 ];
 
 /// Names of the per-leg parameters (`<leg>.<name>`).
-pub const LEG_KEYS: [&str; 22] = [
+pub const LEG_KEYS: [&str; 23] = [
     "joint",
     "direction",
     "angle_offset_rad",
@@ -232,6 +244,7 @@ pub const LEG_KEYS: [&str; 22] = [
     "c_leg.radius_m",
     "c_leg.span_deg",
     "hip_frame",
+    "hip_offset_m",
 ];
 
 /// Global parameters and their defaults.
@@ -282,6 +295,8 @@ pub fn defaults() -> ParamMap {
         ParamValue::Double(r.surface_height_m),
     );
     put("robot_state.max_age_s", ParamValue::Double(r.max_age_s));
+    put("robot_state.pose_topic", ParamValue::String(String::new()));
+    put("robot_state.body_frame", ParamValue::String(r.body_frame));
     let g = GapCheck::default();
     put(
         "gap_check.every_strokes",
@@ -487,10 +502,28 @@ impl NodeConfig {
                 "must name a frame",
             ));
         }
+        let body_frame = g
+            .str("robot_state.body_frame")?
+            .unwrap_or_else(|| "base_link".into())
+            .trim_start_matches('/')
+            .to_string();
+        if body_frame.is_empty() || body_frame.chars().any(char::is_whitespace) {
+            return Err(invalid(
+                "robot_state.body_frame",
+                &body_frame,
+                "must name a frame (no spaces)",
+            ));
+        }
+        let pose_topic = g
+            .str("robot_state.pose_topic")?
+            .filter(|t| !t.is_empty())
+            .map(|t| resolve_topic(&t, namespace, node_name, remaps));
         let robot_state = RobotStateConfig {
             world_frame,
             surface_height_m: g.need_f64("robot_state.surface_height_m", "no default")?,
             max_age_s: positive("robot_state.max_age_s")?,
+            pose_topic,
+            body_frame,
         };
         Ok(NodeConfig {
             node_name: node_name.to_string(),
@@ -576,6 +609,9 @@ impl NodeConfig {
                 "hip_frame",
                 ParamValue::String(l.hip_frame.clone().unwrap_or_default()),
             );
+            if let Some(o) = l.hip_offset_m {
+                put("hip_offset_m", ParamValue::DoubleArray(o.to_vec()));
+            }
             if let Some(c) = &l.corrections {
                 for (k, v) in corrections_params(&l.name, &l.plate, &l.medium, c) {
                     m.entry(k).or_insert(v);
@@ -739,10 +775,24 @@ fn leg_config(
         .str(&k("joint"))?
         .filter(|j| !j.is_empty())
         .unwrap_or_else(|| leg.to_string());
+    let hip_offset_m = match g.0.get(&k("hip_offset_m")) {
+        None => None,
+        Some(ParamValue::DoubleArray(v)) if v.len() == 3 && v.iter().all(|x| x.is_finite()) => {
+            Some([v[0], v[1], v[2]])
+        }
+        Some(v) => {
+            return Err(invalid(
+                &k("hip_offset_m"),
+                v,
+                "expected [x, y, z] in metres, the hip in the body's frame",
+            ));
+        }
+    };
     let hip_frame = g
         .str(&k("hip_frame"))?
         .filter(|f| !f.is_empty())
-        .map(|f| f.trim_start_matches('/').to_string());
+        .map(|f| f.trim_start_matches('/').to_string())
+        .or_else(|| hip_offset_m.map(|_| format!("{leg}_hip")));
     if let Some(f) = &hip_frame {
         if f.is_empty() || f.chars().any(char::is_whitespace) {
             return Err(invalid(
@@ -776,6 +826,7 @@ fn leg_config(
         profile,
         corrections,
         hip_frame,
+        hip_offset_m,
     })
 }
 

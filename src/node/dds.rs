@@ -5,7 +5,7 @@
 use super::clock::NodeClock;
 use super::core::{LegOutput, NodeCore};
 use super::handle::{
-    Publish, Topics, diagnostics_done, gap_done, joint_state_done, tf_done, wrench_done,
+    Publish, Topics, diagnostics_done, gap_done, joint_state_done, pose_done, tf_done, wrench_done,
 };
 use super::latency::Histogram;
 use super::live::Live as LiveView;
@@ -13,7 +13,8 @@ use super::log::{LogSettings, NodeLog};
 use crate::config::{LogLevel, NodeConfig, ParamMap, ParamValue, STARTUP_ONLY};
 use crate::log_site;
 use crate::msgs::{
-    DiagnosticArray, Gap, JointState, LegForce, ModelParams, RosMessage, TfMessage, WrenchStamped,
+    DiagnosticArray, Gap, JointState, LegForce, ModelParams, PoseStamped, RosMessage, TfMessage,
+    WrenchStamped,
 };
 use crate::record::RecordOptions;
 use crate::record::recorder::Recorder;
@@ -453,6 +454,13 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
                 .context("cannot subscribe to /tf_static")?,
         ));
     }
+    let pose_sub = match &cfg.robot_state.pose_topic {
+        Some(topic) => Some((
+            Arc::<str>::from(topic.as_str()),
+            subscription_with_depth::<PoseStamped>(&mut node, topic, depth)?,
+        )),
+        None => None,
+    };
     let mut ft_subs = Vec::new();
     for (i, leg) in cfg.legs.iter().enumerate() {
         if let Some(topic) = &leg.ft_topic {
@@ -511,6 +519,14 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
     for (fixed, sub) in tf_subs {
         tasks.push(tokio::spawn(tf_task(
             fixed,
+            sub,
+            shared.clone(),
+            recorder.clone(),
+        )));
+    }
+    if let Some((topic, sub)) = pose_sub {
+        tasks.push(tokio::spawn(pose_task(
+            topic,
             sub,
             shared.clone(),
             recorder.clone(),
@@ -921,6 +937,23 @@ async fn tf_task(
         let log_ns = sh.clock.log_time_ns();
         sh.lock_core().core.on_tf(&msg, fixed);
         tf_done(rec.as_deref(), &topic, msg, log_ns);
+    }
+}
+
+/// Takes the body's pose off DDS (`robot_state.pose_topic`) into the core's transform tree, and
+/// records it.
+async fn pose_task(
+    topic: Arc<str>,
+    sub: Subscription<PoseStamped>,
+    sh: Arc<Shared>,
+    rec: Option<Arc<Recorder>>,
+) {
+    let mut gaps = SequenceGaps::default();
+    loop {
+        let msg = next_sample(&sub, &mut gaps, &sh.dropped).await;
+        let log_ns = sh.clock.log_time_ns();
+        sh.lock_core().core.on_pose(&msg);
+        pose_done(rec.as_deref(), &topic, msg, log_ns);
     }
 }
 

@@ -7,7 +7,7 @@ use super::core::{GapJob, NodeCore};
 use crate::config::NodeConfig;
 use crate::diagnose::Report;
 use crate::msgs::{
-    DiagnosticArray, Gap, JointState, LegForce, ModelParams, TfMessage, WrenchStamped,
+    DiagnosticArray, Gap, JointState, LegForce, ModelParams, PoseStamped, TfMessage, WrenchStamped,
 };
 use crate::record::recorder::{Record, Recorder};
 use std::sync::Arc;
@@ -132,6 +132,13 @@ pub fn wrench_done(
 pub fn tf_done(rec: Option<&Recorder>, topic: &Arc<str>, msg: TfMessage, log_ns: u64) {
     if let Some(r) = rec {
         r.record(Record::Tf(topic.clone(), msg, log_ns));
+    }
+}
+
+/// After the core took the body's pose: records it.
+pub fn pose_done(rec: Option<&Recorder>, topic: &Arc<str>, msg: PoseStamped, log_ns: u64) {
+    if let Some(r) = rec {
+        r.record(Record::Pose(topic.clone(), msg, log_ns));
     }
 }
 

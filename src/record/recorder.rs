@@ -4,7 +4,7 @@
 
 use super::{OfferedQos, RecordOptions, SessionWriter};
 use crate::msgs::{
-    DiagnosticArray, Gap, JointState, LegForce, ModelParams, TfMessage, WrenchStamped,
+    DiagnosticArray, Gap, JointState, LegForce, ModelParams, PoseStamped, TfMessage, WrenchStamped,
 };
 use std::fs::File;
 use std::io::BufWriter;
@@ -26,6 +26,8 @@ pub enum Record {
     Gap(Arc<str>, Gap, u64),
     /// `/tf` or `/tf_static`, an input: published time is the first transform's stamp.
     Tf(Arc<str>, TfMessage, u64),
+    /// The body's pose, an input.
+    Pose(Arc<str>, PoseStamped, u64),
 }
 
 /// What the node reads of the recorder's state.
@@ -159,6 +161,9 @@ fn run(mut w: SessionWriter<BufWriter<File>>, rx: Receiver<Record>, st: &Recorde
                     .first()
                     .map_or(*log as i64, |x| x.header.stamp.to_nanos());
                 w.write(t, rel, m, *log, stamp.max(0) as u64)
+            }
+            Record::Pose(t, m, log) => {
+                w.write(t, be, m, *log, m.header.stamp.to_nanos().max(0) as u64)
             }
         };
         match res {

@@ -10,8 +10,8 @@ use crate::config::{TF_STATIC_TOPIC, TF_TOPIC};
 use crate::ident::{Estimate, FitSums, Sample};
 use crate::model::Regime;
 use crate::msgs::{
-    DecodeInto, Gap, JointState, LegForce, ModelParams, RosMessage, TfMessage, Time, WrenchStamped,
-    from_cdr,
+    DecodeInto, Gap, JointState, LegForce, ModelParams, PoseStamped, RosMessage, TfMessage, Time,
+    WrenchStamped, from_cdr,
 };
 use crate::node::core::{CoreMode, GapJob, LegOutput, Matched, NodeCore};
 use crate::node::matcher::{FtMatcher, Match, usable_stamp_ns};
@@ -168,6 +168,8 @@ enum Role {
     Ft(usize),
     /// `/tf` (false) or `/tf_static` (true), for the legs with a `hip_frame`.
     Tf(bool),
+    /// The body's pose (`robot_state.pose_topic`).
+    Pose,
     Skip,
 }
 
@@ -189,6 +191,10 @@ fn role_of(cfg: &NodeConfig) -> impl Fn(&TopicInfo) -> Role + '_ {
             && same_type(&t.type_name, &TfMessage::type_name())
         {
             Role::Tf(t.topic == TF_STATIC_TOPIC)
+        } else if cfg.robot_state.pose_topic.as_deref() == Some(t.topic.as_str())
+            && same_type(&t.type_name, &PoseStamped::type_name())
+        {
+            Role::Pose
         } else {
             Role::Skip
         }
@@ -200,6 +206,7 @@ enum Input<'m> {
     Joints(&'m JointState),
     Wrench(usize, &'m WrenchStamped),
     Tf(&'m TfMessage, bool),
+    Pose(&'m PoseStamped),
 }
 
 /// Reads the inputs of `cfg` in `source` (its JointState topic and the legs' F/T topics), each
@@ -251,6 +258,10 @@ fn scan_inputs(
                     Ok(tf) => on_input(Input::Tf(&tf, fixed), scan, &m),
                     Err(_) => sum.undecodable += 1,
                 },
+                Role::Pose => match from_cdr::<PoseStamped>(m.data) {
+                    Ok(p) => on_input(Input::Pose(&p), scan, &m),
+                    Err(_) => sum.undecodable += 1,
+                },
                 Role::Skip => {}
             }
         },
@@ -297,7 +308,7 @@ pub fn measured_samples<'a>(
         Input::Wrench(leg, w) => {
             matcher.on_wrench(leg, w, |m| keep(leg, m));
         }
-        Input::Tf(..) => {}
+        Input::Tf(..) | Input::Pose(_) => {}
     })?;
     sum.rows = out.iter().map(|s| s.len() as u64).sum();
     Ok((out, sum))
@@ -376,6 +387,7 @@ impl Driver {
             }
             Input::Wrench(leg, w) => core.on_wrench(leg, w),
             Input::Tf(tf, fixed) => core.on_tf(tf, fixed),
+            Input::Pose(p) => core.on_pose(p),
         }
         core.take_params(&mut self.params);
         for (leg, p) in self.params.drain(..) {

@@ -7,8 +7,8 @@
 use crate::config::{FtFrame, NodeConfig};
 use crate::ident::Sample;
 use crate::msgs::{
-    Header, JointState, Quaternion, TfMessage, Time, Transform, TransformStamped, Vector3, Wrench,
-    WrenchStamped,
+    Header, JointState, Point, Pose, PoseStamped, Quaternion, TfMessage, Time, Transform,
+    TransformStamped, Vector3, Wrench, WrenchStamped,
 };
 use crate::sim::generator::{Case, Hidden, MotionSample, measure};
 use rand::rngs::StdRng;
@@ -346,8 +346,9 @@ pub fn rhex() -> Result<(crate::config::ParamMap, NodeConfig), crate::config::Co
 }
 
 /// Writes `session` as the robot's own recording would hold it: JointState on
-/// `/joint_states` and every leg's F/T on its topic, stamped from `t0_ns`, with the node's
-/// parameters `params` as metadata (so that `terzaghi diagnose` and `replay --reevaluate` find
+/// `/joint_states` and every leg's F/T on its topic, for a moving body its pose (on `/tf`, the
+/// hips on `/tf_static`; or, when `params` name a `robot_state.pose_topic`, as PoseStamped
+/// there), stamped from `t0_ns`, with the node's parameters `params` as metadata (so that `terzaghi diagnose` and `replay --reevaluate` find
 /// the legs). Returns the number of messages written.
 pub fn write_recording<W: std::io::Write + std::io::Seek>(
     w: W,
@@ -372,6 +373,11 @@ pub fn write_recording<W: std::io::Write + std::io::Seek>(
         .iter()
         .map(|l| l.ft_topic.clone().unwrap_or_default())
         .collect();
+    // The body's pose on the topic the parameters name, else on /tf.
+    let pose_topic = match params.get("robot_state.pose_topic") {
+        Some(crate::config::ParamValue::String(t)) if !t.is_empty() => Some(t.clone()),
+        _ => None,
+    };
     let mut messages = 0u64;
     for k in 0..session.t_s.len() {
         let t = stamp_ns(t0_ns, session.t_s[k]) as u64;
@@ -392,7 +398,31 @@ pub fn write_recording<W: std::io::Write + std::io::Seek>(
             )?;
         }
         messages += 1 + ft_topics.len() as u64;
-        if let Some(tf) = body_tf(session, k, t0_ns) {
+        if let (Some(topic), Some(p)) = (&pose_topic, session.body.get(k)) {
+            // A robot without TF: the body's pose alone (the node places the hips).
+            let (s, c) = (p.pitch_rad / 2.0).sin_cos();
+            let pose = PoseStamped {
+                header: Header {
+                    stamp: Time::from_nanos(stamp_ns(t0_ns, session.t_s[k])).unwrap_or_default(),
+                    frame_id: WORLD_FRAME.into(),
+                },
+                pose: Pose {
+                    position: Point {
+                        x: p.x_m,
+                        y: 0.0,
+                        z: p.z_m,
+                    },
+                    orientation: Quaternion {
+                        x: 0.0,
+                        y: s,
+                        z: 0.0,
+                        w: c,
+                    },
+                },
+            };
+            w.write(topic, OfferedQos::BEST_EFFORT, &pose, t, t)?;
+            messages += 1;
+        } else if let Some(tf) = body_tf(session, k, t0_ns) {
             if k == 0 {
                 w.write(
                     crate::config::TF_STATIC_TOPIC,

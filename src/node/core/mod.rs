@@ -20,7 +20,8 @@ use crate::model::corrections::{
 };
 use crate::model::{FittingWidth, ForceModel, HipMotion, Prediction, TerzaghiModel, wrap_beta_rad};
 use crate::msgs::{
-    Header, JointState, LegForce, ModelParams, TfMessage, Time, Vector3, Wrench, WrenchStamped,
+    Header, JointState, LegForce, ModelParams, PoseStamped, TfMessage, Time, Transform,
+    TransformStamped, Vector3, Wrench, WrenchStamped,
 };
 use std::collections::VecDeque;
 
@@ -317,7 +318,66 @@ impl NodeCore {
             tf: TfTree::default(),
         };
         core.legs = (0..core.cfg.legs.len()).map(|i| core.new_leg(i)).collect();
+        core.install_hip_offsets();
         core
+    }
+
+    /// The hips placed in the body by `<leg>.hip_offset_m`, as fixed transforms from
+    /// `robot_state.body_frame`.
+    fn install_hip_offsets(&mut self) {
+        let transforms = self
+            .cfg
+            .legs
+            .iter()
+            .filter_map(|l| {
+                let ([x, y, z], frame) = (l.hip_offset_m?, l.hip_frame.clone()?);
+                Some(TransformStamped {
+                    header: Header {
+                        stamp: Time::default(),
+                        frame_id: self.cfg.robot_state.body_frame.clone(),
+                    },
+                    child_frame_id: frame,
+                    transform: Transform {
+                        translation: Vector3 { x, y, z },
+                        ..Default::default()
+                    },
+                })
+            })
+            .collect();
+        self.tf.insert(&TfMessage { transforms }, true);
+    }
+
+    /// Takes the body's pose (`robot_state.pose_topic`), for a robot without TF: the pose of
+    /// `robot_state.body_frame` in the message's frame (the world frame if it names none).
+    pub fn on_pose(&mut self, msg: &PoseStamped) {
+        let rs = &self.cfg.robot_state;
+        let parent = if msg.header.frame_id.is_empty() {
+            rs.world_frame.clone()
+        } else {
+            msg.header.frame_id.clone()
+        };
+        let p = msg.pose.position;
+        let t = TransformStamped {
+            header: Header {
+                stamp: msg.header.stamp,
+                frame_id: parent,
+            },
+            child_frame_id: rs.body_frame.clone(),
+            transform: Transform {
+                translation: Vector3 {
+                    x: p.x,
+                    y: p.y,
+                    z: p.z,
+                },
+                rotation: msg.pose.orientation,
+            },
+        };
+        self.tf.insert(
+            &TfMessage {
+                transforms: vec![t],
+            },
+            false,
+        );
     }
 
     fn new_leg(&self, i: usize) -> Leg {
@@ -448,6 +508,7 @@ impl NodeCore {
     pub fn set_config(&mut self, cfg: NodeConfig) {
         self.matcher.set_config(&cfg);
         let old = std::mem::replace(&mut self.cfg, cfg);
+        self.install_hip_offsets();
         for i in 0..self.legs.len().min(self.cfg.legs.len()) {
             let (o, n) = (&old.legs[i], &self.cfg.legs[i]);
             let relearn = o.plate != n.plate
@@ -1124,6 +1185,51 @@ mod tests {
         );
         // The leg without a hip frame never reads /tf.
         assert_eq!(core.leg_counters(1).unwrap().state_missing, 0);
+    }
+
+    #[test]
+    fn a_body_pose_places_the_hips_given_in_the_body() {
+        use crate::msgs::{Point, Pose, Quaternion};
+        let mut core = NodeCore::new(config("      hip_offset_m: [0.2, 0.1, 0.0]\n"));
+        let mut out = Vec::new();
+        // The body 0.17 m up, pitched 5 deg nose down: the hip 0.2 m ahead sits 0.2 sin 5 deg
+        // lower.
+        let pitch = 5f64.to_radians();
+        let (s, c) = (pitch / 2.0).sin_cos();
+        core.on_pose(&PoseStamped {
+            header: Header {
+                stamp: Time::from_nanos(1_000).unwrap(),
+                frame_id: String::new(),
+            },
+            pose: Pose {
+                position: Point {
+                    x: 1.0,
+                    y: 0.0,
+                    z: 0.17,
+                },
+                orientation: Quaternion {
+                    x: 0.0,
+                    y: s,
+                    z: 0.0,
+                    w: c,
+                },
+            },
+        });
+        core.on_joint_state(&js(1_000, &["hip_fl"], &[1.0]), &mut out);
+        let f = &out[0].force;
+        assert!(f.robot_state);
+        assert!(
+            (f.hip_height_m - (0.17 - 0.2 * pitch.sin())).abs() < 1e-12,
+            "{f:?}"
+        );
+        assert!((f.body_pitch_rad - pitch).abs() < 1e-12);
+        let bad = "/**:\n  ros__parameters:\n    legs: [fl]\n    fl:\n      length_m: 0.25\n      width_m: 0.06\n      hip_height_m: 0.15\n      medium: hit_sand\n      hip_offset_m: [0.2, 0.1]\n";
+        let mut p = defaults();
+        p.extend(parse_params_yaml(bad, "t", "terzaghi", "/").unwrap());
+        let e = NodeConfig::from_params(&p, "terzaghi", "/", &[])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("fl.hip_offset_m"), "{e}");
     }
 
     #[test]

@@ -249,6 +249,7 @@ mod tests {
             world_frame: "odom".into(),
             surface_height_m: 0.01,
             max_age_s: 0.05,
+            ..RobotStateConfig::default()
         }
     }
 
