@@ -969,6 +969,10 @@ def diagnosis_plan(cohesion):
                              ("mv_cleg_walk", "c", 0.02)):
         plan.append((name, "base", 0, {"omega": 2.5, "strokes": 2, "shape": shape,
                                        "forward_m_s": fwd, "heave_m": 0.01}))
+    # The C-leg with its hip higher and lower than the campaign's 40 mm, at 1 rad/s as `cleg`.
+    for k, h in ((1, 0.030), (2, 0.055)):
+        plan.append(("dx_cleg_h%03d_s%d" % (round(h * 1000), k), "base", k,
+                     {"shape": "c", "hip_height_m": h}))
     # The second of those strokes passes through the first one's trough (the hip moves 3 cm
     # between them; the trough is 18 cm long): single strokes into the settled bed, the hip
     # walking forward and heaving at four phases of the stroke (the flat leg) and two (the
@@ -1029,7 +1033,8 @@ def run_diagnosis_part(args):
             camp.refused.append({"name": name, "reason": "bed %s did not settle" % bd["name"]})
             return
         kw = dict(kw)
-        run, samples = run_stroke(c, name, camp.work, bd, width_m=b0, hip_height_m=h0,
+        run, samples = run_stroke(c, name, camp.work, bd, width_m=b0,
+                                  hip_height_m=kw.pop("hip_height_m", h0),
                                   omega=kw.pop("omega", w0), **kw)
         run["seed"] = DIAGNOSIS_SEEDS[k]
         camp.save(run, samples, bd)
