@@ -420,6 +420,10 @@ fn diagnose_eval_meets_its_targets_on_withheld_effects() {
     eprintln!("{}", serde_json::to_string_pretty(s).unwrap());
     let f = |k: &str| s[k].as_f64().unwrap();
     assert_eq!(s["single_cases"], 144);
+    // Every figure below has cases to be of (an empty group's figure is null).
+    for n in ["clean_cases", "outside_cases", "pair_cases", "gap_cases"] {
+        assert!(s[n].as_u64().unwrap() > 0, "{n}: {s}");
+    }
     assert!(
         f("single_accuracy_pct") >= 90.0,
         "accuracy {}",

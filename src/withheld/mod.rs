@@ -176,11 +176,14 @@ pub fn run(
     }
 }
 
+/// The evaluation's figures. A figure of a group with no case is NaN (`null` in JSON), so that
+/// no check of it can pass for want of cases.
 pub fn summarize(outcomes: &[Outcome]) -> Summary {
+    let mean = |sum: f64, n: usize| if n == 0 { f64::NAN } else { sum / n as f64 };
     let share = |kind: Kind, ok: &dyn Fn(&Outcome) -> bool| -> (f64, usize) {
         let of: Vec<&Outcome> = outcomes.iter().filter(|o| o.kind == kind).collect();
         let good = of.iter().filter(|o| ok(o)).count();
-        (100.0 * good as f64 / of.len().max(1) as f64, of.len())
+        (mean(100.0 * good as f64, of.len()), of.len())
     };
     let (single, single_n) = share(Kind::Single, &|o| o.verdict == o.truth);
     let (fa, clean_n) = share(Kind::Clean, &|o| o.verdict != "none");
@@ -225,10 +228,12 @@ pub fn summarize(outcomes: &[Outcome]) -> Summary {
         pair_first_ok_pct: pair_first,
         pair_both_ok_pct: pair_both,
         pair_cases: pair_n,
-        gap_error_mean_pts: errors.iter().sum::<f64>() / errors.len().max(1) as f64,
-        gap_error_median_pts: errors.get(errors.len() / 2).copied().unwrap_or(0.0),
-        gap_within_10_pts_pct: 100.0 * errors.iter().filter(|e| **e <= 10.0).count() as f64
-            / errors.len().max(1) as f64,
+        gap_error_mean_pts: mean(errors.iter().sum::<f64>(), errors.len()),
+        gap_error_median_pts: errors.get(errors.len() / 2).copied().unwrap_or(f64::NAN),
+        gap_within_10_pts_pct: mean(
+            100.0 * errors.iter().filter(|e| **e <= 10.0).count() as f64,
+            errors.len(),
+        ),
         gap_cases: errors.len(),
         confusion,
     }
@@ -268,4 +273,29 @@ pub fn export_case(i: usize, seed: u64, dir: &std::path::Path) -> anyhow::Result
         Ok(w.write_all(body.as_bytes())?)
     })?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::summarize;
+
+    /// With no case in a group, its figure is NaN: a check "at most 5 % false alarms" or "at
+    /// least 90 % found" fails rather than passes on nothing.
+    #[test]
+    fn a_group_without_cases_has_no_figure() {
+        let s = summarize(&[]);
+        for v in [
+            s.single_accuracy_pct,
+            s.false_alarm_pct,
+            s.outside_ok_pct,
+            s.pair_first_ok_pct,
+            s.gap_error_mean_pts,
+            s.gap_error_median_pts,
+            s.gap_within_10_pts_pct,
+        ] {
+            assert!(v.is_nan(), "{v}");
+            assert!(v.partial_cmp(&5.0).is_none(), "no comparison holds of {v}");
+        }
+        assert_eq!((s.cases, s.clean_cases, s.gap_cases), (0, 0, 0));
+    }
 }
