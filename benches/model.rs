@@ -168,6 +168,92 @@ fn node_core(c: &mut Criterion) {
         "node_core_joint_state_6_legs_corrected",
         rhex_corrected_config(),
     );
+    node_core_with_tf(c);
+}
+
+/// The same with every hip placed by the robot's state: each leg's `hip_frame` under
+/// `base_link` (`/tf_static`), and the body's pose on `/tf` with every JointState, as a robot's
+/// state publisher sends it; the work of both messages.
+fn node_core_with_tf(c: &mut Criterion) {
+    use terzaghi::msgs::{
+        Header, JointState, Quaternion, TfMessage, Time, Transform, TransformStamped, Vector3,
+    };
+    use terzaghi::node::NodeCore;
+    let legs = [
+        "front_left",
+        "middle_left",
+        "rear_left",
+        "front_right",
+        "middle_right",
+        "rear_right",
+    ];
+    let args: String = legs
+        .iter()
+        .map(|l| format!("-p {l}.hip_frame:={l}_hip "))
+        .collect();
+    let cfg = rhex_config_with(&args);
+    let names: Vec<String> = cfg.legs.iter().map(|l| l.joint.clone()).collect();
+    let tf = |parent: &str, child: &str, t_ns: i64, z: f64, pitch: f64| TransformStamped {
+        header: Header {
+            stamp: Time::from_nanos(t_ns).unwrap(),
+            frame_id: parent.into(),
+        },
+        child_frame_id: child.into(),
+        transform: Transform {
+            translation: Vector3 { x: 0.0, y: 0.0, z },
+            rotation: Quaternion {
+                x: 0.0,
+                y: (pitch / 2.0).sin(),
+                z: 0.0,
+                w: (pitch / 2.0).cos(),
+            },
+        },
+    };
+    let mut core = NodeCore::new(cfg);
+    core.on_tf(
+        &TfMessage {
+            transforms: legs
+                .iter()
+                .map(|l| tf("base_link", &format!("{l}_hip"), 0, 0.0, 0.0))
+                .collect(),
+        },
+        true,
+    );
+    let mut out = Vec::new();
+    let mut k = 0i64;
+    c.bench_function("node_core_joint_state_6_legs_tf", |b| {
+        b.iter(|| {
+            k += 1;
+            let t_ns = k * 1_000_000;
+            let phase = k as f64 * 0.004;
+            core.on_tf(
+                black_box(&TfMessage {
+                    transforms: vec![tf(
+                        "odom",
+                        "base_link",
+                        t_ns,
+                        0.06 + 0.01 * (2.0 * phase).sin(),
+                        0.05 * (2.0 * phase).cos(),
+                    )],
+                }),
+                false,
+            );
+            let beta = phase % std::f64::consts::TAU;
+            let msg = JointState {
+                header: Header {
+                    stamp: Time::from_nanos(t_ns).unwrap(),
+                    frame_id: String::new(),
+                },
+                name: names.clone(),
+                position: vec![beta, beta, beta, -beta, -beta, -beta],
+                velocity: vec![],
+                effort: vec![],
+            };
+            out.clear();
+            core.on_joint_state(black_box(&msg), &mut out);
+            out.len()
+        })
+    });
 }
 
 fn node_core_with(c: &mut Criterion, name: &str, cfg: terzaghi::config::NodeConfig) {

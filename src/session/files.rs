@@ -48,11 +48,23 @@ pub fn recording_name(unix_s: u64) -> PathBuf {
 }
 
 /// Writes a file through a temporary beside it and renames it into place, so that a failure
-/// leaves no partial file behind.
+/// leaves no partial file behind. A path that is not a regular file (`/dev/null`, a FIFO, a
+/// terminal) is written in place: renaming over it would replace the device with a file.
 pub fn write_atomically(
     path: &Path,
     write: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> Result<()>,
 ) -> Result<()> {
+    if std::fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir()) {
+        let file = std::fs::OpenOptions::new()
+            .write(true)
+            .open(path)
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        let mut w = std::io::BufWriter::new(file);
+        write(&mut w)?;
+        return w
+            .flush()
+            .with_context(|| format!("cannot write {}", path.display()));
+    }
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
@@ -93,4 +105,25 @@ pub fn is_mcap(path: &Path) -> Result<bool> {
         std::fs::File::open(path).with_context(|| format!("cannot read {}", path.display()))?;
     let n = f.read(&mut magic).unwrap_or(0);
     Ok(n == 5 && &magic == b"\x89MCAP")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::os::unix::fs::FileTypeExt;
+
+    /// `-o /dev/null` writes to the device: it stays a device (renaming a temporary over it
+    /// would leave every program on the machine a regular file for /dev/null).
+    #[test]
+    fn a_device_is_written_in_place_and_stays_a_device() {
+        write_text(Path::new("/dev/null"), "rows\n").unwrap();
+        let m = std::fs::metadata("/dev/null").unwrap();
+        assert!(m.file_type().is_char_device(), "{m:?}");
+        // A regular file is still replaced whole.
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("out.csv");
+        write_text(&p, "a\n").unwrap();
+        write_text(&p, "b\n").unwrap();
+        assert_eq!(std::fs::read_to_string(&p).unwrap(), "b\n");
+    }
 }
