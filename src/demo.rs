@@ -30,7 +30,18 @@ pub fn truth() -> Truth {
         effects: vec![Hidden::Surcharge, Hidden::Extraction],
         magnitude: 0.5,
         noise_frac: 0.015,
+        rft_scale: 1.3,
     }
+}
+
+/// The legs the demo's robot walks on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Legs {
+    /// Flat plates, the improved Terzaghi model (`launch_configs/rhex.yaml`).
+    #[default]
+    Plate,
+    /// RHex's C-legs, half circles predicted by RFT whose scale the node learns online.
+    C,
 }
 
 /// Joint states and F/T per second.
@@ -45,7 +56,8 @@ fn pace(start: Instant, t_s: f64, speed: f64) {
     }
 }
 
-/// Per leg: the latest online estimate (b_k, a, converged) the node published.
+/// Per leg: the latest online estimate (b_k, a, converged) the node published; for a curved
+/// leg, (RFT's scale, a, converged).
 pub type Estimates = Vec<Option<(f64, f64, bool)>>;
 
 fn run_memory(
@@ -179,7 +191,13 @@ fn run_dds(
             }
             for (leg, s) in param_subs.iter().enumerate() {
                 while let Ok(Some((m, _))) = s.take() {
-                    last[leg] = Some((m.b_k, m.a, m.converged));
+                    // A curved leg's estimate is RFT's scale.
+                    let first = if cfg.legs[leg].profile.is_some() {
+                        m.rft_scale
+                    } else {
+                        m.b_k
+                    };
+                    last[leg] = Some((first, m.a, m.converged));
                     view.params(leg, m);
                 }
             }
@@ -321,6 +339,7 @@ pub struct Demo {
     pub truth: Truth,
     pub session: Session,
     pub out: std::path::PathBuf,
+    pub legs: Legs,
 }
 
 /// What the walk through the node gave.
@@ -384,14 +403,153 @@ impl Demo {
         Ok(())
     }
 
-    /// Simulates `seconds` of walking (seed `seed`) into the directory `out` (created).
-    pub fn new(seconds: f64, seed: u64, out: &Path) -> Result<Demo> {
+    /// A walk on C-legs: per leg, the scale of RFT the node learnt online against the scale
+    /// that fits the whole walk best (least squares of the measured forces on RFT's from the
+    /// node's coefficients), and the recording re-run through the node with nothing fitted
+    /// (`-p use_identified:=false`: RFT from the coefficients alone) and as it ran (the scale
+    /// learnt as the strokes came), RMSE and R^2 of drag and lift.
+    pub fn summarize_curved(&self, walked: &Walked) -> Result<Summary> {
+        use crate::config::ParamValue;
+        use crate::session::reevaluate::{ReevaluateOptions, reevaluate_file};
+        let started = Instant::now();
+        let session = self.out.join("session.mcap");
+        let as_ran = reevaluate_file(&session, ReevaluateOptions::default(), |_| {})?;
+        let bare = reevaluate_file(
+            &session,
+            ReevaluateOptions {
+                params: vec![("use_identified".into(), ParamValue::Bool(false))],
+                ..Default::default()
+            },
+            |_| {},
+        )?;
+        let rerun_s = started.elapsed().as_secs_f64();
+        let mut text = format!(
+            "\nThe walk ran in {:.1} s, its re-evaluation in {rerun_s:.1} s.\n\
+             files:\n  session   {} ({} messages: open it in Foxglove, or `terzaghi info` / `terzaghi replay` it)\n  \
+             summary   {}\n\n\
+             hidden by the simulation: the medium is {:.2} times RFT over the measured grid of poppy seeds\n\
+             (poppy_lp_grid); the node predicts from Li et al.'s fitted coefficients (poppy_lp) and learns\n\
+             one scale online. Beside it, the single scale that fits the whole walk best (least squares,\n\
+             offline) and its error: the bound on what one scale can do.\n\n\
+             {:<13} {:>12} {:>18} {:>26} {:>26}\n",
+            walked.run_s,
+            session.display(),
+            walked.recorded,
+            self.out.join("summary.json").display(),
+            self.truth.rft_scale,
+            "leg",
+            "last online",
+            "best scale, RMSE",
+            "nothing fitted: RMSE, R^2",
+            "as it ran: RMSE, R^2",
+        );
+        let mut legs = Vec::new();
+        for (i, leg) in self.cfg.legs.iter().enumerate() {
+            let (Some(b), Some(r)) = (bare.summary.errors.get(i), as_ran.summary.errors.get(i))
+            else {
+                continue;
+            };
+            if b.samples() == 0 || r.samples() == 0 {
+                continue;
+            }
+            let scale = walked.estimates.get(i).copied().flatten();
+            let best = self.best_rft_scale(i);
+            let fits = |e: &crate::session::reevaluate::RowErrors| {
+                let (d, l) = (e.expected[0].fit(), e.expected[1].fit());
+                (
+                    crate::session::reevaluate::RowErrors::rmse_n(&e.expected),
+                    d.r2,
+                    l.r2,
+                )
+            };
+            let (fb, fr) = (fits(b), fits(r));
+            let cell = |f: (f64, f64, f64)| format!("{:.3} N, {:.3}/{:.3}", f.0, f.1, f.2);
+            text += &format!(
+                "{:<13} {:>12} {:>18} {:>26} {:>26}\n",
+                leg.name,
+                scale.map_or("-".into(), |s| format!("{:.3}", s.0)),
+                format!("{:.3}, {:.3} N", best.0, best.1),
+                cell(fb),
+                cell(fr),
+            );
+            legs.push(serde_json::json!({
+                "leg": leg.name,
+                "online_rft_scale": scale.map(|s| s.0),
+                "best_rft_scale": best.0,
+                "best_rft_scale_rmse_n": best.1,
+                "converged": scale.map(|s| s.2),
+                "nothing_fitted": {"rmse_n": fb.0, "r2_drag": fb.1, "r2_lift": fb.2},
+                "as_ran": {"rmse_n": fr.0, "r2_drag": fr.1, "r2_lift": fr.2},
+                "samples": r.samples(),
+            }));
+        }
+        text += &format!(
+            "(R^2 drag/lift over every sample, in and out of the sand; re-run with\n \
+             terzaghi replay {} --reevaluate [-p use_identified:=false] -o rows.csv.\n \
+             Where RFT's shape of the force over the stroke is off, the online scale swings within a\n \
+             stroke, so its last value says less than the error as it ran)\n",
+            session.display()
+        );
+        Ok(Summary {
+            text,
+            json: serde_json::json!({
+                "legs_shape": "c_leg",
+                "truth": {"rft_scale": self.truth.rft_scale},
+                "legs": legs,
+                "files": {"session": session},
+                "recorded_messages": walked.recorded,
+                "run_s": walked.run_s,
+                "rerun_s": rerun_s,
+            }),
+        })
+    }
+
+    /// The single scale of leg `i`'s RFT (the node's coefficients) that fits its measured
+    /// forces over the whole walk best, `sum(p m) / sum(p p)` over drag and lift, and the RMSE
+    /// (N) of drag and lift with it. NaN when the leg never entered the medium.
+    fn best_rft_scale(&self, i: usize) -> (f64, f64) {
+        let Ok(model) = self.cfg.leg_model(i, self.cfg.legs[i].width, None) else {
+            return (f64::NAN, f64::NAN);
+        };
+        let pairs: Vec<([f64; 2], [f64; 2])> = self
+            .session
+            .legs
+            .get(i)
+            .into_iter()
+            .flatten()
+            .filter_map(|s| {
+                let p = model.predict(s.beta_rad).ok()?;
+                Some(([p.drag_n, p.lift_n], [s.drag_n, s.lift_n]))
+            })
+            .collect();
+        let (mut pm, mut pp) = (0.0, 0.0);
+        for (p, m) in &pairs {
+            pm += p[0] * m[0] + p[1] * m[1];
+            pp += p[0] * p[0] + p[1] * p[1];
+        }
+        if pp <= 0.0 {
+            return (f64::NAN, f64::NAN);
+        }
+        let s = pm / pp;
+        let sse: f64 = pairs
+            .iter()
+            .map(|(p, m)| (s * p[0] - m[0]).powi(2) + (s * p[1] - m[1]).powi(2))
+            .sum();
+        (s, (sse / (2 * pairs.len()) as f64).sqrt())
+    }
+
+    /// Simulates `seconds` of walking (seed `seed`) on `legs` into the directory `out`
+    /// (created).
+    pub fn new(seconds: f64, seed: u64, out: &Path, legs: Legs) -> Result<Demo> {
         if !(seconds.is_finite() && seconds > 0.0) {
             bail!("demo walk of {seconds} s: must be a positive number of seconds");
         }
         std::fs::create_dir_all(out)
             .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", out.display()))?;
-        let (params, mut cfg) = crate::sim::robot::rhex()?;
+        let (params, mut cfg) = match legs {
+            Legs::Plate => crate::sim::robot::rhex()?,
+            Legs::C => crate::sim::robot::rhex_c_legs()?,
+        };
         cfg.record = Some(out.join("session.mcap"));
         let truth = truth();
         let gait = crate::sim::robot::Gait {
@@ -407,6 +565,7 @@ impl Demo {
             truth,
             session,
             out: out.to_path_buf(),
+            legs,
         })
     }
 
@@ -438,9 +597,19 @@ impl Demo {
         })
     }
 
-    /// Diagnoses the recording into `<out>/diagnosis` and writes `<out>/summary.json`.
+    /// Diagnoses the recording into `<out>/diagnosis` and writes `<out>/summary.json`. The
+    /// diagnosis's terms are the flat plate's: a walk on C-legs is re-evaluated instead, with
+    /// RFT's scale as the node learnt it and with nothing fitted ([`Demo::summarize_curved`]).
     pub fn diagnose(&self, walked: &Walked) -> Result<Summary> {
         use crate::session::diagnose::{DiagnoseFileOptions, diagnose_file, write_reports};
+        if self.legs == Legs::C {
+            let summary = self.summarize_curved(walked)?;
+            crate::session::files::write_text(
+                &self.out.join("summary.json"),
+                &(serde_json::to_string_pretty(&summary.json)? + "\n"),
+            )?;
+            return Ok(summary);
+        }
         let started = Instant::now();
         let diagnosed = diagnose_file(
             &self.out.join("session.mcap"),

@@ -765,6 +765,7 @@ fn the_node_reports_an_offset_that_appears_and_nothing_without_one() {
         effects: vec![],
         magnitude: 0.0,
         noise_frac: 0.015,
+        rft_scale: 1.0,
     };
     let gait = Gait {
         seconds: 60.0,

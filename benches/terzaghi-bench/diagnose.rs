@@ -46,6 +46,7 @@ pub fn run(a: BenchDiagnoseArgs) -> Result<()> {
         effects: vec![Hidden::Surcharge],
         magnitude: 0.5,
         noise_frac: 0.015,
+        rft_scale: 1.0,
     };
     let gait = Gait {
         seconds: a.minutes * 60.0,

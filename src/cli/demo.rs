@@ -6,7 +6,7 @@
 
 use super::print_out;
 use crate::config::NodeConfig;
-use crate::demo::{Demo, RATE_HZ, Watch};
+use crate::demo::{Demo, Legs, RATE_HZ, Watch};
 use crate::msgs::{DiagnosticArray, LegForce, ModelParams, WrenchStamped};
 use crate::node::handle::Publish;
 use crate::sim::robot::{Session, Truth};
@@ -36,6 +36,17 @@ pub struct DemoArgs {
     /// Seed of the walk and of the sensors.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// The robot's legs: `plate` (flat, the improved Terzaghi model; the walk is diagnosed) or
+    /// `c` (RHex's C-legs, RFT with its scale learnt online; the walk is re-evaluated with
+    /// nothing fitted and as it ran).
+    #[arg(long, value_enum, default_value = "plate")]
+    pub legs: LegsArg,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum LegsArg {
+    Plate,
+    C,
 }
 
 pub fn run(a: DemoArgs) -> Result<()> {
@@ -45,7 +56,11 @@ pub fn run(a: DemoArgs) -> Result<()> {
     if !(a.speed.is_finite() && a.speed > 0.0 && a.speed <= 20.0) {
         bail!("--speed must be in (0, 20], got {}", a.speed);
     }
-    let demo = Demo::new(a.seconds, a.seed, &a.out)?;
+    let legs = match a.legs {
+        LegsArg::Plate => Legs::Plate,
+        LegsArg::C => Legs::C,
+    };
+    let demo = Demo::new(a.seconds, a.seed, &a.out, legs)?;
     eprintln!(
         "a six-legged robot walks {:.0} s on {} ({} Hz joint states and F/T, {} playback); the node {}:",
         a.seconds,
@@ -58,10 +73,16 @@ pub fn run(a: DemoArgs) -> Result<()> {
             "runs in memory"
         }
     );
-    let view = LiveView::new(&demo.cfg, &demo.session, &demo.truth);
+    let view = LiveView::new(&demo.cfg, &demo.session, &demo.truth, legs);
     let walked = demo.walk(a.dds, a.speed, &view)?;
     view.finish();
-    eprintln!("diagnosing the recording...");
+    eprintln!(
+        "{}",
+        match legs {
+            Legs::Plate => "diagnosing the recording...",
+            Legs::C => "re-evaluating the recording...",
+        }
+    );
     let summary = demo.diagnose(&walked)?;
     print_out(&summary.text)
 }
@@ -76,6 +97,7 @@ struct LiveView {
     state: RefCell<Vec<LegView>>,
     last_draw: RefCell<Instant>,
     session: Session,
+    legs: Legs,
 }
 
 #[derive(Clone, Default)]
@@ -89,7 +111,7 @@ struct LegView {
 }
 
 impl LiveView {
-    fn new(cfg: &NodeConfig, session: &Session, truth: &Truth) -> LiveView {
+    fn new(cfg: &NodeConfig, session: &Session, truth: &Truth, legs: Legs) -> LiveView {
         let bar = if std::io::stderr().is_terminal() {
             ProgressBar::new(session.t_s.len() as u64)
         } else {
@@ -106,6 +128,7 @@ impl LiveView {
             state: RefCell::new(vec![LegView::default(); cfg.legs.len()]),
             last_draw: RefCell::new(Instant::now()),
             session: session.clone(),
+            legs,
         }
     }
 
@@ -135,26 +158,43 @@ impl LiveView {
     }
 
     fn table(&self) -> String {
+        let curved = self.legs == Legs::C;
+        let (first, second) = if curved {
+            ("RFT scale", "")
+        } else {
+            ("b_k", "a")
+        };
         let mut s = format!(
             "{:<13} {:>9} {:>7} {:>10}   prediction RMS error (last 2 s, first 2 s)\n",
-            "leg", "b_k", "a", "converged"
+            "leg", first, second, "converged"
         );
         for (name, v) in self.names.iter().zip(self.state.borrow().iter()) {
             let (b_k, a, conv) = v.estimate.unwrap_or((f64::NAN, f64::NAN, false));
             s += &format!(
-                "{:<13} {:>9.2} {:>7.3} {:>10}   {:.2} N ({:.2} N)\n",
+                "{:<13} {:>9.3} {:>7} {:>10}   {:.2} N ({:.2} N)\n",
                 name,
                 b_k,
-                a,
+                if curved {
+                    String::new()
+                } else {
+                    format!("{a:.3}")
+                },
                 if conv { "yes" } else { "no" },
                 v.rms,
                 v.rms_first.unwrap_or(f64::NAN)
             );
         }
-        s += &format!(
-            "(the medium as simulated: b_k {:.2}, a {:.3}, plus effects the model leaves out)",
-            self.truth.b_k, self.truth.a
-        );
+        s += &if curved {
+            format!(
+                "(the medium as simulated: {:.2} times RFT's forces from poppy_lp's coefficients)",
+                self.truth.rft_scale
+            )
+        } else {
+            format!(
+                "(the medium as simulated: b_k {:.2}, a {:.3}, plus effects the model leaves out)",
+                self.truth.b_k, self.truth.a
+            )
+        };
         s
     }
 
@@ -173,7 +213,13 @@ impl Publish for LiveView {
     }
     fn params(&self, leg: usize, msg: ModelParams) {
         if let Some(v) = self.state.borrow_mut().get_mut(leg) {
-            v.estimate = Some((msg.b_k, msg.a, msg.converged));
+            // A C-leg's estimate is RFT's scale.
+            let first = if self.legs == Legs::C {
+                msg.rft_scale
+            } else {
+                msg.b_k
+            };
+            v.estimate = Some((first, msg.a, msg.converged));
         }
     }
     fn diagnostics(&self, _msg: DiagnosticArray) {}

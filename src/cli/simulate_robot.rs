@@ -83,6 +83,7 @@ pub fn run(a: SimulateRobotArgs) -> Result<()> {
         effects: vec![],
         magnitude: 0.0,
         noise_frac: a.noise_frac,
+        rft_scale: 1.0,
     };
     let gait = Gait {
         seconds: a.seconds,

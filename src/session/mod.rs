@@ -41,7 +41,7 @@
 //! # let dir = tempfile::tempdir()?;
 //! # let log = dir.path().join("walk.mcap");
 //! # let (params, cfg) = rhex()?;
-//! # let truth = Truth { b_k: 30.0, a: 2.2, effects: vec![], magnitude: 0.0, noise_frac: 0.015 };
+//! # let truth = Truth { b_k: 30.0, a: 2.2, effects: vec![], magnitude: 0.0, noise_frac: 0.015, rft_scale: 1.0 };
 //! # let gait = Gait { seconds: 20.0, rate_hz: 200.0, mean_speed_rad_s: 4.0, seed: 3 };
 //! # let walk = simulate(&cfg, &truth, &gait);
 //! # write_recording(std::fs::File::create(&log)?, &params, &cfg, &walk, 1_700_000_000_000_000_000)?;
