@@ -206,6 +206,15 @@ other_node:
                 "-p model:=rft -p left.rft_coeffs:=poppy_lp -p right.rft_coeffs:=poppy_lp -p left.shape:=polyline -p left.profile:=[0.0,0.0,0.1]",
                 "left.profile",
             ),
+            // A polyline that crosses itself, and an arc of zero radius.
+            (
+                "-p model:=rft -p left.rft_coeffs:=poppy_lp -p right.rft_coeffs:=poppy_lp -p left.shape:=polyline -p left.profile:=[0.0,0.0,0.1,0.1,0.1,0.0,0.0,0.1]",
+                "crosses itself",
+            ),
+            (
+                "-p model:=rft -p left.rft_coeffs:=poppy_lp -p right.rft_coeffs:=poppy_lp -p left.shape:=c_leg -p left.c_leg.radius_m:=0.0",
+                "left.c_leg.radius_m",
+            ),
             (
                 "-p model:=rft -p right.rft_coeffs:=poppy_lp -p left.rft_grid_file:=/nonexistent/grid.csv",
                 "/nonexistent/grid.csv",

@@ -913,9 +913,12 @@ fn leg_profile(g: &Get, leg: &str, plate: &Plate) -> Result<Option<LegProfile>, 
                     "expected an even number (at least 4) of finite coordinates: [s0, q0, s1, q1, ...]",
                 ));
             }
+            let line: Vec<(f64, f64)> = v.chunks(2).map(|p| (p[0], p[1])).collect();
+            crate::model::check_profile(&line)
+                .map_err(|problem| invalid(&k("profile"), &format!("{v:?}"), problem))?;
             Ok(Some(LegProfile {
                 shape: "polyline",
-                line: v.chunks(2).map(|p| (p[0], p[1])).collect(),
+                line,
             }))
         }
         other => Err(invalid(

@@ -26,7 +26,10 @@ pub mod terzaghi;
 pub use corrections::{CorrectedModel, CorrectedPrediction, Corrections, Effect};
 pub use medium::{FittingWidth, Medium, MediumPreset, Provenance};
 pub use plate::{Plate, wrap_beta_rad};
-pub use rft::{RftCoefficients, RftFit, RftGrid, RftModel, c_leg_profile, rft_leg, rft_leg_moving};
+pub use rft::{
+    MAX_PROFILE_POINTS, RftCoefficients, RftFit, RftGrid, RftModel, c_leg_profile, check_profile,
+    rft_leg, rft_leg_moving,
+};
 pub use terzaghi::{Terms, TerzaghiForce, TerzaghiModel};
 
 use serde::Serialize;
@@ -56,6 +59,10 @@ pub enum ModelError {
     Overflow { beta_deg: f64, phi_deg: f64 },
     #[error("unknown RFT coefficient set {name:?}; known: {known}")]
     UnknownRftSet { name: String, known: String },
+    /// A leg's mid-line that is no leg: too few or too many points, a segment of zero length,
+    /// or segments that cross.
+    #[error("leg profile: {problem}")]
+    BadProfile { problem: String },
 }
 
 pub(crate) fn finite(name: &'static str, value: f64) -> Result<f64, ModelError> {

@@ -356,16 +356,11 @@ impl RftModel {
         elements: usize,
         profile: Vec<(f64, f64)>,
     ) -> Result<Self, ModelError> {
-        if profile.len() < 2 {
-            return Err(ModelError::NotPositive {
-                name: "leg profile points beyond the first",
-                value: profile.len().saturating_sub(1) as f64,
-            });
-        }
         for &(s, q) in &profile {
             finite("leg profile coordinate (m)", s)?;
             finite("leg profile coordinate (m)", q)?;
         }
+        check_profile(&profile).map_err(|problem| ModelError::BadProfile { problem })?;
         let mut m = RftModel::new(plate, coefficients, elements)?;
         m.profile = Some(profile);
         Ok(m)
@@ -624,6 +619,84 @@ pub fn c_leg_profile(radius_m: f64, span_rad: f64, segments: usize) -> Vec<(f64,
         .collect()
 }
 
+/// Most points a leg's mid-line may have: each segment is at least one RFT element per
+/// prediction, so a profile of thousands of points would make every prediction slow.
+pub const MAX_PROFILE_POINTS: usize = 256;
+
+/// Why `line` (finite points) is no leg's mid-line: fewer than two or more than
+/// [`MAX_PROFILE_POINTS`] points, a segment shorter than a micrometre, or two segments that
+/// cross or touch (other than neighbours at their shared point).
+pub fn check_profile(line: &[(f64, f64)]) -> Result<(), String> {
+    if line.len() < 2 {
+        return Err(format!(
+            "needs at least two points (hip side to tip), got {}",
+            line.len()
+        ));
+    }
+    if line.len() > MAX_PROFILE_POINTS {
+        return Err(format!(
+            "has {} points, at most {MAX_PROFILE_POINTS}",
+            line.len()
+        ));
+    }
+    const MIN_SEGMENT_M: f64 = 1e-6;
+    for (i, w) in line.windows(2).enumerate() {
+        if (w[1].0 - w[0].0).hypot(w[1].1 - w[0].1) < MIN_SEGMENT_M {
+            return Err(format!(
+                "points {i} and {} coincide ({:?}, {:?}): a segment of zero length",
+                i + 1,
+                w[0],
+                w[1]
+            ));
+        }
+    }
+    // Segments i and j > i + 1 must not meet (neighbours share only their common point, unless
+    // the line folds back on itself along one direction, which the overlap test below finds).
+    let cross = |p: (f64, f64), q: (f64, f64), r: (f64, f64)| {
+        (q.0 - p.0) * (r.1 - p.1) - (q.1 - p.1) * (r.0 - p.0)
+    };
+    let on = |p: (f64, f64), q: (f64, f64), r: (f64, f64)| {
+        r.0 >= p.0.min(q.0) && r.0 <= p.0.max(q.0) && r.1 >= p.1.min(q.1) && r.1 <= p.1.max(q.1)
+    };
+    let meet = |a: (f64, f64), b: (f64, f64), c: (f64, f64), d: (f64, f64)| {
+        let (d1, d2) = (cross(c, d, a), cross(c, d, b));
+        let (d3, d4) = (cross(a, b, c), cross(a, b, d));
+        (((d1 > 0.0 && d2 < 0.0) || (d1 < 0.0 && d2 > 0.0))
+            && ((d3 > 0.0 && d4 < 0.0) || (d3 < 0.0 && d4 > 0.0)))
+            || (d1 == 0.0 && on(c, d, a))
+            || (d2 == 0.0 && on(c, d, b))
+            || (d3 == 0.0 && on(a, b, c))
+            || (d4 == 0.0 && on(a, b, d))
+    };
+    let n = line.len() - 1;
+    for i in 0..n {
+        // A neighbour folding straight back over segment i lies along it.
+        if i + 1 < n {
+            let (a, b, c) = (line[i], line[i + 1], line[i + 2]);
+            let turn = cross(a, b, c);
+            let back = (b.0 - a.0) * (c.0 - b.0) + (b.1 - a.1) * (c.1 - b.1) < 0.0;
+            if turn.abs() <= 1e-12 * (1.0 + (b.0 - a.0).hypot(b.1 - a.1)).powi(2) && back {
+                return Err(format!(
+                    "segment {} turns straight back over segment {i}: the line overlaps itself",
+                    i + 1
+                ));
+            }
+        }
+        for j in i + 2..n {
+            if meet(line[i], line[i + 1], line[j], line[j + 1]) {
+                return Err(format!(
+                    "segment {i} ({:?} to {:?}) and segment {j} ({:?} to {:?}) cross: the line crosses itself",
+                    line[i],
+                    line[i + 1],
+                    line[j],
+                    line[j + 1]
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 /// A line's angle folded into `[-pi/2, pi/2]` (a plate has no head or tail).
 /// Both ends, `-pi/2` and `pi/2`, are the same vertical plate and give the same stress.
 fn wrap_half_pi(angle: f64) -> f64 {
@@ -646,6 +719,43 @@ mod tests {
         let (ax, az) = fit.alpha(beta_r, FRAC_PI_2 - beta);
         let k = N_CM3_TO_N_M3 * 0.06 * beta.sin() * l_s * l_s / 2.0;
         (ax * k, az * k)
+    }
+
+    #[test]
+    fn a_profile_that_is_no_leg_is_refused_naming_why() {
+        let ok = c_leg_profile(0.05, PI, 32);
+        assert_eq!(check_profile(&ok), Ok(()));
+        assert_eq!(
+            check_profile(&[(0.0, 0.0), (0.1, 0.02), (0.2, 0.0)]),
+            Ok(())
+        );
+        let cases: [(Vec<(f64, f64)>, &str); 5] = [
+            (vec![(0.0, 0.0)], "at least two points"),
+            // A figure of eight: the fourth segment crosses the first.
+            (
+                vec![(0.0, 0.0), (0.1, 0.1), (0.1, 0.0), (0.0, 0.1)],
+                "crosses itself",
+            ),
+            (vec![(0.0, 0.0), (0.1, 0.0), (0.1, 0.0)], "zero length"),
+            (vec![(0.0, 0.0), (0.1, 0.0), (0.05, 0.0)], "straight back"),
+            (
+                (0..=MAX_PROFILE_POINTS)
+                    .map(|i| (i as f64 * 1e-3, 0.0))
+                    .collect(),
+                "at most 256",
+            ),
+        ];
+        for (line, needle) in cases {
+            let e = check_profile(&line).unwrap_err();
+            assert!(e.contains(needle), "{line:?}: {e}");
+            let m = RftModel::with_profile(
+                plate(),
+                RftCoefficients::Fit(RftFit::POPPY_LP),
+                30,
+                line.clone(),
+            );
+            assert!(matches!(m, Err(ModelError::BadProfile { .. })), "{m:?}");
+        }
     }
 
     #[test]

@@ -193,8 +193,9 @@ pub fn leg_session_with(n: u64, spacing_ns: u64, flush_period_ns: u64, outputs: 
     w.finish().unwrap().into_inner()
 }
 
-/// The environment script that makes [`python`] a ROS 2 peer: rclpy over Fast DDS and the
-/// `terzaghi_msgs` classes built by colcon from `msgs/` (`$TERZAGHI_ROS_MSGS/env.sh`, else
+/// The environment script that makes [`python`] a ROS 2 peer: rclpy over Fast DDS, the
+/// `terzaghi_msgs` classes built by colcon from `msgs/` and `tf2_msgs`'s TFMessage from
+/// `tests/python/tf2_msgs` (`$TERZAGHI_ROS_MSGS/env.sh`, else
 /// `target/ros_msgs/env.sh`, which `.ci/run` makes with `tests/python/build_msgs.sh`; made
 /// here if missing, which needs PyPI).
 pub fn ros_env() -> PathBuf {
@@ -202,13 +203,15 @@ pub fn ros_env() -> PathBuf {
         .map(PathBuf::from)
         .unwrap_or_else(|| repo().join("target/ros_msgs"));
     let env = dir.join("env.sh");
-    if !env.exists() {
+    // A build from before tf2_msgs joined it lacks its install.
+    let built = || env.exists() && dir.join("install/tf2_msgs").exists();
+    if !built() {
         let py = python();
         let venv = py.parent().and_then(Path::parent).unwrap().to_path_buf();
         // One build at a time among this binary's tests.
         static BUILD: std::sync::Mutex<()> = std::sync::Mutex::new(());
         let _one = BUILD.lock().unwrap_or_else(|p| p.into_inner());
-        if !env.exists() {
+        if !built() {
             let ok = Command::new(venv.join("bin/pip"))
                 .args(["install", "-q", "--prefer-binary", "-r"])
                 .arg(repo().join("tests/python/requirements-ros.txt"))
@@ -220,8 +223,8 @@ pub fn ros_env() -> PathBuf {
                     .status()
                     .is_ok_and(|s| s.success());
             assert!(
-                ok && env.exists(),
-                "cannot build terzaghi_msgs for the rclpy peer into {} (run .ci/run once, with network)",
+                ok && built(),
+                "cannot build terzaghi_msgs and tf2_msgs for the rclpy peer into {} (run .ci/run once, with network)",
                 dir.display()
             );
         }

@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
-# Builds msgs/ (the terzaghi_msgs ROS 2 package) with colcon, from ROS 2's PyPI wheels in the
+# Builds msgs/ (the terzaghi_msgs ROS 2 package) and tests/python/tf2_msgs (tf2_msgs's
+# TFMessage, which the PyPI wheels lack) with colcon, from ROS 2's PyPI wheels in the
 # virtual environment VENV, into OUT/install; then `source OUT/env.sh` gives a Python with
-# the generated message classes (from terzaghi_msgs.msg import LegForce, ModelParams).
+# the generated message classes (from terzaghi_msgs.msg import LegForce, ModelParams;
+# from tf2_msgs.msg import TFMessage).
 #
 #   tests/python/build_msgs.sh VENV OUT
 #
@@ -23,16 +25,17 @@ np_include=$("$py" -c 'import numpy; print(numpy.get_include())')
     -e "s#/opt/python/cp3[0-9]+-cp3[0-9]+/lib/python3\.[0-9]+/site-packages/numpy/_core/include#$np_include#g"
 export AMENT_PREFIX_PATH="$venv" CMAKE_PREFIX_PATH="$venv" PATH="$venv/bin:$PATH"
 rm -rf "$out/build" "$out/install"
-(cd "$out" && colcon --log-base "$out/log" build --base-paths "$repo/msgs" \
+(cd "$out" && colcon --log-base "$out/log" build --base-paths "$repo/msgs" "$repo/tests/python/tf2_msgs" \
   --build-base "$out/build" --install-base "$out/install" --event-handlers console_direct- )
 prefix="$out/install/terzaghi_msgs"
+tf2="$out/install/tf2_msgs"
 pyver=$("$py" -c 'import sys; print(f"python{sys.version_info[0]}.{sys.version_info[1]}")')
 cat > "$out/env.sh" <<ENV
-# The environment in which VENV's Python imports terzaghi_msgs (made by build_msgs.sh).
-export AMENT_PREFIX_PATH="$prefix:$venv"
-export PYTHONPATH="$prefix/lib/$pyver/site-packages\${PYTHONPATH:+:\$PYTHONPATH}"
-export LD_LIBRARY_PATH="$prefix/lib\${LD_LIBRARY_PATH:+:\$LD_LIBRARY_PATH}"
+# The environment in which VENV's Python imports terzaghi_msgs and tf2_msgs (made by build_msgs.sh).
+export AMENT_PREFIX_PATH="$prefix:$tf2:$venv"
+export PYTHONPATH="$prefix/lib/$pyver/site-packages:$tf2/lib/$pyver/site-packages\${PYTHONPATH:+:\$PYTHONPATH}"
+export LD_LIBRARY_PATH="$prefix/lib:$tf2/lib\${LD_LIBRARY_PATH:+:\$LD_LIBRARY_PATH}"
 ENV
 # Importing the message classes opens no DDS participant: safe out here.
-(source "$out/env.sh" && "$py" -c 'from terzaghi_msgs.msg import LegForce, ModelParams')
-echo "built terzaghi_msgs into $prefix"
+(source "$out/env.sh" && "$py" -c 'from terzaghi_msgs.msg import LegForce, ModelParams; from tf2_msgs.msg import TFMessage')
+echo "built terzaghi_msgs into $prefix, tf2_msgs into $tf2"

@@ -552,7 +552,8 @@ impl NodeCore {
         self.tf.insert(msg, fixed);
     }
 
-    /// Transforms of `/tf` refused (non-finite, zero rotation, invalid stamp or frames).
+    /// Transforms of `/tf` refused (non-finite, zero rotation, invalid stamp or frames, or
+    /// stamped far ahead of the joint states).
     pub fn tf_invalid(&self) -> u64 {
         self.tf.invalid
     }
@@ -622,6 +623,7 @@ impl NodeCore {
             self.counters.invalid_joint_states += 1;
             return;
         };
+        self.tf.saw_joint_state(stamp_ns);
         for i in 0..self.legs.len() {
             self.legs[i].counters.joint_states += 1;
             let mut decided = std::mem::take(&mut self.decided);

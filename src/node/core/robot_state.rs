@@ -40,9 +40,11 @@ struct Link {
 #[derive(Default)]
 pub struct TfTree {
     links: HashMap<String, Link>,
-    /// Transforms refused: non-finite values, a zero rotation, an invalid stamp, or a frame
-    /// that is its own parent.
+    /// Transforms refused: non-finite values, a zero rotation, an invalid stamp, a frame that
+    /// is its own parent, or a stamp more than [`HISTORY_NS`] ahead of the newest joint state.
     pub invalid: u64,
+    /// The newest JointState stamp seen ([`TfTree::saw_joint_state`]).
+    newest_joint_ns: Option<i64>,
 }
 
 fn isometry(t: &TransformStamped) -> Option<Isometry3<f64>> {
@@ -67,9 +69,16 @@ fn frame(name: &str) -> &str {
 }
 
 impl TfTree {
+    /// Notes a JointState's stamp: a pose stamped more than [`HISTORY_NS`] after the newest
+    /// one is refused, since it would push every true pose out of the frame's history.
+    pub fn saw_joint_state(&mut self, stamp_ns: i64) {
+        self.newest_joint_ns = Some(self.newest_joint_ns.map_or(stamp_ns, |n| n.max(stamp_ns)));
+    }
+
     /// Takes every transform of a `/tf` (`fixed` false) or `/tf_static` message; an invalid
-    /// one is counted and skipped. A frame's poses older than the newest by more than two
-    /// seconds are dropped.
+    /// one is counted and skipped, and so is a pose stamped more than two seconds after the
+    /// newest joint state. A frame's poses older than the newest by more than two seconds are
+    /// dropped.
     pub fn insert(&mut self, msg: &TfMessage, fixed: bool) {
         for t in &msg.transforms {
             let (parent, child) = (frame(&t.header.frame_id), frame(&t.child_frame_id));
@@ -79,7 +88,11 @@ impl TfTree {
                 self.invalid += 1;
                 continue;
             };
-            if parent.is_empty() || child.is_empty() || parent == child {
+            let from_future = !fixed
+                && self
+                    .newest_joint_ns
+                    .is_some_and(|n| stamp > n.saturating_add(HISTORY_NS));
+            if parent.is_empty() || child.is_empty() || parent == child || from_future {
                 self.invalid += 1;
                 continue;
             }
@@ -308,6 +321,32 @@ mod tests {
         assert!((hip.pitch_rad - pitch).abs() < 1e-12);
         // Pitched nose down by 5 deg, a hip 0.2 m ahead sits 0.2 sin 5 deg lower.
         assert!((hip.height_m - (0.3 - 0.2 * pitch.sin() - 0.01)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_pose_from_the_future_is_refused_and_one_from_long_ago_is_stale() {
+        let mut tree = TfTree::default();
+        let sec = 1_000_000_000i64;
+        tree.saw_joint_state(10 * sec);
+        let at = |t: i64, z: f64| TfMessage {
+            transforms: vec![tf("odom", "fl_hip", t, [0.0, 0.0, z], 0.0)],
+        };
+        tree.insert(&at(10 * sec, 0.2), false);
+        // A year ahead: refused, so the true poses stay.
+        tree.insert(&at(10 * sec + 365 * 86_400 * sec, 0.5), false);
+        assert_eq!(tree.invalid, 1);
+        tree.insert(&at(10 * sec + sec / 100, 0.2), false);
+        let hip = tree.hip_motion(&cfg(), "fl_hip", 10 * sec, 0.0).unwrap();
+        assert!((hip.height_m - (0.2 - 0.01)).abs() < 1e-12, "{hip:?}");
+        // A joint state an hour after the last pose: stale, not the old height.
+        assert_eq!(
+            tree.hip_motion(&cfg(), "fl_hip", 3600 * sec, 0.0),
+            Err(NoState::Stale)
+        );
+        // A pose from long ago does not displace the recent ones.
+        tree.insert(&at(sec, 0.9), false);
+        let hip = tree.hip_motion(&cfg(), "fl_hip", 10 * sec, 0.0).unwrap();
+        assert!((hip.height_m - (0.2 - 0.01)).abs() < 1e-12, "{hip:?}");
     }
 
     #[test]
