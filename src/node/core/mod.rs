@@ -296,6 +296,8 @@ pub struct NodeCore {
     gap_jobs: Vec<GapJob>,
     /// The robot's state from `/tf` and `/tf_static`.
     tf: TfTree,
+    /// [`TfTree::invalid`] at the previous `/diagnostics` report.
+    tf_invalid_at_last_diag: u64,
 }
 
 impl NodeCore {
@@ -316,6 +318,7 @@ impl NodeCore {
             matches: Vec::new(),
             gap_jobs: Vec::new(),
             tf: TfTree::default(),
+            tf_invalid_at_last_diag: 0,
         };
         core.legs = (0..core.cfg.legs.len()).map(|i| core.new_leg(i)).collect();
         core.install_hip_offsets();
@@ -1060,7 +1063,7 @@ impl NodeCore {
 mod tests {
     use super::*;
     use crate::config::{defaults, parse_params_yaml};
-    use crate::msgs::DiagnosticStatus;
+    use crate::msgs::{DiagnosticArray, DiagnosticStatus};
 
     fn config(extra: &str) -> NodeConfig {
         let yaml = format!(
@@ -1187,6 +1190,35 @@ mod tests {
         );
         // The leg without a hip frame never reads /tf.
         assert_eq!(core.leg_counters(1).unwrap().state_missing, 0);
+        // A NaN transform and one stamped a year ahead: skipped, the hip where it was, the
+        // node's status a WARN that counts them, OK again once they stop.
+        let mut nan = hip_tf(1_003_000_000, 0.13, pitch);
+        nan.transforms[0].transform.translation.z = f64::NAN;
+        core.on_tf(&nan, false);
+        core.on_tf(&hip_tf(365 * 86_400 * 1_000_000_000, 0.5, 0.0), false);
+        core.on_tf(&hip_tf(1_003_000_000, 0.13, pitch), false);
+        out.clear();
+        core.on_joint_state(&js(1_003_000_000, &["hip_fl"], &[beta]), &mut out);
+        assert!(out[0].force.robot_state);
+        assert!((out[0].force.hip_height_m - 0.13).abs() < 1e-12);
+        let node = |d: &DiagnosticArray| {
+            let n = d.status[0].clone();
+            let v = n
+                .values
+                .iter()
+                .find(|k| k.key == "invalid_transforms")
+                .map(|k| k.value.clone());
+            (n.level, v)
+        };
+        let d = core.diagnostics(1_004_000_000, 0, &[]);
+        assert_eq!(
+            node(&d),
+            (DiagnosticStatus::WARN, Some("2".to_string())),
+            "{:?}",
+            d.status[0]
+        );
+        let d = core.diagnostics(1_005_000_000, 0, &[]);
+        assert_eq!(node(&d), (DiagnosticStatus::OK, Some("2".to_string())));
     }
 
     #[test]

@@ -34,9 +34,17 @@ impl NodeCore {
             kv("dropped_queue_full", dropped.to_string()),
             kv("model", self.cfg.model.as_str().to_string()),
         ];
+        // Transforms of the robot's state refused (NaN, zero rotation, bad frames, stamped
+        // ahead of the joint states): a WARN while they grow.
+        let tf_invalid = self.tf_invalid();
+        let tf_invalid_new = tf_invalid - self.tf_invalid_at_last_diag.min(tf_invalid);
+        self.tf_invalid_at_last_diag = tf_invalid;
+        if tf_invalid > 0 || self.cfg.legs.iter().any(|l| l.hip_frame.is_some()) {
+            node_values.push(kv("invalid_transforms", tf_invalid.to_string()));
+        }
         node_values.extend(latency.iter().map(|(k, v)| kv(k, v.clone())));
         status.push(DiagnosticStatus {
-            level: if dropped > 0 || self.counters.invalid_joint_states > 0 {
+            level: if dropped > 0 || self.counters.invalid_joint_states > 0 || tf_invalid_new > 0 {
                 DiagnosticStatus::WARN
             } else {
                 DiagnosticStatus::OK
@@ -44,6 +52,8 @@ impl NodeCore {
             name: format!("{}: node", self.cfg.node_name),
             message: if dropped > 0 {
                 format!("{dropped} inputs dropped (queue full)")
+            } else if tf_invalid_new > 0 {
+                format!("{tf_invalid_new} invalid transforms of /tf skipped")
             } else {
                 "running".into()
             },
