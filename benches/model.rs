@@ -2,7 +2,8 @@
 
 use criterion::{Criterion, black_box, criterion_group, criterion_main};
 use terzaghi::model::{
-    FittingWidth, Medium, Plate, RftCoefficients, RftFit, RftModel, TerzaghiModel,
+    FittingWidth, ForceModel, HipMotion, Medium, Plate, RftCoefficients, RftFit, RftModel,
+    TerzaghiModel, c_leg_profile,
 };
 
 fn models(c: &mut Criterion) {
@@ -19,6 +20,29 @@ fn models(c: &mut Criterion) {
     });
     c.bench_function("rft_100_elements_evaluate", |b| {
         b.iter(|| rft.evaluate(black_box(beta)).unwrap().drag_n)
+    });
+    // RHex's C-leg as the node predicts it (`<leg>.shape: c_leg`, a half circle on a 100 mm
+    // chord in 32 segments, the node's default of 100 elements), its hip 40 mm up and moving
+    // as a walking robot's does.
+    let c_plate = Plate::new(0.1, 0.03, 0.04).unwrap();
+    let c_leg = ForceModel::Rft(
+        RftModel::with_profile(
+            c_plate,
+            RftCoefficients::Fit(RftFit::POPPY_LP),
+            100,
+            c_leg_profile(0.05, std::f64::consts::PI, 32),
+        )
+        .unwrap(),
+    );
+    let hip = HipMotion {
+        height_m: 0.04,
+        pitch_rad: 0.02,
+        omega_rad_s: 5.0,
+        forward_m_s: 0.1,
+        up_m_s: -0.05,
+    };
+    c.bench_function("rft_c_leg_evaluate", |b| {
+        b.iter(|| c_leg.predict_moving(black_box(beta), &hip).unwrap().drag_n)
     });
 }
 

@@ -131,3 +131,62 @@ fn the_demo_on_c_legs_learns_rfts_scale_as_it_walks() {
         assert!(l["samples"].as_u64().unwrap() >= 9000, "{l}");
     }
 }
+
+/// The diagnosis reads the hips from a recording's `/tf` as the node does: the walking robot's
+/// recording (the medium exactly the one it is told, nothing hidden but the body's motion)
+/// is diagnosed at the noise level on every leg, its baseline the medium's `b_k, a` within 5 %,
+/// every analysed sample placed but those before the first pose; the same recording at the fixed height of
+/// `launch_configs/rhex.yaml` shows a real gap on every leg, which the body's motion alone made.
+#[test]
+fn the_diagnosis_reads_the_hips_from_the_recordings_tf() {
+    let dir = tempfile::tempdir().unwrap();
+    let walk = dir.path().join("walk.mcap");
+    let walk = walk.to_str().unwrap();
+    run(&["simulate-robot", "-o", walk]);
+    let reports = |out: &std::path::Path| -> Vec<serde_json::Value> {
+        let index: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap())
+                .unwrap();
+        index["legs"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|l| {
+                let path = out.join(l["report"].as_str().unwrap());
+                serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+            })
+            .collect()
+    };
+    let placed = dir.path().join("placed");
+    run(&["diagnose", walk, "--out", placed.to_str().unwrap()]);
+    let placed = reports(&placed);
+    assert_eq!(placed.len(), 6);
+    // poppy_lp's fit, what rhex.yaml tells the robot and what the walk was simulated with.
+    let (b_k, a) = (32.61, 2.3);
+    for r in &placed {
+        assert_eq!(r["verdict"]["effect"], "none", "{}", r["summary"]);
+        assert_eq!(r["gap"]["real"], false, "{}", r["summary"]);
+        let rel = |x: &serde_json::Value, want: f64| (x.as_f64().unwrap() / want - 1.0).abs();
+        assert!(rel(&r["baseline"]["b_k"], b_k) < 0.05, "{}", r["baseline"]);
+        assert!(rel(&r["baseline"]["a"], a) < 0.05, "{}", r["baseline"]);
+        // All but a sample or two at the start, before the first pose.
+        let (n, all) = (
+            r["hip_placed_points"].as_u64().unwrap(),
+            r["analysed"].as_u64().unwrap(),
+        );
+        assert!(n + 5 >= all && n > 0, "{n} of {all}");
+    }
+    let fixed = dir.path().join("fixed");
+    run(&[
+        "diagnose",
+        walk,
+        "--params-file",
+        "launch_configs/rhex.yaml",
+        "--out",
+        fixed.to_str().unwrap(),
+    ]);
+    for r in reports(&fixed) {
+        assert_eq!(r["gap"]["real"], true, "{}", r["summary"]);
+        assert_eq!(r["hip_placed_points"], 0);
+    }
+}

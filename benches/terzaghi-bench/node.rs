@@ -13,7 +13,7 @@
 use crate::print_out;
 use anyhow::{Context as _, Result, anyhow, bail};
 use clap::Args;
-use terzaghi::msgs::{Header, JointState, Time, WrenchStamped};
+use terzaghi::msgs::{Header, JointState, LegForce, TfMessage, Time, WrenchStamped};
 use terzaghi::node::dds::{RunSummary, publisher, subscription, tool_node};
 use terzaghi::node::latency::Histogram;
 
@@ -67,6 +67,12 @@ pub struct BenchNodeArgs {
     /// its gap as on a robot with sensors.
     #[arg(long)]
     pub ft: bool,
+    /// Also place every hip by `/tf`, as a walking robot does: the hips in the body on
+    /// `/tf_static` once, and the body's pose (heaving 1 cm, pitching 3 deg) on `/tf` at this
+    /// rate, stamped on the JointStates' clock; the node is started with each leg's
+    /// `hip_frame`. JointStates are then stamped one period apart.
+    #[arg(long, value_name = "HZ")]
+    pub tf_hz: Option<f64>,
     /// Set the node's gap_check.every_strokes (0: no diagnosis of its own strokes).
     #[arg(long, value_name = "N")]
     pub gap_check_every: Option<usize>,
@@ -141,6 +147,10 @@ struct Report {
     /// one of their leg while they waited for its diagnosis thread; none from a node without
     /// them.
     node_gap_checks: Option<(u64, u64)>,
+    /// With `--tf-hz`: its rate, and of the first leg's `leg_force` messages, how many placed
+    /// the hip by `/tf` and how many were received.
+    tf_hz: Option<f64>,
+    tf_placed: Option<(u64, u64)>,
 }
 
 struct Killer(Vec<Child>);
@@ -168,6 +178,14 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
     if a.seconds == 0 {
         bail!("--seconds must be at least 1");
     }
+    if let Some(hz) = a.tf_hz
+        && !(hz.is_finite() && hz > 0.0 && hz <= a.rate_hz)
+    {
+        bail!(
+            "--tf-hz must be in (0, --rate-hz = {}], got {hz}",
+            a.rate_hz
+        );
+    }
     let exe = match &a.node_exe {
         Some(p) if p.exists() => p.clone(),
         Some(p) => bail!("--node-exe {}: no such file", p.display()),
@@ -182,6 +200,11 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
     let (_, cfg) = terzaghi::sim::robot::rhex()?;
     let legs = RobotTopics {
         ft: if a.ft { Some(cfg.clone()) } else { None },
+        tf: a.tf_hz.map(|hz| (cfg.clone(), hz)),
+        first_force: terzaghi::config::OutputTopics::of(&cfg, &cfg.remaps)
+            .legs
+            .first()
+            .map(|l| l.force.clone()),
         joint_states: cfg.joint_states_topic.clone(),
         joints: cfg.legs.iter().map(|l| l.joint.clone()).collect(),
         wrenches: terzaghi::config::OutputTopics::of(&cfg, &cfg.remaps)
@@ -208,6 +231,16 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
                     .into_iter()
                     .flatten(),
             )
+            .args(cfg.legs.iter().filter(|_| a.tf_hz.is_some()).flat_map(|l| {
+                [
+                    "-p".to_string(),
+                    format!(
+                        "{}.hip_frame:={}",
+                        l.name,
+                        terzaghi::sim::robot::hip_frame(&l.name)
+                    ),
+                ]
+            }))
             .stderr(std::fs::File::create(&node_log)?)
             .spawn()
             .context("cannot start terzaghi node")?,
@@ -331,6 +364,8 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
         node_lost_replies: lost_node,
         echo_lost_replies: lost_echo,
         node_gap_checks: gap_line(&text),
+        tf_hz: a.tf_hz,
+        tf_placed: a.tf_hz.map(|_| (load.tf_placed, load.forces_seen)),
     };
     if a.json {
         return print_out(&(serde_json::to_string_pretty(&report)? + "\n"));
@@ -354,6 +389,11 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
         "round trip: client -> bare echo -> client",
         &report.echo_round_trip,
     );
+    if let (Some(hz), Some((placed, seen))) = (report.tf_hz, report.tf_placed) {
+        s += &format!(
+            "hips placed by /tf at {hz} Hz: {placed} of {seen} of the first leg's leg_force\n"
+        );
+    }
     if let Some((made, skipped)) = report.node_gap_checks {
         s += &format!(
             "the node's own diagnoses during the run: {made} ({skipped} superseded while waiting)\n"
@@ -389,6 +429,10 @@ struct RobotTopics {
     joints: Vec<String>,
     /// Each leg's predicted wrench.
     wrenches: Vec<String>,
+    /// With `--tf-hz`: the robot (whose hips go on `/tf_static`) and the rate of `/tf`.
+    tf: Option<(terzaghi::config::NodeConfig, f64)>,
+    /// The first leg's `leg_force`, which says whether the node placed its hip by `/tf`.
+    first_force: Option<String>,
 }
 
 async fn client(
@@ -416,6 +460,39 @@ async fn client(
         }
     }
     let mut noise = 0x9E37_79B9_7F4A_7C15u64;
+    // The robot's state: the hips in the body once on /tf_static (latched, as tf2's static
+    // broadcaster), the body's pose on /tf.
+    let tf_pubs = match &legs.tf {
+        Some((cfg, hz)) => {
+            let statics = terzaghi::node::dds::publisher_with_qos::<TfMessage>(
+                &mut node,
+                terzaghi::config::TF_STATIC_TOPIC,
+                terzaghi::node::dds::qos_latched(),
+            )?;
+            statics.publish(terzaghi::sim::robot::hips_tf(cfg, 0))?;
+            let h0 = cfg.legs.first().map_or(0.15, |l| l.plate.hip_height_m());
+            let every = (rate_hz / hz).round().max(1.0) as u64;
+            Some((
+                statics,
+                publisher::<TfMessage>(&mut node, terzaghi::config::TF_TOPIC)?,
+                h0,
+                every,
+            ))
+        }
+        None => None,
+    };
+    let placed = Arc::new(Mutex::new((0u64, 0u64)));
+    if let Some(topic) = &legs.first_force {
+        let sub = subscription::<LegForce>(&mut node, topic)?;
+        let placed = placed.clone();
+        tokio::spawn(async move {
+            while let Ok((f, _)) = sub.async_take().await {
+                let mut p = placed.lock().unwrap_or_else(|p| p.into_inner());
+                p.0 += u64::from(f.robot_state);
+                p.1 += 1;
+            }
+        });
+    }
     let to_echo = publisher::<JointState>(&mut node, "/bench/echo_in")?;
     let from_echo = subscription::<JointState>(&mut node, "/bench/echo_out")?;
     let mut wrench_subs = Vec::new();
@@ -502,8 +579,26 @@ async fn client(
         let end = Instant::now() + Duration::from_secs(1);
         while Instant::now() < end {
             tick.tick().await;
-            stamp_ns += 1_000;
+            // With /tf the stamps are the robot's clock (the hips' velocities are taken over
+            // 20 ms of it); without, any unique stamp does.
+            stamp_ns += if tf_pubs.is_some() {
+                (1e9 / rate_hz) as i64
+            } else {
+                1_000
+            };
             k += 1;
+            if let Some((_, tf, h0, every)) = &tf_pubs
+                && k.is_multiple_of(*every)
+            {
+                let t_s = (stamp_ns - 1_000_000_000_000) as f64 * 1e-9;
+                let phase = std::f64::consts::TAU * 2.0 * t_s;
+                let pose = terzaghi::sim::robot::BodyPose {
+                    x_m: 0.1 * t_s,
+                    z_m: h0 + 0.01 * phase.sin(),
+                    pitch_rad: 3f64.to_radians() * phase.cos(),
+                };
+                let _ = tf.publish(terzaghi::sim::robot::body_pose_tf(&pose, stamp_ns));
+            }
             // Both legs of every tripod move; positions sweep through the stroke.
             let beta = (k as f64 * 0.004) % std::f64::consts::TAU;
             let msg = JointState {
@@ -569,6 +664,8 @@ async fn client(
         }
     }
     tokio::time::sleep(Duration::from_millis(500)).await;
+    (figures.tf_placed, figures.forces_seen) = *placed.lock().unwrap_or_else(|p| p.into_inner());
+    drop(tf_pubs);
     for t in &tasks {
         t.abort();
     }
@@ -591,6 +688,10 @@ async fn client(
 #[derive(Debug, Default, serde::Serialize)]
 struct LoadFigures {
     sent: u64,
+    /// With `/tf`: the first leg's `leg_force` messages received, and those whose hip the node
+    /// placed by `/tf`.
+    forces_seen: u64,
+    tf_placed: u64,
     /// The node's resident memory at the start of each second (kB).
     rss_kb: Vec<u64>,
 }

@@ -178,6 +178,12 @@ fn render(leg: &str, r: &Report, dir: &Path) -> String {
         r.baseline.rmse_n,
         r.gap.noise_var_n2.sqrt()
     );
+    if r.hip_placed_points > 0 {
+        s += &format!(
+            "  the hip where the recorded robot's state put it at {} of {} analysed samples\n",
+            r.hip_placed_points, r.analysed
+        );
+    }
     if !r.steps.is_empty() {
         s += &format!(
             "  significant effects: {}\n",

@@ -4,6 +4,7 @@
 
 use super::kinematics::Kinematics;
 use crate::ident::Sample;
+use crate::model::HipMotion;
 use crate::model::corrections::{
     TermInputs, moved_unit_model, stronger_unit_model, submerged_geometry,
 };
@@ -47,6 +48,11 @@ pub struct Point {
     /// Stroke position in the session, 0 (first) to 1 (last).
     pub session_frac: f64,
     pub fold: usize,
+    /// The hip's height above the surface where the robot's state placed it (m); `None` at the
+    /// nominal model's height.
+    pub hip_height_m: Option<f64>,
+    /// The attack angle at which the tip reaches the surface at this point's hip height.
+    pub entry_beta_rad: f64,
 }
 
 impl Point {
@@ -141,16 +147,20 @@ impl Context {
 
     /// Builds the context from finite samples (the caller drops non-finite ones), their
     /// kinematics, and the unit model (its fitting width is ignored). Every `stride`-th sample is
-    /// kept (1: all).
+    /// kept (1: all). Where `hips` (one per sample, or empty) places a sample's hip, its point is
+    /// evaluated at that hip's height and at the joint's angle plus the body's pitch (the
+    /// attack angle), as the node predicts a leg the robot's state places.
     pub fn new(
         model: &TerzaghiModel,
         samples: &[Sample],
+        hips: &[Option<HipMotion>],
         kin: &Kinematics,
         folds: usize,
         stride: usize,
     ) -> Context {
         let unit = model.with_fitting_width(FittingWidth::CONVENTIONAL);
         let plate = *unit.plate();
+        let nominal_entry = plate.entry_beta_rad().unwrap_or(0.0);
         // The unit model in a medium one degree stronger in friction, for `unit_per_phi_n_deg`
         // (none where `phi` is at its limit).
         let stronger = stronger_unit_model(&unit);
@@ -164,7 +174,15 @@ impl Context {
         let mut swept = 0.0;
         let mut prev_u: Option<f64> = None;
         for (i, s) in samples.iter().enumerate() {
-            let beta = s.beta_rad.rem_euclid(TAU);
+            // The point's own unit model where the robot's state placed its hip.
+            let placed = hips.get(i).copied().flatten().and_then(|h| {
+                let m = unit.with_hip_height_m(h.height_m).ok()?;
+                Some((m, h))
+            });
+            let (unit, plate, beta) = match &placed {
+                Some((m, h)) => (m, *m.plate(), (s.beta_rad + h.pitch_rad).rem_euclid(TAU)),
+                None => (&unit, plate, s.beta_rad.rem_euclid(TAU)),
+            };
             let u = kin.unwrapped_rad[i];
             let f = unit.evaluate(beta).ok();
             let submerged = f.as_ref().map_or(0.0, |f| f.submerged_m.max(0.0));
@@ -180,7 +198,14 @@ impl Context {
             if i % stride.max(1) != 0 {
                 continue;
             }
-            let per_phi = match (&f, stronger.as_ref().and_then(|m| m.evaluate(beta).ok())) {
+            let stronger_here = match &placed {
+                Some((m, _)) => stronger_unit_model(m),
+                None => stronger.clone(),
+            };
+            let per_phi = match (
+                &f,
+                stronger_here.as_ref().and_then(|m| m.evaluate(beta).ok()),
+            ) {
                 (Some(f), Some(g)) if f.regime != Regime::OutOfMedium => {
                     [g.drag_n - f.drag_n, g.lift_n - f.lift_n]
                 }
@@ -212,6 +237,11 @@ impl Context {
                     0.0
                 },
                 fold: stroke % folds.max(1),
+                hip_height_m: placed.as_ref().map(|(m, _)| m.plate().hip_height_m()),
+                entry_beta_rad: match &placed {
+                    Some((m, _)) => m.plate().entry_beta_rad().unwrap_or(0.0),
+                    None => nominal_entry,
+                },
             });
         }
         let mut speeds: Vec<f64> = points
@@ -246,7 +276,14 @@ impl Context {
         self.points
             .iter()
             .map(|p| {
-                m.evaluate(p.beta_rad)
+                let placed = p.hip_height_m.and_then(|h| {
+                    let at_hip = self.model.with_hip_height_m(h).ok()?;
+                    Some(moved_unit_model(&at_hip, dh_m))
+                });
+                placed
+                    .as_ref()
+                    .unwrap_or(&m)
+                    .evaluate(p.beta_rad)
                     .map_or([0.0, 0.0], |f| [f.drag_n, f.lift_n])
             })
             .collect()
@@ -255,14 +292,13 @@ impl Context {
     /// Points where the leg is well out of the medium (at least `margin_rad` beyond entry and
     /// exit): only sensor noise (and a sensor offset) is measured there.
     pub fn out_of_medium(&self, margin_rad: f64) -> impl Iterator<Item = &Point> {
-        let entry = self.model.plate().entry_beta_rad().unwrap_or(0.0);
-        let (lo, hi) = (
-            entry - margin_rad,
-            std::f64::consts::PI - entry + margin_rad,
-        );
-        self.points
-            .iter()
-            .filter(move |p| !p.in_medium() && (p.beta_rad < lo || p.beta_rad > hi))
+        self.points.iter().filter(move |p| {
+            let (lo, hi) = (
+                p.entry_beta_rad - margin_rad,
+                std::f64::consts::PI - p.entry_beta_rad + margin_rad,
+            );
+            !p.in_medium() && (p.beta_rad < lo || p.beta_rad > hi)
+        })
     }
 }
 

@@ -504,7 +504,7 @@ mod tests {
             Plate::new(0.25, 0.06, 0.15).unwrap(),
             Medium::new(16170.0, 32.0, 19.0).unwrap(),
         );
-        let ctx = Context::new(&model, &samples, &kinematics(&samples, 5), 2, 1);
+        let ctx = Context::new(&model, &samples, &[], &kinematics(&samples, 5), 2, 1);
         // One column, the time itself, lagged by 20 ms: y = t - tau once settled.
         let mut cols: Vec<f64> = ctx.points.iter().flat_map(|p| [p.t_s, p.t_s]).collect();
         lag(&ctx, 0.02, 1, &mut cols);

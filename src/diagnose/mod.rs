@@ -32,7 +32,7 @@ pub use kinematics::{Kinematics, kinematics};
 pub use report::{Diagnosis, Report};
 
 use crate::ident::Sample;
-use crate::model::TerzaghiModel;
+use crate::model::{HipMotion, TerzaghiModel};
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DiagnoseOptions {
@@ -101,7 +101,19 @@ pub fn diagnose(
     samples: &[Sample],
     opts: &DiagnoseOptions,
 ) -> Result<Diagnosis, DiagnoseError> {
-    let (ctx, skipped, stride) = prepare(model, samples, opts)?;
+    diagnose_placed(model, samples, &[], opts)
+}
+
+/// [`diagnose`] for a leg whose hip the robot's state placed: `hips` gives, per sample (or
+/// empty for none), where the hip was; a placed sample is modelled at that hip's height and at
+/// its attack angle (the joint's angle plus the body's pitch), the others at `model`'s height.
+pub fn diagnose_placed(
+    model: &TerzaghiModel,
+    samples: &[Sample],
+    hips: &[Option<HipMotion>],
+    opts: &DiagnoseOptions,
+) -> Result<Diagnosis, DiagnoseError> {
+    let (ctx, skipped, stride) = prepare(model, samples, hips, opts)?;
     Ok(report::analyse(&ctx, opts, skipped, stride))
 }
 
@@ -121,7 +133,7 @@ pub fn baseline_heldout(
     samples: &[Sample],
     opts: &DiagnoseOptions,
 ) -> Result<BaselineHeldOut, DiagnoseError> {
-    let (ctx, ..) = prepare(model, samples, opts)?;
+    let (ctx, ..) = prepare(model, samples, &[], opts)?;
     Ok(BaselineHeldOut {
         mse_n2: fit::fit(&ctx, &fit::Design::baseline(ctx.folds), None).heldout_mse(),
         in_medium_frac: ctx.in_medium_frac(),
@@ -134,7 +146,7 @@ pub fn in_medium_frac(
     samples: &[Sample],
     opts: &DiagnoseOptions,
 ) -> Result<f64, DiagnoseError> {
-    prepare(model, samples, opts).map(|(ctx, ..)| ctx.in_medium_frac())
+    prepare(model, samples, &[], opts).map(|(ctx, ..)| ctx.in_medium_frac())
 }
 
 /// Checks the log and builds the analysed points: returns them with the count of skipped
@@ -142,24 +154,27 @@ pub fn in_medium_frac(
 fn prepare(
     model: &TerzaghiModel,
     samples: &[Sample],
+    hips: &[Option<HipMotion>],
     opts: &DiagnoseOptions,
 ) -> Result<(Context, usize, usize), DiagnoseError> {
     let total = samples.len();
-    let mut usable: Vec<Sample> = samples
+    let mut usable: Vec<(Sample, Option<HipMotion>)> = samples
         .iter()
-        .filter(|s| {
+        .enumerate()
+        .filter(|(_, s)| {
             s.beta_rad.is_finite()
                 && s.drag_n.is_finite()
                 && s.lift_n.is_finite()
                 && s.t_s.is_some_and(f64::is_finite)
         })
-        .copied()
+        .map(|(i, s)| (*s, hips.get(i).copied().flatten()))
         .collect();
     if usable.is_empty() && samples.iter().any(|s| s.t_s.is_none()) {
         return Err(DiagnoseError::NoTime);
     }
-    usable.sort_by(|a, b| a.t_s.unwrap_or(0.0).total_cmp(&b.t_s.unwrap_or(0.0)));
-    usable.dedup_by(|a, b| a.t_s == b.t_s);
+    usable.sort_by(|a, b| a.0.t_s.unwrap_or(0.0).total_cmp(&b.0.t_s.unwrap_or(0.0)));
+    usable.dedup_by(|a, b| a.0.t_s == b.0.t_s);
+    let (usable, hips): (Vec<Sample>, Vec<Option<HipMotion>>) = usable.into_iter().unzip();
     let needed = 100;
     if usable.len() < needed {
         return Err(DiagnoseError::TooFewSamples {
@@ -182,7 +197,7 @@ fn prepare(
     let stride = usable.len().div_ceil(opts.max_points.max(1000));
     // Fewer strokes than folds: one stroke held out at a time.
     let folds = opts.folds.min(kin.strokes()).max(2);
-    let ctx = Context::new(model, &usable, &kin, folds, stride);
+    let ctx = Context::new(model, &usable, &hips, &kin, folds, stride);
     let in_medium = ctx.points.iter().filter(|p| p.in_medium()).count();
     if in_medium < 50 || in_medium * 50 < ctx.points.len() {
         return Err(DiagnoseError::OutOfMedium {
@@ -424,7 +439,7 @@ mod tests {
             let f = truth.evaluate(b).unwrap();
             (f.drag_n * (1.0 + 0.2 * b.sin()) + 1.0, f.lift_n - 0.5)
         });
-        let (ctx, ..) = prepare(&unit(), &s, &DiagnoseOptions::default()).unwrap();
+        let (ctx, ..) = prepare(&unit(), &s, &[], &DiagnoseOptions::default()).unwrap();
         let nl = Nonlinear {
             surface_drop_m: 0.008,
             lag_s: 0.01,

@@ -47,6 +47,10 @@ pub struct Report {
     /// Steps whose fit left the terms' physical bounds, with the value that did: the corrected
     /// model stops before the first of them, unless a later step's fit is within bounds again.
     pub corrected_model_left_out: Vec<String>,
+    /// Analysed points whose hip the robot's state placed (a recording's `/tf` or body pose,
+    /// for a leg with a `hip_frame`): modelled at that hip's height and attack angle, the
+    /// others at the configured height. 0 for a leg at a fixed height.
+    pub hip_placed_points: usize,
 }
 
 #[derive(Debug, Clone, serde::Serialize)]
@@ -540,6 +544,11 @@ pub(super) fn analyse(
             corrected_model,
             corrected_model_gap_closed_pct,
             corrected_model_left_out,
+            hip_placed_points: ctx
+                .points
+                .iter()
+                .filter(|p| p.hip_height_m.is_some())
+                .count(),
         },
         plot: PlotData {
             beta_rad: ctx.points.iter().map(|p| p.beta_rad).collect(),

@@ -7,7 +7,7 @@ use super::files::write_text;
 use super::legs::{LegLog, LegsFrom, choose_legs, csv_leg, session_legs};
 use crate::config::corrections::corrections_params;
 use crate::config::{LegConfig, NodeConfig, ParamMap, ParamValue, params_yaml};
-use crate::diagnose::{DiagnoseOptions, Diagnosis, Report, diagnose};
+use crate::diagnose::{DiagnoseOptions, Diagnosis, Report, diagnose_placed};
 use crate::model::Corrections;
 use crate::model::{Medium, Plate};
 use anyhow::{Context as _, Result, bail};
@@ -94,7 +94,8 @@ pub fn diagnose_legs(legs: &[LegLog], opts: &DiagnoseOptions) -> Vec<LegDiagnosi
     legs.par_iter()
         .map(|leg| LegDiagnosis {
             leg: leg.name.clone(),
-            result: diagnose(&leg.model, &leg.samples, opts).map_err(|e| e.to_string()),
+            result: diagnose_placed(&leg.model, &leg.samples, &leg.hips, opts)
+                .map_err(|e| e.to_string()),
         })
         .collect()
 }

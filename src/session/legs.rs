@@ -4,11 +4,11 @@
 //! log of one leg.
 
 use super::Opened;
-use super::reevaluate::{measured_samples, session_config};
+use super::reevaluate::{measured_samples_placed, session_config};
 use crate::config::{FtFrame, LegConfig, NodeConfig, resolve_topic};
 use crate::dataset::read_samples_csv;
 use crate::ident::Sample;
-use crate::model::{Medium, Plate, TerzaghiModel};
+use crate::model::{HipMotion, Medium, Plate, TerzaghiModel};
 use anyhow::{Context as _, Result, bail};
 use std::path::{Path, PathBuf};
 
@@ -19,6 +19,9 @@ pub struct LegLog {
     pub name: String,
     pub model: TerzaghiModel,
     pub samples: Vec<Sample>,
+    /// For a leg the recorded robot's state places (`<leg>.hip_frame`): where its hip was at
+    /// each sample (`None` where the state had no place; empty for other legs).
+    pub hips: Vec<Option<HipMotion>>,
 }
 
 /// A leg of a ROS 2 session recorded without our parameters: which joint turns it, which
@@ -123,7 +126,7 @@ pub fn session_legs(
     chosen: &[usize],
 ) -> Result<Vec<LegLog>> {
     let head = opened.head();
-    let (mut samples, read) = measured_samples(opened.source(), cfg.clone())
+    let (mut samples, mut hips, read) = measured_samples_placed(opened.source(), cfg.clone())
         .with_context(|| file.display().to_string())?;
     if !read.complete {
         bail!(
@@ -152,6 +155,7 @@ pub fn session_legs(
             name: leg.name.clone(),
             model: TerzaghiModel::conventional(leg.plate, leg.medium),
             samples: s,
+            hips: std::mem::take(&mut hips[i]),
         });
     }
     Ok(legs)
@@ -163,6 +167,7 @@ pub fn csv_leg(file: &Path, name: &str, plate: Plate, medium: Medium) -> Result<
         name: name.to_string(),
         model: TerzaghiModel::conventional(plate, medium),
         samples: read_samples_csv(file)?,
+        hips: Vec::new(),
     })
 }
 

@@ -8,12 +8,12 @@ use super::files::{refuse_existing_recording, write_atomically};
 use crate::config::{NodeConfig, ParamMap, RosArgs, defaults, load_params, parse_value};
 use crate::config::{TF_STATIC_TOPIC, TF_TOPIC};
 use crate::ident::{Estimate, FitSums, Sample};
-use crate::model::Regime;
+use crate::model::{HipMotion, Regime};
 use crate::msgs::{
     DecodeInto, Gap, JointState, LegForce, ModelParams, PoseStamped, RosMessage, TfMessage, Time,
     WrenchStamped, from_cdr,
 };
-use crate::node::core::{CoreMode, GapJob, LegOutput, Matched, NodeCore};
+use crate::node::core::{CoreMode, GapJob, LegOutput, Matched, NodeCore, TfTree};
 use crate::node::matcher::{FtMatcher, Match, usable_stamp_ns};
 use crate::record::read::{MessageView, Scan, Source, TopicInfo, same_type, scan_topics};
 use crate::record::{OfferedQos, RecordError, RecordOptions, SessionWriter};
@@ -284,10 +284,27 @@ pub fn measured_samples<'a>(
     source: impl Into<Source<'a>>,
     cfg: NodeConfig,
 ) -> Result<(Vec<Vec<Sample>>, Summary), RecordError> {
+    let (samples, _, sum) = measured_samples_placed(source, cfg)?;
+    Ok((samples, sum))
+}
+
+/// [`measured_samples`], and for each sample of a leg with a `hip_frame` where the recorded
+/// robot's state (`/tf`, `/tf_static`, the body's pose) put its hip at the joint angle's stamp,
+/// as the node reads it (`None` where it could not: the node then uses the configured height).
+/// Legs without a `hip_frame` get no places.
+pub fn measured_samples_placed<'a>(
+    source: impl Into<Source<'a>>,
+    cfg: NodeConfig,
+) -> Result<(Vec<Vec<Sample>>, Vec<Vec<Option<HipMotion>>>, Summary), RecordError> {
     let legs = cfg.legs.len();
     let mut out = vec![Vec::new(); legs];
+    let mut hips: Vec<Vec<Option<HipMotion>>> = vec![Vec::new(); legs];
     let mut matcher = FtMatcher::new(&cfg);
-    let mut keep = |leg: usize, m: Match| {
+    let mut tree = TfTree::default();
+    tree.place_hips(&cfg);
+    let rs = cfg.robot_state.clone();
+    let frames: Vec<Option<String>> = cfg.legs.iter().map(|l| l.hip_frame.clone()).collect();
+    let mut keep = |tree: &TfTree, leg: usize, m: Match| {
         if let Match::Matched(mt) = m {
             out[leg].push(Sample {
                 t_s: Some(mt.t_ns as f64 * 1e-9),
@@ -295,23 +312,28 @@ pub fn measured_samples<'a>(
                 drag_n: mt.drag_n,
                 lift_n: mt.lift_n,
             });
+            if let Some(frame) = &frames[leg] {
+                hips[leg].push(tree.hip_motion(&rs, frame, mt.t_ns, 0.0).ok());
+            }
         }
     };
     let mut sum = scan_inputs(source.into(), &cfg, |input, _, _| match input {
         Input::Joints(js) => {
             if let Some(stamp_ns) = usable_stamp_ns(js) {
+                tree.saw_joint_state(stamp_ns);
                 for leg in 0..legs {
-                    let _ = matcher.on_angle(leg, js, stamp_ns, |m| keep(leg, m));
+                    let _ = matcher.on_angle(leg, js, stamp_ns, |m| keep(&tree, leg, m));
                 }
             }
         }
         Input::Wrench(leg, w) => {
-            matcher.on_wrench(leg, w, |m| keep(leg, m));
+            matcher.on_wrench(leg, w, |m| keep(&tree, leg, m));
         }
-        Input::Tf(..) | Input::Pose(_) => {}
+        Input::Tf(msg, fixed) => tree.insert(msg, fixed),
+        Input::Pose(msg) => tree.insert_pose(msg, &rs),
     })?;
     sum.rows = out.iter().map(|s| s.len() as u64).sum();
-    Ok((out, sum))
+    Ok((out, hips, sum))
 }
 
 /// The node core run offline: inputs in, rows and output messages out.

@@ -20,8 +20,8 @@ use crate::model::corrections::{
 };
 use crate::model::{FittingWidth, ForceModel, HipMotion, Prediction, TerzaghiModel, wrap_beta_rad};
 use crate::msgs::{
-    Header, JointState, LegForce, ModelParams, PoseStamped, TfMessage, Time, Transform,
-    TransformStamped, Vector3, Wrench, WrenchStamped,
+    Header, JointState, LegForce, ModelParams, PoseStamped, TfMessage, Time, Vector3, Wrench,
+    WrenchStamped,
 };
 use std::collections::VecDeque;
 
@@ -328,59 +328,13 @@ impl NodeCore {
     /// The hips placed in the body by `<leg>.hip_offset_m`, as fixed transforms from
     /// `robot_state.body_frame`.
     fn install_hip_offsets(&mut self) {
-        let transforms = self
-            .cfg
-            .legs
-            .iter()
-            .filter_map(|l| {
-                let ([x, y, z], frame) = (l.hip_offset_m?, l.hip_frame.clone()?);
-                Some(TransformStamped {
-                    header: Header {
-                        stamp: Time::default(),
-                        frame_id: self.cfg.robot_state.body_frame.clone(),
-                    },
-                    child_frame_id: frame,
-                    transform: Transform {
-                        translation: Vector3 { x, y, z },
-                        ..Default::default()
-                    },
-                })
-            })
-            .collect();
-        self.tf.insert(&TfMessage { transforms }, true);
+        self.tf.place_hips(&self.cfg);
     }
 
     /// Takes the body's pose (`robot_state.pose_topic`), for a robot without TF: the pose of
     /// `robot_state.body_frame` in the message's frame (the world frame if it names none).
     pub fn on_pose(&mut self, msg: &PoseStamped) {
-        let rs = &self.cfg.robot_state;
-        let parent = if msg.header.frame_id.is_empty() {
-            rs.world_frame.clone()
-        } else {
-            msg.header.frame_id.clone()
-        };
-        let p = msg.pose.position;
-        let t = TransformStamped {
-            header: Header {
-                stamp: msg.header.stamp,
-                frame_id: parent,
-            },
-            child_frame_id: rs.body_frame.clone(),
-            transform: Transform {
-                translation: Vector3 {
-                    x: p.x,
-                    y: p.y,
-                    z: p.z,
-                },
-                rotation: msg.pose.orientation,
-            },
-        };
-        self.tf.insert(
-            &TfMessage {
-                transforms: vec![t],
-            },
-            false,
-        );
+        self.tf.insert_pose(msg, &self.cfg.robot_state);
     }
 
     fn new_leg(&self, i: usize) -> Leg {

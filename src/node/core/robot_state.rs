@@ -3,10 +3,13 @@
 //! looked up from the hip's frame up to the world frame and interpolated in time; without I/O
 //! or a clock.
 
-use crate::config::RobotStateConfig;
+use crate::config::{NodeConfig, RobotStateConfig};
 use crate::model::HipMotion;
-use crate::msgs::{TfMessage, TransformStamped};
+use crate::msgs::{
+    Header, PoseStamped, TfMessage, Time, Transform, TransformStamped, Vector3 as MsgVector3,
+};
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3};
+use std::cell::RefCell;
 use std::collections::{HashMap, VecDeque};
 
 /// Poses kept per frame: the newest within this span of the newest (and at most
@@ -45,7 +48,23 @@ pub struct TfTree {
     pub invalid: u64,
     /// The newest JointState stamp seen ([`TfTree::saw_joint_state`]).
     newest_joint_ns: Option<i64>,
+    /// Frames' poses in the world found by recent lookups: the hips of one JointState share
+    /// the body's chain, which is then walked once per stamp. Emptied by every insert.
+    memo: RefCell<Vec<MemoEntry>>,
 }
+
+/// A frame's pose in `world` at `stamp` (looked up with `max_age_ns`).
+struct MemoEntry {
+    world: String,
+    frame: String,
+    stamp: i64,
+    max_age_ns: i64,
+    pose: Isometry3<f64>,
+}
+
+/// Frames remembered: two stamps (the sample's and the one the hip's velocity is taken from)
+/// of a few bodies.
+const MEMO_ENTRIES: usize = 8;
 
 fn isometry(t: &TransformStamped) -> Option<Isometry3<f64>> {
     let (v, q) = (t.transform.translation, t.transform.rotation);
@@ -69,6 +88,63 @@ fn frame(name: &str) -> &str {
 }
 
 impl TfTree {
+    /// Places the hips of `cfg`'s legs that give `<leg>.hip_offset_m` in
+    /// `robot_state.body_frame`, as fixed transforms (a robot without TF gives its body's pose
+    /// alone, [`TfTree::insert_pose`]).
+    pub fn place_hips(&mut self, cfg: &NodeConfig) {
+        let transforms = cfg
+            .legs
+            .iter()
+            .filter_map(|l| {
+                let ([x, y, z], frame) = (l.hip_offset_m?, l.hip_frame.clone()?);
+                Some(TransformStamped {
+                    header: Header {
+                        stamp: Time::default(),
+                        frame_id: cfg.robot_state.body_frame.clone(),
+                    },
+                    child_frame_id: frame,
+                    transform: Transform {
+                        translation: MsgVector3 { x, y, z },
+                        ..Default::default()
+                    },
+                })
+            })
+            .collect();
+        self.insert(&TfMessage { transforms }, true);
+    }
+
+    /// Takes the body's pose (`rs.pose_topic`): the pose of `rs.body_frame` in the message's
+    /// frame (the world frame if it names none).
+    pub fn insert_pose(&mut self, msg: &PoseStamped, rs: &RobotStateConfig) {
+        let parent = if msg.header.frame_id.is_empty() {
+            rs.world_frame.clone()
+        } else {
+            msg.header.frame_id.clone()
+        };
+        let p = msg.pose.position;
+        let t = TransformStamped {
+            header: Header {
+                stamp: msg.header.stamp,
+                frame_id: parent,
+            },
+            child_frame_id: rs.body_frame.clone(),
+            transform: Transform {
+                translation: MsgVector3 {
+                    x: p.x,
+                    y: p.y,
+                    z: p.z,
+                },
+                rotation: msg.pose.orientation,
+            },
+        };
+        self.insert(
+            &TfMessage {
+                transforms: vec![t],
+            },
+            false,
+        );
+    }
+
     /// Notes a JointState's stamp: a pose stamped more than [`HISTORY_NS`] after the newest
     /// one is refused, since it would push every true pose out of the frame's history.
     pub fn saw_joint_state(&mut self, stamp_ns: i64) {
@@ -80,6 +156,7 @@ impl TfTree {
     /// newest joint state. A frame's poses older than the newest by more than two seconds are
     /// dropped.
     pub fn insert(&mut self, msg: &TfMessage, fixed: bool) {
+        self.memo.get_mut().clear();
         for t in &msg.transforms {
             let (parent, child) = (frame(&t.header.frame_id), frame(&t.child_frame_id));
             let stamp = t.header.stamp;
@@ -96,11 +173,17 @@ impl TfTree {
                 self.invalid += 1;
                 continue;
             }
-            let link = self.links.entry(child.to_string()).or_insert_with(|| Link {
-                parent: parent.to_string(),
-                fixed: None,
-                poses: VecDeque::new(),
-            });
+            if !self.links.contains_key(child) {
+                self.links.insert(
+                    child.to_string(),
+                    Link {
+                        parent: parent.to_string(),
+                        fixed: None,
+                        poses: VecDeque::new(),
+                    },
+                );
+            }
+            let link = self.links.get_mut(child).expect("inserted above");
             if link.parent != parent {
                 // Re-parented: its history was in another frame.
                 link.parent = parent.to_string();
@@ -168,16 +251,82 @@ impl TfTree {
     ) -> Result<Isometry3<f64>, NoState> {
         let world = frame(world);
         let mut name = frame(child);
+        // `pose` takes `child`'s coordinates into `name`'s.
         let mut pose = Isometry3::identity();
+        // The first frame above `child`, and `child` in it: its world pose is remembered.
+        let mut above: Option<(&str, Isometry3<f64>)> = None;
         for _ in 0..MAX_DEPTH {
             if name == world {
+                self.remember(world, above, stamp, max_age_ns, &pose);
                 return Ok(pose);
+            }
+            if above.is_some()
+                && let Some(known) = self.remembered(world, name, stamp, max_age_ns)
+            {
+                return Ok(known * pose);
             }
             let link = self.links.get(name).ok_or(NoState::Unknown)?;
             pose = Self::link_at(link, stamp, max_age_ns)? * pose;
             name = &link.parent;
+            if above.is_none() && name != world {
+                above = Some((name, pose));
+            }
         }
         Err(NoState::Unknown)
+    }
+
+    fn remembered(
+        &self,
+        world: &str,
+        name: &str,
+        stamp: i64,
+        max_age_ns: i64,
+    ) -> Option<Isometry3<f64>> {
+        self.memo
+            .borrow()
+            .iter()
+            .find(|e| {
+                e.stamp == stamp
+                    && e.max_age_ns == max_age_ns
+                    && e.frame == name
+                    && e.world == world
+            })
+            .map(|e| e.pose)
+    }
+
+    /// Remembers the world pose of `above` (a frame and the looked-up child in it), given the
+    /// child's world pose `child_in_world`.
+    fn remember(
+        &self,
+        world: &str,
+        above: Option<(&str, Isometry3<f64>)>,
+        stamp: i64,
+        max_age_ns: i64,
+        child_in_world: &Isometry3<f64>,
+    ) {
+        let Some((name, child_in_above)) = above else {
+            return;
+        };
+        let pose = child_in_world * child_in_above.inverse();
+        let mut memo = self.memo.borrow_mut();
+        if memo.len() < MEMO_ENTRIES {
+            memo.push(MemoEntry {
+                world: world.to_string(),
+                frame: name.to_string(),
+                stamp,
+                max_age_ns,
+                pose,
+            });
+            return;
+        }
+        // Full: the oldest entry is overwritten in place (its strings' buffers reused).
+        memo.rotate_left(1);
+        let e = memo.last_mut().expect("MEMO_ENTRIES > 0");
+        e.world.clear();
+        e.world.push_str(world);
+        e.frame.clear();
+        e.frame.push_str(name);
+        (e.stamp, e.max_age_ns, e.pose) = (stamp, max_age_ns, pose);
     }
 
     /// The hip of frame `hip_frame` at `stamp` as the model takes it: its height above the
@@ -194,7 +343,10 @@ impl TfTree {
         let max_age = (cfg.max_age_s * 1e9) as i64;
         let pose = self.lookup(&cfg.world_frame, hip_frame, stamp, max_age)?;
         let p = pose.translation.vector;
-        let (_, pitch, _) = pose.rotation.euler_angles();
+        // The pitch of roll-pitch-yaw (as `euler_angles` gives it): -asin of the rotation
+        // matrix's (2, 0), 2 (x z - w y) for the unit quaternion.
+        let q = pose.rotation.quaternion();
+        let pitch = -(2.0 * (q.i * q.k - q.w * q.j)).clamp(-1.0, 1.0).asin();
         // The robot's forward: the hip frame's x, horizontal.
         let x = pose.rotation * Vector3::x();
         let horizontal = Vector3::new(x.x, x.y, 0.0);
