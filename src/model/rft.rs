@@ -103,6 +103,20 @@ impl RftFit {
         (ax, az)
     }
 
+    /// [`RftFit::alpha`] from the cosine and sine of twice the attack angle (`c2b`, `s2b`)
+    /// and of the intrusion angle (`cg`, `sg`): the sums of angles by their addition formulas,
+    /// so that no trigonometric function is evaluated.
+    fn alpha_trig(&self, (c2b, s2b): (f64, f64), (cg, sg): (f64, f64)) -> (f64, f64) {
+        let sin_plus = s2b * cg + c2b * sg; // sin(2 beta + gamma)
+        let sin_minus = sg * c2b - s2b * cg; // sin(-2 beta + gamma)
+        let cos_plus = c2b * cg - s2b * sg; // cos(2 beta + gamma)
+        let cos_minus = c2b * cg + s2b * sg; // cos(-2 beta + gamma)
+        let az =
+            self.a00 + self.a10 * c2b + self.b11 * sin_plus + self.b01 * sg + self.bm11 * sin_minus;
+        let ax = self.c11 * cos_plus + self.c01 * cg + self.cm11 * cos_minus + self.d10 * s2b;
+        (ax, az)
+    }
+
     /// The nine coefficients fitted by least squares to measured stresses
     /// `(beta_r, gamma, alpha_x, alpha_z)` (N/cm^3), as Li et al. fitted them to their
     /// intrusion experiments: `alpha_z`'s five terms and `alpha_x`'s four are each linear in
@@ -311,6 +325,25 @@ impl RftCoefficients {
             RftCoefficients::Grid(g) => g.alpha(beta_r, gamma),
         }
     }
+
+    /// [`Self::alpha`] for an element along `(tx, tz)` moving along `(vx, vz)` (neither zero),
+    /// both in RFT's frame (the motion toward +x): its attack angle is the tangent's, folded
+    /// into `[-pi/2, pi/2]`, and its intrusion angle the motion's below the horizontal. Twice
+    /// the attack angle does not see the fold, so a fitted law needs only the vectors' ratios
+    /// (no trigonometric function: RFT evaluates it for every element of every sample).
+    pub fn alpha_along(&self, (tx, tz): (f64, f64), (vx, vz): (f64, f64)) -> (f64, f64) {
+        match self {
+            RftCoefficients::Fit(f) => {
+                let l2 = tx * tx + tz * tz;
+                let v = vx.hypot(vz);
+                f.alpha_trig(
+                    ((tx * tx - tz * tz) / l2, 2.0 * tx * tz / l2),
+                    (vx / v, -vz / v),
+                )
+            }
+            RftCoefficients::Grid(g) => g.alpha(wrap_half_pi(tz.atan2(tx)), (-vz).atan2(vx)),
+        }
+    }
 }
 
 /// RFT for the rotating plate, integrated over `elements` equal elements of the submerged length.
@@ -464,6 +497,16 @@ impl RftModel {
         let (nx, nz) = (sin_b, -cos_b);
         let v_hip = hip.leg_frame_velocity_m_s();
         let moving = v_hip != [0.0, 0.0] && hip.omega_rad_s.is_finite();
+        // A plate turning about a still hip: every element moves along n, so every element's
+        // stress law is the same.
+        let m_still = if nx < 0.0 { -1.0 } else { 1.0 };
+        let still = (!moving && (nx != 0.0 || nz != 0.0)).then(|| {
+            (
+                m_still,
+                self.coefficients
+                    .alpha_along((m_still * ux, uz), (m_still * nx, nz)),
+            )
+        });
         let (mut drag, mut lift, mut torque) = (0.0, 0.0, 0.0);
         for i in 0..self.elements {
             let r = (l - l_s) + (i as f64 + 0.5) * ds; // distance from the hip
@@ -483,12 +526,15 @@ impl RftModel {
             if vx == 0.0 && vz == 0.0 {
                 continue;
             }
-            // Mirror x when the element moves toward -x (RFT's frame moves toward +x).
-            let m = if vx < 0.0 { -1.0 } else { 1.0 };
-            // The element's own attack angle in [-pi/2, pi/2] and intrusion angle.
-            let beta_r = wrap_half_pi(uz.atan2(m * ux) + PI);
-            let gamma = (-vz).atan2(m * vx);
-            let (ax, az) = self.coefficients.alpha(beta_r, gamma);
+            // Mirror x when the element moves toward -x (RFT's frame moves toward +x); the
+            // element's own attack angle (along the plate) and intrusion angle.
+            let (m, (ax, az)) = match still {
+                Some(law) => law,
+                None => {
+                    let m = if vx < 0.0 { -1.0 } else { 1.0 };
+                    (m, self.coefficients.alpha_along((m * ux, uz), (m * vx, vz)))
+                }
+            };
             let (d_drag, d_lift) = (
                 m * ax * N_CM3_TO_N_M3 * depth * area,
                 az * N_CM3_TO_N_M3 * depth * area,
@@ -591,9 +637,7 @@ pub fn rft_leg_moving(
             }
             // Mirror x when the element moves toward -x.
             let m = if vx < 0.0 { -1.0 } else { 1.0 };
-            let beta_r = wrap_half_pi((tz).atan2(m * tx));
-            let gamma = (-vz).atan2(m * vx);
-            let (ax, az) = coefficients.alpha(beta_r, gamma);
+            let (ax, az) = coefficients.alpha_along((m * tx, tz), (m * vx, vz));
             let k = N_CM3_TO_N_M3 * depth * width_m * len;
             // alpha_x resists the motion's horizontal part: F_x = -m ax k.
             let (fx, fz) = (-m * ax * k, az * k);
@@ -719,6 +763,31 @@ mod tests {
         let (ax, az) = fit.alpha(beta_r, FRAC_PI_2 - beta);
         let k = N_CM3_TO_N_M3 * 0.06 * beta.sin() * l_s * l_s / 2.0;
         (ax * k, az * k)
+    }
+
+    #[test]
+    fn alpha_along_vectors_is_alpha_at_their_angles() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(7);
+        for c in [
+            RftCoefficients::Fit(RftFit::POPPY_LP),
+            RftCoefficients::Fit(RftFit::POPPY_CP),
+            RftCoefficients::Grid(RftGrid::poppy_lp()),
+        ] {
+            for _ in 0..10_000 {
+                let t: (f64, f64) = (rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0));
+                let v: (f64, f64) = (rng.random_range(0.0..1.0), rng.random_range(-1.0..1.0));
+                if t.0.hypot(t.1) < 1e-3 || v.0.hypot(v.1) < 1e-3 {
+                    continue;
+                }
+                let want = c.alpha(wrap_half_pi(t.1.atan2(t.0)), (-v.1).atan2(v.0));
+                let got = c.alpha_along(t, v);
+                assert!(
+                    (got.0 - want.0).abs() < 1e-12 && (got.1 - want.1).abs() < 1e-12,
+                    "{t:?} {v:?}: {got:?} against {want:?}"
+                );
+            }
+        }
     }
 
     #[test]
