@@ -3,6 +3,7 @@
 
 use crate::config::ParamValue;
 use crate::session::files::{refuse_existing_recording, write_atomically};
+use crate::sim::generator::IN_LIBRARY;
 use crate::sim::robot::{
     Body, Gait, Truth, hip_frame, hip_offset_m, rhex, simulate_moving, write_recording,
 };
@@ -33,6 +34,14 @@ pub struct SimulateRobotArgs {
     /// Seed of the walk and of the sensors.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// An effect the model leaves out, hidden in the sensors' readings as the generated cases
+    /// hide it (repeatable): rate, inertia, surcharge, extraction, compaction, cohesion,
+    /// hip_height, sensor_bias or sensor_lag.
+    #[arg(long = "hidden", value_name = "EFFECT")]
+    pub hidden: Vec<String>,
+    /// Strength of the hidden effects, as the generated cases scale them.
+    #[arg(long, default_value_t = 0.5)]
+    pub magnitude: f64,
     /// Publish the body's pose as geometry_msgs/PoseStamped on this topic (a robot without TF;
     /// the recorded parameters place each hip in the body, <leg>.hip_offset_m) instead of /tf.
     #[arg(long, value_name = "TOPIC")]
@@ -65,11 +74,16 @@ pub fn run(a: SimulateRobotArgs) -> Result<()> {
             a.noise_frac,
             (0.0..=1.0).contains(&a.noise_frac),
         ),
+        (
+            "--magnitude",
+            a.magnitude,
+            (0.0..=2.0).contains(&a.magnitude),
+        ),
     ];
     for (flag, v, ok) in checks {
         if !(v.is_finite() && ok) {
             bail!(
-                "{flag} {v}: out of range (seconds in (0, 3600], |heave| < 0.05 m, |pitch| <= 30 deg, |forward| <= 5 m/s, speed in (0, 50] rad/s, noise in [0, 1])"
+                "{flag} {v}: out of range (seconds in (0, 3600], |heave| < 0.05 m, |pitch| <= 30 deg, |forward| <= 5 m/s, speed in (0, 50] rad/s, noise in [0, 1], magnitude in [0, 2])"
             );
         }
     }
@@ -77,11 +91,23 @@ pub fn run(a: SimulateRobotArgs) -> Result<()> {
     let (mut params, cfg) = rhex()?;
     // The medium is what the robot is told (its preset's fit): what differs is the body.
     let w = cfg.legs[0].width;
+    let mut effects = Vec::new();
+    for name in &a.hidden {
+        let Some(e) = IN_LIBRARY.into_iter().find(|e| e.name() == name) else {
+            bail!(
+                "--hidden {name}: unknown effect; one of {}",
+                IN_LIBRARY.map(|e| e.name()).join(", ")
+            );
+        };
+        if !effects.contains(&e) {
+            effects.push(e);
+        }
+    }
     let truth = Truth {
         b_k: w.b_k(),
         a: w.a(),
-        effects: vec![],
-        magnitude: 0.0,
+        magnitude: if effects.is_empty() { 0.0 } else { a.magnitude },
+        effects,
         noise_frac: a.noise_frac,
         rft_scale: 1.0,
     };

@@ -793,21 +793,14 @@ fn leg_config(
         .filter(|f| !f.is_empty())
         .map(|f| f.trim_start_matches('/').to_string())
         .or_else(|| hip_offset_m.map(|_| format!("{leg}_hip")));
-    if let Some(f) = &hip_frame {
-        if f.is_empty() || f.chars().any(char::is_whitespace) {
-            return Err(invalid(
-                &k("hip_frame"),
-                f,
-                "expected a frame name of /tf (no spaces)",
-            ));
-        }
-        if corrections.is_some() {
-            return Err(invalid(
-                &k("hip_frame"),
-                f,
-                "the corrected model is fitted at the configured hip height (its hip_height term is a fixed offset): leave hip_frame out, or the corrections",
-            ));
-        }
+    if let Some(f) = &hip_frame
+        && (f.is_empty() || f.chars().any(char::is_whitespace))
+    {
+        return Err(invalid(
+            &k("hip_frame"),
+            f,
+            "expected a frame name of /tf (no spaces)",
+        ));
     }
     Ok(LegConfig {
         name: leg.to_string(),

@@ -38,7 +38,7 @@ use super::online::{
 use crate::model::corrections::{
     CorrectedModel, Effect, MOTION_WINDOW_S, Motion, MotionTracker, lag_step, ln_a_grid,
 };
-use crate::model::{Regime, wrap_beta_rad};
+use crate::model::{HipMotion, Regime, wrap_beta_rad};
 use serde::Serialize;
 use std::f64::consts::{FRAC_PI_2, TAU};
 
@@ -405,7 +405,18 @@ impl CorrectedEstimator {
     /// Feeds one sample with the leg's motion at its angle; `Ok(())` if it updated the
     /// estimate, otherwise why not.
     pub fn update(&mut self, s: &Sample, motion: &Motion) -> Result<(), Skip> {
-        let r = self.update_inner(s, motion);
+        self.update_at(s, motion, None)
+    }
+
+    /// [`Self::update`] for a sample whose hip the robot's state placed (`None`: at the
+    /// configured height): the model's columns at that hip's height and attack angle.
+    pub fn update_at(
+        &mut self,
+        s: &Sample,
+        motion: &Motion,
+        hip: Option<&HipMotion>,
+    ) -> Result<(), Skip> {
+        let r = self.update_inner(s, motion, hip);
         match r {
             Ok(()) => self.est.samples_used += 1,
             Err(Skip::NonFinite) => self.est.samples_non_finite += 1,
@@ -415,14 +426,19 @@ impl CorrectedEstimator {
         r
     }
 
-    fn update_inner(&mut self, s: &Sample, motion: &Motion) -> Result<(), Skip> {
+    fn update_inner(
+        &mut self,
+        s: &Sample,
+        motion: &Motion,
+        hip: Option<&HipMotion>,
+    ) -> Result<(), Skip> {
         if !(s.beta_rad.is_finite() && s.drag_n.is_finite() && s.lift_n.is_finite())
             || s.t_s.is_some_and(|t| !t.is_finite())
         {
             return Err(Skip::NonFinite);
         }
         let stuck = self.stuck.see(s.drag_n, s.lift_n) >= self.opts.stuck_samples;
-        let (beta, regime) = self.columns(s, motion).ok_or(Skip::NonFinite)?;
+        let (beta, regime) = self.columns(s, motion, hip).ok_or(Skip::NonFinite)?;
         let dbeta = self.prev_beta.map_or(0.0, |p| angle_step(p, beta));
         self.prev_beta = Some(beta);
         if stuck {
@@ -475,11 +491,16 @@ impl CorrectedEstimator {
     }
 
     /// The Jacobian rows `h` (drag, lift) at this sample, through the sensor's lag when kept.
-    fn columns(&mut self, s: &Sample, motion: &Motion) -> Option<(f64, Regime)> {
+    fn columns(
+        &mut self,
+        s: &Sample,
+        motion: &Motion,
+        hip: Option<&HipMotion>,
+    ) -> Option<(f64, Regime)> {
         let a = self.theta[1].exp();
         let (beta, regime) = self
             .model
-            .design_row(s.beta_rad, motion, a, &mut self.row, &mut self.fixed)
+            .design_row_at(s.beta_rad, motion, hip, a, &mut self.row, &mut self.fixed)
             .ok()?;
         let n = self.theta.len();
         // Raw values: the columns of b_k and the coefficients, then the derivative in ln a of

@@ -16,7 +16,7 @@
 //! A term is zero wherever it is undefined (out of the medium, at zero speed, before the first
 //! stroke), never NaN. Everything here is pure: time comes in as an argument.
 
-use super::{Medium, ModelError, Plate, Prediction, Regime, TerzaghiModel};
+use super::{HipMotion, Medium, ModelError, Plate, Prediction, Regime, TerzaghiModel};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use std::fmt;
 
@@ -585,6 +585,13 @@ pub struct CorrectedPrediction {
     pub sensor_lift_n: f64,
 }
 
+/// The unit models of a [`CorrectedModel`] at a hip the robot's state placed.
+struct PlacedUnits {
+    unit: TerzaghiModel,
+    moved: Option<TerzaghiModel>,
+    stronger: Option<TerzaghiModel>,
+}
+
 /// The corrected model of one leg, ready to evaluate sample by sample.
 #[derive(Debug, Clone)]
 pub struct CorrectedModel {
@@ -625,12 +632,64 @@ impl CorrectedModel {
         &self.corrections
     }
 
+    /// The unit, moved and stronger models: the placed ones, else the configured ones.
+    fn units<'a>(
+        &'a self,
+        placed: Option<&'a PlacedUnits>,
+    ) -> (
+        &'a TerzaghiModel,
+        Option<&'a TerzaghiModel>,
+        Option<&'a TerzaghiModel>,
+    ) {
+        match placed {
+            Some(p) => (&p.unit, p.moved.as_ref(), p.stronger.as_ref()),
+            None => (&self.unit, self.moved.as_ref(), self.stronger.as_ref()),
+        }
+    }
+
     pub fn plate(&self) -> &Plate {
         self.unit.plate()
     }
 
     pub fn medium(&self) -> &Medium {
         self.unit.medium()
+    }
+
+    /// The unit models at a hip the robot's state placed `hip.height_m` above the surface
+    /// (`None` without a hip: the configured ones), and the attack angle of `beta_rad` there.
+    fn units_at(
+        &self,
+        beta_rad: f64,
+        hip: Option<&HipMotion>,
+    ) -> Result<(Option<PlacedUnits>, f64), ModelError> {
+        let Some(h) = hip else {
+            return Ok((None, beta_rad));
+        };
+        let unit = self.unit.with_hip_height_m(h.height_m)?;
+        let moved =
+            match &self.moved {
+                // As moved_unit_model: the surface `surface_drop_m` lower, within the leg's reach.
+                Some(_) => {
+                    let drop = self.corrections.nonlinear.surface_drop_m;
+                    let l = unit.plate().length_m();
+                    Some(unit.with_hip_height_m(
+                        (unit.plate().hip_height_m() + drop).clamp(0.0, 0.95 * l),
+                    )?)
+                }
+                None => None,
+            };
+        let stronger = match &self.stronger {
+            Some(m) => Some(m.with_hip_height_m(h.height_m)?),
+            None => None,
+        };
+        Ok((
+            Some(PlacedUnits {
+                unit,
+                moved,
+                stronger,
+            }),
+            super::finite("attack angle beta (rad)", beta_rad)? + h.pitch_rad,
+        ))
     }
 
     /// The inputs of the terms at `beta_rad` with the leg moving as `motion`, and the unit
@@ -640,10 +699,20 @@ impl CorrectedModel {
         beta_rad: f64,
         motion: &Motion,
     ) -> Result<(TermInputs, super::TerzaghiForce), ModelError> {
-        let f = self.unit.evaluate(beta_rad)?;
+        self.inputs_with(&self.unit, self.stronger.as_ref(), beta_rad, motion)
+    }
+
+    fn inputs_with(
+        &self,
+        unit: &TerzaghiModel,
+        stronger: Option<&TerzaghiModel>,
+        beta_rad: f64,
+        motion: &Motion,
+    ) -> Result<(TermInputs, super::TerzaghiForce), ModelError> {
+        let f = unit.evaluate(beta_rad)?;
         let c = &self.corrections;
-        let (r_in, area, m1, _) = submerged_geometry(self.unit.plate(), f.submerged_m);
-        let per_phi = match &self.stronger {
+        let (r_in, area, m1, _) = submerged_geometry(unit.plate(), f.submerged_m);
+        let per_phi = match stronger {
             Some(m) if f.regime != Regime::OutOfMedium => m
                 .evaluate(f.beta_rad)
                 .map_or([0.0, 0.0], |g| [g.drag_n - f.drag_n, g.lift_n - f.lift_n]),
@@ -685,9 +754,26 @@ impl CorrectedModel {
         row: &mut Vec<[f64; 2]>,
         fixed: &mut Vec<[f64; 2]>,
     ) -> Result<(f64, Regime), ModelError> {
-        let (x, f) = self.inputs(beta_rad, motion)?;
+        self.design_row_at(beta_rad, motion, None, a, row, fixed)
+    }
+
+    /// [`Self::design_row`] with the hip where the robot's state placed it (`None`: the
+    /// configured plate): the terms at its height and at the joint's angle plus the body's
+    /// pitch, as the diagnosis fits a recording whose hips it placed.
+    pub fn design_row_at(
+        &self,
+        beta_rad: f64,
+        motion: &Motion,
+        hip: Option<&HipMotion>,
+        a: f64,
+        row: &mut Vec<[f64; 2]>,
+        fixed: &mut Vec<[f64; 2]>,
+    ) -> Result<(f64, Regime), ModelError> {
+        let (placed, beta_rad) = self.units_at(beta_rad, hip)?;
+        let (unit, moved, stronger) = self.units(placed.as_ref());
+        let (x, f) = self.inputs_with(unit, stronger, beta_rad, motion)?;
         let w = (-a.ln() * x.beta_rad).exp();
-        let g = match &self.moved {
+        let g = match moved {
             Some(m) => m.evaluate(x.beta_rad)?,
             None => f,
         };
@@ -731,17 +817,31 @@ impl CorrectedModel {
         beta_rad: f64,
         motion: &Motion,
     ) -> Result<CorrectedPrediction, ModelError> {
-        let (x, f) = self.inputs(beta_rad, motion)?;
+        self.evaluate_at(beta_rad, motion, None)
+    }
+
+    /// [`Self::evaluate`] with the hip where the robot's state placed it (`None`: the
+    /// configured plate): the baseline and every term at the hip's height, at the joint's angle
+    /// plus the body's pitch.
+    pub fn evaluate_at(
+        &self,
+        beta_rad: f64,
+        motion: &Motion,
+        hip: Option<&HipMotion>,
+    ) -> Result<CorrectedPrediction, ModelError> {
+        let (placed, beta_rad) = self.units_at(beta_rad, hip)?;
+        let (unit, moved, stronger) = self.units(placed.as_ref());
+        let (x, f) = self.inputs_with(unit, stronger, beta_rad, motion)?;
         let c = &self.corrections;
         let w = (-c.a.ln() * x.beta_rad).exp();
-        let g = match &self.moved {
+        let g = match moved {
             Some(m) => m.evaluate(x.beta_rad)?,
             None => f,
         };
         let base = [w * g.drag_n, w * g.lift_n];
         let bare = [c.b_k * w * f.drag_n, c.b_k * w * f.lift_n];
         let mut parts = Vec::with_capacity(c.terms.len() + 1);
-        if self.moved.is_some() {
+        if moved.is_some() {
             parts.push((
                 Effect::HipHeight,
                 [c.b_k * base[0] - bare[0], c.b_k * base[1] - bare[1]],

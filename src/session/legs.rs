@@ -126,7 +126,7 @@ pub fn session_legs(
     chosen: &[usize],
 ) -> Result<Vec<LegLog>> {
     let head = opened.head();
-    let (mut samples, mut hips, read) = measured_samples_placed(opened.source(), cfg.clone())
+    let (mut placed, read) = measured_samples_placed(opened.source(), cfg.clone())
         .with_context(|| file.display().to_string())?;
     if !read.complete {
         bail!(
@@ -140,7 +140,7 @@ pub fn session_legs(
     let mut legs = Vec::new();
     for &i in chosen {
         let leg = &cfg.legs[i];
-        let s = std::mem::take(&mut samples[i]);
+        let s = std::mem::take(&mut placed.samples[i]);
         if s.is_empty() {
             bail!(
                 "leg {}: no F/T sample on {} matched a joint angle of {} on {} (topics in the file: {})",
@@ -155,7 +155,7 @@ pub fn session_legs(
             name: leg.name.clone(),
             model: TerzaghiModel::conventional(leg.plate, leg.medium),
             samples: s,
-            hips: std::mem::take(&mut hips[i]),
+            hips: std::mem::take(&mut placed.hips[i]),
         });
     }
     Ok(legs)

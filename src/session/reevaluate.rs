@@ -284,8 +284,17 @@ pub fn measured_samples<'a>(
     source: impl Into<Source<'a>>,
     cfg: NodeConfig,
 ) -> Result<(Vec<Vec<Sample>>, Summary), RecordError> {
-    let (samples, _, sum) = measured_samples_placed(source, cfg)?;
-    Ok((samples, sum))
+    let (placed, sum) = measured_samples_placed(source, cfg)?;
+    Ok((placed.samples, sum))
+}
+
+/// A leg's hip at each of its samples, where the robot's state placed it.
+pub type HipPlaces = Vec<Option<HipMotion>>;
+
+/// Every leg's measured samples, and where the robot's state placed its hip at each.
+pub struct Placed {
+    pub samples: Vec<Vec<Sample>>,
+    pub hips: Vec<HipPlaces>,
 }
 
 /// [`measured_samples`], and for each sample of a leg with a `hip_frame` where the recorded
@@ -295,10 +304,10 @@ pub fn measured_samples<'a>(
 pub fn measured_samples_placed<'a>(
     source: impl Into<Source<'a>>,
     cfg: NodeConfig,
-) -> Result<(Vec<Vec<Sample>>, Vec<Vec<Option<HipMotion>>>, Summary), RecordError> {
+) -> Result<(Placed, Summary), RecordError> {
     let legs = cfg.legs.len();
     let mut out = vec![Vec::new(); legs];
-    let mut hips: Vec<Vec<Option<HipMotion>>> = vec![Vec::new(); legs];
+    let mut hips: Vec<HipPlaces> = vec![Vec::new(); legs];
     let mut matcher = FtMatcher::new(&cfg);
     let mut tree = TfTree::default();
     tree.place_hips(&cfg);
@@ -333,7 +342,7 @@ pub fn measured_samples_placed<'a>(
         Input::Pose(msg) => tree.insert_pose(msg, &rs),
     })?;
     sum.rows = out.iter().map(|s| s.len() as u64).sum();
-    Ok((out, hips, sum))
+    Ok((Placed { samples: out, hips }, sum))
 }
 
 /// The node core run offline: inputs in, rows and output messages out.

@@ -18,7 +18,9 @@ use crate::model::corrections::{
     CorrectedModel, CorrectedPrediction, Effect, MOTION_WINDOW_S, Motion, MotionTracker,
     SensorLagFilter,
 };
-use crate::model::{FittingWidth, ForceModel, HipMotion, Prediction, TerzaghiModel, wrap_beta_rad};
+use crate::model::{
+    FittingWidth, ForceModel, HipMotion, Plate, Prediction, TerzaghiModel, wrap_beta_rad,
+};
 use crate::msgs::{
     Header, JointState, LegForce, ModelParams, PoseStamped, TfMessage, Time, Vector3, Wrench,
     WrenchStamped,
@@ -152,10 +154,23 @@ impl CorrectedLeg {
 
     /// The corrected prediction for the angle `beta_rad` stamped `stamp_ns`, the sensor's side
     /// through its lag; kept for the rows when `keep`.
-    fn step(&mut self, stamp_ns: i64, beta_rad: f64, keep: bool) -> Option<CorrectedPrediction> {
+    fn step(
+        &mut self,
+        stamp_ns: i64,
+        beta_rad: f64,
+        hip: Option<&HipMotion>,
+        keep: bool,
+    ) -> Option<CorrectedPrediction> {
         let t_s = stamp_ns as f64 * 1e-9;
         let plate = *self.model.plate();
-        let submerged = plate.submerged_length_m(wrap_beta_rad(beta_rad));
+        // The plate where the robot's state placed its hip, at the attack angle there.
+        let submerged = match hip {
+            Some(h) => Plate::new(plate.length_m(), plate.width_m(), h.height_m.max(0.0))
+                .map_or(0.0, |p| {
+                    p.submerged_length_m(wrap_beta_rad(beta_rad + h.pitch_rad))
+                }),
+            None => plate.submerged_length_m(wrap_beta_rad(beta_rad)),
+        };
         let motion = self
             .tracker
             .update(t_s, beta_rad, submerged, plate.length_m());
@@ -163,7 +178,7 @@ impl CorrectedLeg {
             self.motions.pop_front();
         }
         self.motions.push_back((stamp_ns, motion));
-        let mut p = self.model.evaluate(beta_rad, &motion).ok()?;
+        let mut p = self.model.evaluate_at(beta_rad, &motion, hip).ok()?;
         let c = self.model.corrections();
         if c.has(Effect::SensorLag) {
             let bias = [p.sensor_drag_n - p.drag_n, p.sensor_lift_n - p.lift_n];
@@ -608,7 +623,7 @@ impl NodeCore {
             let corrected = self.legs[i]
                 .corrected
                 .as_mut()
-                .map(|c| c.step(stamp_ns, beta, keep));
+                .map(|c| c.step(stamp_ns, beta, hip.as_ref(), keep));
             if self.mode == CoreMode::ReevaluationRows && self.cfg.legs[i].ft_topic.is_some() {
                 continue;
             }
@@ -623,6 +638,7 @@ impl NodeCore {
                     let c = leg.corrected.as_ref().map(|c| c.model.corrections());
                     let (b_k, a) = c.map_or((0.0, 0.0), |c| (c.b_k, c.a));
                     let medium = RowPrediction::corrected(&p).medium;
+                    let h = hip.unwrap_or_else(|| HipMotion::still(lc.plate.hip_height_m()));
                     LegForce {
                         bare_drag_n: p.bare.drag_n,
                         bare_lift_n: p.bare.lift_n,
@@ -631,7 +647,11 @@ impl NodeCore {
                         correction_lift_n: p.parts.iter().map(|(_, v)| v[1]).collect(),
                         sensor_drag_n: p.sensor_drag_n,
                         sensor_lift_n: p.sensor_lift_n,
-                        hip_height_m: lc.plate.hip_height_m(),
+                        robot_state: from_state,
+                        hip_height_m: h.height_m,
+                        body_pitch_rad: h.pitch_rad,
+                        hip_forward_m_s: h.forward_m_s,
+                        hip_up_m_s: h.up_m_s,
                         ..leg_force(
                             header,
                             &medium,
@@ -828,7 +848,7 @@ impl NodeCore {
                     })
                     .map(|(_, m)| *m)
                     .unwrap_or_default();
-                let _ = e.update(&sample, &motion);
+                let _ = e.update_at(&sample, &motion, hip.as_ref());
             }
             Learner::RftScale(e) => {
                 // RFT's own prediction at the angle (and hip) the sample was matched with.
@@ -1221,14 +1241,42 @@ mod tests {
     }
 
     #[test]
-    fn a_hip_frame_with_corrections_is_refused() {
-        let yaml = "/**:\n  ros__parameters:\n    legs: [fl]\n    fl:\n      length_m: 0.25\n      width_m: 0.06\n      hip_height_m: 0.15\n      medium: hit_sand\n      hip_frame: fl_hip\n      corrections:\n        effects: [sensor_bias]\n        sensor_bias: {drag_n: 1.0, lift_n: 0.5}\n";
-        let mut p = defaults();
-        p.extend(parse_params_yaml(yaml, "t", "terzaghi", "/").unwrap());
-        let e = NodeConfig::from_params(&p, "terzaghi", "/", &[])
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("fl.hip_frame"), "{e}");
+    fn a_corrected_leg_placed_by_tf_predicts_at_its_hip() {
+        let extra = "      hip_frame: fl_hip\n      corrections:\n        effects: [cohesion, sensor_bias]\n        cohesion: {normal_pa: 300.0, tangential_pa: 100.0}\n        sensor_bias: {drag_n: 1.0, lift_n: 0.5}\n";
+        let mut core = NodeCore::new(config(extra));
+        let mut out = Vec::new();
+        let (beta, pitch) = (60f64.to_radians(), 3f64.to_radians());
+        core.on_tf(&hip_tf(2_000_000, 0.13, pitch), false);
+        core.on_joint_state(&js(2_000_000, &["hip_fl"], &[beta]), &mut out);
+        let f = &out[0].force.clone();
+        // The same corrected model built for a plate whose hip is 0.13 m up, at beta + pitch.
+        let lc = &core.config().legs[0];
+        let corrections = lc.corrections.clone().unwrap();
+        let at_hip = CorrectedModel::new(
+            crate::model::Plate::new(0.25, 0.06, 0.13).unwrap(),
+            lc.medium,
+            corrections,
+        )
+        .unwrap();
+        let want = at_hip.evaluate(beta + pitch, &Motion::default()).unwrap();
+        assert!(f.robot_state);
+        assert!((f.hip_height_m - 0.13).abs() < 1e-12);
+        assert!((f.body_pitch_rad - pitch).abs() < 1e-12);
+        for (have, want) in [
+            (f.drag_n, want.drag_n),
+            (f.lift_n, want.lift_n),
+            (f.bare_drag_n, want.bare.drag_n),
+            (f.sensor_lift_n, want.sensor_lift_n),
+        ] {
+            assert!((have - want).abs() < 1e-9, "{have} against {want}: {f:?}");
+        }
+        assert_eq!(f.correction_names, vec!["cohesion".to_string()]);
+        // At the configured height (no transform) the forces are smaller: the hip is higher.
+        let mut fixed = NodeCore::new(config(extra));
+        out.clear();
+        fixed.on_joint_state(&js(2_000_000, &["hip_fl"], &[beta]), &mut out);
+        assert!(!out[0].force.robot_state);
+        assert!(out[0].force.drag_n < f.drag_n);
     }
 
     #[test]
