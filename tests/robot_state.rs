@@ -259,3 +259,50 @@ fn a_walking_robots_corrections_predict_another_walk_at_the_sensor_noise() {
         );
     }
 }
+
+/// Every `<leg>/gap` report in a recording.
+fn gap_reports(path: &str) -> Vec<(String, terzaghi::msgs::Gap)> {
+    let bytes = std::fs::read(path).unwrap();
+    mcap::MessageStream::new(&bytes)
+        .unwrap()
+        .map(|m| m.unwrap())
+        .filter(|m| m.channel.topic.ends_with("/gap"))
+        .map(|m| {
+            let g = terzaghi::msgs::from_cdr::<terzaghi::msgs::Gap>(&m.data).unwrap();
+            (m.channel.topic.clone(), g)
+        })
+        .collect()
+}
+
+/// The node watches the gap of legs the robot's state places, at their hips: re-run through
+/// the node (`replay --reevaluate -o`, which runs its diagnoses in line), the walk hiding
+/// surcharge is reported on every leg as a real gap with surcharge among the effects the leg's
+/// model does not correct; the walk without one, the same body motion, raises nothing.
+#[test]
+fn the_gap_watch_diagnoses_legs_placed_by_tf_at_their_hips() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    for (hidden, expect) in [(true, "surcharge"), (false, "")] {
+        let (walk, out) = (path("walk.mcap"), path("out.mcap"));
+        let mut args = vec!["simulate-robot", "--overwrite", "-o", &walk];
+        if hidden {
+            args.extend(["--hidden", "surcharge"]);
+        }
+        run(&args);
+        run(&["replay", &walk, "--reevaluate", "-o", &out, "--overwrite"]);
+        let reports = gap_reports(&out);
+        let mut legs: Vec<&str> = reports.iter().map(|(t, _)| t.as_str()).collect();
+        legs.sort();
+        legs.dedup();
+        assert_eq!(legs.len(), 6, "{legs:?}");
+        for (topic, g) in &reports {
+            assert!(g.error.is_empty(), "{topic}: {g:?}");
+            if hidden {
+                assert!(g.gap_real, "{topic}: {g:?}");
+                assert!(g.new_effects.iter().any(|e| e == expect), "{topic}: {g:?}");
+            } else {
+                assert!(g.new_effects.is_empty(), "{topic}: {g:?}");
+            }
+        }
+    }
+}

@@ -5,10 +5,10 @@
 //! does not correct, a warning on `/diagnostics`. The node never changes its model by itself.
 
 use super::NodeCore;
-use crate::diagnose::{DiagnoseOptions, Report, diagnose};
+use crate::diagnose::{DiagnoseOptions, Report, diagnose_placed};
 use crate::ident::Sample;
-use crate::model::TerzaghiModel;
 use crate::model::corrections::unwrap_after;
+use crate::model::{HipMotion, TerzaghiModel};
 use crate::msgs::{Gap, Header, Time};
 use std::collections::VecDeque;
 use std::f64::consts::TAU;
@@ -29,7 +29,7 @@ pub struct GapJob {
     pub leg: usize,
     /// The strokes' samples, a shared block per stroke: handing them over copies nothing on
     /// the message path; [`GapJob::samples`] joins them, on the worker.
-    pub strokes_samples: Vec<Arc<Vec<Sample>>>,
+    pub strokes_samples: Vec<Arc<Vec<Watched>>>,
     /// The leg's conventional model (plate and medium; the diagnosis fits the width).
     pub model: TerzaghiModel,
     /// Stamp of the newest sample (ns).
@@ -48,15 +48,19 @@ impl GapJob {
     }
 
     /// The samples, evenly thinned to at most [`JOB_SAMPLES`] (the diagnosis thins to
-    /// [`GAP_MAX_POINTS`] anyway, after taking speed and acceleration from what it is given).
-    pub fn samples(&self) -> Vec<Sample> {
+    /// [`GAP_MAX_POINTS`] anyway, after taking speed and acceleration from what it is given),
+    /// and where the robot's state placed the hip at each (empty for a leg at a fixed height).
+    pub fn samples(&self) -> (Vec<Sample>, Vec<Option<HipMotion>>) {
         let stride = self.len().div_ceil(JOB_SAMPLES).max(1);
-        self.strokes_samples
+        let kept = self
+            .strokes_samples
             .iter()
             .flat_map(|s| s.iter())
-            .step_by(stride)
-            .copied()
-            .collect()
+            .step_by(stride);
+        let (samples, hips): (Vec<Sample>, Vec<Option<HipMotion>>) =
+            kept.map(|w| (w.sample, w.hip())).unzip();
+        let placed = hips.iter().any(Option::is_some);
+        (samples, if placed { hips } else { Vec::new() })
     }
 
     /// Runs the diagnosis of the job: what a worker does, off the message path.
@@ -65,9 +69,36 @@ impl GapJob {
             max_points: GAP_MAX_POINTS,
             ..Default::default()
         };
-        diagnose(&self.model, &self.samples(), &opts)
+        let (samples, hips) = self.samples();
+        diagnose_placed(&self.model, &samples, &hips, &opts)
             .map(|d| d.report)
             .map_err(|e| e.to_string())
+    }
+}
+
+/// A matched sample the gap watch keeps, with the hip's height and the body's pitch where the
+/// robot's state placed them (for a leg with a `hip_frame`; single precision, since a leg
+/// keeps tens of thousands of samples and the diagnosis reads nothing else of the hip).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Watched {
+    pub sample: Sample,
+    hip: Option<[f32; 2]>,
+}
+
+impl Watched {
+    pub fn new(sample: Sample, hip: Option<&HipMotion>) -> Watched {
+        Watched {
+            sample,
+            hip: hip.map(|h| [h.height_m as f32, h.pitch_rad as f32]),
+        }
+    }
+
+    fn hip(&self) -> Option<HipMotion> {
+        self.hip.map(|[height, pitch]| HipMotion {
+            height_m: f64::from(height),
+            pitch_rad: f64::from(pitch),
+            ..HipMotion::default()
+        })
     }
 }
 
@@ -75,8 +106,8 @@ impl GapJob {
 /// stroke under way.
 #[derive(Debug, Clone, Default)]
 pub(super) struct GapWatch {
-    finished: VecDeque<(usize, Arc<Vec<Sample>>)>,
-    current: Vec<Sample>,
+    finished: VecDeque<(usize, Arc<Vec<Watched>>)>,
+    current: Vec<Watched>,
     held: usize,
     start_rad: Option<f64>,
     last_rad: Option<f64>,
@@ -96,11 +127,11 @@ pub(super) struct GapWatch {
 impl GapWatch {
     /// Keeps `s` (a matched sample); `true` when a diagnosis is due: every `every` strokes,
     /// once at least four finished strokes are held (of the last `window`).
-    pub(super) fn push(&mut self, s: Sample, every: usize, window: usize) -> bool {
+    pub(super) fn push(&mut self, s: Watched, every: usize, window: usize) -> bool {
         if every == 0 {
             return false;
         }
-        let b = s.beta_rad.rem_euclid(TAU);
+        let b = s.sample.beta_rad.rem_euclid(TAU);
         let u = self.last_rad.map_or(b, |p| unwrap_after(p, b));
         self.last_rad = Some(u);
         let start = *self.start_rad.get_or_insert(u);
@@ -141,7 +172,7 @@ impl GapWatch {
     }
 
     /// The finished strokes, shared.
-    pub(super) fn blocks(&self) -> Vec<Arc<Vec<Sample>>> {
+    pub(super) fn blocks(&self) -> Vec<Arc<Vec<Watched>>> {
         self.finished.iter().map(|f| f.1.clone()).collect()
     }
 
@@ -274,7 +305,14 @@ mod tests {
                 drag_n: 0.0,
                 lift_n: 0.0,
             };
-            if w.push(s, 3, 5) {
+            if w.push(
+                Watched {
+                    sample: s,
+                    hip: None,
+                },
+                3,
+                5,
+            ) {
                 due.push(w.stroke);
                 assert!(w.strokes() >= 4 && w.strokes() <= 5, "{}", w.strokes());
             }
@@ -288,12 +326,15 @@ mod tests {
         assert!((held as f64 - 4.0 * 3141.6).abs() < 10.0, "{held}");
         let mut off = GapWatch::default();
         assert!(!(0..20_000).any(|i| off.push(
-            Sample {
-                t_s: Some(i as f64),
-                beta_rad: i as f64,
-                drag_n: 0.0,
-                lift_n: 0.0
-            },
+            Watched::new(
+                Sample {
+                    t_s: Some(i as f64),
+                    beta_rad: i as f64,
+                    drag_n: 0.0,
+                    lift_n: 0.0
+                },
+                None
+            ),
             0,
             5
         )));

@@ -766,13 +766,13 @@ impl NodeCore {
     /// waiting per leg at most).
     fn watch_gap(&mut self, leg: usize, mt: &Matched) {
         let g = self.cfg.gap_check;
-        // The diagnosis is of a flat plate's gap at a fixed hip: a leg of another shape, or one
-        // the robot's state places, is not watched.
+        // The diagnosis is of a flat plate's gap: a leg of another shape is not watched. A leg
+        // the robot's state places is diagnosed at its hips.
         let lc = &self.cfg.legs[leg];
-        if self.mode == CoreMode::ReevaluationRows || lc.profile.is_some() || lc.hip_frame.is_some()
-        {
+        if self.mode == CoreMode::ReevaluationRows || lc.profile.is_some() {
             return;
         }
+        let hip = self.hip_at(leg, mt.angle_t_ns);
         let Some(l) = self.legs.get_mut(leg) else {
             return;
         };
@@ -782,7 +782,11 @@ impl NodeCore {
             drag_n: mt.drag_n,
             lift_n: mt.lift_n,
         };
-        if !l.gap.push(s, g.every_strokes, g.window_strokes) {
+        if !l.gap.push(
+            gap::Watched::new(s, hip.as_ref()),
+            g.every_strokes,
+            g.window_strokes,
+        ) {
             return;
         }
         let lc = &self.cfg.legs[leg];
