@@ -23,6 +23,17 @@ fn leg_errors(printed: &str) -> Vec<(String, f64, f64, f64)> {
         .collect()
 }
 
+/// The largest of the sensors' noise that `simulate-robot` prints (`noise A-B N`).
+fn noise_max_n(printed: &str) -> f64 {
+    let at = printed.find("noise ").unwrap() + "noise ".len();
+    printed[at..]
+        .split(['-', ' '])
+        .nth(1)
+        .unwrap()
+        .parse()
+        .unwrap()
+}
+
 fn run(args: &[&str]) -> String {
     let o = Command::new(common::terzaghi())
         .current_dir(common::repo())
@@ -44,13 +55,7 @@ fn told_its_hips_by_tf_the_node_predicts_a_heaving_pitching_robot_to_the_sensor_
     let walk = dir.path().join("walk.mcap");
     let walk = walk.to_str().unwrap();
     let made = run(&["simulate-robot", "-o", walk]);
-    let noise_at = made.find("noise ").unwrap() + "noise ".len();
-    let noise_max: f64 = made[noise_at..]
-        .split(['-', ' '])
-        .nth(1)
-        .unwrap()
-        .parse()
-        .unwrap();
+    let noise_max = noise_max_n(&made);
     let with_tf = leg_errors(&run(&["replay", walk, "--reevaluate", "-o", "/dev/null"]));
     let fixed = leg_errors(&run(&[
         "replay",
@@ -211,13 +216,7 @@ fn a_walking_robots_corrections_predict_another_walk_at_the_sensor_noise() {
         "-o",
         &other,
     ]);
-    let noise_at = made.find("noise ").unwrap() + "noise ".len();
-    let noise_max: f64 = made[noise_at..]
-        .split(['-', ' '])
-        .nth(1)
-        .unwrap()
-        .parse()
-        .unwrap();
+    let noise_max = noise_max_n(&made);
     let diagnosed = run(&["diagnose", &walk, "--out", &report]);
     assert_eq!(
         diagnosed.matches("verdict surcharge").count(),

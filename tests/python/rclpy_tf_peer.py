@@ -31,35 +31,24 @@ from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
-from builtin_interfaces.msg import Time
 from geometry_msgs.msg import TransformStamped
 from sensor_msgs.msg import JointState
 from terzaghi_msgs.msg import LegForce
 from tf2_msgs.msg import TFMessage
 
-PARAMS = """/**:
-  ros__parameters:
-    legs: [leg]
-    leg:
-      joint: hip
-      length_m: 0.25
-      width_m: 0.06
-      hip_height_m: 0.15
-      unit_weight_n_m3: 16170
-      phi_deg: 32.0
-      delta_deg: 19.0
-      b_k: 2.0
-      a: 1.5
-      hip_frame: leg_hip
-"""
-GEOM = ["--length-m", "0.25", "--width-m", "0.06", "--unit-weight-n-m3", "16170",
-        "--phi-deg", "32", "--delta-deg", "19", "--bk", "2.0", "--a", "1.5"]
+from rclpy_peer import GEOM as LEG_GEOM, PARAMS as LEG_PARAMS, predict_table, stamp_of, wait_until
+
+# The rclpy peer's leg, placed by /tf instead of measured by F/T.
+PARAMS = LEG_PARAMS.replace("      ft_topic: leg/ft\n", "      hip_frame: leg_hip\n")
+assert "hip_frame" in PARAMS
 HIP_X_M = 0.1
 
 
-def stamp_of(t):
-    ns = int(round(t * 1e9))
-    return Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
+def geometry_at(hip_height_m):
+    """`terzaghi predict`'s flags for the leg with its hip at `hip_height_m`."""
+    g = list(LEG_GEOM)
+    g[g.index("--hip-height-m") + 1] = repr(hip_height_m)
+    return [*g, "--bk", "2.0", "--a", "1.5"]
 
 
 def transform(parent, child, t_s, x, z, pitch):
@@ -72,13 +61,6 @@ def transform(parent, child, t_s, x, z, pitch):
     m.transform.rotation.y = math.sin(pitch / 2)
     m.transform.rotation.w = math.cos(pitch / 2)
     return m
-
-
-def predict_table(binary, hip_height_m, spec):
-    out = subprocess.run([binary, "predict", *GEOM, "--hip-height-m", repr(hip_height_m),
-                          "--beta-deg", spec, "--format", "json"],
-                         check=True, capture_output=True, text=True)
-    return json.loads(out.stdout)
 
 
 class Peer(Node):
@@ -98,15 +80,6 @@ class Peer(Node):
     def on_force(self, m):
         with self.lock:
             self.forces[(m.header.stamp.sec, m.header.stamp.nanosec)] = m
-
-
-def wait_until(pred, timeout_s):
-    end = time.monotonic() + timeout_s
-    while time.monotonic() < end:
-        if pred():
-            return True
-        time.sleep(0.02)
-    return False
 
 
 def main():
@@ -175,7 +148,7 @@ def main():
                 time.sleep(0.005)
             time.sleep(0.1)
             hip_h = z - HIP_X_M * math.sin(pitch)
-            for row in predict_table(args.terzaghi, hip_h, spec):
+            for row in predict_table(args.terzaghi, geometry_at(hip_h), spec):
                 send_pose(z, pitch)
                 time.sleep(0.002)
                 send_angle(math.radians(row["beta_deg"]))
