@@ -34,8 +34,8 @@ impl NodeCore {
             kv("dropped_queue_full", dropped.to_string()),
             kv("model", self.cfg.model.as_str().to_string()),
         ];
-        // Transforms of the robot's state refused (NaN, zero rotation, bad frames, stamped
-        // ahead of the joint states): a WARN while they grow.
+        // Transforms of the robot's state refused (NaN, zero rotation, bad frames): a WARN
+        // while they grow.
         let tf_invalid = self.tf_invalid();
         let tf_invalid_new = tf_invalid - self.tf_invalid_at_last_diag.min(tf_invalid);
         self.tf_invalid_at_last_diag = tf_invalid;
