@@ -174,6 +174,52 @@ other_node:
     }
 
     #[test]
+    fn the_improved_model_without_b_k_and_a_from_anywhere_is_refused() {
+        let leg = |extra: &str| {
+            let yaml = format!(
+                "/**:\n  ros__parameters:\n    legs: [fl]\n    fl:\n      length_m: 0.25\n      hip_height_m: 0.15\n{extra}"
+            );
+            let mut p = defaults();
+            p.extend(parse_params_yaml(&yaml, "t", "terzaghi", "/").unwrap());
+            NodeConfig::from_params(&p, "terzaghi", "/", &[]).map(|c| c.legs[0].width)
+        };
+        let custom = "      unit_weight_n_m3: 16170\n      phi_deg: 32.0\n      delta_deg: 19.0\n";
+        // No preset, no b_k and a, no F/T to identify them: refused, as terzaghi predict does.
+        let e = leg(&format!("      width_m: 0.06\n{custom}"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("fl.b_k is required"), "{e}");
+        // A preset without a fit for this width: refused, naming the widths it has.
+        let e = leg("      width_m: 0.07\n      medium: hit_sand\n")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("only for plate widths") && e.contains("0.06"),
+            "{e}"
+        );
+        // Given, from the preset's fit, or learnt online from F/T (starting conventional).
+        let w = leg(&format!(
+            "      width_m: 0.06\n{custom}      b_k: 2.0\n      a: 1.5\n"
+        ))
+        .unwrap();
+        assert_eq!((w.b_k(), w.a()), (2.0, 1.5));
+        let w = leg("      width_m: 0.06\n      medium: hit_sand\n").unwrap();
+        assert_eq!((w.b_k(), w.a()), (22.4, 7.78));
+        let w = leg(&format!(
+            "      width_m: 0.06\n{custom}      ft_topic: fl/ft\n"
+        ))
+        .unwrap();
+        assert_eq!((w.b_k(), w.a()), (1.0, 1.0));
+        // The conventional model needs neither.
+        let yaml = format!(
+            "/**:\n  ros__parameters:\n    model: conventional\n    legs: [fl]\n    fl:\n      length_m: 0.25\n      hip_height_m: 0.15\n      width_m: 0.06\n{custom}"
+        );
+        let mut p = defaults();
+        p.extend(parse_params_yaml(&yaml, "t", "terzaghi", "/").unwrap());
+        assert!(NodeConfig::from_params(&p, "terzaghi", "/", &[]).is_ok());
+    }
+
+    #[test]
     fn bad_values_name_parameter_and_value() {
         let cases = [
             ("-p left.width_m:=-1", "left.width_m"),

@@ -710,8 +710,39 @@ fn leg_config(
         }
     };
     let fit = preset.and_then(|p| p.fitting_width_for(width));
-    let b_k = g.f64(&k("b_k"))?.or(fit.map(|f| f.b_k())).unwrap_or(1.0);
-    let a = g.f64(&k("a"))?.or(fit.map(|f| f.a())).unwrap_or(1.0);
+    let (given_b_k, given_a) = (g.f64(&k("b_k"))?, g.f64(&k("a"))?);
+    // The improved model's b_k, a come from the parameters, the preset's fit for this width,
+    // or the leg's own F/T (identified online from the conventional b_k = a = 1), as `terzaghi
+    // predict` asks for them; never silently from nowhere.
+    let has_ft = g.str(&k("ft_topic"))?.is_some_and(|t| !t.is_empty());
+    if model == ModelKind::Improved
+        && fit.is_none()
+        && (given_b_k.is_none() || given_a.is_none())
+        && !has_ft
+    {
+        let name = k(if given_b_k.is_none() { "b_k" } else { "a" });
+        let hint = match preset {
+            Some(p) => format!(
+                "medium {} has identified b_k, a only for plate widths {} m, not {width} m: give {} and {}, or an ft_topic to identify them online",
+                p.name,
+                p.fits_by_width
+                    .iter()
+                    .map(|w| w.0.to_string())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                k("b_k"),
+                k("a")
+            ),
+            None => format!(
+                "the improved model needs b_k and a for a medium without a preset: give {} and {}, or an ft_topic to identify them online",
+                k("b_k"),
+                k("a")
+            ),
+        };
+        return Err(ConfigError::Missing { name, hint });
+    }
+    let b_k = given_b_k.or(fit.map(|f| f.b_k())).unwrap_or(1.0);
+    let a = given_a.or(fit.map(|f| f.a())).unwrap_or(1.0);
     let width_fit = FittingWidth::new(b_k, a).map_err(model_err(&k("b_k")))?;
     let corrections = leg_corrections(g.0, leg, &plate, &medium, b_k, a)?;
     if corrections.is_some() && model != ModelKind::Improved {

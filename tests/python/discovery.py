@@ -30,6 +30,8 @@ PARAMS = """/**:
       unit_weight_n_m3: 16170
       phi_deg: 32.0
       delta_deg: 19.0
+      b_k: 2.0
+      a: 1.5
 """
 
 
