@@ -208,11 +208,10 @@ impl WidthArgs {
             bail!("the improved model needs --bk and --a for a custom medium");
         };
         preset.fitting_width_for(plate.width_m()).with_context(|| {
-            let widths: Vec<String> = preset.fits_by_width.iter().map(|w| w.0.to_string()).collect();
             format!(
                 "medium {} has identified b_k, a only for plate widths {} m, not {} m; pass --bk and --a",
                 preset.name,
-                widths.join(", "),
+                preset.fitted_widths_m(),
                 plate.width_m()
             )
         })

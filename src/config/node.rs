@@ -725,11 +725,7 @@ fn leg_config(
             Some(p) => format!(
                 "medium {} has identified b_k, a only for plate widths {} m, not {width} m: give {} and {}, or an ft_topic to identify them online",
                 p.name,
-                p.fits_by_width
-                    .iter()
-                    .map(|w| w.0.to_string())
-                    .collect::<Vec<_>>()
-                    .join(", "),
+                p.fitted_widths_m(),
                 k("b_k"),
                 k("a")
             ),

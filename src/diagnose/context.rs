@@ -198,8 +198,11 @@ impl Context {
             if i % stride.max(1) != 0 {
                 continue;
             }
+            // At a placed hip, the stronger model at that height (its medium's constants kept).
             let stronger_here = match &placed {
-                Some((m, _)) => stronger_unit_model(m),
+                Some((m, _)) => stronger
+                    .as_ref()
+                    .and_then(|s| s.with_hip_height_m(m.plate().hip_height_m()).ok()),
                 None => stronger.clone(),
             };
             let per_phi = match (

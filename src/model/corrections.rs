@@ -666,18 +666,10 @@ impl CorrectedModel {
             return Ok((None, beta_rad));
         };
         let unit = self.unit.with_hip_height_m(h.height_m)?;
-        let moved =
-            match &self.moved {
-                // As moved_unit_model: the surface `surface_drop_m` lower, within the leg's reach.
-                Some(_) => {
-                    let drop = self.corrections.nonlinear.surface_drop_m;
-                    let l = unit.plate().length_m();
-                    Some(unit.with_hip_height_m(
-                        (unit.plate().hip_height_m() + drop).clamp(0.0, 0.95 * l),
-                    )?)
-                }
-                None => None,
-            };
+        let moved = self
+            .moved
+            .as_ref()
+            .map(|_| moved_unit_model(&unit, self.corrections.nonlinear.surface_drop_m));
         let stronger = match &self.stronger {
             Some(m) => Some(m.with_hip_height_m(h.height_m)?),
             None => None,
@@ -897,15 +889,13 @@ impl CorrectedModel {
     }
 }
 
-/// The unit model with the surface `surface_drop_m` lower than configured (the hip that much
-/// higher above it), the hip kept within the plate's reach.
+/// The unit model (`b_k = a = 1`) with the surface `surface_drop_m` lower than configured (the
+/// hip that much higher above it), the hip kept within the plate's reach. It keeps `unit`'s
+/// medium constants: called per sample for a hip the robot's state places.
 pub fn moved_unit_model(unit: &TerzaghiModel, surface_drop_m: f64) -> TerzaghiModel {
     let plate = unit.plate();
     let h = (plate.hip_height_m() + surface_drop_m).clamp(0.0, 0.95 * plate.length_m());
-    match Plate::new(plate.length_m(), plate.width_m(), h) {
-        Ok(moved) => TerzaghiModel::conventional(moved, *unit.medium()),
-        Err(_) => unit.clone(),
-    }
+    unit.with_hip_height_m(h).unwrap_or_else(|_| unit.clone())
 }
 
 /// The unit model in a medium one degree stronger in friction (none where `phi` is at its

@@ -270,6 +270,15 @@ impl MediumPreset {
         })?;
         FittingWidth::new(b_k, a).ok()
     }
+
+    /// The plate widths (m) that have a fit of their own, as a list for a message.
+    pub fn fitted_widths_m(&self) -> String {
+        self.fits_by_width
+            .iter()
+            .map(|w| w.0.to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
 }
 
 #[cfg(test)]

@@ -322,7 +322,7 @@ pub fn measured_samples_placed<'a>(
                 lift_n: mt.lift_n,
             });
             if let Some(frame) = &frames[leg] {
-                hips[leg].push(tree.hip_motion(&rs, frame, mt.t_ns, 0.0).ok());
+                hips[leg].push(tree.hip_motion(&rs, frame, mt.angle_t_ns, 0.0).ok());
             }
         }
     };

@@ -305,14 +305,7 @@ mod tests {
                 drag_n: 0.0,
                 lift_n: 0.0,
             };
-            if w.push(
-                Watched {
-                    sample: s,
-                    hip: None,
-                },
-                3,
-                5,
-            ) {
+            if w.push(Watched::new(s, None), 3, 5) {
                 due.push(w.stroke);
                 assert!(w.strokes() >= 4 && w.strokes() <= 5, "{}", w.strokes());
             }

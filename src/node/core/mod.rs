@@ -753,8 +753,10 @@ impl NodeCore {
                 if self.mode != CoreMode::Node {
                     self.matches.push((leg, mt));
                 }
-                self.watch_gap(leg, &mt);
-                if let Some(p) = self.learn(leg, &mt) {
+                // Where the robot's state put the hip at the matched angle, once for both.
+                let state_hip = self.hip_at(leg, mt.angle_t_ns);
+                self.watch_gap(leg, &mt, state_hip);
+                if let Some(p) = self.learn(leg, &mt, state_hip) {
                     self.params_out.push((leg, p));
                 }
             }
@@ -763,7 +765,7 @@ impl NodeCore {
 
     /// Keeps a matched sample for the leg's own diagnosis; makes the job when one is due (one
     /// waiting per leg at most).
-    fn watch_gap(&mut self, leg: usize, mt: &Matched) {
+    fn watch_gap(&mut self, leg: usize, mt: &Matched, hip: Option<HipMotion>) {
         let g = self.cfg.gap_check;
         // The diagnosis is of a flat plate's gap: a leg of another shape is not watched. A leg
         // the robot's state places is diagnosed at its hips.
@@ -771,7 +773,6 @@ impl NodeCore {
         if self.mode == CoreMode::ReevaluationRows || lc.profile.is_some() {
             return;
         }
-        let hip = self.hip_at(leg, mt.angle_t_ns);
         let Some(l) = self.legs.get_mut(leg) else {
             return;
         };
@@ -813,11 +814,15 @@ impl NodeCore {
     /// Updates the estimator of `leg` with a matched sample; the parameters to publish when
     /// they are due (at most `model_params_rate_hz`, and at once on convergence or a detected
     /// change).
-    fn learn(&mut self, leg: usize, mt: &Matched) -> Option<ModelParams> {
+    fn learn(
+        &mut self,
+        leg: usize,
+        mt: &Matched,
+        state_hip: Option<HipMotion>,
+    ) -> Option<ModelParams> {
         let period_ns = (1e9 / self.cfg.model_params_rate_hz) as i64;
         let stamp = Time::from_nanos(mt.t_ns).unwrap_or_default();
         let t_ns = mt.t_ns;
-        let state_hip = self.hip_at(leg, mt.angle_t_ns);
         let hip = self.with_surface(leg, state_hip);
         let nominal_height =
             state_hip.map_or(self.cfg.legs[leg].plate.hip_height_m(), |h| h.height_m);
