@@ -342,6 +342,10 @@ pub struct LearntOnline {
     pub values: Vec<LearntValue>,
     pub converged: bool,
     pub changes_detected: u64,
+    /// Change alarms dismissed: the estimate predicted the strokes after them as well as a refit.
+    pub alarms_dismissed: u64,
+    /// A change alarm still under test at the session's end.
+    pub alarm_under_test: bool,
     /// Changes the bare estimator (`b_k, a`, the node's defaults) detects in the same session,
     /// which has none: what its change detection makes of the same misfit.
     pub bare_changes_detected: u64,
@@ -425,6 +429,8 @@ pub fn learnt_online(i: usize, seed: u64) -> Result<LearntOnline, HeldOutError> 
         values: learnt_values(&batch, &est),
         converged: est.estimate().converged,
         changes_detected: est.estimate().changes_detected,
+        alarms_dismissed: est.alarms_dismissed(),
+        alarm_under_test: est.alarm_under_test(),
         bare_changes_detected: bare.estimate().changes_detected,
     })
 }
@@ -503,6 +509,8 @@ pub fn learnt_step(i: usize, seed: u64, factor: f64) -> Result<LearntStep, HeldO
         values: learnt_values(batch, est),
         converged: est.estimate().converged,
         changes_detected: est.estimate().changes_detected,
+        alarms_dismissed: est.alarms_dismissed(),
+        alarm_under_test: est.alarm_under_test(),
         bare_changes_detected: 0,
     };
     let before = part("before the step", &batch_first, &est);

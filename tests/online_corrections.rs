@@ -52,10 +52,19 @@ fn corrections_learnt_online_reach_the_batch_diagnosis() {
             .any(|c| c.values.iter().filter(|v| v.determined()).count() >= 4 && c.holds()),
         "no case checks coefficients beside b_k and a"
     );
+    // No session has a step of the medium: the change alarms that the terms' misfit in some
+    // strokes raises are dismissed, and none restarts the estimate.
+    for c in &all {
+        assert_eq!(c.changes_detected, 0, "{}", table(c));
+    }
+    assert!(
+        all.iter().map(|c| c.alarms_dismissed).sum::<u64>() >= 3,
+        "the sessions raise no alarm to dismiss"
+    );
     // Expected misses on this run, stated rather than left out (README, "Learnt online"):
-    // rate, inertia and surcharge end in a restart after a change alarm raised by the
-    // terms' misfit in some strokes; extraction's drag scale is 15 % off the batch value;
-    // compaction's change in the session is not something a stationary learner places.
+    // rate's tangential coefficient ends 20-25 % off the batch value (the estimate converged,
+    // its change alarms dismissed); extraction's drag scale is 15 % off; compaction's change in
+    // the session is not something a stationary learner places.
     let holding: Vec<&str> = all
         .iter()
         .filter(|c| c.holds())
@@ -63,7 +72,14 @@ fn corrections_learnt_online_reach_the_batch_diagnosis() {
         .collect();
     assert_eq!(
         holding,
-        ["cohesion", "hip_height", "sensor_bias", "sensor_lag"],
+        [
+            "inertia",
+            "surcharge",
+            "cohesion",
+            "hip_height",
+            "sensor_bias",
+            "sensor_lag"
+        ],
         "update the expected misses here and in the README"
     );
 }

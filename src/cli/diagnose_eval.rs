@@ -181,7 +181,7 @@ pub fn render_online(
 ) -> String {
     use crate::closed_loop::{LearntOnline, STEP_FACTOR};
     let mut s = String::from(
-        "Corrected model learnt online from b_k = a = 1 and zero coefficients, against the batch diagnosis of the same session\n(a value counts as determined when its batch value is over three online standard deviations from zero; b_k and a always)\n\n| case | hidden effect | strokes | determined values within 10 % | largest difference of a determined value | converged | changes detected (the bare estimator's) | holds |\n|---|---|---|---|---|---|---|---|\n",
+        "Corrected model learnt online from b_k = a = 1 and zero coefficients, against the batch diagnosis of the same session\n(a value counts as determined when its batch value is over three online standard deviations from zero; b_k and a always)\n\n| case | hidden effect | strokes | determined values within 10 % | largest difference of a determined value | converged | changes detected (the bare estimator's) | change alarms dismissed | holds |\n|---|---|---|---|---|---|---|---|---|\n",
     );
     let worst = |c: &LearntOnline| {
         c.values
@@ -202,7 +202,7 @@ pub fn render_online(
     };
     for c in cases {
         s += &format!(
-            "| {} | {} | {} | {} | {} | {} | {} ({}) | {} |\n",
+            "| {} | {} | {} | {} | {} | {} | {} ({}) | {} | {} |\n",
             c.case,
             c.truth,
             c.strokes,
@@ -211,6 +211,11 @@ pub fn render_online(
             if c.converged { "yes" } else { "no" },
             c.changes_detected,
             c.bare_changes_detected,
+            if c.alarm_under_test {
+                format!("{}, 1 under test at the end", c.alarms_dismissed)
+            } else {
+                c.alarms_dismissed.to_string()
+            },
             if c.holds() { "yes" } else { "no" }
         );
     }

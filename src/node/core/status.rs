@@ -109,6 +109,12 @@ impl NodeCore {
                     kv("converged", e.converged.to_string()),
                     kv("changes_detected", e.changes_detected.to_string()),
                 ]);
+                if let Some(super::Learner::Corrected(c)) = &l.estimator {
+                    values.extend([
+                        kv("change_alarms_dismissed", c.alarms_dismissed().to_string()),
+                        kv("change_alarm_under_test", c.alarm_under_test().to_string()),
+                    ]);
+                }
                 message = if e.converged {
                     "identified".into()
                 } else {
