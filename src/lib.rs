@@ -1,19 +1,18 @@
-//! `terzaghi`: forces on flat legs rotating through sand and other granular media, as a ROS 2
-//! node, a library and a command line.
+//! `terzaghi`: forces on flat and curved legs moving through sand and other granular media, as
+//! a ROS 2 node, a library and a command line.
 //!
-//! The modules, lowest first; each uses only those above it in this list:
+//! The pure core (the models, their identification, the diagnosis's analysis, synthetic
+//! sessions) is the crate `terzaghi-core`, re-exported here as [`model`], [`ident`],
+//! [`diagnose`] and (with the six-legged robot added) [`sim`]. This crate's modules, lowest
+//! first; each uses only the core and those above it in this list:
 //!
-//! - [`model`]: the improved and conventional Terzaghi models and RFT (pure).
-//! - [`ident`]: identification of the fitting width `b_k, a` (and `delta`) from measured
-//!   forces, batch and online, and goodness of fit (pure).
 //! - [`msgs`]: the ROS 2 messages the node reads and writes, and their CDR encoding.
 //! - [`config`]: node parameters as ROS gives them (params files, `--ros-args`, environment)
 //!   validated into a node configuration, and the node's topic names.
 //! - [`dataset`]: force logs (CSV) read into samples.
 //! - [`record`]: sessions as ROS 2 MCAP files: writing, the recorder thread, reading, recovery.
-//! - [`sim`]: synthetic sessions: one leg, the six-legged robot, and the generator of hidden
-//!   effects (pure).
-//! - [`diagnose`]: the analysis of the sim-to-real gap of one leg's samples (pure).
+//! - [`sim`]: the core's synthetic sessions, and the six-legged robot, which speaks the node's
+//!   messages (pure).
 //! - [`node`]: the node: its core (each message, without DDS or clock), its DDS adapter, its
 //!   in-memory transport, the client of a node's parameters.
 //! - [`session`]: operations on a session as a user runs them: re-evaluate a recording,
@@ -36,12 +35,11 @@ pub mod config;
 pub mod dataset;
 pub mod dem;
 pub mod demo;
-pub mod diagnose;
-pub mod ident;
-pub mod model;
 pub mod msgs;
 pub mod node;
 pub mod record;
 pub mod session;
 pub mod sim;
+
+pub use terzaghi_core::{diagnose, ident, model};
 pub mod withheld;

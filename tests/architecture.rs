@@ -59,9 +59,9 @@ fn uses(text: &str, modules: &[String]) -> BTreeSet<String> {
     out
 }
 
-#[test]
-fn every_module_is_on_the_map_and_uses_only_those_above_it() {
-    let src = repo().join("src");
+/// One crate's `src/lib.rs` map against its modules: every module is on the map, and each
+/// uses only modules above it there (the crates below it are not on the map: any may be used).
+fn check_map(src: &Path) -> Vec<String> {
     let lib = std::fs::read_to_string(src.join("lib.rs")).unwrap();
     // The map: "//! - [`name`]: ..." lines, in order.
     let map: Vec<String> = lib
@@ -75,12 +75,18 @@ fn every_module_is_on_the_map_and_uses_only_those_above_it() {
         .filter_map(|l| l.strip_prefix("pub mod "))
         .map(|l| l.trim_end_matches(';').to_string())
         .collect();
+    assert!(declared.len() >= 4, "{}: no modules found", src.display());
     let on_map: BTreeSet<&String> = map.iter().collect();
     let all: BTreeSet<&String> = declared.iter().collect();
-    assert_eq!(on_map, all, "src/lib.rs's map and its modules differ");
+    assert_eq!(
+        on_map,
+        all,
+        "{}/lib.rs's map and its modules differ",
+        src.display()
+    );
     for (i, module) in map.iter().enumerate() {
         let above = &map[..i];
-        for file in files_of(&src, module) {
+        for file in files_of(src, module) {
             let text = std::fs::read_to_string(&file).unwrap();
             for used in uses(&text, &declared) {
                 if &used == module {
@@ -88,11 +94,77 @@ fn every_module_is_on_the_map_and_uses_only_those_above_it() {
                 }
                 assert!(
                     above.contains(&used),
-                    "{} ({module}) uses crate::{used}, which is not above {module} on the map of src/lib.rs",
-                    file.display()
+                    "{} ({module}) uses crate::{used}, which is not above {module} on the map of {}/lib.rs",
+                    file.display(),
+                    src.display()
                 );
             }
         }
     }
+    map
+}
+
+#[test]
+fn every_module_is_on_the_map_and_uses_only_those_above_it() {
+    let map = check_map(&repo().join("src"));
     assert_eq!(map.last().map(String::as_str), Some("cli"), "cli is on top");
+    let core = check_map(&repo().join("crates/terzaghi-core/src"));
+    assert_eq!(core, ["model", "ident", "sim", "diagnose"]);
+}
+
+/// The core crate needs no I/O, DDS, runtime or command line: its dependencies are the
+/// numerical ones it declares, and nothing of the node's.
+#[test]
+fn the_core_crate_depends_on_no_dds_runtime_or_command_line() {
+    let manifest = std::fs::read_to_string(repo().join("crates/terzaghi-core/Cargo.toml")).unwrap();
+    let deps: Vec<&str> = manifest
+        .split("[dependencies]")
+        .nth(1)
+        .unwrap()
+        .lines()
+        .take_while(|l| !l.starts_with('['))
+        .filter_map(|l| l.split('=').next())
+        .map(str::trim)
+        .filter(|l| !l.is_empty())
+        .collect();
+    assert_eq!(
+        deps,
+        ["nalgebra", "rand", "rand_distr", "serde", "thiserror"]
+    );
+    let out = std::process::Command::new(env!("CARGO"))
+        .args([
+            "tree",
+            "--offline",
+            "-p",
+            "terzaghi-core",
+            "-e",
+            "normal",
+            "--prefix",
+            "none",
+        ])
+        .current_dir(repo())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let tree = String::from_utf8(out.stdout).unwrap();
+    assert!(tree.contains("nalgebra"), "{tree}");
+    for forbidden in [
+        "rustdds",
+        "ros2-client",
+        "foxglove",
+        "tokio",
+        "clap",
+        "mcap",
+    ] {
+        assert!(
+            !tree
+                .lines()
+                .any(|l| l.starts_with(&format!("{forbidden} "))),
+            "terzaghi-core depends on {forbidden}:\n{tree}"
+        );
+    }
 }

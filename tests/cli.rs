@@ -170,7 +170,7 @@ fn help_for_every_command() {
 }
 
 fn bench(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_terzaghi-bench"))
+    Command::new(common::bench_exe())
         .args(args)
         .output()
         .expect("run terzaghi-bench")

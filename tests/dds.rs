@@ -411,7 +411,7 @@ fn a_foxglove_client_that_never_reads_does_not_hold_up_the_node() {
         py = python().display(),
         client = repo().join("tests/python/foxglove_client.py").display(),
         stuck = stuck.display(),
-        bench = env!("CARGO_BIN_EXE_terzaghi-bench"),
+        bench = bench_exe().display(),
     );
     let out = isolated_command(std::path::Path::new("/bin/sh"))
         .arg("-c")
@@ -469,7 +469,7 @@ fn a_warning_per_message_at_10_khz_is_throttled() {
 
 /// `terzaghi-bench node --load ARGS --json` on ROS_DOMAIN_ID `domain`: what it measured.
 fn bench_node_load(args: &[&str], domain: &str) -> serde_json::Value {
-    let out = isolated_command(std::path::Path::new(env!("CARGO_BIN_EXE_terzaghi-bench")))
+    let out = isolated_command(&bench_exe())
         .args(["node", "--load"])
         .args(args)
         .arg("--json")

@@ -2,6 +2,8 @@
 //! on disk), its reports, its refusals of bad logs, and `diagnose-eval`, the check on sessions
 //! whose hidden effect the diagnosis is not told.
 
+mod common;
+
 use serde_json::Value;
 use std::path::Path;
 use std::process::{Command, Output};
@@ -207,7 +209,7 @@ fn a_csv_log_gives_a_report_that_names_the_hidden_effect() {
 /// Writes a short six-legged session (hidden surcharge) through the diagnosis benchmark's
 /// simulation.
 fn six_legged_session(path: &Path) -> Value {
-    let out = ok(&Command::new(env!("CARGO_BIN_EXE_terzaghi-bench"))
+    let out = ok(&Command::new(common::bench_exe())
         .args([
             "diagnose",
             "--minutes",

@@ -16,6 +16,18 @@ pub fn terzaghi() -> PathBuf {
     PathBuf::from(env!("CARGO_BIN_EXE_terzaghi"))
 }
 
+/// The benchmarks' binary (the workspace's `terzaghi-bench` package), which `cargo test` at the
+/// top of the workspace builds beside `terzaghi`.
+pub fn bench_exe() -> PathBuf {
+    let exe = terzaghi().with_file_name("terzaghi-bench");
+    assert!(
+        exe.exists(),
+        "{} is missing: cargo build --release -p terzaghi-bench",
+        exe.display()
+    );
+    exe
+}
+
 /// `netns-run`: `$NETNS_RUN`, else `../shared/tools/netns-run` beside the repository.
 pub fn netns_run() -> PathBuf {
     std::env::var_os("NETNS_RUN")
