@@ -441,8 +441,8 @@ pub fn from_cdr<M: for<'de> Deserialize<'de>>(bytes: &[u8]) -> Result<M, CdrErro
 /// re-evaluation decodes millions of times. Hand-written beside serde's decoding
 /// (`cdr_encoding`, as [`from_cdr`] does), which makes every string and array anew: here the
 /// names and arrays keep their allocations, and a name that equals the one already held is not
-/// copied or checked again. `cargo bench --bench session` measures the two (README,
-/// Benchmarks); the result is the same as [`from_cdr`]'s, which a unit test checks on good and
+/// copied or checked again. `cargo bench --bench session` measures the two (`docs/benchmarks.md`);
+/// the result is the same as [`from_cdr`]'s, which a unit test checks on good and
 /// damaged bytes and a property test (`tests/properties.rs`) on arbitrary messages.
 pub trait DecodeInto {
     fn decode_into(&mut self, bytes: &[u8]) -> Result<(), CdrError>;

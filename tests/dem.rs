@@ -418,8 +418,7 @@ fn the_node_predicts_the_dem_c_leg_with_rft_from_the_dem() {
         drag_id > drag + 0.03 && lift_id > 0.8,
         "{drag_id} {lift_id}"
     );
-    let readme =
-        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/README.md")).unwrap();
+    let readme = common::docs_text();
     let line = format!("RMSE {rmse_id:.3} N (R^2 drag {drag_id:.3}, lift {lift_id:.3})");
     assert!(readme.contains(&line), "README lacks {line}");
     // At every hip height of the campaign's C-leg runs: drag past 0.8 with nothing fitted, lift
@@ -490,8 +489,7 @@ fn reevaluated(session: &str, params_file: &str, extra: &[&str]) -> (f64, f64, f
 /// trajectory makes the prediction worse (an expected miss, stated in the README).
 #[test]
 fn the_hips_trajectory_from_tf_predicts_the_dem_strokes_better() {
-    let readme =
-        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/README.md")).unwrap();
+    let readme = common::docs_text();
     let flat = "launch_configs/dem_moving_hip.yaml";
     let cleg = "launch_configs/dem_moving_hip_cleg.yaml";
     let runs = [
@@ -550,7 +548,7 @@ fn the_hips_trajectory_from_tf_predicts_the_dem_strokes_better() {
 #[test]
 fn the_surface_learnt_online_on_dem_strokes() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let readme = std::fs::read_to_string(dir.join("README.md")).unwrap();
+    let readme = common::docs_text();
     let params = "launch_configs/dem_moving_hip.yaml";
     let runs = [
         ("var_surface_10mm", 0.010),

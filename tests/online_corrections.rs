@@ -199,8 +199,7 @@ fn the_readme_tables_are_what_diagnose_eval_online_prints() {
         String::from_utf8_lossy(&out.stderr)
     );
     let printed = String::from_utf8(out.stdout).unwrap();
-    let readme =
-        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/README.md")).unwrap();
+    let readme = common::docs_text();
     let rows: Vec<&str> = printed
         .lines()
         .filter(|l| {

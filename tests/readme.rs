@@ -169,15 +169,16 @@ fn check_demo(dir: &Path, python: &Path) {
     assert!(dir.join("diagnosis/report.html").exists());
 }
 
-/// The README's Rust example is the doctest of `terzaghi::session` (which `cargo test` runs on a
-/// recording of the simulated robot): the two say the same, line for line.
+/// The library's Rust example (`docs/command-line.md`) is the doctest of `terzaghi::session`
+/// (which `cargo test` runs on a recording of the simulated robot): the two say the same, line
+/// for line.
 #[test]
 fn the_readme_rust_example_is_the_tested_one() {
     let repo = common::repo();
-    let readme = std::fs::read_to_string(repo.join("README.md")).unwrap();
+    let readme = std::fs::read_to_string(repo.join("docs/command-line.md")).unwrap();
     let start = readme
         .find("```rust\n")
-        .expect("the README has a rust block")
+        .expect("docs/command-line.md has a rust block")
         + 8;
     let example = &readme[start..start + readme[start..].find("```").unwrap()];
     let module = std::fs::read_to_string(repo.join("src/session/mod.rs")).unwrap();
@@ -190,6 +191,81 @@ fn the_readme_rust_example_is_the_tested_one() {
         .collect();
     assert!(
         doc.contains(example),
-        "the README's rust block is not the doctest of src/session/mod.rs:\n{example}"
+        "docs/command-line.md's rust block is not the doctest of src/session/mod.rs:\n{example}"
     );
+}
+
+/// Every relative link of the README and of `docs/` reaches a file of the repository, and every
+/// `#anchor` a heading of the page it names: a newcomer following them never lands nowhere.
+#[test]
+fn the_documentation_links_resolve() {
+    let repo = common::repo();
+    let mut pages = vec![repo.join("README.md")];
+    for e in std::fs::read_dir(repo.join("docs")).unwrap() {
+        let p = e.unwrap().path();
+        if p.extension().is_some_and(|x| x == "md") {
+            pages.push(p);
+        }
+    }
+    assert!(pages.len() >= 8, "{pages:?}");
+    // GitHub's anchor of a heading: lower case, punctuation but '-' and '_' dropped, spaces '-'.
+    let anchors = |text: &str| -> Vec<String> {
+        text.lines()
+            .filter(|l| l.starts_with('#'))
+            .map(|l| {
+                l.trim_start_matches('#')
+                    .trim()
+                    .to_lowercase()
+                    .chars()
+                    .filter(|c| c.is_alphanumeric() || *c == ' ' || *c == '-' || *c == '_')
+                    .map(|c| if c == ' ' { '-' } else { c })
+                    .collect()
+            })
+            .collect()
+    };
+    let mut checked = 0;
+    for page in &pages {
+        let text = std::fs::read_to_string(page).unwrap();
+        // Links outside code blocks: `](target)`.
+        let mut in_code = false;
+        for line in text.lines() {
+            if line.starts_with("```") {
+                in_code = !in_code;
+                continue;
+            }
+            if in_code {
+                continue;
+            }
+            for (i, _) in line.match_indices("](") {
+                let rest = &line[i + 2..];
+                let Some(end) = rest.find(')') else { continue };
+                let target = &rest[..end];
+                if target.contains("://") || target.contains(' ') {
+                    continue;
+                }
+                let (file, anchor) = target.split_once('#').unwrap_or((target, ""));
+                let path = if file.is_empty() {
+                    page.clone()
+                } else {
+                    page.parent().unwrap().join(file)
+                };
+                assert!(
+                    path.exists(),
+                    "{}: the link {target} leads nowhere",
+                    page.display()
+                );
+                if !anchor.is_empty() {
+                    let there = std::fs::read_to_string(&path).unwrap();
+                    assert!(
+                        anchors(&there).iter().any(|a| a == anchor),
+                        "{}: {target}: no such heading in {}",
+                        page.display(),
+                        path.display()
+                    );
+                }
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked >= 30, "only {checked} links");
 }

@@ -68,7 +68,7 @@ fn told_its_hips_by_tf_the_node_predicts_a_heaving_pitching_robot_to_the_sensor_
     ]));
     assert_eq!(with_tf.len(), 6, "{with_tf:?}");
     assert_eq!(fixed.len(), 6, "{fixed:?}");
-    let readme = std::fs::read_to_string(common::repo().join("README.md")).unwrap();
+    let readme = common::docs_text();
     for (t, f) in with_tf.iter().zip(&fixed) {
         assert_eq!(t.0, f.0);
         let row = format!(

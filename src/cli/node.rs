@@ -16,7 +16,7 @@ Environment: ROS_DOMAIN_ID (0-232), ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST or \
 ROS_LOCALHOST_ONLY=1 (DDS on loopback only).\n\
 Simulated time: -p use_sim_time:=true, and the node's time (diagnostics, parameter events, \
 recorded receive times) follows /clock (rosgraph_msgs/msg/Clock).\n\
-Parameters: see launch_configs/ and the README."
+Parameters: see launch_configs/ and docs/node.md."
 )]
 pub struct NodeArgs {
     /// Record the session (inputs and outputs) to this MCAP file (or the parameter `record`).

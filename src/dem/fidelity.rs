@@ -306,7 +306,7 @@ pub fn is_flat(run: &DemRun) -> bool {
     run.shape == LegShape::Flat
 }
 
-/// Everything the README's "Checked against DEM" section shows, from one campaign.
+/// Everything `docs/dem.md` ("Checked against DEM") shows, from one campaign.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct CampaignReport {
     pub baseline: String,

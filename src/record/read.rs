@@ -625,7 +625,7 @@ fn chunk_records(record: &[u8]) -> Result<Vec<u8>, String> {
 ///
 /// Hand-written beside mcap's record reader because a message record is a fixed 22-byte header
 /// and its data, which needs no generic parse: `cargo bench --bench session` measures the two on
-/// the same chunk (README, Benchmarks), and a property test (`tests/properties.rs`) checks that
+/// the same chunk (`docs/benchmarks.md`), and a property test (`tests/properties.rs`) checks that
 /// they read the same messages.
 pub fn message_records(
     records: &[u8],

@@ -13,7 +13,7 @@ pub const CSV_HEADER: &str = "t_s,leg,beta_rad,regime,measured_drag_n,measured_l
 /// and the floats of a session repeat from row to row, so their text is looked up rather than
 /// formatted again. Floats are in their shortest exact form (zmij); legs' names are quoted by
 /// the csv crate, once. `cargo bench --bench session` measures it against the csv crate
-/// (README, Benchmarks); the unit tests below and a property test (`tests/properties.rs`) read
+/// (`docs/benchmarks.md`); the unit tests below and a property test (`tests/properties.rs`) read
 /// its rows back with the csv crate, field for field.
 pub struct CsvRows {
     /// Each leg's field, quoted as needed, with its comma.

@@ -8,7 +8,8 @@
 //! A session is a ROS 2 MCAP file (recorded by `terzaghi node` or any ROS 2 tool) or, for one
 //! leg, a CSV log of `t_s,beta_rad,drag_n,lift_n` ([`legs`]).
 //!
-//! Re-evaluating and diagnosing a recording through the library (the README's example):
+//! Re-evaluating and diagnosing a recording through the library (the example of
+//! `docs/command-line.md`):
 //!
 //! ```
 //! use std::path::Path;

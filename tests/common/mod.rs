@@ -258,3 +258,21 @@ pub fn ros_python_command(script: &str, args: &[&str]) -> Command {
         .current_dir(repo().join("tests/python"));
     c
 }
+
+/// The README and every page of `docs/`, one after the other: where the figures that tests keep
+/// in step with their commands are written.
+pub fn docs_text() -> String {
+    let mut pages = vec![repo().join("README.md")];
+    let mut docs: Vec<PathBuf> = std::fs::read_dir(repo().join("docs"))
+        .expect("docs/")
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "md"))
+        .collect();
+    docs.sort();
+    pages.extend(docs);
+    pages
+        .iter()
+        .map(|p| std::fs::read_to_string(p).unwrap())
+        .collect::<Vec<_>>()
+        .join("\n")
+}

@@ -11,7 +11,7 @@
 //!   (speed, added mass, surcharge, extraction, compaction, cohesion, surface level, and the F/T
 //!   sensor's offset and lag), fitted by the diagnosis and evaluated by the node.
 //!
-//! Conventions (the README's "The model's conventions"): `beta` is the attack angle in radians,
+//! Conventions (`docs/model.md`): `beta` is the attack angle in radians,
 //! `x` points along the travel of the submerged tip, `z` up; drag is positive when the medium
 //! pushes the plate along `-x`, lift positive up, hip torque positive when it resists the
 //! rotation. [`HipMotion`] places a hip the robot's state gives (height, pitch, velocity).
