@@ -27,7 +27,7 @@
 //! - A change alarm is tested before it is taken: the start-up's least squares runs again over
 //!   the turns after it, beside the estimate, which goes on learning. The change is confirmed,
 //!   and the refit takes over as a start-up's would, only when the estimate predicted those
-//!   turns [`CONFIRM_SSE_RATIO`] times worse than the refit; otherwise the alarm is dismissed.
+//!   turns with twice the refit's sum of squares or more; otherwise the alarm is dismissed.
 //!   Where a term's form parts from the medium for some strokes (the fastest ones, say), the
 //!   CUSUM rises as it would for a change, but a refit does no better, and a converged estimate
 //!   is not thrown away for it.
@@ -445,7 +445,7 @@ impl CorrectedEstimator {
     }
 
     /// Change alarms dismissed: over the start-up's turns after each, the estimate predicted
-    /// the samples as well as the start-up's refit of them ([`CONFIRM_SSE_RATIO`]).
+    /// the samples with less than twice the sum of squares of the start-up's refit of them.
     pub fn alarms_dismissed(&self) -> u64 {
         self.alarms_dismissed
     }

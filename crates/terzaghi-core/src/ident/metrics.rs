@@ -80,7 +80,7 @@ impl FitSums {
 /// Goodness of fit over `(drag, lift)` pairs.
 ///
 /// ```
-/// use terzaghi::ident::goodness_of_fit;
+/// use terzaghi_core::ident::goodness_of_fit;
 /// let g = goodness_of_fit(&[(1.0, 2.0), (2.0, 4.0)], &[(1.0, 2.0), (2.0, 4.0)]);
 /// assert_eq!((g.psi_drag, g.r2_lift, g.rmse_drag_n), (1.0, 1.0, 0.0));
 /// ```

@@ -16,7 +16,7 @@ impl Medium {
     /// plate–medium friction `delta` in [0, 90) deg.
     ///
     /// ```
-    /// use terzaghi::model::Medium;
+    /// use terzaghi_core::model::Medium;
     /// assert!(Medium::new(16170.0, 32.0, 19.0).is_ok());
     /// assert!(Medium::new(16170.0, 95.0, 19.0).unwrap_err().to_string().contains("95"));
     /// ```
@@ -94,7 +94,7 @@ impl FittingWidth {
     /// `b_e / b = b_k a^(-beta)`.
     ///
     /// ```
-    /// use terzaghi::model::FittingWidth;
+    /// use terzaghi_core::model::FittingWidth;
     /// let w = FittingWidth::new(2.0, 1.5).unwrap();
     /// assert!((w.factor(1.0) - 2.0 / 1.5).abs() < 1e-12);
     /// ```

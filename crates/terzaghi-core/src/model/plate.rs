@@ -17,7 +17,7 @@ impl Plate {
     /// (`h >= l`) is valid but never submerged: see [`Plate::never_submerged`].
     ///
     /// ```
-    /// use terzaghi::model::Plate;
+    /// use terzaghi_core::model::Plate;
     /// let plate = Plate::new(0.25, 0.06, 0.15).unwrap();
     /// assert!((plate.max_depth_m() - 0.10).abs() < 1e-12);
     /// assert!(Plate::new(0.25, -0.06, 0.15).is_err());
@@ -81,7 +81,7 @@ impl Plate {
 /// pointing up just before it swings down, `2pi + 1` rad is `1` rad one turn later.
 ///
 /// ```
-/// use terzaghi::model::wrap_beta_rad;
+/// use terzaghi_core::model::wrap_beta_rad;
 /// assert!((wrap_beta_rad(std::f64::consts::TAU + 1.0) - 1.0).abs() < 1e-12);
 /// ```
 pub fn wrap_beta_rad(beta_rad: f64) -> f64 {

@@ -124,7 +124,7 @@ impl RftFit {
     /// terms apart.
     ///
     /// ```
-    /// use terzaghi::model::RftFit;
+    /// use terzaghi_core::model::RftFit;
     /// let truth = RftFit::POPPY_LP;
     /// let mut pts = Vec::new();
     /// for b in [-60.0f64, -30.0, 0.0, 30.0, 60.0, 90.0] {
@@ -451,7 +451,7 @@ impl RftModel {
     /// Drag, lift and hip torque at attack angle `beta_rad` (wrapped to `[0, 2pi)`).
     ///
     /// ```
-    /// use terzaghi::model::{Plate, RftCoefficients, RftFit, RftModel};
+    /// use terzaghi_core::model::{Plate, RftCoefficients, RftFit, RftModel};
     /// let rft = RftModel::new(Plate::new(0.25, 0.06, 0.15).unwrap(),
     ///     RftCoefficients::Fit(RftFit::POPPY_LP), 100).unwrap();
     /// let p = rft.evaluate(60f64.to_radians()).unwrap();

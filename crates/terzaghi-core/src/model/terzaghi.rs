@@ -188,7 +188,7 @@ impl TerzaghiModel {
     /// non-finite angle.
     ///
     /// ```
-    /// use terzaghi::model::{FittingWidth, Medium, Plate, TerzaghiModel};
+    /// use terzaghi_core::model::{FittingWidth, Medium, Plate, TerzaghiModel};
     /// let model = TerzaghiModel::conventional(
     ///     Plate::new(0.25, 0.06, 0.15).unwrap(),
     ///     Medium::new(16170.0, 32.0, 19.0).unwrap(),
