@@ -165,7 +165,7 @@ pub fn held_out(
         train_strokes: train,
         test_strokes: strokes - train,
         test_samples: corr_e.samples(),
-        verdict: r.verdict.effect.clone(),
+        verdict: r.verdict.effect.to_string(),
         kept,
         reported_pct,
         bare,

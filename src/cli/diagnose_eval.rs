@@ -130,7 +130,11 @@ pub fn run_cmd(a: DiagnoseEvalArgs) -> Result<()> {
                 o.seed,
                 o.truth,
                 o.verdict,
-                o.steps.join(", "),
+                o.steps
+                    .iter()
+                    .map(|e| e.name())
+                    .collect::<Vec<_>>()
+                    .join(", "),
                 o.reported_gap_closed_pct,
                 o.true_gap_closed_pct
                     .map_or("-".to_string(), |t| format!("{t:.0} %"))

@@ -15,7 +15,9 @@
 //! as for the generated cases.
 
 use super::{Campaign, DemRun};
-use crate::diagnose::{DiagnoseOptions, Effect, baseline_heldout, diagnose, in_medium_frac};
+use crate::diagnose::{
+    DiagnoseOptions, Effect, VerdictEffect, baseline_heldout, diagnose, in_medium_frac,
+};
 use crate::ident::Sample;
 use crate::model::{Plate, TerzaghiModel};
 use rand::SeedableRng;
@@ -433,9 +435,9 @@ pub fn run_case(
         .iter()
         .map(|s| (s.effect, s.share_of_gap_pct))
         .collect();
-    let found = case
-        .expected
-        .is_some_and(|e| r.verdict.effect == e.name() || effects.iter().any(|(x, _)| *x == e));
+    let found = case.expected.is_some_and(|e| {
+        r.verdict.effect == VerdictEffect::Effect(e) || effects.iter().any(|(x, _)| *x == e)
+    });
     // Where the effect is reported: its direct share where a direct signature shows it, else
     // its contrast with the strokes it does not reach where it reaches only some, else the
     // share it closes alone (its candidate's, as the generated cases score the verdict's).
@@ -480,7 +482,7 @@ pub fn run_case(
         variation: case.variation,
         expected: case.expected,
         strokes: r.strokes,
-        verdict: r.verdict.effect.clone(),
+        verdict: r.verdict.effect.to_string(),
         effects,
         found,
         reported_pct,

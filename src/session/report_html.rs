@@ -16,7 +16,7 @@ pub fn html(leg: &str, d: &Diagnosis) -> Result<String> {
     s += &format!("<h1>Sim-to-real gap: leg {}</h1>\n", escape(leg));
     s += &format!(
         "<p class=\"verdict\">Verdict: <b>{}</b>{}</p>\n",
-        escape(&r.verdict.effect),
+        escape(r.verdict.effect.name()),
         if r.steps.is_empty() {
             String::new()
         } else {

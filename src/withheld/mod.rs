@@ -6,7 +6,7 @@
 //! motion, same noise) leaves a baseline gap; the true share closed is
 //! `1 - (mse_without - noise^2) / (mse_with - noise^2)`, with the generator's own noise level.
 
-use crate::diagnose::{DiagnoseOptions, baseline_heldout, diagnose};
+use crate::diagnose::{DiagnoseOptions, Effect, VerdictEffect, baseline_heldout, diagnose};
 use crate::model::TerzaghiModel;
 use crate::sim::generator::{Hidden, IN_LIBRARY, OUTSIDE, draw_case, generate};
 use std::collections::BTreeMap;
@@ -15,15 +15,65 @@ use std::collections::BTreeMap;
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Outcome {
     pub seed: u64,
-    /// `none`, an effect's name, or two joined by `+`.
-    pub truth: String,
+    /// The hidden effects: none, one, or two (`none`, a name, or two joined by `+` in JSON).
+    pub truth: Truth,
     pub kind: Kind,
-    /// The verdict (`none`, `unexplained`, an effect), or `error: ...`.
-    pub verdict: String,
-    pub steps: Vec<String>,
+    /// The verdict, or the diagnosis's error (`error: ...` in JSON).
+    pub verdict: Said,
+    /// The effects of the report's steps, in order.
+    pub steps: Vec<Effect>,
     pub reported_gap_closed_pct: f64,
     /// The truth of the reported share, when the verdict names an effect that is present.
     pub true_gap_closed_pct: Option<f64>,
+}
+
+/// A case's hidden effects.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Truth(pub Vec<Hidden>);
+
+impl std::fmt::Display for Truth {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.0.is_empty() {
+            return f.pad("none");
+        }
+        let joined: Vec<&str> = self.0.iter().map(|h| h.name()).collect();
+        f.pad(&joined.join("+"))
+    }
+}
+
+impl serde::Serialize for Truth {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_str(self)
+    }
+}
+
+/// What the diagnosis said of a case: its verdict, or why it could not diagnose it.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Said {
+    Verdict(VerdictEffect),
+    Error(String),
+}
+
+impl Said {
+    /// Whether the verdict names `e`'s effect.
+    fn names(&self, e: Hidden) -> bool {
+        matches!(self, Said::Verdict(VerdictEffect::Effect(v)) if Some(*v) == e.effect())
+    }
+}
+
+impl std::fmt::Display for Said {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Said::Verdict(v) => v.fmt(f),
+            Said::Error(e) => f.pad(&format!("error: {e}")),
+        }
+    }
+}
+
+impl serde::Serialize for Said {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_str(self)
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
@@ -100,20 +150,11 @@ pub fn run_case(i: usize, seed: u64, opts: &DiagnoseOptions) -> Outcome {
         [_] => Kind::Outside,
         _ => Kind::Pair,
     };
-    let truth = if effects.is_empty() {
-        "none".to_string()
-    } else {
-        effects
-            .iter()
-            .map(|e| e.name())
-            .collect::<Vec<_>>()
-            .join("+")
-    };
     let mut out = Outcome {
         seed: case_seed,
-        truth,
+        truth: Truth(effects.clone()),
         kind,
-        verdict: String::new(),
+        verdict: Said::Verdict(VerdictEffect::None),
         steps: Vec::new(),
         reported_gap_closed_pct: 0.0,
         true_gap_closed_pct: None,
@@ -121,19 +162,15 @@ pub fn run_case(i: usize, seed: u64, opts: &DiagnoseOptions) -> Outcome {
     let d = match diagnose(&model, &samples, opts) {
         Ok(d) => d,
         Err(e) => {
-            out.verdict = format!("error: {e}");
+            out.verdict = Said::Error(e.to_string());
             return out;
         }
     };
     let r = &d.report;
-    out.verdict = r.verdict.effect.clone();
-    out.steps = r
-        .steps
-        .iter()
-        .map(|s| s.effect.name().to_string())
-        .collect();
+    out.verdict = Said::Verdict(r.verdict.effect);
+    out.steps = r.steps.iter().map(|s| s.effect).collect();
     out.reported_gap_closed_pct = r.verdict.gap_closed_pct;
-    if let Some(named) = effects.iter().find(|e| e.name() == r.verdict.effect) {
+    if let Some(named) = effects.iter().find(|e| out.verdict.names(**e)) {
         let (without, _) = generate(&case, &[*named]);
         if let Ok(mse_without) = baseline_heldout(&model, &without, opts).map(|b| b.mse_n2) {
             let var = sigma * sigma;
@@ -185,15 +222,26 @@ pub fn summarize(outcomes: &[Outcome]) -> Summary {
         let good = of.iter().filter(|o| ok(o)).count();
         (mean(100.0 * good as f64, of.len()), of.len())
     };
-    let (single, single_n) = share(Kind::Single, &|o| o.verdict == o.truth);
-    let (fa, clean_n) = share(Kind::Clean, &|o| o.verdict != "none");
-    let (outside, outside_n) = share(Kind::Outside, &|o| {
-        o.verdict == "unexplained" || o.verdict == "none" || o.reported_gap_closed_pct < 30.0
+    let (single, single_n) = share(Kind::Single, &|o| {
+        o.truth.0.iter().all(|h| o.verdict.names(*h))
     });
-    let parts = |o: &Outcome| o.truth.split('+').map(str::to_string).collect::<Vec<_>>();
-    let (pair_first, pair_n) = share(Kind::Pair, &|o| parts(o).contains(&o.verdict));
+    let (fa, clean_n) = share(Kind::Clean, &|o| {
+        o.verdict != Said::Verdict(VerdictEffect::None)
+    });
+    let (outside, outside_n) = share(Kind::Outside, &|o| {
+        matches!(
+            o.verdict,
+            Said::Verdict(VerdictEffect::Unexplained | VerdictEffect::None)
+        ) || o.reported_gap_closed_pct < 30.0
+    });
+    let (pair_first, pair_n) = share(Kind::Pair, &|o| {
+        o.truth.0.iter().any(|h| o.verdict.names(*h))
+    });
     let (pair_both, _) = share(Kind::Pair, &|o| {
-        parts(o).iter().all(|p| o.steps.contains(p))
+        o.truth
+            .0
+            .iter()
+            .all(|h| h.effect().is_some_and(|e| o.steps.contains(&e)))
     });
     let mut errors: Vec<f64> = outcomes
         .iter()
@@ -208,12 +256,11 @@ pub fn summarize(outcomes: &[Outcome]) -> Summary {
         let row = if o.kind == Kind::Pair {
             "pair".to_string()
         } else {
-            o.truth.clone()
+            o.truth.to_string()
         };
-        let col = if o.verdict.starts_with("error") {
-            "error".to_string()
-        } else {
-            o.verdict.clone()
+        let col = match &o.verdict {
+            Said::Error(_) => "error".to_string(),
+            Said::Verdict(v) => v.to_string(),
         };
         *confusion.entry(row).or_default().entry(col).or_default() += 1;
     }

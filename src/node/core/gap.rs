@@ -249,7 +249,7 @@ impl NodeCore {
                 msg.heldout_rmse_n = r.baseline.rmse_n;
                 msg.noise_n = r.gap.noise_var_n2.sqrt();
                 msg.gap_real = r.gap.real;
-                msg.verdict = r.verdict.effect.clone();
+                msg.verdict = r.verdict.effect.to_string();
                 for st in &r.steps {
                     msg.effects.push(st.effect.name().into());
                     msg.share_of_gap_pct.push(st.share_of_gap_pct);

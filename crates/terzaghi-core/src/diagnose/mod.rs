@@ -1,6 +1,6 @@
 //! Diagnosis of the sim-to-real gap (pure analysis: samples in, a report value out).
 //!
-//! 1. [`kinematics`]: strokes from the angle; angular speed and acceleration by smoothed
+//! 1. [`kinematics()`]: strokes from the angle; angular speed and acceleration by smoothed
 //!    differentiation.
 //! 2. Baseline: `b_k, a` (Eq. 26) fitted on training strokes, scored on held-out strokes (folds of
 //!    whole strokes, round-robin; nothing is scored on what was fitted), over every sample, in and
@@ -29,7 +29,7 @@ pub mod signatures;
 pub use context::{Context, Point};
 pub use effects::Effect;
 pub use kinematics::{Kinematics, kinematics};
-pub use report::{Diagnosis, Report};
+pub use report::{Diagnosis, Evidence, Report, VerdictEffect};
 
 use crate::ident::Sample;
 use crate::model::{HipMotion, TerzaghiModel};
@@ -255,7 +255,7 @@ mod tests {
         )
         .unwrap();
         let r = &d.report;
-        assert_eq!(r.verdict.effect, "none");
+        assert_eq!(r.verdict.effect, VerdictEffect::None);
         assert!(!r.gap.real);
         assert!(
             (r.baseline.b_k / 2.0 - 1.0).abs() < 0.01,
@@ -273,7 +273,7 @@ mod tests {
         let r = diagnose(&unit(), &s, &DiagnoseOptions::default())
             .unwrap()
             .report;
-        assert_eq!(r.verdict.effect, "sensor_bias");
+        assert_eq!(r.verdict.effect, VerdictEffect::Effect(Effect::SensorBias));
         let c = &r.candidates[0];
         assert!((c.params["drag_n"] - 3.0).abs() < 0.1, "{:?}", c.params);
         assert!((c.params["lift_n"] + 2.0).abs() < 0.1, "{:?}", c.params);

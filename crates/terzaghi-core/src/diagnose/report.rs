@@ -155,9 +155,9 @@ pub struct Step {
     pub share_of_gap_pct: f64,
     /// Paired t over strokes of this step's held-out improvement.
     pub heldout_t: f64,
-    /// `held_out`, `held_out+direct` where a direct signature shows it as well, or `direct`: a
-    /// sensor effect its direct signature shows where the held-out fit cannot.
-    pub evidence: &'static str,
+    /// What kept the step: the held-out fit, the held-out fit and a direct signature, or the
+    /// direct signature alone (a sensor effect the held-out fit cannot show).
+    pub evidence: Evidence,
     /// With a direct signature: the share of the gap closed by correcting the session by the
     /// directly measured offset or delay and fitting the baseline again, %
     /// (a term fitted to the whole session can also take up part of the model's own misfit;
@@ -173,6 +173,78 @@ pub struct Step {
     /// What the step says of the robot and its medium, worded by its basis: a term found by its
     /// form alone is named for what it is, not for the cause it would have in another medium.
     pub claim: String,
+}
+
+/// What kept a step in the report (`report.json`: `held_out`, `held_out+direct`, `direct`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub enum Evidence {
+    /// Its held-out improvement is significant and material.
+    #[serde(rename = "held_out")]
+    HeldOut,
+    /// That, and a direct signature of the session shows it as well.
+    #[serde(rename = "held_out+direct")]
+    HeldOutAndDirect,
+    /// A sensor effect that a direct signature shows where the held-out fit cannot.
+    #[serde(rename = "direct")]
+    Direct,
+}
+
+impl Evidence {
+    /// The name `report.json` gives it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Evidence::HeldOut => "held_out",
+            Evidence::HeldOutAndDirect => "held_out+direct",
+            Evidence::Direct => "direct",
+        }
+    }
+}
+
+impl std::fmt::Display for Evidence {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.pad(self.name())
+    }
+}
+
+/// What a verdict names: the effect that closes the largest share of the gap, no gap beyond the
+/// noise (`none`), or a gap no candidate explains (`unexplained`). `report.json` holds the
+/// effect's name or one of the two words.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum VerdictEffect {
+    None,
+    Unexplained,
+    Effect(Effect),
+}
+
+impl VerdictEffect {
+    /// The name `report.json` gives it.
+    pub fn name(self) -> &'static str {
+        match self {
+            VerdictEffect::None => "none",
+            VerdictEffect::Unexplained => "unexplained",
+            VerdictEffect::Effect(e) => e.name(),
+        }
+    }
+
+    /// The effect it names, if any.
+    pub fn effect(self) -> Option<Effect> {
+        match self {
+            VerdictEffect::Effect(e) => Some(e),
+            _ => None,
+        }
+    }
+}
+
+impl std::fmt::Display for VerdictEffect {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.pad(self.name())
+    }
+}
+
+impl serde::Serialize for VerdictEffect {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.name())
+    }
 }
 
 /// What shows an effect, beyond its term closing part of the gap on held-out strokes.
@@ -211,8 +283,8 @@ pub struct Contrast {
 
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Verdict {
-    /// An effect's name, `none` or `unexplained`.
-    pub effect: String,
+    /// The effect named, `none` or `unexplained`.
+    pub effect: VerdictEffect,
     /// Share of the gap the named effect closes alone, %.
     pub gap_closed_pct: f64,
     /// Held-out Psi over drag and lift together, before and after the correction.
@@ -384,7 +456,11 @@ pub(super) fn analyse(
         let e = *next.design.effects.last().expect("one effect was added");
         let seen = direct(&sig_now, e);
         steps.push(Step {
-            evidence: if seen { "held_out+direct" } else { "held_out" },
+            evidence: if seen {
+                Evidence::HeldOutAndDirect
+            } else {
+                Evidence::HeldOut
+            },
             direct_share_of_gap_pct: seen
                 .then(|| direct_share(ctx, e, &sig_now, var, excess))
                 .flatten(),
@@ -415,7 +491,7 @@ pub(super) fn analyse(
                 &stroke_sse(ctx, &f.heldout_n),
             ));
             steps.push(Step {
-                evidence: "direct",
+                evidence: Evidence::Direct,
                 direct_share_of_gap_pct: direct_share(ctx, e, &sig_end, var, excess),
                 ..step(ctx, &f, mse, t, &closed, excess)
             });
@@ -446,7 +522,7 @@ pub(super) fn analyse(
                 .map(|(_, c)| c)
                 .expect("every effect has a candidate");
             Verdict {
-                effect: st.effect.name().to_string(),
+                effect: VerdictEffect::Effect(st.effect),
                 gap_closed_pct: alone.gap_closed_pct.unwrap_or(0.0),
                 heldout_psi_before: psi_before,
                 heldout_psi_after: alone.heldout_psi_after,
@@ -456,7 +532,11 @@ pub(super) fn analyse(
             }
         }
         None => Verdict {
-            effect: if real { "unexplained" } else { "none" }.to_string(),
+            effect: if real {
+                VerdictEffect::Unexplained
+            } else {
+                VerdictEffect::None
+            },
             gap_closed_pct: fits
                 .first()
                 .and_then(|b| b.1.gap_closed_pct)
@@ -597,7 +677,7 @@ fn step(
         heldout_psi: psi(ctx, &f.heldout_n),
         share_of_gap_pct: 100.0 * (mse_before - f.heldout_mse()) / excess,
         heldout_t: t,
-        evidence: "held_out",
+        evidence: Evidence::HeldOut,
         direct_share_of_gap_pct: None,
         contrast: None,
         basis: Basis::FormOnly,
@@ -1008,11 +1088,12 @@ fn summary(
                 .join("; ")
         );
     }
-    if v.effect != "unexplained" {
-        let e = Effect::from_name(&v.effect);
+    if v.effect != VerdictEffect::Unexplained {
         s += &format!(
             "The largest is {}: alone it closes {:.0} % of the gap, and held-out Psi goes from {:.3} to {:.3}.",
-            e.map_or(v.effect.clone(), |e| named(e, &v.claim)),
+            v.effect
+                .effect()
+                .map_or(v.effect.to_string(), |e| named(e, &v.claim)),
             v.gap_closed_pct,
             v.heldout_psi_before,
             v.heldout_psi_after
@@ -1081,8 +1162,8 @@ fn summary(
 /// What shows step `st`'s effect beyond its term's form.
 fn basis_of(st: &Step, sig: &Signatures) -> Basis {
     match st.effect {
-        Effect::SensorBias if st.evidence != "held_out" => Basis::ForceOutOfMedium,
-        Effect::SensorLag if st.evidence != "held_out" => Basis::Alignment,
+        Effect::SensorBias if st.evidence != Evidence::HeldOut => Basis::ForceOutOfMedium,
+        Effect::SensorLag if st.evidence != Evidence::HeldOut => Basis::Alignment,
         Effect::HipHeight if sig.onset.significant => Basis::OnsetAngle,
         Effect::Compaction | Effect::Rate if st.contrast.is_some() => Basis::Contrast,
         _ => Basis::FormOnly,

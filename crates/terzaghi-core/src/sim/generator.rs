@@ -68,6 +68,23 @@ impl Hidden {
     pub fn in_library(self) -> bool {
         !OUTSIDE.contains(&self)
     }
+
+    /// The library's effect of the same name; none for the two outside it.
+    pub fn effect(self) -> Option<crate::model::corrections::Effect> {
+        use crate::model::corrections::Effect;
+        Some(match self {
+            Hidden::Rate => Effect::Rate,
+            Hidden::Inertia => Effect::Inertia,
+            Hidden::Surcharge => Effect::Surcharge,
+            Hidden::Extraction => Effect::Extraction,
+            Hidden::Compaction => Effect::Compaction,
+            Hidden::Cohesion => Effect::Cohesion,
+            Hidden::HipHeight => Effect::HipHeight,
+            Hidden::SensorBias => Effect::SensorBias,
+            Hidden::SensorLag => Effect::SensorLag,
+            Hidden::Vibration | Hidden::Stones => return None,
+        })
+    }
 }
 
 /// A generated case: what the user would configure (plate and medium), the hidden truth, and
@@ -126,7 +143,7 @@ pub struct MotionSample {
     pub alpha_rad_s2: f64,
     pub stroke: usize,
     /// The hip's height above the plate's configured one (m), and the body's pitch added to the
-    /// attack angle (rad): a body that heaves and pitches ([`crate::sim::robot::Body`]).
+    /// attack angle (rad): a body that heaves and pitches (`terzaghi::sim::robot::Body`).
     pub hip_dz_m: f64,
     pub pitch_rad: f64,
 }
