@@ -12,7 +12,7 @@ fn main() -> ExitCode {
     match terzaghi::cli::run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", terzaghi::cli::worded(&e));
             ExitCode::from(2)
         }
     }

@@ -78,6 +78,34 @@ pub enum Command {
 }
 
 /// Runs a parsed command. Errors are for the user: `main` prints them on one line, exit code 2.
+/// An error as the command line prints it: its chain joined by ": ", as `{:#}` prints it, with
+/// each [`Refusal`](crate::session::Refusal) of the library worded in the flag that answers it.
+pub fn worded(e: &anyhow::Error) -> String {
+    use crate::session::Refusal;
+    e.chain()
+        .map(|c| match c.downcast_ref::<Refusal>() {
+            Some(Refusal::RecordingExists { path }) => format!(
+                "{} exists: a recording is not overwritten (pass --overwrite to replace it)",
+                path.display()
+            ),
+            Some(Refusal::NoRecordedParameters { file }) => format!(
+                "{} has no recorded node parameters (it was not recorded by terzaghi node): pass --params-file",
+                file.display()
+            ),
+            Some(Refusal::CsvWithoutParameters { file }) => format!(
+                "{} is a CSV log, which carries no node parameters: pass --params-file (a corrected.yaml of terzaghi diagnose, or the robot's parameters)",
+                file.display()
+            ),
+            Some(Refusal::SeveralLegs { legs }) => format!(
+                "the session has several legs with F/T topics ({}): choose one with --leg",
+                legs.join(", ")
+            ),
+            None => c.to_string(),
+        })
+        .collect::<Vec<_>>()
+        .join(": ")
+}
+
 pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Demo(a) => demo::run(a),
@@ -241,5 +269,36 @@ pub fn print_out(text: &str) -> Result<()> {
     match out.write_all(text.as_bytes()).and_then(|_| out.flush()) {
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
         r => r.context("cannot write to standard output"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::session::Refusal;
+
+    /// The library's refusals carry no flag; the command line names the one that answers each,
+    /// also under a context.
+    #[test]
+    fn refusals_are_worded_in_the_flags_that_answer_them() {
+        let e = anyhow::Error::from(Refusal::SeveralLegs {
+            legs: vec!["front_left".into(), "rear_left".into()],
+        });
+        assert!(!e.to_string().contains("--leg"), "{e}");
+        assert_eq!(
+            worded(&e),
+            "the session has several legs with F/T topics (front_left, rear_left): choose one with --leg"
+        );
+        let e = anyhow::Error::from(Refusal::RecordingExists {
+            path: "out.mcap".into(),
+        })
+        .context("cannot record");
+        assert!(!format!("{e:#}").contains("--overwrite"));
+        assert_eq!(
+            worded(&e),
+            "cannot record: out.mcap exists: a recording is not overwritten (pass --overwrite to replace it)"
+        );
+        let plain = anyhow::anyhow!("disk full").context("cannot write x.csv");
+        assert_eq!(worded(&plain), format!("{plain:#}"));
     }
 }

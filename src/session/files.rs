@@ -15,10 +15,9 @@ pub fn read_file(path: &Path) -> Result<Vec<u8>> {
 /// destroyed unless `overwrite` asks for it.
 pub fn refuse_existing_recording(path: &Path, overwrite: bool) -> Result<()> {
     if !overwrite && path.exists() {
-        bail!(
-            "{} exists: a recording is not overwritten (pass --overwrite to replace it)",
-            path.display()
-        );
+        bail!(super::Refusal::RecordingExists {
+            path: path.to_path_buf()
+        });
     }
     Ok(())
 }

@@ -184,14 +184,9 @@ pub fn one_leg(file: &Path, legs_from: &LegsFrom, leg: Option<&str>) -> Result<L
         bail!("no leg has an F/T topic in the parameters (set <leg>.ft_topic)");
     }
     if chosen.len() > 1 {
-        bail!(
-            "the session has several legs with F/T topics ({}): choose one with --leg",
-            cfg.legs
-                .iter()
-                .map(|l| l.name.as_str())
-                .collect::<Vec<_>>()
-                .join(", ")
-        );
+        bail!(super::Refusal::SeveralLegs {
+            legs: cfg.legs.iter().map(|l| l.name.clone()).collect()
+        });
     }
     let mut legs = session_legs(file, &opened, &cfg, &chosen)?;
     Ok(legs.remove(0))

@@ -53,6 +53,8 @@
 //! ```
 
 pub mod csv_rows;
+mod refusal;
+pub use refusal::Refusal;
 pub mod diagnose;
 pub mod files;
 pub mod identify;

@@ -630,10 +630,9 @@ pub fn session_config_with(
             load_params(&ros, &node, &ns)?
         }
         (None, Some((p, _, _))) => p,
-        (None, None) => bail!(
-            "{} has no recorded node parameters (it was not recorded by terzaghi node): pass --params-file",
-            file.display()
-        ),
+        (None, None) => bail!(super::Refusal::NoRecordedParameters {
+            file: file.to_path_buf()
+        }),
     };
     for (name, value) in set {
         params.insert(name.clone(), value.clone());
@@ -691,10 +690,9 @@ fn prepare(file: &Path, opts: &ReevaluateOptions) -> Result<Prepared> {
 /// leg is the configuration's only one, or the one named as the file.
 fn prepare_csv(file: &Path, opts: &ReevaluateOptions) -> Result<Prepared> {
     let Some(params_file) = opts.params_file.as_deref() else {
-        bail!(
-            "{} is a CSV log, which carries no node parameters: pass --params-file (a corrected.yaml of terzaghi diagnose, or the robot's parameters)",
-            file.display()
-        );
+        bail!(super::Refusal::CsvWithoutParameters {
+            file: file.to_path_buf()
+        });
     };
     let samples = crate::dataset::read_samples_csv(file)?;
     let ros = RosArgs {
