@@ -223,6 +223,10 @@ other_node:
     fn bad_values_name_parameter_and_value() {
         let cases = [
             ("-p left.width_m:=-1", "left.width_m"),
+            ("-p left.width_m:=.nan", "left.width_m"),
+            ("-p right.hip_height_m:=-0.1", "right.hip_height_m"),
+            ("-p right.hip_height_m:=.inf", "right.hip_height_m"),
+            ("-p right.length_m:=0", "right.length_m"),
             ("-p model:=fancy", "fancy"),
             ("-p right.direction:=2", "right.direction"),
             ("-p left.medium:=mud", "mud"),

@@ -8,8 +8,8 @@ use crate::ident::OnlineOptions;
 use crate::ident::online::Forgetting;
 use crate::model::medium::{self, MediumPreset, RftSet};
 use crate::model::{
-    Corrections, FittingWidth, ForceModel, Medium, ModelError, Plate, RftCoefficients, RftModel,
-    TerzaghiModel,
+    Corrections, FittingWidth, ForceModel, Medium, ModelError, Plate, PlateField, RftCoefficients,
+    RftModel, TerzaghiModel,
 };
 use std::path::PathBuf;
 
@@ -671,13 +671,14 @@ fn leg_config(
     let height = g.need_f64(&k("hip_height_m"), geom_hint)?;
     let plate = Plate::new(length, width, height).map_err(|e| {
         let which = match &e {
-            ModelError::NegativeHipHeight { .. } => "hip_height_m",
-            ModelError::NotPositive { name, .. } | ModelError::NotFinite { name, .. }
-                if name.contains("width") =>
-            {
-                "width_m"
-            }
-            ModelError::NotFinite { name, .. } if name.contains("hip") => "hip_height_m",
+            ModelError::BadPlate {
+                field: PlateField::WidthM,
+                ..
+            } => "width_m",
+            ModelError::BadPlate {
+                field: PlateField::HipHeightM,
+                ..
+            } => "hip_height_m",
             _ => "length_m",
         };
         model_err(&k(which))(e)

@@ -34,9 +34,23 @@ pub use terzaghi::{Terms, TerzaghiForce, TerzaghiModel};
 
 use serde::Serialize;
 
+/// A field of [`Plate::new`], as [`ModelError::BadPlate`] names it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PlateField {
+    LengthM,
+    WidthM,
+    HipHeightM,
+}
+
 /// What went wrong with a model input; every variant names the bad value.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ModelError {
+    /// A plate's length, width or hip height that is no plate's: which one, and why.
+    #[error("{problem}")]
+    BadPlate {
+        field: PlateField,
+        problem: Box<ModelError>,
+    },
     #[error("{name} must be a finite number, got {value}")]
     NotFinite { name: &'static str, value: f64 },
     #[error("{name} must be greater than 0, got {value}")]

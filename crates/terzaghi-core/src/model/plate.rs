@@ -1,6 +1,6 @@
 //! The leg: a flat rectangular plate rotating about a fixed hip axis above the medium.
 
-use super::{ModelError, finite, positive};
+use super::{ModelError, PlateField, finite, positive};
 use std::f64::consts::{FRAC_PI_2, TAU};
 
 /// A flat plate of length `l` (hip axis to tip) and width `b`, hip axis at height `h` above the
@@ -23,12 +23,18 @@ impl Plate {
     /// assert!(Plate::new(0.25, -0.06, 0.15).is_err());
     /// ```
     pub fn new(length_m: f64, width_m: f64, hip_height_m: f64) -> Result<Self, ModelError> {
-        positive("plate length (m)", length_m)?;
-        positive("plate width (m)", width_m)?;
-        if finite("hip height (m)", hip_height_m)? < 0.0 {
-            return Err(ModelError::NegativeHipHeight {
+        let bad = |field| {
+            move |e| ModelError::BadPlate {
+                field,
+                problem: Box::new(e),
+            }
+        };
+        positive("plate length (m)", length_m).map_err(bad(PlateField::LengthM))?;
+        positive("plate width (m)", width_m).map_err(bad(PlateField::WidthM))?;
+        if finite("hip height (m)", hip_height_m).map_err(bad(PlateField::HipHeightM))? < 0.0 {
+            return Err(bad(PlateField::HipHeightM)(ModelError::NegativeHipHeight {
                 value_m: hip_height_m,
-            });
+            }));
         }
         Ok(Plate {
             length_m,
