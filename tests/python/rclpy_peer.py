@@ -123,6 +123,16 @@ def wait_until(pred, timeout_s):
     return False
 
 
+def shut_down(executor, spin, peer):
+    """Stops spinning and waits for the spin thread before the node and the context go: torn
+    down under a spinning executor, rclpy's C++ layer aborts the process ("terminate called
+    without an active exception"), which fails the peer after its checks passed."""
+    executor.shutdown(timeout_sec=5)
+    spin.join(timeout=5)
+    peer.destroy_node()
+    rclpy.shutdown()
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--terzaghi", required=True)
@@ -351,12 +361,7 @@ def main():
             _, err = node.communicate()
         summary["node_exit_code"] = node.returncode
         summary["node_stderr_tail"] = err.strip().splitlines()[-5:]
-        # Stop spinning and wait for the spin thread before the node and the context go:
-        # torn down under a spinning executor, rclpy's C++ layer aborts the process.
-        executor.shutdown(timeout_sec=5)
-        spin.join(timeout=5)
-        peer.destroy_node()
-        rclpy.shutdown()
+        shut_down(executor, spin, peer)
     if node.returncode != 0:
         failures.append(f"node exit code {node.returncode}")
     summary["failures"] = failures

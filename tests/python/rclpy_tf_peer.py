@@ -36,7 +36,8 @@ from sensor_msgs.msg import JointState
 from terzaghi_msgs.msg import LegForce
 from tf2_msgs.msg import TFMessage
 
-from rclpy_peer import GEOM as LEG_GEOM, PARAMS as LEG_PARAMS, predict_table, stamp_of, wait_until
+from rclpy_peer import (GEOM as LEG_GEOM, PARAMS as LEG_PARAMS, predict_table, shut_down,
+                        stamp_of, wait_until)
 
 # The rclpy peer's leg, placed by /tf instead of measured by F/T.
 PARAMS = LEG_PARAMS.replace("      ft_topic: leg/ft\n", "      hip_frame: leg_hip\n")
@@ -191,9 +192,7 @@ def main():
             _, err = node.communicate()
         summary["node_exit_code"] = node.returncode
         summary["node_stderr_tail"] = err.splitlines()[-5:]
-        executor.shutdown(timeout_sec=5)
-        peer.destroy_node()
-        rclpy.shutdown()
+        shut_down(executor, spin, peer)
     print(json.dumps(summary))
     if failures:
         print("\n".join(failures), file=sys.stderr)
