@@ -8,7 +8,6 @@ use crate::model::Plate;
 use crate::session::diagnose::{
     DiagnoseFileOptions, Diagnosed, Written, diagnose_file, write_reports,
 };
-use crate::session::files::is_mcap;
 use crate::session::legs::{JointLeg, LegsFrom};
 use anyhow::{Result, bail};
 use clap::Args;
@@ -92,7 +91,6 @@ fn options(a: &DiagnoseArgs) -> Result<DiagnoseFileOptions> {
     if a.folds < 2 {
         bail!("--folds must be at least 2, got {}", a.folds);
     }
-    let is_mcap = is_mcap(&a.log)?;
     let geometry_given = a.length_m.is_some() || a.width_m.is_some() || a.hip_height_m.is_some();
     let mut opts = DiagnoseFileOptions {
         leg: a.leg.clone(),
@@ -103,16 +101,7 @@ fn options(a: &DiagnoseArgs) -> Result<DiagnoseFileOptions> {
         },
         ..Default::default()
     };
-    if !is_mcap {
-        if a.joint.is_some() || a.params_file.is_some() {
-            bail!(
-                "{} is not an MCAP file: --joint, --wrench-topic and --params-file are for MCAP sessions; a CSV log takes the geometry and medium flags",
-                a.log.display()
-            );
-        }
-        opts.csv_leg = Some((plate_from_flags(a)?, a.medium.medium()?.medium));
-        return Ok(opts);
-    }
+    // Which kind of file the log is, the library tells (and refuses the other kind's flags).
     opts.legs_from = match (&a.joint, &a.params_file) {
         (Some(joint), _) => {
             let Some(ft_frame) = FtFrame::from_name(&a.ft_frame) else {
@@ -130,12 +119,13 @@ fn options(a: &DiagnoseArgs) -> Result<DiagnoseFileOptions> {
                 medium: a.medium.medium()?.medium,
             }))
         }
-        (None, _) if geometry_given => bail!(
-            "the geometry flags go with --joint (or a CSV log); for a recorded session, change the geometry with --params-file"
-        ),
         (None, Some(p)) => LegsFrom::ParamsFile(p.clone()),
         (None, None) => LegsFrom::Recorded,
     };
+    if a.joint.is_none() && geometry_given {
+        // A CSV log's leg; a session refuses it.
+        opts.csv_leg = Some((plate_from_flags(a)?, a.medium.medium()?.medium));
+    }
     Ok(opts)
 }
 
@@ -214,7 +204,7 @@ fn plate_from_flags(a: &DiagnoseArgs) -> Result<Plate> {
     match (a.length_m, a.width_m, a.hip_height_m) {
         (Some(l), Some(b), Some(h)) => Ok(Plate::new(l, b, h)?),
         _ => bail!(
-            "give the leg's geometry: --length-m, --width-m and --hip-height-m (and the medium: --medium or --unit-weight-n-m3 --phi-deg --delta-deg)"
+            "give all of the leg's geometry: --length-m, --width-m and --hip-height-m (and the medium: --medium or --unit-weight-n-m3 --phi-deg --delta-deg), for a CSV log or a session's leg with --joint"
         ),
     }
 }

@@ -96,6 +96,16 @@ pub fn worded(e: &anyhow::Error) -> String {
                 "{} is a CSV log, which carries no node parameters: pass --params-file (a corrected.yaml of terzaghi diagnose, or the robot's parameters)",
                 file.display()
             ),
+            Some(Refusal::CsvWithoutGeometry { file }) => format!(
+                "{} is a CSV log: give the leg's geometry (--length-m, --width-m, --hip-height-m) and medium (--medium, or --unit-weight-n-m3 --phi-deg --delta-deg)",
+                file.display()
+            ),
+            Some(Refusal::GeometryForSession { .. }) => "the geometry flags go with --joint (or a CSV log); for a recorded session, change the geometry with --params-file".to_string(),
+            Some(Refusal::SessionOptionsForCsv { file }) => format!(
+                "{} is not an MCAP file: --joint, --wrench-topic and --params-file are for MCAP sessions; a CSV log takes the geometry and medium flags",
+                file.display()
+            ),
+            Some(Refusal::NoLegWithFt) => "no leg to diagnose has an F/T topic in the parameters (set <leg>.ft_topic, or use --joint and --wrench-topic)".to_string(),
             Some(Refusal::SeveralLegs { legs }) => format!(
                 "the session has several legs with F/T topics ({}): choose one with --leg",
                 legs.join(", ")
@@ -298,6 +308,24 @@ mod tests {
             worded(&e),
             "cannot record: out.mcap exists: a recording is not overwritten (pass --overwrite to replace it)"
         );
+        // Every refusal: the library's words name no flag, the command line's name one.
+        let all = [
+            Refusal::RecordingExists { path: "a".into() },
+            Refusal::NoRecordedParameters { file: "a".into() },
+            Refusal::CsvWithoutParameters { file: "a".into() },
+            Refusal::CsvWithoutGeometry { file: "a".into() },
+            Refusal::GeometryForSession { file: "a".into() },
+            Refusal::SessionOptionsForCsv { file: "a".into() },
+            Refusal::NoLegWithFt,
+            Refusal::SeveralLegs {
+                legs: vec!["a".into(), "b".into()],
+            },
+        ];
+        for r in all {
+            assert!(!r.to_string().contains("--"), "{r}");
+            let cli = worded(&anyhow::Error::from(r.clone()));
+            assert!(cli.contains(" --"), "{r:?}: {cli}");
+        }
         let plain = anyhow::anyhow!("disk full").context("cannot write x.csv");
         assert_eq!(worded(&plain), format!("{plain:#}"));
     }

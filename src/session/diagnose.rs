@@ -2,9 +2,9 @@
 //! by the pure analysis ([`crate::diagnose`]), and their reports written as `report.json` and
 //! `report.html` (one directory per leg, with an index, when there are several).
 
-use super::Opened;
 use super::files::write_text;
 use super::legs::{LegLog, LegsFrom, choose_legs, csv_leg, session_legs};
+use super::{Opened, Refusal};
 use crate::config::corrections::corrections_params;
 use crate::config::{LegConfig, NodeConfig, ParamMap, ParamValue, params_yaml};
 use crate::diagnose::{DiagnoseOptions, Diagnosis, Report, diagnose_placed};
@@ -51,24 +51,32 @@ pub fn diagnose_file(log: &Path, opts: &DiagnoseFileOptions) -> Result<Diagnosed
     if opts.analysis.folds < 2 {
         bail!("folds of strokes: at least 2, got {}", opts.analysis.folds);
     }
+    // The file's first bytes say what it is, here alone; options for the other kind are refused.
     let (legs, config) = match Opened::mcap(log)? {
         Some(opened) => {
+            if opts.csv_leg.is_some() {
+                bail!(Refusal::GeometryForSession {
+                    file: log.to_path_buf()
+                });
+            }
             opened.refuse_cut_off(log)?;
             let cfg = opts.legs_from.config(&opened, log)?;
             let chosen = choose_legs(&cfg, opts.leg.as_deref())?;
             if chosen.is_empty() {
-                bail!(
-                    "no leg to diagnose has an F/T topic in the parameters (set <leg>.ft_topic, or use --joint and --wrench-topic)"
-                );
+                bail!(Refusal::NoLegWithFt);
             }
             (session_legs(log, &opened, &cfg, &chosen)?, cfg)
         }
         None => {
+            if !matches!(opts.legs_from, LegsFrom::Recorded) {
+                bail!(Refusal::SessionOptionsForCsv {
+                    file: log.to_path_buf()
+                });
+            }
             let Some((plate, medium)) = opts.csv_leg else {
-                bail!(
-                    "{} is a CSV log: give the leg's geometry (--length-m, --width-m, --hip-height-m) and medium (--medium, or --unit-weight-n-m3 --phi-deg --delta-deg)",
-                    log.display()
-                );
+                bail!(Refusal::CsvWithoutGeometry {
+                    file: log.to_path_buf()
+                });
             };
             let name = opts.leg.clone().unwrap_or_else(|| {
                 log.file_stem()

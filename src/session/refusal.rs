@@ -23,6 +23,24 @@ pub enum Refusal {
         file.display()
     )]
     CsvWithoutParameters { file: PathBuf },
+    /// A CSV log carries no geometry or medium: they must be given.
+    #[error("{} is a CSV log: give the leg's geometry and medium", file.display())]
+    CsvWithoutGeometry { file: PathBuf },
+    /// A leg's geometry given for an MCAP session, whose legs its parameters describe.
+    #[error(
+        "{} is an MCAP session: its legs are described by the node's parameters (recorded, or given), or a joint's leg with its own geometry",
+        file.display()
+    )]
+    GeometryForSession { file: PathBuf },
+    /// A session's leg description (a joint, a parameters file) given for a CSV log.
+    #[error(
+        "{} is not an MCAP file: a joint or node parameters describe a session's legs; a CSV log takes a geometry and a medium",
+        file.display()
+    )]
+    SessionOptionsForCsv { file: PathBuf },
+    /// No leg of the session has an F/T topic to diagnose.
+    #[error("no leg to diagnose has an F/T topic in the parameters (set <leg>.ft_topic)")]
+    NoLegWithFt,
     /// Several legs could be meant: one must be chosen.
     #[error("the session has several legs with F/T topics ({}): choose one", legs.join(", "))]
     SeveralLegs { legs: Vec<String> },
