@@ -142,6 +142,38 @@ fn the_demo_on_c_legs_learns_rfts_scale_as_it_walks() {
 /// is diagnosed at the noise level on every leg, its baseline the medium's `b_k, a` within 5 %,
 /// every analysed sample placed but those before the first pose; the same recording at the fixed height of
 /// `launch_configs/rhex.yaml` shows a real gap on every leg, which the body's motion alone made.
+/// `terzaghi fit` and `identify` take every sample at the configured hip height: on a recording
+/// whose hips move they say so, and on one whose body is level and still they do not.
+#[test]
+fn fit_warns_where_the_recording_moves_the_hip() {
+    let dir = tempfile::tempdir().unwrap();
+    let walk = dir.path().join("walk.mcap");
+    let level = dir.path().join("level.mcap");
+    let (walk, level) = (walk.to_str().unwrap(), level.to_str().unwrap());
+    run(&["simulate-robot", "--seconds", "10", "-o", walk]);
+    run(&[
+        "simulate-robot",
+        "--seconds",
+        "10",
+        "--heave-m",
+        "0",
+        "--pitch-deg",
+        "0",
+        "-o",
+        level,
+    ]);
+    for cmd in ["fit", "identify"] {
+        let moved = run(&[cmd, walk, "--leg", "front_left"]);
+        assert!(
+            moved.contains("warning: in ")
+                && moved.contains("front_left's hip off its configured height"),
+            "{cmd}: {moved}"
+        );
+        let still = run(&[cmd, level, "--leg", "front_left"]);
+        assert!(!still.contains("warning"), "{cmd}: {still}");
+    }
+}
+
 #[test]
 fn the_diagnosis_reads_the_hips_from_the_recordings_tf() {
     let dir = tempfile::tempdir().unwrap();

@@ -90,5 +90,23 @@ fn from_session(a: &LogArgs) -> Result<(TerzaghiModel, Vec<Sample>)> {
         None => LegsFrom::Recorded,
     };
     let leg = one_leg(&a.data, &from, a.leg.as_deref())?;
+    // The fit takes every sample at the configured hip height; say so where the recording
+    // placed the hip elsewhere (a body that heaves or pitches), rather than fit it silently.
+    let fixed_m = leg.model.plate().hip_height_m();
+    let moved = leg
+        .hips
+        .iter()
+        .flatten()
+        .filter(|h| (h.height_m - fixed_m).abs() > 1e-3 || h.pitch_rad.abs() > 1e-3)
+        .count();
+    if moved > 0 {
+        eprintln!(
+            "warning: in {} of {} samples the recording places {}'s hip off its configured height of {} m, or pitched (its /tf or body pose); this command fits at the configured height, while terzaghi diagnose places each sample's hip",
+            moved,
+            leg.samples.len(),
+            leg.name,
+            fixed_m
+        );
+    }
     Ok((leg.model, leg.samples))
 }
