@@ -410,13 +410,20 @@ impl CorrectedEstimator {
 
     /// Starts again from the current estimate with the start-up's least squares.
     fn restart(&mut self) {
+        let n = self.theta.len();
+        self.hand_to_startup(Startup::new(self.theta[1], n - 1), vec![0.0; n], 0.0);
+    }
+
+    /// Forgets what the Gauss–Newton step learnt and hands the estimate to `startup` (a new one,
+    /// or a suspected change's refit with the columns and force it has seen).
+    fn hand_to_startup(&mut self, startup: Startup, col_max: Vec<f64>, force_max_n: f64) {
         self.p.iter_mut().for_each(|v| *v = 0.0);
         self.seen.iter_mut().for_each(|v| *v = false);
-        self.col_max.iter_mut().for_each(|v| *v = 0.0);
-        self.force_max_n = 0.0;
-        self.startup = Some(Startup::new(self.theta[1], self.theta.len() - 1));
+        self.col_max = col_max;
+        self.force_max_n = force_max_n;
+        self.updates_since_reset = startup.samples as u64;
+        self.startup = Some(startup);
         self.innov.disarm();
-        self.updates_since_reset = 0;
         self.swept_since_startup_rad = 0.0;
     }
 
@@ -451,7 +458,9 @@ impl CorrectedEstimator {
     }
 
     /// Whether a change alarm is under test: raised, and its start-up's turns not all in yet.
-    /// The estimate meanwhile is the one before the alarm, still learning.
+    /// The estimate meanwhile is the one before the alarm, still learning. The test counts the
+    /// angle the leg sweeps (either way), so a leg that stops keeps it open until it turns again;
+    /// a stopped leg gives the estimate nothing to learn meanwhile.
     pub fn alarm_under_test(&self) -> bool {
         self.suspected.is_some()
     }
@@ -571,14 +580,7 @@ impl CorrectedEstimator {
         }
         self.changes.push(sus.alarm);
         self.est.changes_detected += 1;
-        self.p.iter_mut().for_each(|v| *v = 0.0);
-        self.seen.iter_mut().for_each(|v| *v = false);
-        self.col_max = sus.col_max;
-        self.force_max_n = sus.force_max_n;
-        self.updates_since_reset = sus.startup.samples as u64;
-        self.swept_since_startup_rad = 0.0;
-        self.innov.disarm();
-        self.startup = Some(sus.startup);
+        self.hand_to_startup(sus.startup, sus.col_max, sus.force_max_n);
         self.finish_startup();
     }
 
