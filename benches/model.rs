@@ -202,7 +202,7 @@ fn node_core_with_tf(c: &mut Criterion) {
     use terzaghi::msgs::{
         Header, JointState, Quaternion, TfMessage, Time, Transform, TransformStamped, Vector3,
     };
-    use terzaghi::node::NodeCore;
+    use terzaghi::node::{Input, NodeCore, Outputs};
     let legs = [
         "front_left",
         "middle_left",
@@ -234,34 +234,35 @@ fn node_core_with_tf(c: &mut Criterion) {
         },
     };
     let mut core = NodeCore::new(cfg);
-    core.on_tf(
-        &TfMessage {
-            transforms: legs
-                .iter()
-                .map(|l| tf("base_link", &format!("{l}_hip"), 0, 0.0, 0.0))
-                .collect(),
-        },
-        true,
+    let mut out = Outputs::default();
+    core.handle(
+        Input::Tf(
+            &TfMessage {
+                transforms: legs
+                    .iter()
+                    .map(|l| tf("base_link", &format!("{l}_hip"), 0, 0.0, 0.0))
+                    .collect(),
+            },
+            true,
+        ),
+        &mut out,
     );
-    let mut out = Vec::new();
     let mut k = 0i64;
     c.bench_function("node_core_joint_state_6_legs_tf", |b| {
         b.iter(|| {
             k += 1;
             let t_ns = k * 1_000_000;
             let phase = k as f64 * 0.004;
-            core.on_tf(
-                black_box(&TfMessage {
-                    transforms: vec![tf(
-                        "odom",
-                        "base_link",
-                        t_ns,
-                        0.06 + 0.01 * (2.0 * phase).sin(),
-                        0.05 * (2.0 * phase).cos(),
-                    )],
-                }),
-                false,
-            );
+            let state = TfMessage {
+                transforms: vec![tf(
+                    "odom",
+                    "base_link",
+                    t_ns,
+                    0.06 + 0.01 * (2.0 * phase).sin(),
+                    0.05 * (2.0 * phase).cos(),
+                )],
+            };
+            core.handle(Input::Tf(black_box(&state), false), &mut out);
             let beta = phase % std::f64::consts::TAU;
             let msg = JointState {
                 header: Header {
@@ -274,18 +275,18 @@ fn node_core_with_tf(c: &mut Criterion) {
                 effort: vec![],
             };
             out.clear();
-            core.on_joint_state(black_box(&msg), &mut out);
-            out.len()
+            core.handle(Input::Joints(black_box(&msg)), &mut out);
+            out.legs.len()
         })
     });
 }
 
 fn node_core_with(c: &mut Criterion, name: &str, cfg: terzaghi::config::NodeConfig) {
     use terzaghi::msgs::{Header, JointState, Time};
-    use terzaghi::node::NodeCore;
+    use terzaghi::node::{Input, NodeCore, Outputs};
     let names: Vec<String> = cfg.legs.iter().map(|l| l.joint.clone()).collect();
     let mut core = NodeCore::new(cfg);
-    let mut out = Vec::new();
+    let mut out = Outputs::default();
     let mut k = 0i64;
     c.bench_function(name, |b| {
         b.iter(|| {
@@ -302,8 +303,8 @@ fn node_core_with(c: &mut Criterion, name: &str, cfg: terzaghi::config::NodeConf
                 effort: vec![],
             };
             out.clear();
-            core.on_joint_state(black_box(&msg), &mut out);
-            out.len()
+            core.handle(Input::Joints(black_box(&msg)), &mut out);
+            out.legs.len()
         })
     });
 }

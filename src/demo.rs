@@ -9,7 +9,7 @@ use crate::ident::Estimate;
 use crate::msgs::{LegForce, ModelParams, WrenchStamped};
 use crate::node::NodeCore;
 use crate::node::handle::Publish;
-use crate::node::memory::{self, Input};
+use crate::node::memory::{self, Message};
 use crate::sim::generator::Hidden;
 use crate::sim::robot::{Session, Truth, joint_state, wrench};
 use anyhow::{Result, bail};
@@ -76,14 +76,14 @@ fn run_memory(
             for k in 0..session.t_s.len() {
                 pace(start, session.t_s[k], speed);
                 if tx
-                    .send(Input::Joints(joint_state(&cfg, &session, k, t0_ns)))
+                    .send(Message::Joints(joint_state(&cfg, &session, k, t0_ns)))
                     .is_err()
                 {
                     return;
                 }
                 for leg in 0..cfg.legs.len() {
                     if tx
-                        .send(Input::Wrench(leg, wrench(&cfg, &session, leg, k, t0_ns)))
+                        .send(Message::Wrench(leg, wrench(&cfg, &session, leg, k, t0_ns)))
                         .is_err()
                     {
                         return;
@@ -95,7 +95,7 @@ fn run_memory(
     let mut joints = 0usize;
     let mut last: Vec<Option<Estimate>> = vec![None; cfg.legs.len()];
     let run = memory::run(cfg.clone(), params, rx, view, |core: &NodeCore, input| {
-        if let Input::Joints(_) = input {
+        if let Message::Joints(_) = input {
             view.after_joints(joints);
             joints += 1;
             if joints.is_multiple_of(250) {

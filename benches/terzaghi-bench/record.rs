@@ -12,7 +12,7 @@ use clap::Args;
 use std::io::BufWriter;
 use std::time::Instant;
 use terzaghi::msgs::{Header, JointState, Time, Vector3, Wrench, WrenchStamped};
-use terzaghi::node::NodeCore;
+use terzaghi::node::{Input, NodeCore, Outputs};
 use terzaghi::record::{OfferedQos, RecordOptions, SessionWriter};
 
 #[derive(Debug, Args)]
@@ -109,8 +109,8 @@ pub fn run(a: BenchRecordArgs) -> Result<()> {
     let n = (a.minutes * 60.0 * a.rate_hz) as u64;
     let dt_ns = (1e9 / a.rate_hz) as u64;
     let t0: u64 = 1_700_000_000_000_000_000;
-    let mut outputs = Vec::new();
-    let mut params_out = Vec::new();
+    let mut outputs = Outputs::default();
+    let mut predicted = Vec::new();
     let mut messages = 0u64;
     let omega = 3.0; // rad/s
     let start = Instant::now();
@@ -143,10 +143,12 @@ pub fn run(a: BenchRecordArgs) -> Result<()> {
             effort: vec![],
         };
         outputs.clear();
-        core.on_joint_state(&js, &mut outputs);
+        core.handle(Input::Joints(&js), &mut outputs);
+        predicted.clear();
+        predicted.append(&mut outputs.legs);
         w.write("/joint_states", OfferedQos::BEST_EFFORT, &js, t, t)?;
         messages += 1;
-        for o in &outputs {
+        for o in &predicted {
             if !a.inputs_only {
                 w.write_output(
                     &out_topics[o.leg].0,
@@ -195,13 +197,12 @@ pub fn run(a: BenchRecordArgs) -> Result<()> {
                 t,
             )?;
             messages += 1;
-            core.on_wrench(o.leg, &ft);
+            core.handle(Input::Wrench(o.leg, &ft), &mut outputs);
         }
-        core.take_params(&mut params_out);
         if a.inputs_only {
-            params_out.clear();
+            outputs.params.clear();
         }
-        for (leg, p) in params_out.drain(..) {
+        for (leg, p) in outputs.params.drain(..) {
             w.write_output(&out_topics[leg].2, OfferedQos::RELIABLE, &p, t + 30_000, t)?;
             messages += 1;
         }

@@ -3,7 +3,7 @@
 //! of a parameter is validated as a whole configuration before it takes effect.
 
 use super::clock::NodeClock;
-use super::core::{LegOutput, NodeCore};
+use super::core::{Input, NodeCore, Outputs};
 use super::handle::{
     Publish, Topics, diagnostics_done, gap_done, joint_state_done, pose_done, tf_done, wrench_done,
 };
@@ -883,8 +883,7 @@ async fn joint_states_task(
     topics: Arc<Topics>,
 ) {
     let mut gaps = SequenceGaps::default();
-    let mut outputs: Vec<LegOutput> = Vec::new();
-    let mut params_out = Vec::new();
+    let mut outputs = Outputs::default();
     loop {
         let msg = next_sample(&sub, &mut gaps, &sh.dropped).await;
         let received = Instant::now();
@@ -895,8 +894,7 @@ async fn joint_states_task(
         let skipped = {
             let core = &mut sh.lock_core().core;
             let before = skipped_joint_states(core);
-            core.on_joint_state(&msg, &mut outputs);
-            core.take_params(&mut params_out);
+            core.handle(Input::Joints(&msg), &mut outputs);
             skipped_joint_states(core) - before
         };
         if skipped > 0 {
@@ -910,7 +908,6 @@ async fn joint_states_task(
             &topics,
             msg,
             &mut outputs,
-            &mut params_out,
             log_ns,
             &*pubs,
             || {
@@ -932,10 +929,15 @@ async fn tf_task(
     use crate::config::{TF_STATIC_TOPIC, TF_TOPIC};
     let topic: Arc<str> = if fixed { TF_STATIC_TOPIC } else { TF_TOPIC }.into();
     let mut gaps = SequenceGaps::default();
+    let mut outputs = Outputs::default();
     loop {
         let msg = next_sample(&sub, &mut gaps, &sh.dropped).await;
         let log_ns = sh.clock.log_time_ns();
-        sh.lock_core().core.on_tf(&msg, fixed);
+        // The robot's state gives no outputs of its own: it places the next predictions.
+        sh.lock_core()
+            .core
+            .handle(Input::Tf(&msg, fixed), &mut outputs);
+        outputs.clear();
         tf_done(rec.as_deref(), &topic, msg, log_ns);
     }
 }
@@ -949,10 +951,12 @@ async fn pose_task(
     rec: Option<Arc<Recorder>>,
 ) {
     let mut gaps = SequenceGaps::default();
+    let mut outputs = Outputs::default();
     loop {
         let msg = next_sample(&sub, &mut gaps, &sh.dropped).await;
         let log_ns = sh.clock.log_time_ns();
-        sh.lock_core().core.on_pose(&msg);
+        sh.lock_core().core.handle(Input::Pose(&msg), &mut outputs);
+        outputs.clear();
         pose_done(rec.as_deref(), &topic, msg, log_ns);
     }
 }
@@ -968,7 +972,7 @@ async fn wrench_task(
     topics: Arc<Topics>,
 ) {
     let mut gaps = SequenceGaps::default();
-    let mut params_out = Vec::new();
+    let mut outputs = Outputs::default();
     loop {
         let msg = next_sample(&sub, &mut gaps, &sh.dropped).await;
         if let Some(ch) = pubs.live.as_ref().and_then(|l| l.ft[leg].as_ref()) {
@@ -978,8 +982,7 @@ async fn wrench_task(
         let skipped = {
             let core = &mut sh.lock_core().core;
             let before = skipped_wrenches(core, leg);
-            core.on_wrench(leg, &msg);
-            core.take_params(&mut params_out);
+            core.handle(Input::Wrench(leg, &msg), &mut outputs);
             if let Some(g) = &sh.gap {
                 g.offer(core);
             }
@@ -996,7 +999,7 @@ async fn wrench_task(
             &topics,
             leg,
             msg,
-            &mut params_out,
+            &mut outputs,
             log_ns,
             &*pubs,
         );

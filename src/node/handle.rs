@@ -2,8 +2,7 @@
 //! messages (DDS, or the in-memory transport of the demo): record the outputs, publish them,
 //! record the input. Both transports call these, so both run the same code path.
 
-use super::core::LegOutput;
-use super::core::{GapJob, NodeCore};
+use super::core::{GapJob, NodeCore, Outputs};
 use crate::config::NodeConfig;
 use crate::diagnose::Report;
 use crate::msgs::{
@@ -57,20 +56,19 @@ impl Topics {
 /// After the core took a JointState: records its outputs and the parameters it produced,
 /// publishes every leg's predicted wrench, calls `published` (the processing-time clock stops
 /// there: a controller waits for the wrenches), then publishes the leg forces and parameters
-/// (draining both) and records the input.
+/// and records the input. `outputs` is emptied (the live node has no use for its matches).
 #[allow(clippy::too_many_arguments)]
 pub fn joint_state_done(
     rec: Option<&Recorder>,
     topics: &Topics,
     msg: JointState,
-    outputs: &mut Vec<LegOutput>,
-    params_out: &mut Vec<(usize, ModelParams)>,
+    outputs: &mut Outputs,
     log_ns: u64,
     out: &impl Publish,
     published: impl FnOnce(),
 ) {
     if let Some(r) = rec {
-        for o in outputs.iter() {
+        for o in outputs.legs.iter() {
             r.record(Record::Prediction(
                 topics.wrench[o.leg].clone(),
                 o.wrench.clone(),
@@ -82,7 +80,7 @@ pub fn joint_state_done(
                 log_ns,
             ));
         }
-        for (leg, p) in params_out.iter() {
+        for (leg, p) in outputs.params.iter() {
             r.record(Record::Params(
                 topics.params[*leg].clone(),
                 p.clone(),
@@ -91,41 +89,43 @@ pub fn joint_state_done(
         }
     }
     // Wrenches first: they are what a controller waits for.
-    for o in outputs.iter_mut() {
+    for o in outputs.legs.iter_mut() {
         out.wrench(o.leg, std::mem::take(&mut o.wrench));
     }
     published();
-    for o in outputs.drain(..) {
+    for o in outputs.legs.drain(..) {
         out.force(o.leg, o.force);
     }
-    for (leg, p) in params_out.drain(..) {
+    for (leg, p) in outputs.params.drain(..) {
         out.params(leg, p);
     }
+    outputs.clear();
     if let Some(r) = rec {
         r.record(Record::Joints(topics.joints.clone(), msg, log_ns));
     }
 }
 
 /// After the core took leg `leg`'s measured wrench: records and publishes the parameters it
-/// produced (draining them), then records the input.
+/// produced, then records the input. `outputs` is emptied.
 pub fn wrench_done(
     rec: Option<&Recorder>,
     topics: &Topics,
     leg: usize,
     msg: WrenchStamped,
-    params_out: &mut Vec<(usize, ModelParams)>,
+    outputs: &mut Outputs,
     log_ns: u64,
     out: &impl Publish,
 ) {
     if let Some(r) = rec {
-        for (l, p) in params_out.iter() {
+        for (l, p) in outputs.params.iter() {
             r.record(Record::Params(topics.params[*l].clone(), p.clone(), log_ns));
         }
         r.record(Record::Wrench(topics.ft[leg].clone(), msg, log_ns));
     }
-    for (l, p) in params_out.drain(..) {
+    for (l, p) in outputs.params.drain(..) {
         out.params(l, p);
     }
+    outputs.clear();
 }
 
 /// After the core took a `/tf` or `/tf_static` message: records it.

@@ -3,19 +3,29 @@
 //! predictions, the estimator, publications (to a [`Publish`] sink), the recorder. Used by the
 //! demo, which needs no network.
 
-use super::core::{LegOutput, NodeCore};
+use super::core::{Input, NodeCore, Outputs};
 use super::gap_worker::GapWorker;
 use super::handle::{Publish, Topics, diagnostics_done, gap_done, joint_state_done, wrench_done};
 use crate::config::{NodeConfig, ParamMap};
-use crate::msgs::{JointState, ModelParams, WrenchStamped};
+use crate::msgs::{JointState, WrenchStamped};
 use crate::record::RecordOptions;
 use crate::record::recorder::Recorder;
 use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 
-/// A message for the node.
-pub enum Input {
+/// A message for the node, owned while it waits in the queue ([`Message::input`] is what the
+/// core takes).
+pub enum Message {
     Joints(JointState),
     Wrench(usize, WrenchStamped),
+}
+
+impl Message {
+    pub fn input(&self) -> Input<'_> {
+        match self {
+            Message::Joints(js) => Input::Joints(js),
+            Message::Wrench(leg, w) => Input::Wrench(*leg, w),
+        }
+    }
 }
 
 /// What a run through the in-memory transport did.
@@ -30,10 +40,10 @@ pub struct MemoryRun {
 
 /// The sending end of the transport (blocking when the queue is full: the in-memory robot
 /// waits for the node rather than lose a message).
-pub type Sender = SyncSender<Input>;
+pub type Sender = SyncSender<Message>;
 
 /// A bounded queue to the node.
-pub fn queue(depth: usize) -> (Sender, Receiver<Input>) {
+pub fn queue(depth: usize) -> (Sender, Receiver<Message>) {
     sync_channel(depth.max(1))
 }
 
@@ -43,9 +53,9 @@ pub fn queue(depth: usize) -> (Sender, Receiver<Input>) {
 pub fn run<P: Publish>(
     cfg: NodeConfig,
     params: &ParamMap,
-    rx: Receiver<Input>,
+    rx: Receiver<Message>,
     out: &P,
-    mut between: impl FnMut(&NodeCore, &Input),
+    mut between: impl FnMut(&NodeCore, &Message),
 ) -> Result<MemoryRun, crate::record::RecordError> {
     let topics = Topics::new(&cfg);
     let recorder = match &cfg.record {
@@ -57,8 +67,7 @@ pub fn run<P: Publish>(
     };
     let period_ns = (cfg.diagnostics_period_s * 1e9) as i64;
     let mut core = NodeCore::new(cfg);
-    let mut outputs: Vec<LegOutput> = Vec::new();
-    let mut params_out: Vec<(usize, ModelParams)> = Vec::new();
+    let mut outputs = Outputs::default();
     let mut run = MemoryRun::default();
     let mut next_diag_ns: Option<i64> = None;
     // The node's own diagnoses, off the message path as on DDS.
@@ -71,30 +80,26 @@ pub fn run<P: Publish>(
     for input in rx {
         // The transport's clock is the messages' own: a simulated robot runs faster than real time.
         let stamp_ns = match &input {
-            Input::Joints(js) => js.header.stamp.to_nanos(),
-            Input::Wrench(_, w) => w.header.stamp.to_nanos(),
+            Message::Joints(js) => js.header.stamp.to_nanos(),
+            Message::Wrench(_, w) => w.header.stamp.to_nanos(),
         };
         let log_ns = stamp_ns.max(0) as u64;
+        core.handle(input.input(), &mut outputs);
         match &input {
-            Input::Joints(js) => {
+            Message::Joints(js) => {
                 run.joint_states += 1;
-                core.on_joint_state(js, &mut outputs);
-                core.take_params(&mut params_out);
                 joint_state_done(
                     recorder.as_ref(),
                     &topics,
                     js.clone(),
                     &mut outputs,
-                    &mut params_out,
                     log_ns,
                     out,
                     || {},
                 );
             }
-            Input::Wrench(leg, w) => {
+            Message::Wrench(leg, w) => {
                 run.wrenches += 1;
-                core.on_wrench(*leg, w);
-                core.take_params(&mut params_out);
                 if let Some(g) = &worker {
                     g.offer(&mut core);
                 }
@@ -103,7 +108,7 @@ pub fn run<P: Publish>(
                     &topics,
                     *leg,
                     w.clone(),
-                    &mut params_out,
+                    &mut outputs,
                     log_ns,
                     out,
                 );

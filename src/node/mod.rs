@@ -17,4 +17,4 @@ pub mod memory;
 pub mod param_client;
 pub mod realtime;
 
-pub use core::{LegOutput, NodeCore};
+pub use core::{Input, LegOutput, NodeCore, Outputs};

@@ -13,7 +13,7 @@ use crate::msgs::{
     DecodeInto, Gap, JointState, LegForce, ModelParams, PoseStamped, RosMessage, TfMessage, Time,
     WrenchStamped, from_cdr,
 };
-use crate::node::core::{CoreMode, GapJob, LegOutput, Matched, NodeCore, TfTree};
+use crate::node::core::{GapJob, Input, LegOutput, NodeCore, Outputs, TfTree};
 use crate::node::matcher::{FtMatcher, Match, usable_stamp_ns};
 use crate::record::read::{MessageView, Scan, Source, TopicInfo, same_type, scan_topics};
 use crate::record::{OfferedQos, RecordError, RecordOptions, SessionWriter};
@@ -135,30 +135,19 @@ pub fn reevaluate<'a>(
     on_row: impl FnMut(&Row),
     on_output: impl FnMut(Output),
 ) -> Result<Summary, RecordError> {
-    run_core(
-        source.into(),
-        NodeCore::with_mode(cfg, CoreMode::Reevaluation),
-        on_row,
-        on_output,
-    )
+    run_core(source.into(), NodeCore::new(cfg), on_row, on_output)
 }
 
-/// [`reevaluate`] for rows only: the node's output messages of legs with F/T are not made
-/// (their rows come from the matched samples either way), which saves a model evaluation and
-/// two messages per leg and joint state. `on_output` then gets the inputs, the parameters and
-/// the predictions of legs without F/T.
+/// [`reevaluate`] for rows only: the node's own diagnoses of its legs' gaps (`gap_check`),
+/// which a session re-evaluated into a new recording carries, are not run.
 pub fn reevaluate_rows<'a>(
     source: impl Into<Source<'a>>,
-    cfg: NodeConfig,
+    mut cfg: NodeConfig,
     on_row: impl FnMut(&Row),
     on_output: impl FnMut(Output),
 ) -> Result<Summary, RecordError> {
-    run_core(
-        source.into(),
-        NodeCore::with_mode(cfg, CoreMode::ReevaluationRows),
-        on_row,
-        on_output,
-    )
+    cfg.gap_check.every_strokes = 0;
+    run_core(source.into(), NodeCore::new(cfg), on_row, on_output)
 }
 
 /// What a topic of a session is to a configuration.
@@ -199,14 +188,6 @@ fn role_of(cfg: &NodeConfig) -> impl Fn(&TopicInfo) -> Role + '_ {
             Role::Skip
         }
     }
-}
-
-/// A decoded input of a session.
-enum Input<'m> {
-    Joints(&'m JointState),
-    Wrench(usize, &'m WrenchStamped),
-    Tf(&'m TfMessage, bool),
-    Pose(&'m PoseStamped),
 }
 
 /// Reads the inputs of `cfg` in `source` (its JointState topic and the legs' F/T topics), each
@@ -351,9 +332,7 @@ struct Driver {
     has_ft: Vec<bool>,
     rows: u64,
     errors: Vec<RowErrors>,
-    outputs: Vec<LegOutput>,
-    params: Vec<(usize, ModelParams)>,
-    matches: Vec<(usize, Matched)>,
+    outputs: Outputs,
     jobs: Vec<GapJob>,
 }
 
@@ -369,9 +348,7 @@ impl Driver {
             errors: vec![RowErrors::default(); core.legs()],
             core,
             rows: 0,
-            outputs: Vec::new(),
-            params: Vec::new(),
-            matches: Vec::new(),
+            outputs: Outputs::default(),
             jobs: Vec::new(),
         }
     }
@@ -386,43 +363,36 @@ impl Driver {
         on_output: &mut impl FnMut(Output),
     ) {
         let core = &mut self.core;
-        match input {
-            Input::Joints(js) => {
-                self.outputs.clear();
-                core.on_joint_state(js, &mut self.outputs);
-                for o in &self.outputs {
-                    on_output(Output::Prediction(log_ns, o));
-                    if !self.has_ft[o.leg] {
-                        let f = &o.force;
-                        self.rows += 1;
-                        on_row(&Row {
-                            t_s: f.header.stamp.to_secs(),
-                            leg: o.leg,
-                            beta_rad: f.attack_angle_rad,
-                            regime: regime_of(f),
-                            measured_drag_n: None,
-                            measured_lift_n: None,
-                            predicted_drag_n: f.drag_n,
-                            predicted_lift_n: f.lift_n,
-                            predicted_hip_torque_nm: f.hip_torque_nm,
-                            b_k: f.b_k,
-                            a: f.a,
-                            identified: f.identified,
-                            bare_drag_n: f.bare_drag_n,
-                            bare_lift_n: f.bare_lift_n,
-                            expected_reading_drag_n: f.sensor_drag_n,
-                            expected_reading_lift_n: f.sensor_lift_n,
-                        });
-                    }
-                }
+        self.outputs.clear();
+        core.handle(input, &mut self.outputs);
+        // A leg with F/T has its rows at its matched samples, below; the others at each angle.
+        for o in &self.outputs.legs {
+            on_output(Output::Prediction(log_ns, o));
+            if !self.has_ft[o.leg] {
+                let f = &o.force;
+                self.rows += 1;
+                on_row(&Row {
+                    t_s: f.header.stamp.to_secs(),
+                    leg: o.leg,
+                    beta_rad: f.attack_angle_rad,
+                    regime: regime_of(f),
+                    measured_drag_n: None,
+                    measured_lift_n: None,
+                    predicted_drag_n: f.drag_n,
+                    predicted_lift_n: f.lift_n,
+                    predicted_hip_torque_nm: f.hip_torque_nm,
+                    b_k: f.b_k,
+                    a: f.a,
+                    identified: f.identified,
+                    bare_drag_n: f.bare_drag_n,
+                    bare_lift_n: f.bare_lift_n,
+                    expected_reading_drag_n: f.sensor_drag_n,
+                    expected_reading_lift_n: f.sensor_lift_n,
+                });
             }
-            Input::Wrench(leg, w) => core.on_wrench(leg, w),
-            Input::Tf(tf, fixed) => core.on_tf(tf, fixed),
-            Input::Pose(p) => core.on_pose(p),
         }
-        core.take_params(&mut self.params);
-        for (leg, p) in self.params.drain(..) {
-            on_output(Output::Params(log_ns, leg, &p));
+        for (leg, p) in &self.outputs.params {
+            on_output(Output::Params(log_ns, *leg, p));
         }
         core.take_gap_jobs(&mut self.jobs);
         for job in self.jobs.drain(..) {
@@ -430,8 +400,7 @@ impl Driver {
             let msg = core.on_gap_report(&job, &result);
             on_output(Output::Gap(log_ns, job.leg, &msg));
         }
-        core.take_matches(&mut self.matches);
-        for (leg, mt) in self.matches.drain(..) {
+        for &(leg, mt) in &self.outputs.matches {
             let Some(r) = core.row_prediction(leg, &mt) else {
                 continue;
             };
@@ -506,7 +475,8 @@ pub fn reevaluate_samples(
     reevaluate_samples_with(samples, cfg, leg, on_row, |_| {})
 }
 
-/// [`reevaluate_samples`], with the node's other outputs (its parameters, its gap reports).
+/// [`reevaluate_samples`], with the node's other outputs (its predictions and parameters; its
+/// own diagnoses of the leg's gap are not run).
 pub fn reevaluate_samples_with(
     samples: &[Sample],
     mut cfg: NodeConfig,
@@ -522,7 +492,10 @@ pub fn reevaluate_samples_with(
     }
     lc.ft_frame = crate::config::FtFrame::Hip;
     let (joint, direction, offset) = (lc.joint.clone(), lc.direction, lc.angle_offset_rad);
-    let mut driver = Driver::new(NodeCore::with_mode(cfg, CoreMode::ReevaluationRows));
+    // A leg's rows are the node's predictions; its own diagnosis of its gap is not part of
+    // them (and would run in line here, every few strokes).
+    cfg.gap_check.every_strokes = 0;
+    let mut driver = Driver::new(NodeCore::new(cfg));
     let mut js = JointState {
         name: vec![joint],
         position: vec![0.0],

@@ -1,6 +1,7 @@
 //! What the node does with each message, without DDS or a clock: joint angles in, predicted
-//! wrenches out; measured wrenches in, identified parameters out. The DDS adapter and the
-//! in-memory demo both drive this same code.
+//! wrenches out; measured wrenches in, identified parameters out. Every transport (DDS, the
+//! in-memory demo, the offline re-evaluation of a recording) hands its messages to
+//! [`NodeCore::handle`] and publishes, records or tabulates the [`Outputs`] it fills.
 
 mod gap;
 mod robot_state;
@@ -130,7 +131,7 @@ impl Learner {
 }
 
 /// A leg predicted by the corrected model: the model, the leg's motion followed from its angles,
-/// the sensor's lag, and (when re-evaluating) its recent predictions.
+/// the sensor's lag, and its recent predictions.
 struct CorrectedLeg {
     model: CorrectedModel,
     tracker: MotionTracker,
@@ -147,19 +148,18 @@ impl CorrectedLeg {
             model,
             tracker: MotionTracker::new(MOTION_WINDOW_S),
             lag: SensorLagFilter::default(),
-            recent: VecDeque::new(),
+            recent: VecDeque::with_capacity(RECENT_PREDICTIONS),
             motions: VecDeque::with_capacity(RECENT_MOTIONS),
         }
     }
 
     /// The corrected prediction for the angle `beta_rad` stamped `stamp_ns`, the sensor's side
-    /// through its lag; kept for the rows when `keep`.
+    /// through its lag; the recent ones are kept for [`NodeCore::row_prediction`].
     fn step(
         &mut self,
         stamp_ns: i64,
         beta_rad: f64,
         hip: Option<&HipMotion>,
-        keep: bool,
     ) -> Option<CorrectedPrediction> {
         let t_s = stamp_ns as f64 * 1e-9;
         let plate = *self.model.plate();
@@ -186,13 +186,11 @@ impl CorrectedLeg {
             p.sensor_drag_n = y[0] + bias[0];
             p.sensor_lift_n = y[1] + bias[1];
         }
-        if keep {
-            if self.recent.len() == RECENT_PREDICTIONS {
-                self.recent.pop_front();
-            }
-            self.recent
-                .push_back((stamp_ns, RowPrediction::corrected(&p)));
+        if self.recent.len() == RECENT_PREDICTIONS {
+            self.recent.pop_front();
         }
+        self.recent
+            .push_back((stamp_ns, RowPrediction::corrected(&p)));
         Some(p)
     }
 }
@@ -272,17 +270,38 @@ fn leg_force(
     }
 }
 
-/// What the core is run for.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum CoreMode {
-    /// The node: every leg's outputs for each JointState.
-    Node,
-    /// An offline re-evaluation into a new session: every leg's outputs, and every matched F/T
-    /// sample kept for [`NodeCore::take_matches`] (predictions are put next to them).
-    Reevaluation,
-    /// An offline re-evaluation into rows: outputs only for the legs without F/T (the rows of
-    /// the others are predictions at their matched samples), matched samples kept.
-    ReevaluationRows,
+/// A message for the node, as a transport hands it over.
+#[derive(Debug, Clone, Copy)]
+pub enum Input<'m> {
+    /// The robot's joint states: every configured leg found in it is predicted.
+    Joints(&'m JointState),
+    /// A measured wrench of the leg with this index.
+    Wrench(usize, &'m WrenchStamped),
+    /// `/tf` (`false`) or `/tf_static` (`true`).
+    Tf(&'m TfMessage, bool),
+    /// The body's pose (`robot_state.pose_topic`).
+    Pose(&'m PoseStamped),
+}
+
+/// What the core made of the inputs handed to it since the transport last emptied this:
+/// the transport publishes or records each part, or drops what it has no use for.
+#[derive(Debug, Clone, Default)]
+pub struct Outputs {
+    /// One per leg predicted, for each JointState.
+    pub legs: Vec<LegOutput>,
+    /// Identified parameters due for publication, with their leg.
+    pub params: Vec<(usize, ModelParams)>,
+    /// The F/T samples matched to a joint angle, with their leg: what a re-evaluation puts next
+    /// to the prediction there ([`NodeCore::row_prediction`]).
+    pub matches: Vec<(usize, Matched)>,
+}
+
+impl Outputs {
+    pub fn clear(&mut self) {
+        self.legs.clear();
+        self.params.clear();
+        self.matches.clear();
+    }
 }
 
 /// The outputs of one leg for one JointState.
@@ -297,15 +316,14 @@ pub struct LegOutput {
 pub struct NodeCore {
     cfg: NodeConfig,
     legs: Vec<Leg>,
-    /// Parameters to publish, from F/T samples handled since the last [`NodeCore::take_params`].
+    /// Parameters to publish, from the F/T samples of the input being handled.
     params_out: Vec<(usize, ModelParams)>,
     counters: NodeCounters,
     last_diag_ns: Option<i64>,
     matcher: FtMatcher,
-    mode: CoreMode,
     /// F/T samples decided by the matcher, waiting to be used.
     decided: Vec<Match>,
-    /// Matched F/T samples kept for [`NodeCore::take_matches`] ([`CoreMode::Reevaluation`]).
+    /// The F/T samples matched while the input was handled.
     matches: Vec<(usize, Matched)>,
     /// Diagnoses due, for [`NodeCore::take_gap_jobs`].
     gap_jobs: Vec<GapJob>,
@@ -317,10 +335,6 @@ pub struct NodeCore {
 
 impl NodeCore {
     pub fn new(cfg: NodeConfig) -> NodeCore {
-        NodeCore::with_mode(cfg, CoreMode::Node)
-    }
-
-    pub fn with_mode(cfg: NodeConfig, mode: CoreMode) -> NodeCore {
         let mut core = NodeCore {
             legs: Vec::new(),
             params_out: Vec::new(),
@@ -328,7 +342,6 @@ impl NodeCore {
             cfg,
             counters: NodeCounters::default(),
             last_diag_ns: None,
-            mode,
             decided: Vec::new(),
             matches: Vec::new(),
             gap_jobs: Vec::new(),
@@ -346,9 +359,21 @@ impl NodeCore {
         self.tf.place_hips(&self.cfg);
     }
 
+    /// Handles one message: what it gives is appended to `out`.
+    pub fn handle(&mut self, input: Input<'_>, out: &mut Outputs) {
+        match input {
+            Input::Joints(js) => self.on_joint_state(js, &mut out.legs),
+            Input::Wrench(leg, w) => self.on_wrench(leg, w),
+            Input::Tf(tf, fixed) => self.on_tf(tf, fixed),
+            Input::Pose(p) => self.on_pose(p),
+        }
+        out.params.append(&mut self.params_out);
+        out.matches.append(&mut self.matches);
+    }
+
     /// Takes the body's pose (`robot_state.pose_topic`), for a robot without TF: the pose of
     /// `robot_state.body_frame` in the message's frame (the world frame if it names none).
-    pub fn on_pose(&mut self, msg: &PoseStamped) {
+    fn on_pose(&mut self, msg: &PoseStamped) {
         self.tf.insert_pose(msg, &self.cfg.robot_state);
     }
 
@@ -520,7 +545,7 @@ impl NodeCore {
 
     /// Takes a `/tf` (`fixed` false) or `/tf_static` message: the robot's state, read by the legs
     /// with a `hip_frame`.
-    pub fn on_tf(&mut self, msg: &TfMessage, fixed: bool) {
+    fn on_tf(&mut self, msg: &TfMessage, fixed: bool) {
         self.tf.insert(msg, fixed);
     }
 
@@ -588,7 +613,7 @@ impl NodeCore {
     }
 
     /// Predicts every configured leg found in `msg`; appends one output per leg predicted.
-    pub fn on_joint_state(&mut self, msg: &JointState, out: &mut Vec<LegOutput>) {
+    fn on_joint_state(&mut self, msg: &JointState, out: &mut Vec<LegOutput>) {
         self.counters.joint_states += 1;
         let Some(stamp_ns) = usable_stamp_ns(msg) else {
             self.counters.invalid_joint_states += 1;
@@ -618,14 +643,10 @@ impl NodeCore {
             let hip = self.hip_motion(i, stamp_ns, beta);
             let from_state = hip.is_some();
             let hip = self.with_surface(i, hip);
-            let keep = self.mode != CoreMode::Node;
             let corrected = self.legs[i]
                 .corrected
                 .as_mut()
-                .map(|c| c.step(stamp_ns, beta, hip.as_ref(), keep));
-            if self.mode == CoreMode::ReevaluationRows && self.cfg.legs[i].ft_topic.is_some() {
-                continue;
-            }
+                .map(|c| c.step(stamp_ns, beta, hip.as_ref()));
             let (lc, leg) = (&self.cfg.legs[i], &mut self.legs[i]);
             let header = Header {
                 stamp: msg.header.stamp,
@@ -728,8 +749,8 @@ impl NodeCore {
     /// Feeds a measured wrench of leg `leg` to its estimator. A wrench newer than the newest
     /// joint angle waits (bounded) for the angle after it, so that the nearest angle in time is
     /// used. Parameters to publish (at most `model_params_rate_hz`, and at once on convergence or
-    /// a detected change) are collected by [`NodeCore::take_params`].
-    pub fn on_wrench(&mut self, leg: usize, msg: &WrenchStamped) {
+    /// a detected change) go to [`Outputs::params`].
+    fn on_wrench(&mut self, leg: usize, msg: &WrenchStamped) {
         let Some(l) = self.legs.get_mut(leg) else {
             return;
         };
@@ -750,9 +771,7 @@ impl NodeCore {
         match m {
             Match::Unmatched => self.legs[leg].counters.ft_unmatched += 1,
             Match::Matched(mt) => {
-                if self.mode != CoreMode::Node {
-                    self.matches.push((leg, mt));
-                }
+                self.matches.push((leg, mt));
                 // Where the robot's state put the hip at the matched angle, once for both.
                 let state_hip = self.hip_at(leg, mt.angle_t_ns);
                 self.watch_gap(leg, &mt, state_hip);
@@ -770,7 +789,7 @@ impl NodeCore {
         // The diagnosis is of a flat plate's gap: a leg of another shape is not watched. A leg
         // the robot's state places is diagnosed at its hips.
         let lc = &self.cfg.legs[leg];
-        if self.mode == CoreMode::ReevaluationRows || lc.profile.is_some() {
+        if lc.profile.is_some() {
             return;
         }
         let Some(l) = self.legs.get_mut(leg) else {
@@ -804,11 +823,6 @@ impl NodeCore {
             }
             None => self.gap_jobs.push(job),
         }
-    }
-
-    /// Parameters produced since the last call, with their leg.
-    pub fn take_params(&mut self, out: &mut Vec<(usize, ModelParams)>) {
-        out.append(&mut self.params_out);
     }
 
     /// Updates the estimator of `leg` with a matched sample; the parameters to publish when
@@ -951,12 +965,6 @@ impl NodeCore {
             std_surface_offset_m: surface_now.map_or(0.0, |s| s.std_offset_m),
             surface_converged: surface_now.is_some_and(|s| s.converged),
         })
-    }
-
-    /// Takes the F/T samples matched since the previous call, with their leg (none in
-    /// [`CoreMode::Node`]).
-    pub fn take_matches(&mut self, out: &mut Vec<(usize, Matched)>) {
-        out.append(&mut self.matches);
     }
 
     /// The prediction of `leg`'s current model at `beta_rad` (the bare model's, for a leg with
@@ -1328,7 +1336,7 @@ mod tests {
         core.on_wrench(7, &w(40, 1.0));
         core.on_wrench(0, &w(5_000_000_000, -1.0));
         let mut params = Vec::new();
-        core.take_params(&mut params);
+        params.append(&mut core.params_out);
         assert!(params.is_empty());
         let c = core.leg_counters(0).unwrap();
         assert_eq!((c.ft_unmatched, c.ft_invalid), (1, 1));
@@ -1370,7 +1378,7 @@ mod tests {
         };
         core.on_wrench(0, &m);
         let mut params = Vec::new();
-        core.take_params(&mut params);
+        params.append(&mut core.params_out);
         assert_eq!(params[0].1.samples_used, 1);
         // The log-linear start-up sees the exact force: b_k a^-beta is recovered at this angle.
         let e = core.estimate(0).unwrap();
