@@ -105,7 +105,7 @@ pub fn worded(e: &anyhow::Error) -> String {
                 "{} is not an MCAP file: --joint, --wrench-topic and --params-file are for MCAP sessions; a CSV log takes the geometry and medium flags",
                 file.display()
             ),
-            Some(Refusal::NoLegWithFt) => "no leg to diagnose has an F/T topic in the parameters (set <leg>.ft_topic, or use --joint and --wrench-topic)".to_string(),
+            Some(Refusal::NoLegWithFt) => "no leg has an F/T topic in the parameters (set <leg>.ft_topic, or use --joint and --wrench-topic)".to_string(),
             Some(Refusal::SeveralLegs { legs }) => format!(
                 "the session has several legs with F/T topics ({}): choose one with --leg",
                 legs.join(", ")

@@ -3,7 +3,7 @@
 //! `report.html` (one directory per leg, with an index, when there are several).
 
 use super::files::write_text;
-use super::legs::{LegLog, LegsFrom, choose_legs, csv_leg, session_legs};
+use super::legs::{LegLog, LegsFrom, csv_leg, mcap_legs};
 use super::{Opened, Refusal};
 use crate::config::corrections::corrections_params;
 use crate::config::{LegConfig, NodeConfig, ParamMap, ParamValue, params_yaml};
@@ -59,13 +59,7 @@ pub fn diagnose_file(log: &Path, opts: &DiagnoseFileOptions) -> Result<Diagnosed
                     file: log.to_path_buf()
                 });
             }
-            opened.refuse_cut_off(log)?;
-            let cfg = opts.legs_from.config(&opened, log)?;
-            let chosen = choose_legs(&cfg, opts.leg.as_deref())?;
-            if chosen.is_empty() {
-                bail!(Refusal::NoLegWithFt);
-            }
-            (session_legs(log, &opened, &cfg, &chosen)?, cfg)
+            mcap_legs(log, &opened, &opts.legs_from, opts.leg.as_deref())?
         }
         None => {
             if !matches!(opts.legs_from, LegsFrom::Recorded) {

@@ -4,7 +4,7 @@
 //! log of one leg.
 
 use super::Opened;
-use super::reevaluate::{measured_samples_placed, session_config};
+use super::inputs::{measured_samples_placed, session_config};
 use crate::config::{FtFrame, LegConfig, NodeConfig, resolve_topic};
 use crate::dataset::read_samples_csv;
 use crate::ident::Sample;
@@ -81,7 +81,7 @@ pub enum LegsFrom {
 
 impl LegsFrom {
     /// The configuration of the session's legs.
-    pub fn config(&self, opened: &Opened, file: &Path) -> Result<NodeConfig> {
+    fn config(&self, opened: &Opened, file: &Path) -> Result<NodeConfig> {
         Ok(match self {
             LegsFrom::Recorded => session_config(None, opened.head(), file)?.0,
             LegsFrom::ParamsFile(p) => session_config(Some(p), opened.head(), file)?.0,
@@ -90,9 +90,38 @@ impl LegsFrom {
     }
 }
 
+/// The legs of the session `file` that `legs_from` describes, read with that configuration:
+/// `leg`, or else every leg with an F/T topic. A session cut off, a leg that is not there or
+/// has no F/T, and a session whose legs have none are refused.
+pub fn mcap_legs(
+    file: &Path,
+    opened: &Opened,
+    legs_from: &LegsFrom,
+    leg: Option<&str>,
+) -> Result<(Vec<LegLog>, NodeConfig)> {
+    let (cfg, chosen) = configured(file, opened, legs_from, leg)?;
+    Ok((session_legs(file, opened, &cfg, &chosen)?, cfg))
+}
+
+/// The configuration of `opened`'s legs and the legs chosen in it (see [`mcap_legs`]).
+fn configured(
+    file: &Path,
+    opened: &Opened,
+    legs_from: &LegsFrom,
+    leg: Option<&str>,
+) -> Result<(NodeConfig, Vec<usize>)> {
+    opened.refuse_cut_off(file)?;
+    let cfg = legs_from.config(opened, file)?;
+    let chosen = choose_legs(&cfg, leg)?;
+    if chosen.is_empty() {
+        bail!(super::Refusal::NoLegWithFt);
+    }
+    Ok((cfg, chosen))
+}
+
 /// The leg named `leg`, or else every leg with an F/T topic (none, if none has one); an error
 /// names the legs there are when `leg` is not one of them or has no F/T.
-pub fn choose_legs(cfg: &NodeConfig, leg: Option<&str>) -> Result<Vec<usize>> {
+fn choose_legs(cfg: &NodeConfig, leg: Option<&str>) -> Result<Vec<usize>> {
     let names = || {
         cfg.legs
             .iter()
@@ -119,7 +148,7 @@ pub fn choose_legs(cfg: &NodeConfig, leg: Option<&str>) -> Result<Vec<usize>> {
 /// The measured samples of the legs `chosen` of the complete session `file`
 /// ([`Opened::refuse_cut_off`]), with `cfg`. A damaged file is refused with the command that
 /// mends it; a leg without a matched sample is refused with the topics the file has.
-pub fn session_legs(
+fn session_legs(
     file: &Path,
     opened: &Opened,
     cfg: &NodeConfig,
@@ -177,12 +206,7 @@ pub fn one_leg(file: &Path, legs_from: &LegsFrom, leg: Option<&str>) -> Result<L
     let Some(opened) = Opened::mcap(file)? else {
         bail!("{} is not an MCAP file", file.display());
     };
-    opened.refuse_cut_off(file)?;
-    let cfg = legs_from.config(&opened, file)?;
-    let chosen = choose_legs(&cfg, leg)?;
-    if chosen.is_empty() {
-        bail!("no leg has an F/T topic in the parameters (set <leg>.ft_topic)");
-    }
+    let (cfg, chosen) = configured(file, &opened, legs_from, leg)?;
     if chosen.len() > 1 {
         bail!(super::Refusal::SeveralLegs {
             legs: cfg.legs.iter().map(|l| l.name.clone()).collect()

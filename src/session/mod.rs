@@ -58,6 +58,7 @@ pub use refusal::Refusal;
 pub mod diagnose;
 pub mod files;
 pub mod identify;
+pub mod inputs;
 pub mod legs;
 pub mod record;
 pub mod reevaluate;

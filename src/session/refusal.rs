@@ -38,8 +38,8 @@ pub enum Refusal {
         file.display()
     )]
     SessionOptionsForCsv { file: PathBuf },
-    /// No leg of the session has an F/T topic to diagnose.
-    #[error("no leg to diagnose has an F/T topic in the parameters (set <leg>.ft_topic)")]
+    /// No leg of the session has an F/T topic to read.
+    #[error("no leg has an F/T topic in the parameters (set <leg>.ft_topic)")]
     NoLegWithFt,
     /// Several legs could be meant: one must be chosen.
     #[error("the session has several legs with F/T topics ({}): choose one", legs.join(", "))]
