@@ -394,7 +394,7 @@ impl Demo {
                 "samples": c.samples(),
             }));
         }
-        summary.text += "(in sample: the corrections were fitted on this recording; `terzaghi diagnose-eval --closed-loop`\n\
+        summary.text += "(in sample: the corrections were fitted on this recording; `terzaghi-eval diagnose-eval --closed-loop`\n\
              measures them on strokes they were not fitted on)\n";
         summary.json["rerun"] = serde_json::json!({
             "params_file": corrected,

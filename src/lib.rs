@@ -18,19 +18,17 @@
 //! - [`session`]: operations on a session as a user runs them: re-evaluate a recording,
 //!   diagnose its legs, identify a leg's medium, record and replay topics; with the writers of
 //!   their results.
-//! - [`withheld`]: the check of the diagnosis on generated sessions whose effect it is not told.
-//! - [`dem`]: runs of the DEM testbed (reading, checking, writing as sessions), the models'
-//!   fidelity against a campaign, and the diagnosis checked on sessions built from its runs.
+//! - [`dem`]: runs of the DEM testbed: reading, checking, writing as sessions.
 //! - [`demo`]: the six-legged robot walking through the node, for `terzaghi demo`.
-//! - [`closed_loop`]: the corrected model checked on strokes its diagnosis did not see, through
-//!   the node, against the bare model (demo, generated cases, DEM campaign).
 //! - [`cli`]: the `terzaghi` command line, over all of the above.
 //!
 //! Re-evaluating and diagnosing a recording from Rust, without the command line: see
 //! [`session`].
+//!
+//! The checks of the diagnosis and the models (withheld effects, held-out strokes, the DEM
+//! campaign) are the crate `terzaghi-eval`, apart from the product.
 
 pub mod cli;
-pub mod closed_loop;
 pub mod config;
 pub mod dataset;
 pub mod dem;
@@ -42,4 +40,3 @@ pub mod session;
 pub mod sim;
 
 pub use terzaghi_core::{diagnose, ident, model};
-pub mod withheld;

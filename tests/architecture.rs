@@ -110,6 +110,8 @@ fn every_module_is_on_the_map_and_uses_only_those_above_it() {
     assert_eq!(map.last().map(String::as_str), Some("cli"), "cli is on top");
     let core = check_map(&repo().join("crates/terzaghi-core/src"));
     assert_eq!(core, ["model", "ident", "sim", "diagnose"]);
+    let eval = check_map(&repo().join("crates/terzaghi-eval/src"));
+    assert_eq!(eval.last().map(String::as_str), Some("dem_report"));
 }
 
 /// The core crate needs no I/O, DDS, runtime or command line: its dependencies are the

@@ -570,7 +570,7 @@ fn a_node_started_from_corrected_yaml_publishes_what_replay_reevaluates() {
     let dir = tempfile::tempdir().unwrap();
     let case = dir.path().join("case");
     // Case 3 of the generated rotation hides surcharge.
-    let o = std::process::Command::new(terzaghi())
+    let o = std::process::Command::new(common::eval_exe())
         .args(["diagnose-eval", "--export-case", "3", "--export-dir"])
         .arg(&case)
         .output()

@@ -177,7 +177,7 @@ fn the_committed_campaign_holds_its_figures() {
     const IMPROVED_R2_DRAG: f64 = 0.85;
     const IMPROVED_R2_LIFT: f64 = 0.65;
     const RFT_GRID_R2: f64 = 0.8;
-    use terzaghi::dem::fidelity::campaign_report;
+    use terzaghi_eval::fidelity::campaign_report;
     let dir = common::repo().join("tests/dem/campaign");
     let c = terzaghi::dem::read_campaign(&dir).expect("the committed campaign reads");
     let r = campaign_report(&c, "qs_b030_h040").unwrap();
@@ -187,7 +187,7 @@ fn the_committed_campaign_holds_its_figures() {
             .find(|x| x.run == name)
             .unwrap_or_else(|| panic!("no check {name}"))
     };
-    let mean = |x: &terzaghi::dem::fidelity::Change| {
+    let mean = |x: &terzaghi_eval::fidelity::Change| {
         x.mean_drag_change.abs().max(x.mean_lift_change.abs())
     };
     // The testbed's checks, as the README states them.
@@ -395,7 +395,7 @@ fn the_node_predicts_the_dem_c_leg_with_rft_from_the_dem() {
     let (drag, lift) = (r2("R^2 drag "), r2("lift "));
     let c = terzaghi::dem::read_campaign(&dir.join("tests/dem/campaign")).unwrap();
     let fit = terzaghi::model::RftFit::fit_to_points(&c.rft_grid).unwrap();
-    let offline = terzaghi::dem::fidelity::c_leg_fidelity(
+    let offline = terzaghi_eval::fidelity::c_leg_fidelity(
         c.run("cleg").unwrap(),
         &terzaghi::model::RftCoefficients::Fit(fit),
     )

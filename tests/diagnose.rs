@@ -15,6 +15,15 @@ fn terzaghi(args: &[&str]) -> Output {
         .expect("run terzaghi")
 }
 
+/// `terzaghi-eval diagnose-eval ARGS`: the diagnosis's own checks.
+fn diagnose_eval(args: &[&str]) -> Output {
+    Command::new(common::eval_exe())
+        .arg("diagnose-eval")
+        .args(args)
+        .output()
+        .expect("run terzaghi-eval")
+}
+
 fn ok(out: &Output) -> String {
     assert!(
         out.status.success(),
@@ -44,8 +53,7 @@ fn json(path: &Path) -> Value {
 /// Exports case `i` of diagnose-eval's run 1: its session CSV and its truth.
 fn exported(i: usize, dir: &Path) -> (Vec<String>, Vec<String>) {
     let d = dir.to_str().unwrap();
-    ok(&terzaghi(&[
-        "diagnose-eval",
+    ok(&diagnose_eval(&[
         "--export-case",
         &i.to_string(),
         "--export-dir",
@@ -409,14 +417,7 @@ fn bad_logs_are_refused_with_exit_2() {
 #[test]
 fn diagnose_eval_meets_its_targets_on_withheld_effects() {
     // 208 cases: 16 rounds of clean, the nine effects, two outside the library, and a pair.
-    let out = ok(&terzaghi(&[
-        "diagnose-eval",
-        "--cases",
-        "208",
-        "--seed",
-        "1",
-        "--json",
-    ]));
+    let out = ok(&diagnose_eval(&["--cases", "208", "--seed", "1", "--json"]));
     let v: Value = serde_json::from_str(&out).unwrap();
     let s = &v["summary"];
     eprintln!("{}", serde_json::to_string_pretty(s).unwrap());
@@ -466,8 +467,7 @@ fn diagnose_eval_meets_its_targets_on_withheld_effects() {
 #[test]
 fn on_the_dem_campaign_the_varied_effect_is_reported() {
     let campaign = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/dem/campaign");
-    let out = ok(&terzaghi(&[
-        "diagnose-eval",
+    let out = ok(&diagnose_eval(&[
         "--cases",
         "0",
         "--dem",
@@ -703,8 +703,7 @@ fn on_the_dem_campaign_the_varied_effect_is_reported() {
 #[test]
 fn the_corrected_model_closes_the_reported_share_on_held_out_strokes() {
     let campaign = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/dem/campaign");
-    let out = ok(&terzaghi(&[
-        "diagnose-eval",
+    let out = ok(&diagnose_eval(&[
         "--closed-loop",
         "--cases",
         "26",

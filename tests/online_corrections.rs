@@ -1,11 +1,11 @@
 //! The node's online identification of a corrected model against the batch diagnosis, on the
-//! generated sessions of `terzaghi diagnose-eval --online` (the generator of `withheld`, whose
+//! generated sessions of `terzaghi-eval diagnose-eval --online` (the generator of `withheld`, whose
 //! effects are written in forms of their own): learnt from the conventional start (`b_k = a = 1`,
 //! every coefficient 0) with the node's default options.
 
 mod common;
 
-use terzaghi::closed_loop::{
+use terzaghi_eval::closed_loop::{
     LearntOnline, ONLINE_CASES, STEP_CASES, STEP_FACTOR, learnt_online, learnt_step,
 };
 
@@ -123,7 +123,7 @@ fn the_node_learns_its_corrections_and_predicts_with_them() {
     use terzaghi::sim::generator::Hidden;
     let (case, samples) = ONLINE_CASES
         .clone()
-        .map(|i| terzaghi::withheld::case_session(i, SEED))
+        .map(|i| terzaghi_eval::withheld::case_session(i, SEED))
         .find(|(case, _)| case.effects == [Hidden::Cohesion])
         .unwrap();
     let model = TerzaghiModel::conventional(case.plate, case.medium);
@@ -189,7 +189,7 @@ fn the_node_learns_its_corrections_and_predicts_with_them() {
 /// The README's tables of the corrections learnt online are what the command prints.
 #[test]
 fn the_readme_tables_are_what_diagnose_eval_online_prints() {
-    let out = std::process::Command::new(common::terzaghi())
+    let out = std::process::Command::new(common::eval_exe())
         .args(["diagnose-eval", "--online"])
         .output()
         .unwrap();

@@ -4,7 +4,6 @@
 mod dem;
 mod demo;
 mod diagnose;
-mod diagnose_eval;
 mod fit;
 mod identify;
 mod log_source;
@@ -38,9 +37,6 @@ pub enum Command {
     /// Write a run of the DEM testbed (tests/dem/campaign.py) as a ROS 2 MCAP session; a run
     /// that never touched the bed, has a non-finite force or whose bed did not settle is refused.
     ImportDem(dem::ImportDemArgs),
-    /// The models against a DEM campaign: the testbed's checks, fidelity of the improved and
-    /// conventional models and RFT from the DEM, width transfer, the C-leg.
-    DemReport(dem::DemReportArgs),
     /// Predict drag, lift and hip torque over a range of attack angles.
     Predict(predict::PredictArgs),
     /// Fit b_k and a (and delta) to measured forces in a CSV file, batch (Eq. 26).
@@ -72,9 +68,6 @@ pub enum Command {
     /// Diagnose the sim-to-real gap of a session: where model and measurement part, which
     /// unmodelled effect causes it, how far the gap shrinks with it (report.json, report.html).
     Diagnose(diagnose::DiagnoseArgs),
-    /// Check the diagnosis on generated sessions whose hidden effect it is not told: confusion
-    /// matrix, accuracy, false alarms, error of the reported gap closed.
-    DiagnoseEval(diagnose_eval::DiagnoseEvalArgs),
 }
 
 /// Runs a parsed command. Errors are for the user: `main` prints them on one line, exit code 2.
@@ -120,7 +113,6 @@ pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Demo(a) => demo::run(a),
         Command::ImportDem(a) => dem::import(a),
-        Command::DemReport(a) => dem::report(a),
         Command::Predict(a) => predict::run(a),
         Command::Fit(a) => fit::run(a),
         Command::Identify(a) => identify::run(a),
@@ -134,7 +126,6 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Simulate(a) => simulate::run(a),
         Command::SimulateRobot(a) => simulate_robot::run(a),
         Command::Diagnose(a) => diagnose::run(a),
-        Command::DiagnoseEval(a) => diagnose_eval::run_cmd(a),
     }
 }
 

@@ -8,7 +8,7 @@
 //! - [`yaml`]: params files, and the parameters of one node from defaults, files and `-p`.
 //! - [`node`]: the node's configuration ([`NodeConfig`]), validated from parameters.
 //! - [`names`]: ROS names: topic resolution and remapping, and the node's output topics.
-//! - [`env`]: the ROS 2 environment variables the node honours.
+//! - [`env`](mod@env): the ROS 2 environment variables the node honours.
 
 pub mod corrections;
 pub mod env;

@@ -8,10 +8,8 @@
 //! never written as a session. [`DemRun::write_session`] writes an accepted run as a ROS 2 MCAP
 //! session through the project's [`SessionWriter`], with the node's parameters, so that every
 //! command that reads a recording (`info`, `fit`, `identify`, `replay --reevaluate`,
-//! `diagnose`) reads it. [`fidelity`] measures the models against a campaign's runs.
-
-pub mod cases;
-pub mod fidelity;
+//! `diagnose`) reads it. The models against a campaign's runs, and the diagnosis on sessions
+//! built from them, are checked in the `terzaghi-eval` crate.
 
 use crate::config::{ParamMap, ParamValue, TF_TOPIC, defaults};
 use crate::ident::Sample;

@@ -9,7 +9,7 @@
 //! log time has passed, so that a killed process loses at most that much. The node's outputs
 //! ([`SessionWriter::write_output`]) go to chunks of their own, which readers of the inputs skip
 //! ([`read::scan_topics`]). [`read`] reads files
-//! written by any ROS 2 tool, cut off or not; [`recover`] rewrites a cut-off file whole.
+//! written by any ROS 2 tool, cut off or not; [`recover`](fn@recover) rewrites a cut-off file whole.
 
 pub mod read;
 pub mod recorder;

@@ -19,10 +19,21 @@ pub fn terzaghi() -> PathBuf {
 /// The benchmarks' binary (the workspace's `terzaghi-bench` package), which `cargo test` at the
 /// top of the workspace builds beside `terzaghi`.
 pub fn bench_exe() -> PathBuf {
-    let exe = terzaghi().with_file_name("terzaghi-bench");
+    workspace_exe("terzaghi-bench")
+}
+
+/// The evaluation's binary (the workspace's `terzaghi-eval` package: `diagnose-eval`,
+/// `dem-report`), built beside `terzaghi` in the same way.
+pub fn eval_exe() -> PathBuf {
+    workspace_exe("terzaghi-eval")
+}
+
+/// The binary `name` of a package of the workspace, beside `terzaghi`.
+fn workspace_exe(name: &str) -> PathBuf {
+    let exe = terzaghi().with_file_name(name);
     assert!(
         exe.exists(),
-        "{} is missing: cargo build --release -p terzaghi-bench",
+        "{} is missing: cargo build --release -p {name}",
         exe.display()
     );
     exe

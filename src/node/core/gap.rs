@@ -47,8 +47,8 @@ impl GapJob {
         self.len() == 0
     }
 
-    /// The samples, evenly thinned to at most [`JOB_SAMPLES`] (the diagnosis thins to
-    /// [`GAP_MAX_POINTS`] anyway, after taking speed and acceleration from what it is given),
+    /// The samples, evenly thinned to at most `JOB_SAMPLES` (the diagnosis thins to
+    /// `GAP_MAX_POINTS` anyway, after taking speed and acceleration from what it is given),
     /// and where the robot's state placed the hip at each (empty for a leg at a fixed height).
     pub fn samples(&self) -> (Vec<Sample>, Vec<Option<HipMotion>>) {
         let stride = self.len().div_ceil(JOB_SAMPLES).max(1);

@@ -1,13 +1,13 @@
 //! `terzaghi diagnose-eval`: the diagnosis checked on sessions whose hidden effect it is not told.
 
-use super::print_out;
-use crate::dem::cases::{CaseError, DemOutcome};
-use crate::diagnose::DiagnoseOptions;
+use crate::dem_cases::{CaseError, DemOutcome};
 use crate::withheld::{Outcome, Summary, run, summarize};
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
+use terzaghi::cli::print_out;
+use terzaghi::diagnose::DiagnoseOptions;
 
 #[derive(Debug, Args)]
 pub struct DiagnoseEvalArgs {
@@ -65,7 +65,7 @@ pub fn run_cmd(a: DiagnoseEvalArgs) -> Result<()> {
     }
     let campaign = match &a.dem {
         Some(dir) => Some(
-            crate::dem::read_campaign(dir)
+            terzaghi::dem::read_campaign(dir)
                 .with_context(|| format!("cannot read the DEM campaign {}", dir.display()))?,
         ),
         None => None,
@@ -100,7 +100,7 @@ pub fn run_cmd(a: DiagnoseEvalArgs) -> Result<()> {
     let dem_start = std::time::Instant::now();
     let dem: Vec<Result<DemOutcome, CaseError>> = campaign
         .as_ref()
-        .map(|c| crate::dem::cases::run_all(c, a.seed, &DiagnoseOptions::default()))
+        .map(|c| crate::dem_cases::run_all(c, a.seed, &DiagnoseOptions::default()))
         .unwrap_or_default();
     let dem_s = dem_start.elapsed().as_secs_f64();
     if let Some(e) = dem.iter().find_map(|r| r.as_ref().err()) {
@@ -255,7 +255,7 @@ pub fn render_online(
 /// `--closed-loop`: every session's held-out strokes, bare against corrected.
 fn closed_loop(
     a: &DiagnoseEvalArgs,
-    campaign: Option<&crate::dem::Campaign>,
+    campaign: Option<&terzaghi::dem::Campaign>,
     threads: usize,
 ) -> Result<()> {
     use crate::closed_loop::{dem_sessions, demo_sessions, generated_sessions};
@@ -386,7 +386,7 @@ pub fn render_dem(d: &[DemOutcome], dir: &std::path::Path, seconds: f64) -> Stri
         "DEM cases from {} ({} cases in {seconds:.1} s; F/T noise {:.0} % of the peak force)\n",
         dir.display(),
         d.len(),
-        100.0 * crate::dem::cases::NOISE_FRAC
+        100.0 * crate::dem_cases::NOISE_FRAC
     );
     // Rounded to whole percent, a share just below zero reads 0 %, not -0 %.
     let whole = |v: f64| format!("{:.0} %", v.round() + 0.0);
@@ -442,7 +442,7 @@ pub fn render_dem(d: &[DemOutcome], dir: &std::path::Path, seconds: f64) -> Stri
         varied.len(),
         compared.len()
     );
-    let split: Vec<(&DemOutcome, &crate::diagnose::signatures::TimingSplit)> = d
+    let split: Vec<(&DemOutcome, &terzaghi::diagnose::signatures::TimingSplit)> = d
         .iter()
         .filter_map(|o| Some((o, o.report.signatures.delay.timing_split.as_ref()?)))
         .collect();

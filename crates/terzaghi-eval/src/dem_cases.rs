@@ -14,14 +14,14 @@
 //! baseline gap; the measured share is `1 - (mse_without - noise^2) / (mse_with - noise^2)`,
 //! as for the generated cases.
 
-use super::{Campaign, DemRun};
-use crate::diagnose::{
-    DiagnoseOptions, Effect, VerdictEffect, baseline_heldout, diagnose, in_medium_frac,
-};
-use crate::ident::Sample;
-use crate::model::{Plate, TerzaghiModel};
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
+use terzaghi::dem::{Campaign, DemRun};
+use terzaghi::diagnose::{
+    DiagnoseOptions, Effect, VerdictEffect, baseline_heldout, diagnose, in_medium_frac,
+};
+use terzaghi::ident::Sample;
+use terzaghi::model::{Plate, TerzaghiModel};
 
 /// The sensor's additions and the geometry the diagnosis is told.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -264,7 +264,7 @@ pub struct DemOutcome {
     /// Held-out Psi of the baseline (drag, lift).
     pub baseline_psi: [f64; 2],
     /// The whole report, as `terzaghi diagnose` writes it.
-    pub report: crate::diagnose::Report,
+    pub report: terzaghi::diagnose::Report,
 }
 
 /// Why a case could not be built.
@@ -509,8 +509,8 @@ pub fn run_all(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::dem::{DemSample, LegShape};
-    use crate::model::Medium;
+    use terzaghi::dem::{DemSample, LegShape};
+    use terzaghi::model::Medium;
 
     fn run(name: &str, omega: f64) -> DemRun {
         let samples = (0..200)

@@ -1,15 +1,15 @@
-//! The check of the diagnosis on withheld effects: sessions from an independent [`crate::sim::generator`]
+//! The check of the diagnosis on withheld effects: sessions from an independent [`terzaghi::sim::generator`]
 //! with a hidden effect chosen at random (every library effect, none, pairs, and effects outside
-//! the library), handed to [`crate::diagnose`] without the label, and scored.
+//! the library), handed to [`terzaghi::diagnose`] without the label, and scored.
 //!
 //! The truth of `gap_closed_pct`: the same session generated without the named effect (same
 //! motion, same noise) leaves a baseline gap; the true share closed is
 //! `1 - (mse_without - noise^2) / (mse_with - noise^2)`, with the generator's own noise level.
 
-use crate::diagnose::{DiagnoseOptions, Effect, VerdictEffect, baseline_heldout, diagnose};
-use crate::model::TerzaghiModel;
-use crate::sim::generator::{Hidden, IN_LIBRARY, OUTSIDE, draw_case, generate};
 use std::collections::BTreeMap;
+use terzaghi::diagnose::{DiagnoseOptions, Effect, VerdictEffect, baseline_heldout, diagnose};
+use terzaghi::model::TerzaghiModel;
+use terzaghi::sim::generator::{Hidden, IN_LIBRARY, OUTSIDE, draw_case, generate};
 
 /// What a case was and what the diagnosis said.
 #[derive(Debug, Clone, serde::Serialize)]
@@ -130,7 +130,7 @@ pub fn effects_of_case(i: usize, seed: u64) -> Vec<Hidden> {
 pub fn case_session(
     i: usize,
     seed: u64,
-) -> (crate::sim::generator::Case, Vec<crate::ident::Sample>) {
+) -> (terzaghi::sim::generator::Case, Vec<terzaghi::ident::Sample>) {
     let case_seed = seed.wrapping_mul(1_000_003).wrapping_add(i as u64);
     let case = draw_case(case_seed, effects_of_case(i, case_seed));
     let (samples, _) = generate(&case, &[]);
@@ -292,8 +292,8 @@ pub fn export_case(i: usize, seed: u64, dir: &std::path::Path) -> anyhow::Result
     use std::io::Write;
     let (case, samples) = case_session(i, seed);
     std::fs::create_dir_all(dir)?;
-    let csv = crate::sim::to_csv(&samples);
-    crate::session::files::write_atomically(&dir.join("session.csv"), |w| {
+    let csv = terzaghi::sim::to_csv(&samples);
+    terzaghi::session::files::write_atomically(&dir.join("session.csv"), |w| {
         Ok(w.write_all(csv.as_bytes())?)
     })?;
     let m = case.medium;
@@ -316,7 +316,7 @@ pub fn export_case(i: usize, seed: u64, dir: &std::path::Path) -> anyhow::Result
         "flags": flags,
     });
     let body = serde_json::to_string_pretty(&doc)? + "\n";
-    crate::session::files::write_atomically(&dir.join("case.json"), |w| {
+    terzaghi::session::files::write_atomically(&dir.join("case.json"), |w| {
         Ok(w.write_all(body.as_bytes())?)
     })?;
     Ok(())

@@ -7,13 +7,13 @@
 //! Fits and scores use the penetration phase (`beta <= 90 deg`, submerged), the regime the
 //! paper validates; the whole stroke's R^2 of the improved model stands beside them.
 
-use super::{DemRun, LegShape};
-use crate::ident::metrics::goodness_of_fit;
-use crate::ident::{BatchOptions, GoodnessOfFit, IdentError, Sample, fit_batch};
-use crate::model::{
+use std::f64::consts::{FRAC_PI_2, PI};
+use terzaghi::dem::{DemRun, LegShape};
+use terzaghi::ident::metrics::goodness_of_fit;
+use terzaghi::ident::{BatchOptions, GoodnessOfFit, IdentError, Sample, fit_batch};
+use terzaghi::model::{
     FittingWidth, Plate, RftCoefficients, RftFit, RftModel, TerzaghiModel, rft_leg, wrap_beta_rad,
 };
-use std::f64::consts::{FRAC_PI_2, PI};
 
 /// RFT elements along the plate.
 const RFT_ELEMENTS: usize = 100;
@@ -106,7 +106,10 @@ pub fn run_fidelity(run: &DemRun, rft: &RftCoefficients) -> Result<RunFidelity, 
     })
 }
 
-fn fitted_model(run: &DemRun, fit: &crate::ident::BatchFit) -> Result<TerzaghiModel, IdentError> {
+fn fitted_model(
+    run: &DemRun,
+    fit: &terzaghi::ident::BatchFit,
+) -> Result<TerzaghiModel, IdentError> {
     let medium = run
         .medium
         .with_delta_deg(fit.delta_deg)
@@ -255,7 +258,7 @@ pub struct CLegFidelity {
 /// The C-leg's mid-line in its frame: a half circle on the chord, convex side toward the travel
 /// (the campaign's mesh, `tests/dem/campaign.py`).
 pub fn c_leg_line(chord_m: f64, segments: usize) -> Vec<(f64, f64)> {
-    crate::model::c_leg_profile(chord_m / 2.0, PI, segments)
+    terzaghi::model::c_leg_profile(chord_m / 2.0, PI, segments)
 }
 
 pub fn c_leg_fidelity(run: &DemRun, rft: &RftCoefficients) -> Result<CLegFidelity, IdentError> {
@@ -329,7 +332,7 @@ pub struct CampaignReport {
 
 /// The report of a campaign whose baseline run is `baseline`.
 pub fn campaign_report(
-    c: &super::Campaign,
+    c: &terzaghi::dem::Campaign,
     baseline: &str,
 ) -> Result<CampaignReport, FidelityError> {
     let base = c.run(baseline).ok_or_else(|| FidelityError::NoBaseline {
@@ -340,7 +343,7 @@ pub fn campaign_report(
         let r2 = |pick: fn((f64, f64)) -> f64, meas: fn(&(f64, f64, f64, f64)) -> f64| {
             let pred: Vec<f64> = c.rft_grid.iter().map(|p| pick(f.alpha(p.0, p.1))).collect();
             let m: Vec<f64> = c.rft_grid.iter().map(meas).collect();
-            crate::ident::metrics::component_fit(&pred, &m).r2
+            terzaghi::ident::metrics::component_fit(&pred, &m).r2
         };
         (r2(|a| a.0, |p| p.2), r2(|a| a.1, |p| p.3))
     });
@@ -396,7 +399,7 @@ pub enum FidelityError {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::dem::parse_run;
+    use terzaghi::dem::parse_run;
 
     fn run(rows: &str) -> DemRun {
         let text = format!(

@@ -5,16 +5,16 @@
 //! corrections close there is set against the share the diagnosis reported.
 //!
 //! Sessions: the demo's six legs, the generated cases of [`crate::withheld`], and the DEM
-//! campaign's cases ([`crate::dem::cases`]).
+//! campaign's cases ([`crate::dem_cases`]).
 
-use crate::config::{DEFAULT_CORRECTIONS_MEMORY_STROKES, LegConfig, NodeConfig};
-use crate::diagnose::{DiagnoseOptions, Effect, diagnose, kinematics};
-use crate::ident::corrected::learn_samples;
-use crate::ident::online::Forgetting;
-use crate::ident::{CorrectedEstimator, OnlineOptions, Sample};
-use crate::model::corrections::{CorrectedModel, Corrections};
-use crate::model::{FittingWidth, Medium, Plate};
-use crate::session::reevaluate::{RowErrors, reevaluate_samples};
+use terzaghi::config::{DEFAULT_CORRECTIONS_MEMORY_STROKES, LegConfig, NodeConfig};
+use terzaghi::diagnose::{DiagnoseOptions, Effect, diagnose, kinematics};
+use terzaghi::ident::corrected::learn_samples;
+use terzaghi::ident::online::Forgetting;
+use terzaghi::ident::{CorrectedEstimator, OnlineOptions, Sample};
+use terzaghi::model::corrections::{CorrectedModel, Corrections};
+use terzaghi::model::{FittingWidth, Medium, Plate};
+use terzaghi::session::reevaluate::{RowErrors, reevaluate_samples};
 
 /// Prediction errors of one model on the held-out strokes.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
@@ -116,7 +116,7 @@ pub fn held_out(
         min_strokes: 3,
         ..Default::default()
     };
-    let model = crate::model::TerzaghiModel::conventional(plate, medium);
+    let model = terzaghi::model::TerzaghiModel::conventional(plate, medium);
     let d = diagnose(&model, &sorted[..split], &opts).map_err(|e| err(e.to_string()))?;
     let r = &d.report;
     let base = FittingWidth::new(r.baseline.b_k, r.baseline.a)
@@ -178,7 +178,7 @@ pub fn held_out(
 /// The demo's six legs (the walk `terzaghi demo` simulates, `seconds` long, seed `seed`).
 pub fn demo_sessions(seconds: f64, seed: u64) -> Vec<Result<HeldOut, HeldOutError>> {
     use rayon::prelude::*;
-    let (_, cfg) = match crate::sim::robot::rhex() {
+    let (_, cfg) = match terzaghi::sim::robot::rhex() {
         Ok(x) => x,
         Err(e) => {
             return vec![Err(HeldOutError {
@@ -187,14 +187,14 @@ pub fn demo_sessions(seconds: f64, seed: u64) -> Vec<Result<HeldOut, HeldOutErro
             })];
         }
     };
-    let truth = crate::demo::truth();
-    let gait = crate::sim::robot::Gait {
+    let truth = terzaghi::demo::truth();
+    let gait = terzaghi::sim::robot::Gait {
         seconds,
-        rate_hz: crate::demo::RATE_HZ,
+        rate_hz: terzaghi::demo::RATE_HZ,
         mean_speed_rad_s: 4.0,
         seed,
     };
-    let walk = crate::sim::robot::simulate(&cfg, &truth, &gait);
+    let walk = terzaghi::sim::robot::simulate(&cfg, &truth, &gait);
     let hidden: Vec<&str> = truth.effects.iter().map(|e| e.name()).collect();
     cfg.legs
         .par_iter()
@@ -242,14 +242,14 @@ pub fn generated_sessions(n: usize, seed: u64) -> Vec<Result<HeldOut, HeldOutErr
 
 /// The DEM campaign's cases (noise seeded by `seed`).
 pub fn dem_sessions(
-    campaign: &crate::dem::Campaign,
+    campaign: &terzaghi::dem::Campaign,
     seed: u64,
 ) -> Vec<Result<HeldOut, HeldOutError>> {
     use rayon::prelude::*;
-    crate::dem::cases::cases()
+    crate::dem_cases::cases()
         .par_iter()
         .map(|case| {
-            let (samples, model, _) = crate::dem::cases::case_session(campaign, case, seed)
+            let (samples, model, _) = crate::dem_cases::case_session(campaign, case, seed)
                 .map_err(|e| HeldOutError {
                     case: case.name.into(),
                     message: e.to_string(),
@@ -269,9 +269,9 @@ pub fn dem_sessions(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::TerzaghiModel;
-    use crate::sim;
     use rand::SeedableRng;
+    use terzaghi::model::TerzaghiModel;
+    use terzaghi::sim;
 
     /// A session with a sensor offset: diagnosed on its first strokes, the corrected model
     /// closes the gap on the rest, as reported.
@@ -408,7 +408,7 @@ pub fn learnt_online(i: usize, seed: u64) -> Result<LearntOnline, HeldOutError> 
         case: format!("case {i}"),
         message,
     };
-    let model = crate::model::TerzaghiModel::conventional(case.plate, case.medium);
+    let model = terzaghi::model::TerzaghiModel::conventional(case.plate, case.medium);
     let d =
         diagnose(&model, &samples, &DiagnoseOptions::default()).map_err(|e| err(e.to_string()))?;
     let batch = d.report.corrected_model.clone();
@@ -417,7 +417,7 @@ pub fn learnt_online(i: usize, seed: u64) -> Result<LearntOnline, HeldOutError> 
     let mut est =
         CorrectedEstimator::new(start, online_options()).map_err(|e| err(e.to_string()))?;
     learn_samples(&mut est, &samples);
-    let mut bare = crate::ident::OnlineEstimator::new(&model, OnlineOptions::default())
+    let mut bare = terzaghi::ident::OnlineEstimator::new(&model, OnlineOptions::default())
         .map_err(|e| err(e.to_string()))?;
     for s in &samples {
         let _ = bare.update(s);
@@ -435,7 +435,7 @@ pub fn learnt_online(i: usize, seed: u64) -> Result<LearntOnline, HeldOutError> 
     })
 }
 
-fn truth_of(case: &crate::sim::generator::Case) -> String {
+fn truth_of(case: &terzaghi::sim::generator::Case) -> String {
     if case.effects.is_empty() {
         return "none".to_string();
     }
@@ -468,7 +468,7 @@ pub fn learnt_step(i: usize, seed: u64, factor: f64) -> Result<LearntStep, HeldO
     };
     let mut stronger = case.clone();
     stronger.b_k *= factor;
-    let (second, _) = crate::sim::generator::generate(&stronger, &[]);
+    let (second, _) = terzaghi::sim::generator::generate(&stronger, &[]);
     // The second part goes on where the first ended: time after it, whole turns further on.
     let (t_end, beta_end) = first
         .last()
@@ -487,7 +487,7 @@ pub fn learnt_step(i: usize, seed: u64, factor: f64) -> Result<LearntStep, HeldO
             ..*s
         })
         .collect();
-    let model = crate::model::TerzaghiModel::conventional(case.plate, case.medium);
+    let model = terzaghi::model::TerzaghiModel::conventional(case.plate, case.medium);
     let opts = DiagnoseOptions::default();
     let batch_first = diagnose(&model, &first, &opts)
         .map_err(|e| err(e.to_string()))?
