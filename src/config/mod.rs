@@ -3,20 +3,20 @@
 //! `--params-file FILE`, `-r __node:=NAME`, `-r __ns:=/NS`, `-r from:=to`). Parsed and validated
 //! here, once, into a [`NodeConfig`]; every error names the parameter and its value.
 //!
-//! - [`params`]: parameter values as ROS 2 types them.
-//! - [`ros_args`]: the `--ros-args` command line.
-//! - [`yaml`]: params files, and the parameters of one node from defaults, files and `-p`.
-//! - [`node`]: the node's configuration ([`NodeConfig`]), validated from parameters.
-//! - [`names`]: ROS names: topic resolution and remapping, and the node's output topics.
-//! - [`env`](mod@env): the ROS 2 environment variables the node honours.
+//! - `params`: parameter values as ROS 2 types them.
+//! - `ros_args`: the `--ros-args` command line.
+//! - `yaml`: params files, and the parameters of one node from defaults, files and `-p`.
+//! - `node`: the node's configuration ([`NodeConfig`]), validated from parameters.
+//! - `names`: ROS names: topic resolution and remapping, and the node's output topics.
+//! - `env`: the ROS 2 environment variables the node honours.
 
-pub mod corrections;
-pub mod env;
-pub mod names;
-pub mod node;
-pub mod params;
-pub mod ros_args;
-pub mod yaml;
+pub(crate) mod corrections;
+mod env;
+mod names;
+mod node;
+mod params;
+mod ros_args;
+mod yaml;
 
 pub use env::*;
 pub use names::*;

@@ -23,7 +23,7 @@ pub struct Site {
     pub line: u32,
 }
 
-/// The [`Site`] of the macro's caller.
+/// The site (file, line and module) of the macro's caller, for its log lines.
 #[macro_export]
 macro_rules! log_site {
     () => {

@@ -212,7 +212,7 @@ pub(super) fn scan_inputs(
 }
 
 /// The measured F/T samples of every leg, each with the joint angle nearest in time (as the
-/// node matches them, [`FtMatcher`]; F/T in the leg frame turned into the hip frame), without
+/// node matches them; F/T in the leg frame turned into the hip frame), without
 /// running the model: what the diagnosis and the fits read. Legs without F/T get none.
 pub fn measured_samples<'a>(
     source: impl Into<Source<'a>>,

@@ -1,7 +1,7 @@
 //! Operations on a whole session on disk, as a user runs them: re-evaluate a recording through
 //! the model and the estimator ([`reevaluate`]), diagnose the gap of its legs ([`diagnose`]),
 //! identify a leg's medium from it ([`identify`]); with the writers of their results beside
-//! them (CSV and MCAP in [`reevaluate`], JSON and HTML in [`diagnose`] and [`report_html`]).
+//! them (CSV and MCAP in [`reevaluate`], JSON and HTML in [`diagnose`] and `report_html`).
 //! Each takes typed options and returns a value; the command line only parses flags and
 //! prints.
 //!
@@ -63,7 +63,7 @@ pub mod legs;
 pub mod record;
 pub mod reevaluate;
 pub mod replay;
-pub mod report_html;
+pub(crate) mod report_html;
 
 use crate::record::read::{IndexedFile, Scan, Source, scan};
 use anyhow::{Context as _, Result};

@@ -620,7 +620,7 @@ pub fn reevaluate_to_mcap(
         );
     };
     let cfg = &p.cfg;
-    let topics = crate::config::names::OutputTopics::of(cfg, &[]);
+    let topics = crate::config::OutputTopics::of(cfg, &[]);
     let mut progress = Progress {
         n: 0,
         total: p.inputs,
