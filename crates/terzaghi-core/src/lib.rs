@@ -11,6 +11,9 @@
 //! - [`sim`]: synthetic sessions of one leg, and the generator of hidden effects.
 //! - [`diagnose`]: the analysis of the sim-to-real gap of one leg's samples.
 
+// Every public item says what it is: this crate is what a user of the models depends on alone.
+#![deny(missing_docs)]
+
 pub mod diagnose;
 pub mod ident;
 pub mod model;

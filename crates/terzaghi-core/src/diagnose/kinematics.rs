@@ -17,6 +17,7 @@ pub struct Kinematics {
 }
 
 impl Kinematics {
+    /// The number of strokes begun.
     pub fn strokes(&self) -> usize {
         self.stroke.last().map_or(0, |s| s + 1)
     }

@@ -19,14 +19,14 @@
 //!    significant effect explains is reported on its own: its share, where it lies, and what
 //!    it resembles.
 
-pub mod context;
+pub(crate) mod context;
 pub mod effects;
-pub mod fit;
+pub(crate) mod fit;
 pub mod kinematics;
 pub mod report;
 pub mod signatures;
 
-pub use context::{Context, Point};
+pub(crate) use context::Context;
 pub use effects::Effect;
 pub use kinematics::{Kinematics, kinematics};
 pub use report::{Diagnosis, Evidence, Report, VerdictEffect};
@@ -34,6 +34,7 @@ pub use report::{Diagnosis, Evidence, Report, VerdictEffect};
 use crate::ident::Sample;
 use crate::model::{HipMotion, TerzaghiModel};
 
+/// How a session is diagnosed.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DiagnoseOptions {
     /// Folds of whole strokes.
@@ -76,20 +77,41 @@ impl Default for DiagnoseOptions {
     }
 }
 
+/// Why a session cannot be diagnosed; names what it has and what it needs.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum DiagnoseError {
+    /// Too few usable samples.
     #[error("the log has {found} usable samples; a diagnosis needs at least {needed}")]
-    TooFewSamples { found: usize, needed: usize },
+    TooFewSamples {
+        /// Usable samples in the log.
+        found: usize,
+        /// Samples a diagnosis needs.
+        needed: usize,
+    },
+    /// Samples without times.
     #[error("samples need a time stamp (t_s) to give speed and acceleration")]
     NoTime,
+    /// Too few full strokes.
     #[error(
         "the log holds {found} full strokes of the leg; a diagnosis needs at least {needed} (it holds whole strokes out)"
     )]
-    TooFewStrokes { found: usize, needed: usize },
+    TooFewStrokes {
+        /// Full strokes in the log.
+        found: usize,
+        /// Strokes a diagnosis needs.
+        needed: usize,
+    },
+    /// The leg is never in the medium with the configured geometry.
     #[error(
         "{in_medium} of {total} samples are in the medium with this geometry: nothing to diagnose (check hip height and leg length)"
     )]
-    OutOfMedium { in_medium: usize, total: usize },
+    OutOfMedium {
+        /// Samples in the medium.
+        in_medium: usize,
+        /// Samples in all.
+        total: usize,
+    },
+    /// Every measured force is zero.
     #[error("the measured forces are all zero: is the F/T topic the right one?")]
     NoForce,
 }

@@ -12,26 +12,42 @@ use std::collections::BTreeMap;
 /// The report and the per-point series behind its plots.
 #[derive(Debug, Clone)]
 pub struct Diagnosis {
+    /// The report, as `report.json` writes it.
     pub report: Report,
+    /// The series behind the report's plots.
     pub plot: PlotData,
 }
 
+/// What the diagnosis found in a leg's session: the gap between model and measurement, where it
+/// lies, the candidate effects, the steps taken and the verdict.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Report {
-    /// Samples given, analysed (after thinning) and skipped as non-finite.
+    /// Samples given.
     pub samples: usize,
+    /// Samples analysed, after thinning to the analysis's maximum.
     pub analysed: usize,
+    /// Samples skipped for a non-finite time, angle or force.
     pub skipped_non_finite: usize,
+    /// Strokes (full turns) in the session.
     pub strokes: usize,
+    /// Folds of strokes the held-out fits are made over.
     pub folds: usize,
+    /// The sensor's noise, against which the gap is measured.
     pub noise: Noise,
+    /// The improved model fitted alone, and its held-out fit.
     pub baseline: Baseline,
+    /// The gap: the baseline's held-out residual against the noise.
     pub gap: Gap,
+    /// Where the baseline's residual lies: bins of attack angle, depth, speed and stroke.
     #[serde(rename = "where")]
     pub where_: Vec<Bin>,
+    /// Every candidate effect fitted alone on top of the baseline.
     pub candidates: Vec<Candidate>,
+    /// The effects taken, one at a time, each on top of those before it.
     pub steps: Vec<Step>,
+    /// What the report names, with its share of the gap and its basis.
     pub verdict: Verdict,
+    /// The report in a few sentences, for a person.
     pub summary: String,
     /// The part of the gap no significant effect explains (null when the gap is at the noise
     /// level): the model's own misfit, where it lies, and which candidates it resembles.
@@ -53,10 +69,12 @@ pub struct Report {
     pub hip_placed_points: usize,
 }
 
+/// The part of the gap no significant effect explains.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Unexplained {
     /// Share of the gap left once every significant effect is modelled, %.
     pub share_of_gap_pct: f64,
+    /// Held-out RMSE with every significant effect modelled, over drag and lift (N).
     pub heldout_rmse_n: f64,
     /// Where the remaining residual lies: in each of attack angle, depth, speed and stroke, its
     /// two largest significant bins, largest share first (shares of the remaining gap).
@@ -67,38 +85,52 @@ pub struct Unexplained {
     pub resembles: Vec<Resemblance>,
 }
 
+/// An effect whose term would close part of what remains.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Resemblance {
+    /// The effect.
     pub effect: Effect,
     /// Share of the remaining gap its term closes on held-out strokes, %.
     pub share_of_remaining_pct: f64,
 }
 
+/// The sensor's noise, per component.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Noise {
+    /// Drag's noise standard deviation (N).
     pub drag_n: f64,
+    /// Lift's noise standard deviation (N).
     pub lift_n: f64,
     /// `out_of_medium` (measured where the leg is out of the medium) or `successive_differences`
     /// (too few such samples: from sample-to-sample differences).
     pub source: &'static str,
+    /// Samples the noise was measured on.
     pub samples: usize,
 }
 
+/// The improved model alone, fitted on every stroke.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Baseline {
+    /// The fitting width's coefficient `b_k`.
     pub b_k: f64,
+    /// The fitting width's exponent base `a`.
     pub a: f64,
-    /// Held-out goodness of fit (Eq. 28) and RMSE over drag and lift (N).
+    /// Held-out goodness of fit of drag (Eq. 28).
     pub psi_drag: f64,
+    /// Held-out goodness of fit of lift (Eq. 28).
     pub psi_lift: f64,
+    /// Held-out RMSE over drag and lift (N).
     pub rmse_n: f64,
 }
 
+/// The baseline's held-out residual against the noise.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Gap {
     /// Whether the held-out residual exceeds the noise beyond chance and by the set ratio.
     pub real: bool,
+    /// Held-out mean squared residual over drag and lift (N^2).
     pub heldout_mse_n2: f64,
+    /// The noise's variance over drag and lift (N^2).
     pub noise_var_n2: f64,
     /// `(mse - noise) / noise`.
     pub excess_ratio: f64,
@@ -106,28 +138,43 @@ pub struct Gap {
     pub z: f64,
 }
 
+/// A bin of one dimension of the session, with the residual in it.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Bin {
+    /// `attack_angle_deg`, `depth_m`, `speed_rad_s` or `stroke`.
     pub dimension: &'static str,
+    /// The bin's lower edge, in the dimension's unit.
     pub lo: f64,
+    /// The bin's upper edge, in the dimension's unit.
     pub hi: f64,
+    /// The bin as the report words it.
     pub label: String,
+    /// Analysed points in the bin.
     pub samples: usize,
+    /// Held-out RMSE in the bin over drag and lift (N).
     pub rmse_n: f64,
     /// Share of the gap (the squared residual in excess of the noise) in this bin, %.
     pub share_of_gap: f64,
+    /// How far the bin's residual lies above the noise, as a z score.
     pub z: f64,
+    /// Whether the bin's excess is beyond chance.
     pub significant: bool,
 }
 
+/// A candidate effect fitted alone on top of the baseline.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Candidate {
+    /// The effect.
     pub effect: Effect,
     /// Fit on every stroke: `b_k`, `a`, the effect's parameters.
     pub params: BTreeMap<String, f64>,
+    /// Its linear and nonlinear parameters' count, as the penalty counts them.
     pub parameters: usize,
+    /// Held-out RMSE over drag and lift of the baseline alone (N).
     pub heldout_rmse_before_n: f64,
+    /// Held-out RMSE with the effect's term (N).
     pub heldout_rmse_after_n: f64,
+    /// Held-out goodness of fit with the effect's term, over drag and lift.
     pub heldout_psi_after: f64,
     /// Share of the gap closed, %; null when the gap is at the noise level (nothing to close).
     pub gap_closed_pct: Option<f64>,
@@ -141,15 +188,19 @@ pub struct Candidate {
     pub direct_evidence: bool,
 }
 
+/// An effect taken into the model, on top of the steps before it.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Step {
+    /// The effect.
     pub effect: Effect,
     /// Fit on every stroke of the baseline with every effect so far: `b_k`, `a` (the medium's
     /// parameters once the effects are modelled), and the effects' parameters.
     pub params: BTreeMap<String, f64>,
     /// Share of the baseline's gap closed by all steps so far, %.
     pub gap_closed_pct: f64,
+    /// Held-out RMSE over drag and lift with every step so far (N).
     pub heldout_rmse_n: f64,
+    /// Held-out goodness of fit over drag and lift with every step so far.
     pub heldout_psi: f64,
     /// Share of the baseline's gap this step adds, %.
     pub share_of_gap_pct: f64,
@@ -211,8 +262,11 @@ impl std::fmt::Display for Evidence {
 /// effect's name or one of the two words.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum VerdictEffect {
+    /// No gap beyond the noise.
     None,
+    /// A gap no candidate explains.
     Unexplained,
+    /// The effect that closes the largest share of the gap.
     Effect(Effect),
 }
 
@@ -281,20 +335,23 @@ pub struct Contrast {
     pub share_of_gap_pct: f64,
 }
 
+/// What the report names.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Verdict {
     /// The effect named, `none` or `unexplained`.
     pub effect: VerdictEffect,
     /// Share of the gap the named effect closes alone, %.
     pub gap_closed_pct: f64,
-    /// Held-out Psi over drag and lift together, before and after the correction.
+    /// Held-out Psi over drag and lift together, before the correction.
     pub heldout_psi_before: f64,
+    /// Held-out Psi over drag and lift together after the correction.
     pub heldout_psi_after: f64,
     /// Share of the gap closed by all greedy steps, %.
     pub all_steps_gap_closed_pct: f64,
     /// The named effect's basis and what the report says of it (see [`Step::claim`]); none for
     /// `none` and `unexplained`.
     pub basis: Option<Basis>,
+    /// What the report says of the named effect, worded by its basis.
     pub claim: String,
 }
 
@@ -302,11 +359,17 @@ pub struct Verdict {
 /// correction (after = all greedy steps; the baseline again when there are none).
 #[derive(Debug, Clone)]
 pub struct PlotData {
+    /// Each analysed point's attack angle (rad).
     pub beta_rad: Vec<f64>,
+    /// Each analysed point's angular speed (rad/s).
     pub speed_rad_s: Vec<f64>,
+    /// Each point's measured drag and lift (N).
     pub measured_n: Vec<[f64; 2]>,
+    /// Each point's held-out prediction of the baseline, drag and lift (N).
     pub before_n: Vec<[f64; 2]>,
+    /// Each point's held-out prediction with every step, drag and lift (N).
     pub after_n: Vec<[f64; 2]>,
+    /// The noise's variance over drag and lift (N^2).
     pub noise_var_n2: f64,
 }
 

@@ -17,15 +17,20 @@ use std::f64::consts::FRAC_PI_2;
 /// The three signatures of a session.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Signatures {
+    /// A force where the leg is out of the medium: a sensor offset.
     pub sensor_offset: Offset,
+    /// A time shift between measured and predicted force: a sensor delay.
     pub delay: Delay,
+    /// The angle force appears at: a surface at another level.
     pub onset: Onset,
 }
 
 /// The mean force where the leg is well out of the medium.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Offset {
+    /// Mean drag out of the medium (N).
     pub drag_n: f64,
+    /// Mean lift out of the medium (N).
     pub lift_n: f64,
     /// Out-of-medium samples it is measured on.
     pub samples: usize,
@@ -34,6 +39,7 @@ pub struct Offset {
     /// The same, from the stroke-to-stroke scatter of the per-stroke means (a t statistic: it
     /// does not assume the noise is white).
     pub t_strokes: f64,
+    /// Whether the offset is beyond chance.
     pub significant: bool,
 }
 
@@ -50,10 +56,12 @@ pub struct Delay {
     /// `omega L`; a misfit of the model in angle does not grow with speed), s, and its t.
     /// Zero where the strokes' speeds vary less than twofold.
     pub onset_slope_s: f64,
+    /// The t statistic of `onset_slope_s`.
     pub onset_slope_t: f64,
     /// Where the strokes' speeds span a factor two: each stroke's best-aligning shift split
     /// into a part in time and a part in angle (not used to decide; see [`TimingSplit`]).
     pub timing_split: Option<TimingSplit>,
+    /// Whether the delay is beyond chance.
     pub significant: bool,
 }
 
@@ -67,6 +75,7 @@ pub struct Delay {
 pub struct TimingSplit {
     /// Positive: the measurement late (s).
     pub time_shift_s: f64,
+    /// The t statistic of `time_shift_s`.
     pub time_shift_t: f64,
     /// Positive: the measured force appears later in angle than predicted (deg).
     pub angle_shift_deg: f64,
@@ -84,9 +93,11 @@ pub struct Onset {
     /// The surface level that shift corresponds to (m below the configured one; negative:
     /// higher).
     pub surface_drop_m: f64,
-    /// Strokes where both onsets were found, and how many of them share the median's sign.
+    /// Strokes where both onsets were found.
     pub strokes: usize,
+    /// How many of them share the median's sign.
     pub strokes_agreeing: usize,
+    /// Whether the shift is beyond chance.
     pub significant: bool,
 }
 

@@ -35,8 +35,11 @@ impl Default for BatchOptions {
 /// The fitted parameters and how well the improved and conventional models match.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct BatchFit {
+    /// The fitting width's coefficient `b_k`.
     pub b_k: f64,
+    /// The fitting width's exponent base `a`.
     pub a: f64,
+    /// The soil–plate friction angle (deg): fitted, or the medium's.
     pub delta_deg: f64,
     /// The fitted improved model on the samples used.
     pub improved: GoodnessOfFit,
@@ -44,8 +47,11 @@ pub struct BatchFit {
     pub conventional: GoodnessOfFit,
     /// Samples used.
     pub samples: usize,
+    /// Samples skipped for a non-finite angle or force.
     pub skipped_non_finite: usize,
+    /// Samples skipped for their regime (out of the medium, or extraction unless asked for).
     pub skipped_regime: usize,
+    /// Gauss–Newton iterations taken.
     pub iterations: usize,
 }
 

@@ -279,9 +279,11 @@ struct Suspected {
 /// One learnt coefficient of a correction.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Coefficient {
+    /// The term's effect.
     pub effect: Effect,
     /// Its name with unit, as [`Effect::linear_params`] gives it.
     pub param: &'static str,
+    /// The current value.
     pub value: f64,
     /// Standard deviation from the covariance; `|value|` until its column has been seen.
     pub std: f64,
@@ -427,6 +429,7 @@ impl CorrectedEstimator {
         self.swept_since_startup_rad = 0.0;
     }
 
+    /// The options it runs with.
     pub fn options(&self) -> &OnlineOptions {
         &self.opts
     }

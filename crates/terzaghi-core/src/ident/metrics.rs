@@ -6,11 +6,17 @@ use serde::Serialize;
 /// Per-component goodness of fit of predicted against measured drag and lift.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct GoodnessOfFit {
+    /// Psi of drag (Eq. 28).
     pub psi_drag: f64,
+    /// Psi of lift.
     pub psi_lift: f64,
+    /// R^2 of drag.
     pub r2_drag: f64,
+    /// R^2 of lift.
     pub r2_lift: f64,
+    /// RMSE of drag (N).
     pub rmse_drag_n: f64,
+    /// RMSE of lift (N).
     pub rmse_lift_n: f64,
 }
 
@@ -21,6 +27,7 @@ pub struct ComponentFit {
     pub psi: f64,
     /// `1 - sum (pred - meas)^2 / sum (meas - mean)^2`.
     pub r2: f64,
+    /// Root mean squared error, in the measurement's unit.
     pub rmse: f64,
 }
 
@@ -47,6 +54,7 @@ pub struct FitSums {
 }
 
 impl FitSums {
+    /// Adds one prediction next to its measurement.
     pub fn add(&mut self, pred: f64, meas: f64) {
         self.n += 1;
         self.sse += (pred - meas) * (pred - meas);
@@ -56,10 +64,12 @@ impl FitSums {
         self.sst += d * (meas - self.mean);
     }
 
+    /// The pairs added.
     pub fn samples(&self) -> u64 {
         self.n
     }
 
+    /// Psi, R^2 and RMSE of the pairs added (all zeros for none).
     pub fn fit(&self) -> ComponentFit {
         if self.n == 0 {
             return ComponentFit {

@@ -26,27 +26,40 @@ use crate::model::{ModelError, Regime, TerzaghiModel};
 /// One measurement: attack angle and the forces the medium exerted on the plate.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sample {
+    /// Time (s), if the log has one: the online estimator's forgetting and the diagnosis's
+    /// speeds need it.
     pub t_s: Option<f64>,
+    /// Attack angle (rad).
     pub beta_rad: f64,
+    /// Measured drag, in the hip frame (N).
     pub drag_n: f64,
+    /// Measured lift, in the hip frame (N).
     pub lift_n: f64,
 }
 
 /// What is wrong with a set of samples.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum IdentError {
+    /// Too few samples a fit can use.
     #[error(
         "too few usable samples: {usable} of {total} (need at least {needed}; {non_finite} non-finite, {outside} outside the fitted regimes or out of the medium)"
     )]
     TooFewSamples {
+        /// Samples the fit can use.
         usable: usize,
+        /// Samples given.
         total: usize,
+        /// Samples a fit needs.
         needed: usize,
+        /// Samples with a non-finite value.
         non_finite: usize,
+        /// Samples outside the fitted regimes or out of the medium.
         outside: usize,
     },
+    /// Every measured force is zero.
     #[error("the measured forces are all zero: nothing to fit")]
     NoForce,
+    /// The model refused an input.
     #[error(transparent)]
     Model(#[from] ModelError),
 }
@@ -54,13 +67,19 @@ pub enum IdentError {
 /// A sample paired with the unit model's normal force at its angle (`b_k = a = 1`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct UnitSample {
+    /// Attack angle (rad).
     pub beta_rad: f64,
+    /// `sin beta`.
     pub sin_beta: f64,
+    /// `cos beta`.
     pub cos_beta: f64,
     /// `F_pN` with `b_e = b`, N.
     pub normal_unit_n: f64,
+    /// Measured drag (N).
     pub drag_n: f64,
+    /// Measured lift (N).
     pub lift_n: f64,
+    /// The unit model's regime at the angle.
     pub regime: Regime,
 }
 

@@ -61,15 +61,19 @@ pub struct OnlineOptions {
     pub huber_k: f64,
     /// Consecutive identical measurements that mark the sensor as stuck.
     pub stuck_samples: usize,
-    /// Bounds on `b_k`, `a` and `delta` (deg).
+    /// Bounds on `b_k`.
     pub b_k_range: (f64, f64),
+    /// Bounds on `a`.
     pub a_range: (f64, f64),
+    /// Bounds on `delta` (deg).
     pub delta_range_deg: (f64, f64),
-    /// Initial guess (default: the conventional model `b_k = a = 1`).
+    /// Initial guess of `b_k` (default: the conventional model, 1).
     pub initial_b_k: f64,
+    /// Initial guess of `a` (default 1).
     pub initial_a: f64,
-    /// Initial standard deviation of `ln b_k` and `ln a`, and of `delta` (deg).
+    /// Initial standard deviation of `ln b_k` and `ln a`.
     pub initial_std_ln: f64,
+    /// Initial standard deviation of `delta` (deg).
     pub initial_std_delta_deg: f64,
     /// Upper bound on the standard deviation of `ln b_k`, `ln a` (no wind-up beyond this).
     pub max_std_ln: f64,
@@ -81,8 +85,9 @@ pub struct OnlineOptions {
     pub converge_rel_std: f64,
     /// ... after at least this many updates.
     pub converge_min_updates: u64,
-    /// CUSUM drift per sample and alarm level (in units of squared standardized innovation).
+    /// CUSUM drift per sample (in units of squared standardized innovation).
     pub cusum_drift: f64,
+    /// CUSUM alarm level (in the same units).
     pub cusum_alarm: f64,
 }
 
@@ -115,15 +120,20 @@ impl Default for OnlineOptions {
 /// What is wrong with the options; names the option and its value.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum OnlineOptionsError {
+    /// An option outside what it can be.
     #[error("{name} = {value} is out of range: {expected}")]
     OutOfRange {
+        /// The option's name.
         name: &'static str,
+        /// The value given.
         value: f64,
+        /// What it must be.
         expected: &'static str,
     },
 }
 
 impl OnlineOptions {
+    /// Every option checked; the first one out of range is named with its value.
     pub fn validate(&self) -> Result<(), OnlineOptionsError> {
         let check = |name, value: f64, ok: bool, expected| {
             if value.is_finite() && ok {
@@ -210,34 +220,49 @@ pub enum Skip {
 /// A detected change of the medium.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct ChangeEvent {
+    /// The time of the sample that raised it (s), if the samples have times.
     pub t_s: Option<f64>,
-    /// Estimates just before the change was declared.
+    /// `b_k` just before the change was declared.
     pub b_k_before: f64,
+    /// `a` just before the change was declared.
     pub a_before: f64,
 }
 
 /// The estimate after a sample, as the node publishes it.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
 pub struct Estimate {
+    /// The fitting width's coefficient `b_k`.
     pub b_k: f64,
+    /// The fitting width's exponent base `a`.
     pub a: f64,
+    /// The soil–plate friction angle (deg): the medium's unless it is fitted.
     pub delta_deg: f64,
+    /// Standard deviation of `b_k`.
     pub std_b_k: f64,
+    /// Standard deviation of `a`.
     pub std_a: f64,
+    /// Standard deviation of `delta` (deg); 0 when it is not fitted.
     pub std_delta_deg: f64,
+    /// Samples that updated the estimate.
     pub samples_used: u64,
+    /// Samples skipped for a non-finite angle, force or time.
     pub samples_non_finite: u64,
+    /// Samples skipped below the excitation gate (out of the medium, or too little force).
     pub samples_not_excited: u64,
+    /// Samples skipped while the sensor repeated one value.
     pub samples_stuck: u64,
     /// RMS of recent innovations (measured minus predicted force), N.
     pub innovation_rms_n: f64,
     /// Estimated sensor noise standard deviation, N.
     pub noise_n: f64,
+    /// Whether the estimate has converged (its deviations small, no change building up).
     pub converged: bool,
+    /// Changes of the medium detected since the start.
     pub changes_detected: u64,
 }
 
 impl Estimate {
+    /// The fitting width `b_e = b_k b a^(-beta)` of the estimate.
     pub fn fitting_width(&self) -> Result<FittingWidth, ModelError> {
         FittingWidth::new(self.b_k, self.a)
     }
@@ -370,6 +395,7 @@ impl OnlineEstimator {
         ))
     }
 
+    /// The options it runs with.
     pub fn options(&self) -> &OnlineOptions {
         &self.opts
     }

@@ -26,10 +26,15 @@ use serde::Serialize;
 pub struct SurfaceEstimate {
     /// The surface's height above where the configured hip height puts it (m).
     pub offset_m: f64,
+    /// Standard deviation of `offset_m` (m).
     pub std_offset_m: f64,
+    /// Samples that updated it.
     pub samples_used: u64,
+    /// Samples skipped (non-finite, out of reach of the surface, stuck sensor).
     pub samples_skipped: u64,
+    /// Whether it has converged (used by the node once it has).
     pub converged: bool,
+    /// Changes of the surface's level detected since the start (a ledge).
     pub changes_detected: u64,
 }
 
@@ -99,6 +104,7 @@ impl SurfaceEstimator {
         self.refresh();
     }
 
+    /// The current estimate.
     pub fn estimate(&self) -> &SurfaceEstimate {
         &self.est
     }

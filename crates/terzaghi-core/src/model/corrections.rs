@@ -83,6 +83,7 @@ pub const ALL: [Effect; 9] = [
 pub const RATE_EXPONENTS: [f64; 4] = [0.5, 1.0, 1.5, 2.0];
 
 impl Effect {
+    /// The effect's name, as parameter files and `report.json` write it.
     pub fn name(self) -> &'static str {
         match self {
             Effect::Rate => "rate",
@@ -97,6 +98,7 @@ impl Effect {
         }
     }
 
+    /// The effect of that name; `None` for a name no effect has.
     pub fn from_name(name: &str) -> Option<Effect> {
         ALL.into_iter().find(|e| e.name() == name)
     }
@@ -317,7 +319,9 @@ impl Nonlinear {
 pub struct TermInputs {
     /// Attack angle wrapped to `[0, 2pi)`.
     pub beta_rad: f64,
+    /// Which phase of the stroke the plate is in.
     pub regime: Regime,
+    /// Length of the plate below the surface (m).
     pub submerged_m: f64,
     /// Distance from the hip to where the submerged part begins (m).
     pub inner_radius_m: f64,
@@ -400,7 +404,9 @@ pub fn lag_step(x0: f64, x1: f64, y0: f64, dt_s: f64, tau_s: f64) -> f64 {
 /// [`Effect::linear_params`]).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Term {
+    /// The effect the term models.
     pub effect: Effect,
+    /// Its linear coefficients, with the units [`Effect::linear_params`] names.
     pub coefficients: Vec<f64>,
 }
 
@@ -408,9 +414,13 @@ pub struct Term {
 /// and their coefficients, the nonlinear values, and what the terms are measured against.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Corrections {
+    /// The fitting width's coefficient `b_k`, fitted with the terms.
     pub b_k: f64,
+    /// The fitting width's exponent base `a`, fitted with the terms.
     pub a: f64,
+    /// The correction terms, each effect once.
     pub terms: Vec<Term>,
+    /// The terms' nonlinear values (speed exponent, surface level, lag, the change's stroke).
     pub nonlinear: Nonlinear,
     /// The typical speed in the medium of the fitted session (rad/s), for `rate`.
     pub typical_speed_rad_s: f64,
@@ -421,27 +431,46 @@ pub struct Corrections {
 /// What is wrong with a set of corrections; names the parameter and its value.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum CorrectionsError {
+    /// A coefficient outside its physical bounds.
     #[error("{effect}.{param} = {value} is outside its physical bounds [{lo}, {hi}]")]
     OutOfBounds {
+        /// The term's effect.
         effect: Effect,
+        /// The coefficient's name, with its unit.
         param: String,
+        /// The value given.
         value: f64,
+        /// The lower bound.
         lo: f64,
+        /// The upper bound.
         hi: f64,
     },
+    /// A term with the wrong number of coefficients.
     #[error("{effect} has {found} coefficients, it needs {needed} ({names})")]
     Coefficients {
+        /// The term's effect.
         effect: Effect,
+        /// The coefficients given.
         found: usize,
+        /// The coefficients the term has.
         needed: usize,
+        /// Their names, in order.
         names: String,
     },
+    /// An effect with two terms.
     #[error("{effect} appears twice")]
-    Twice { effect: Effect },
+    Twice {
+        /// The effect.
+        effect: Effect,
+    },
+    /// A value outside what it can be (`b_k`, `a`, a nonlinear value).
     #[error("{name} = {value} must be {expected}")]
     Invalid {
+        /// The value's name.
         name: &'static str,
+        /// The value given.
         value: f64,
+        /// What it must be.
         expected: &'static str,
     },
 }
@@ -471,6 +500,7 @@ impl Corrections {
         c
     }
 
+    /// Whether a term models `e`.
     pub fn has(&self, e: Effect) -> bool {
         self.terms.iter().any(|t| t.effect == e)
     }
@@ -571,17 +601,21 @@ pub struct CorrectedPrediction {
     pub parts: Vec<(Effect, [f64; 2])>,
     /// The medium's force with every medium correction (N).
     pub drag_n: f64,
+    /// The medium's lift with every medium correction (N).
     pub lift_n: f64,
     /// Hip torque of the baseline at the corrected surface (N m): the terms are fitted on drag
     /// and lift, not on torque.
     pub hip_torque_nm: f64,
-    /// Submerged length, depth and regime at the corrected surface.
+    /// Submerged length at the corrected surface (m).
     pub submerged_m: f64,
+    /// The tip's depth below the corrected surface (m).
     pub depth_m: f64,
+    /// The regime at the corrected surface.
     pub regime: Regime,
     /// What the F/T sensor is expected to read (N): the medium's force through its lag, plus its
     /// offset. Equal to the medium's without sensor terms.
     pub sensor_drag_n: f64,
+    /// The lift the F/T sensor is expected to read (N).
     pub sensor_lift_n: f64,
 }
 
@@ -628,6 +662,7 @@ impl CorrectedModel {
         })
     }
 
+    /// The corrections it predicts with.
     pub fn corrections(&self) -> &Corrections {
         &self.corrections
     }
@@ -647,10 +682,12 @@ impl CorrectedModel {
         }
     }
 
+    /// The plate and hip height it is for.
     pub fn plate(&self) -> &Plate {
         self.unit.plate()
     }
 
+    /// The medium's constants.
     pub fn medium(&self) -> &Medium {
         self.unit.medium()
     }
@@ -934,6 +971,7 @@ impl SensorLagFilter {
         y
     }
 
+    /// Forgets the previous sample: the next one passes as it is.
     pub fn reset(&mut self) {
         self.prev = None;
     }

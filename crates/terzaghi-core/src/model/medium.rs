@@ -45,18 +45,23 @@ impl Medium {
         })
     }
 
+    /// The medium's unit weight (N/m^3).
     pub fn unit_weight_n_m3(&self) -> f64 {
         self.unit_weight_n_m3
     }
+    /// The internal friction angle `phi` (rad).
     pub fn phi_rad(&self) -> f64 {
         self.phi_rad
     }
+    /// The soil–plate friction angle `delta` (rad).
     pub fn delta_rad(&self) -> f64 {
         self.delta_rad
     }
+    /// The internal friction angle `phi` (deg).
     pub fn phi_deg(&self) -> f64 {
         self.phi_rad.to_degrees()
     }
+    /// The soil–plate friction angle `delta` (deg).
     pub fn delta_deg(&self) -> f64 {
         self.delta_rad.to_degrees()
     }
@@ -85,9 +90,11 @@ impl FittingWidth {
         positive("a", a)?;
         Ok(FittingWidth { b_k, a })
     }
+    /// The coefficient `b_k`.
     pub fn b_k(&self) -> f64 {
         self.b_k
     }
+    /// The exponent base `a`.
     pub fn a(&self) -> f64 {
         self.a
     }
@@ -119,24 +126,34 @@ pub enum Provenance {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum RftSet {
+    /// Loosely packed poppy seeds (Li, Zhang and Goldman).
     PoppyLp,
+    /// Closely packed poppy seeds.
     PoppyCp,
 }
 
 /// A named medium with its provenance.
 #[derive(Debug, Clone, Serialize)]
 pub struct MediumPreset {
+    /// The name a user gives (`medium: NAME`).
     pub name: &'static str,
+    /// What the medium is.
     pub description: &'static str,
+    /// Unit weight (N/m^3).
     pub unit_weight_n_m3: f64,
+    /// Internal friction angle (deg).
     pub phi_deg: f64,
+    /// Soil–plate friction angle (deg).
     pub delta_deg: f64,
+    /// Where the soil values come from: measured, or approximated from the literature.
     pub soil_values: Provenance,
+    /// Where the values come from, in words.
     pub note: &'static str,
     /// Identified `(b_k, a)` valid for any plate width (Table 3), if any.
     pub fit: Option<(f64, f64)>,
     /// Identified `(width_m, b_k, a)` per plate width (Table 1), used when the width matches.
     pub fits_by_width: &'static [(f64, f64, f64)],
+    /// RFT coefficients measured in the same medium, if any.
     pub rft: Option<RftSet>,
 }
 
@@ -250,11 +267,13 @@ pub fn preset(name: &str) -> Result<&'static MediumPreset, ModelError> {
         })
 }
 
+/// The presets' names.
 pub fn preset_names() -> Vec<&'static str> {
     PRESETS.iter().map(|p| p.name).collect()
 }
 
 impl MediumPreset {
+    /// The preset's medium constants.
     pub fn medium(&self) -> Result<Medium, ModelError> {
         Medium::new(self.unit_weight_n_m3, self.phi_deg, self.delta_deg)
     }

@@ -37,8 +37,11 @@ use serde::Serialize;
 /// A field of [`Plate::new`], as [`ModelError::BadPlate`] names it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum PlateField {
+    /// The plate's length (m).
     LengthM,
+    /// The plate's width (m).
     WidthM,
+    /// The hip's height above the surface (m).
     HipHeightM,
 }
 
@@ -48,35 +51,84 @@ pub enum ModelError {
     /// A plate's length, width or hip height that is no plate's: which one, and why.
     #[error("{problem}")]
     BadPlate {
+        /// The field.
         field: PlateField,
+        /// What is wrong with its value.
         problem: Box<ModelError>,
     },
+    /// A value that is not a finite number.
     #[error("{name} must be a finite number, got {value}")]
-    NotFinite { name: &'static str, value: f64 },
+    NotFinite {
+        /// The value's name, with its unit.
+        name: &'static str,
+        /// The value given.
+        value: f64,
+    },
+    /// A value that must be positive.
     #[error("{name} must be greater than 0, got {value}")]
-    NotPositive { name: &'static str, value: f64 },
+    NotPositive {
+        /// The value's name, with its unit.
+        name: &'static str,
+        /// The value given.
+        value: f64,
+    },
+    /// A hip below the surface.
     #[error("hip height must be >= 0 m, got {value_m} m")]
-    NegativeHipHeight { value_m: f64 },
+    NegativeHipHeight {
+        /// The height given (m).
+        value_m: f64,
+    },
+    /// An angle outside the range the model takes.
     #[error("{name} must lie in {range} deg, got {value_deg} deg")]
     AngleOutOfRange {
+        /// The angle's name.
         name: &'static str,
+        /// The range it must lie in (deg).
         range: &'static str,
+        /// The angle given (deg).
         value_deg: f64,
     },
+    /// A medium preset that does not exist.
     #[error("unknown medium {name:?}; known media: {known}")]
-    UnknownMedium { name: String, known: String },
+    UnknownMedium {
+        /// The name given.
+        name: String,
+        /// The presets there are.
+        known: String,
+    },
+    /// A number of RFT elements out of range.
     #[error("RFT element count must be between 1 and {max}, got {value}")]
-    RftElements { value: usize, max: usize },
+    RftElements {
+        /// The count given.
+        value: usize,
+        /// The largest count taken.
+        max: usize,
+    },
+    /// The Terzaghi model's failure surface grows beyond a finite force.
     #[error(
         "the model overflows at beta = {beta_deg} deg with phi = {phi_deg} deg (the failure surface grows as exp(3 theta tan phi)); use a smaller phi"
     )]
-    Overflow { beta_deg: f64, phi_deg: f64 },
+    Overflow {
+        /// The attack angle (deg).
+        beta_deg: f64,
+        /// The medium's internal friction angle (deg).
+        phi_deg: f64,
+    },
+    /// An RFT coefficient set that does not exist.
     #[error("unknown RFT coefficient set {name:?}; known: {known}")]
-    UnknownRftSet { name: String, known: String },
+    UnknownRftSet {
+        /// The name given.
+        name: String,
+        /// The sets there are.
+        known: String,
+    },
     /// A leg's mid-line that is no leg: too few or too many points, a segment of zero length,
     /// or segments that cross.
     #[error("leg profile: {problem}")]
-    BadProfile { problem: String },
+    BadProfile {
+        /// What is wrong with it.
+        problem: String,
+    },
 }
 
 pub(crate) fn finite(name: &'static str, value: f64) -> Result<f64, ModelError> {
@@ -122,6 +174,7 @@ impl Regime {
         Regime::Extraction,
     ];
 
+    /// The regime's name, as logs and CSV files write it.
     pub fn as_str(self) -> &'static str {
         match self {
             Regime::OutOfMedium => "out_of_medium",
@@ -142,6 +195,7 @@ impl Regime {
         Regime::ALL.get(usize::from(code)).copied()
     }
 
+    /// Whether the plate is coming out of the medium (any of the three extraction regimes).
     pub fn is_extraction(self) -> bool {
         matches!(
             self,
@@ -161,18 +215,26 @@ impl std::fmt::Display for Regime {
 pub struct Prediction {
     /// Attack angle after wrapping to `[0, 2pi)`.
     pub beta_rad: f64,
+    /// Length of the plate below the surface (m).
     pub submerged_m: f64,
+    /// Depth of the plate's tip below the surface (m).
     pub depth_m: f64,
+    /// Force against the direction of travel, in the hip frame (N).
     pub drag_n: f64,
+    /// Upward force, in the hip frame (N).
     pub lift_n: f64,
+    /// Torque of the medium's force about the hip (N m).
     pub hip_torque_nm: f64,
+    /// Which phase of the stroke the plate is in.
     pub regime: Regime,
 }
 
 /// Which model to evaluate: the improved or conventional Terzaghi model, or RFT.
 #[derive(Debug, Clone)]
 pub enum ForceModel {
+    /// The improved (or conventional) Terzaghi model of a flat plate.
     Terzaghi(TerzaghiModel),
+    /// Resistive force theory over a leg's mid-line.
     Rft(RftModel),
 }
 
@@ -210,6 +272,7 @@ impl HipMotion {
 }
 
 impl ForceModel {
+    /// The prediction at attack angle `beta_rad`, the hip at the configured height.
     pub fn predict(&self, beta_rad: f64) -> Result<Prediction, ModelError> {
         match self {
             ForceModel::Terzaghi(m) => m.evaluate(beta_rad).map(|f| f.prediction()),
@@ -230,6 +293,7 @@ impl ForceModel {
         }
     }
 
+    /// The plate (for a curved leg, its chord's) and hip height the model is for.
     pub fn plate(&self) -> &Plate {
         match self {
             ForceModel::Terzaghi(m) => m.plate(),

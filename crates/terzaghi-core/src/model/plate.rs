@@ -43,12 +43,15 @@ impl Plate {
         })
     }
 
+    /// The plate's length from the hip to its tip (m).
     pub fn length_m(&self) -> f64 {
         self.length_m
     }
+    /// The plate's width (m).
     pub fn width_m(&self) -> f64 {
         self.width_m
     }
+    /// The hip's height above the surface (m).
     pub fn hip_height_m(&self) -> f64 {
         self.hip_height_m
     }

@@ -19,17 +19,27 @@ use std::sync::OnceLock;
 /// N/cm^3 to N/m^3.
 const N_CM3_TO_N_M3: f64 = 1e6;
 
-/// The nine coefficients of the RFT fit, in N/cm^3.
+/// The nine coefficients of the RFT fit, in N/cm^3: Li, Zhang and Goldman's discrete Fourier
+/// form, as the module's formula writes it (`bm11` is `B-11`, `cm11` is `C-11`).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct RftFit {
+    /// `A00`.
     pub a00: f64,
+    /// `A10`.
     pub a10: f64,
+    /// `B11`.
     pub b11: f64,
+    /// `B01`.
     pub b01: f64,
+    /// `B-11`.
     pub bm11: f64,
+    /// `C11`.
     pub c11: f64,
+    /// `C01`.
     pub c01: f64,
+    /// `C-11`.
     pub cm11: f64,
+    /// `D10`.
     pub d10: f64,
 }
 
@@ -293,7 +303,9 @@ fn bracket(axis: &[f64], x: f64) -> (usize, f64) {
 /// Which stress law RFT uses.
 #[derive(Debug, Clone, PartialEq)]
 pub enum RftCoefficients {
+    /// The nine-coefficient fit.
     Fit(RftFit),
+    /// A measured grid, looked up bilinearly.
     Grid(&'static RftGrid),
 }
 
@@ -358,8 +370,10 @@ pub struct RftModel {
 }
 
 impl RftModel {
+    /// The most elements a model takes.
     pub const MAX_ELEMENTS: usize = 100_000;
 
+    /// RFT for the flat plate `plate`, in `elements` elements.
     pub fn new(
         plate: Plate,
         coefficients: RftCoefficients,
@@ -399,6 +413,7 @@ impl RftModel {
         Ok(m)
     }
 
+    /// The plate (for a curved leg, its chord's length and width) and hip height.
     pub fn plate(&self) -> &Plate {
         &self.plate
     }

@@ -42,23 +42,30 @@ pub struct Terms {
 pub struct TerzaghiForce {
     /// Attack angle after wrapping to `[0, 2pi)`.
     pub beta_rad: f64,
+    /// Length of the plate below the surface, `l_s` (m).
     pub submerged_m: f64,
     /// Depth of the tip below the surface, `l_s sin(beta)`.
     pub depth_m: f64,
     /// Fitting width `b_e` used, Eq. (11), m.
     pub effective_width_m: f64,
+    /// Force against the direction of travel, in the hip frame (N).
     pub drag_n: f64,
+    /// Upward force, in the hip frame (N).
     pub lift_n: f64,
     /// Normal passive force on the plate, `F_pN`, N.
     pub normal_n: f64,
     /// Tangential passive force along the plate toward the hip, `F_pT`, N.
     pub tangential_n: f64,
+    /// Torque of the medium's force about the hip (N m).
     pub hip_torque_nm: f64,
+    /// Which phase of the stroke the plate is in.
     pub regime: Regime,
+    /// The terms the forces are made of.
     pub terms: Terms,
 }
 
 impl TerzaghiForce {
+    /// The parts every model gives.
     pub fn prediction(&self) -> Prediction {
         Prediction {
             beta_rad: self.beta_rad,
@@ -152,12 +159,15 @@ impl TerzaghiModel {
         Self::new(plate, medium, FittingWidth::CONVENTIONAL)
     }
 
+    /// The plate and hip height.
     pub fn plate(&self) -> &Plate {
         &self.plate
     }
+    /// The medium's constants.
     pub fn medium(&self) -> &Medium {
         &self.medium
     }
+    /// The fitting width `b_k, a`.
     pub fn fitting_width(&self) -> FittingWidth {
         self.width
     }

@@ -19,14 +19,23 @@ use std::f64::consts::{FRAC_PI_2, PI, TAU};
 /// A hidden effect (the library's effects, and two outside it).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Hidden {
+    /// Quadratic drag on the horizontal speed.
     Rate,
+    /// An added mass growing with the submerged length squared.
     Inertia,
+    /// A pile of grains that builds ahead of the plate and flows away.
     Surcharge,
+    /// Extraction's force fading by a tanh.
     Extraction,
+    /// A bed that compacts, saturating, over the session.
     Compaction,
+    /// Cohesion with a bearing term.
     Cohesion,
+    /// The hip higher or lower than configured.
     HipHeight,
+    /// An offset of the F/T sensor.
     SensorBias,
+    /// A first-order lag of the F/T sensor.
     SensorLag,
     /// Outside the library: the leg ringing at its structural frequency.
     Vibration,
@@ -34,6 +43,7 @@ pub enum Hidden {
     Stones,
 }
 
+/// The hidden effects the diagnosis has a term for.
 pub const IN_LIBRARY: [Hidden; 9] = [
     Hidden::Rate,
     Hidden::Inertia,
@@ -45,6 +55,7 @@ pub const IN_LIBRARY: [Hidden; 9] = [
     Hidden::SensorBias,
     Hidden::SensorLag,
 ];
+/// The hidden effects it has none for.
 pub const OUTSIDE: [Hidden; 2] = [Hidden::Vibration, Hidden::Stones];
 
 impl Hidden {
@@ -65,6 +76,8 @@ impl Hidden {
             Hidden::Stones => "stones",
         }
     }
+
+    /// Whether the diagnosis has a term for it.
     pub fn in_library(self) -> bool {
         !OUTSIDE.contains(&self)
     }
@@ -91,17 +104,27 @@ impl Hidden {
 /// the seed that makes the session.
 #[derive(Debug, Clone)]
 pub struct Case {
+    /// The seed of the session's noise and motion.
     pub seed: u64,
+    /// The plate and hip height the user would configure.
     pub plate: Plate,
+    /// The medium's constants the user would configure.
     pub medium: Medium,
+    /// The true fitting width's `b_k`.
     pub b_k: f64,
+    /// The true fitting width's `a`.
     pub a: f64,
+    /// The hidden effects (none for a clean case).
     pub effects: Vec<Hidden>,
     /// Size of each effect, relative (see [`generate`]).
     pub magnitude: f64,
+    /// The sensor noise's standard deviation, as a share of the RMS force in the medium.
     pub noise_frac: f64,
+    /// Samples per second.
     pub rate_hz: f64,
+    /// Full strokes in the session.
     pub strokes: usize,
+    /// The leg's mean angular speed (rad/s); it varies within strokes.
     pub mean_speed_rad_s: f64,
 }
 
@@ -136,15 +159,20 @@ pub fn draw_case(seed: u64, effects: Vec<Hidden>) -> Case {
 /// One sample of a leg's motion.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MotionSample {
+    /// Time (s).
     pub t_s: f64,
     /// Attack angle, unwrapped (rad).
     pub beta_rad: f64,
+    /// Angular speed (rad/s).
     pub omega_rad_s: f64,
+    /// Angular acceleration (rad/s^2).
     pub alpha_rad_s2: f64,
+    /// The stroke (full turn) the sample belongs to, from 0.
     pub stroke: usize,
     /// The hip's height above the plate's configured one (m), and the body's pitch added to the
     /// attack angle (rad): a body that heaves and pitches (`terzaghi::sim::robot::Body`).
     pub hip_dz_m: f64,
+    /// The body's pitch, added to the attack angle (rad).
     pub pitch_rad: f64,
 }
 

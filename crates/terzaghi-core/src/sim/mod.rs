@@ -13,9 +13,11 @@ use std::f64::consts::TAU;
 /// How the leg turns: one stroke is one full turn (`2pi`) at a speed drawn per stroke.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Rotation {
+    /// Samples per second.
     pub sample_rate_hz: f64,
-    /// Angular speed range (rad/s); each stroke draws its speed uniformly from it.
+    /// Angular speed range (rad/s); each stroke draws its speed uniformly from it: the lowest.
     pub speed_min_rad_s: f64,
+    /// The highest.
     pub speed_max_rad_s: f64,
     /// Attack angle at `t = 0` (rad).
     pub start_beta_rad: f64,
