@@ -1,7 +1,7 @@
 //! `terzaghi diagnose`: where the model and the measurements part, which unmodelled effect is
 //! responsible, and how far the gap shrinks with it (the work is [`crate::session::diagnose`]).
 
-use super::{MediumArgs, print_out};
+use super::{MediumArgs, OptionalPlateArgs, print_out};
 use crate::config::FtFrame;
 use crate::diagnose::{DiagnoseOptions, Report};
 use crate::model::Plate;
@@ -45,15 +45,9 @@ pub struct DiagnoseArgs {
     pub direction: f64,
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub angle_offset_rad: f64,
-    /// Plate length from the hip axis to the tip (m) (CSV logs and --joint).
-    #[arg(long, value_name = "M", allow_negative_numbers = true)]
-    pub length_m: Option<f64>,
-    /// Plate width (m).
-    #[arg(long, value_name = "M", allow_negative_numbers = true)]
-    pub width_m: Option<f64>,
-    /// Height of the hip axis above the free surface (m).
-    #[arg(long, value_name = "M", allow_negative_numbers = true)]
-    pub hip_height_m: Option<f64>,
+    /// The leg's geometry: for a CSV log, and for a session's leg with --joint.
+    #[command(flatten)]
+    pub plate: OptionalPlateArgs,
     #[command(flatten)]
     pub medium: MediumArgs,
     /// Folds of whole strokes for the held-out scores.
@@ -91,7 +85,7 @@ fn options(a: &DiagnoseArgs) -> Result<DiagnoseFileOptions> {
     if a.folds < 2 {
         bail!("--folds must be at least 2, got {}", a.folds);
     }
-    let geometry_given = a.length_m.is_some() || a.width_m.is_some() || a.hip_height_m.is_some();
+    let geometry_given = a.plate.any();
     let mut opts = DiagnoseFileOptions {
         leg: a.leg.clone(),
         analysis: DiagnoseOptions {
@@ -201,9 +195,10 @@ fn render(leg: &str, r: &Report, dir: &Path) -> String {
 }
 
 fn plate_from_flags(a: &DiagnoseArgs) -> Result<Plate> {
-    match (a.length_m, a.width_m, a.hip_height_m) {
-        (Some(l), Some(b), Some(h)) => Ok(Plate::new(l, b, h)?),
-        _ => bail!(
+    // No warning for a plate that never reaches the medium: the diagnosis refuses it anyway.
+    match a.plate.all() {
+        Some(p) => Ok(Plate::new(p.length_m, p.width_m, p.hip_height_m)?),
+        None => bail!(
             "give all of the leg's geometry: --length-m, --width-m and --hip-height-m (and the medium: --medium or --unit-weight-n-m3 --phi-deg --delta-deg), for a CSV log or a session's leg with --joint"
         ),
     }

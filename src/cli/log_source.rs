@@ -1,7 +1,7 @@
 //! The log a fitting command reads: a CSV with the leg's geometry and medium as flags, or a
 //! recorded session whose parameters carry them.
 
-use super::{MediumArgs, PlateArgs, terzaghi_model};
+use super::{MediumArgs, OptionalPlateArgs, terzaghi_model};
 use crate::dataset::read_samples_csv;
 use crate::ident::Sample;
 use crate::model::TerzaghiModel;
@@ -16,16 +16,8 @@ pub struct LogArgs {
     /// CSV with a header naming at least beta_rad,drag_n,lift_n (and t_s for timing), or an MCAP
     /// session with the node's parameters (recorded by `terzaghi node`, or `terzaghi import-dem`).
     pub data: PathBuf,
-    /// Plate length from the hip axis to the tip (m) (CSV logs).
-    #[arg(long, value_name = "M", allow_negative_numbers = true)]
-    pub length_m: Option<f64>,
-    /// Plate width (m) (CSV logs).
-    #[arg(long, value_name = "M", allow_negative_numbers = true)]
-    pub width_m: Option<f64>,
-    /// Height of the hip axis above the free surface (m); 0 puts the axis on the surface (CSV
-    /// logs).
-    #[arg(long, value_name = "M", allow_negative_numbers = true)]
-    pub hip_height_m: Option<f64>,
+    #[command(flatten)]
+    pub plate: OptionalPlateArgs,
     #[command(flatten)]
     pub medium: MediumArgs,
     /// MCAP session: the leg (default: its only leg with an F/T topic).
@@ -54,17 +46,10 @@ fn from_csv(a: &LogArgs) -> Result<(TerzaghiModel, Vec<Sample>)> {
             a.data.display()
         );
     }
-    let (Some(length_m), Some(width_m), Some(hip_height_m)) =
-        (a.length_m, a.width_m, a.hip_height_m)
-    else {
+    let Some(plate) = a.plate.all() else {
         bail!("a CSV log needs the leg's geometry: --length-m, --width-m and --hip-height-m");
     };
-    let plate = PlateArgs {
-        length_m,
-        width_m,
-        hip_height_m,
-    }
-    .plate()?;
+    let plate = plate.plate()?;
     let chosen = a.medium.medium()?;
     let samples = read_samples_csv(&a.data)?;
     Ok((terzaghi_model(plate, &chosen, None), samples))
@@ -73,7 +58,7 @@ fn from_csv(a: &LogArgs) -> Result<(TerzaghiModel, Vec<Sample>)> {
 /// The leg's plate and medium from the session's parameters, its F/T samples matched with
 /// joint angles as the node matches them.
 fn from_session(a: &LogArgs) -> Result<(TerzaghiModel, Vec<Sample>)> {
-    if a.length_m.is_some() || a.width_m.is_some() || a.hip_height_m.is_some() {
+    if a.plate.any() {
         bail!(
             "{} is a session: its geometry and medium come from its parameters (change them with --params-file)",
             a.data.display()

@@ -156,6 +156,38 @@ impl PlateArgs {
     }
 }
 
+/// The leg's geometry where a log may carry it instead (a session's parameters): a CSV log
+/// needs all three flags.
+#[derive(Debug, Clone, Args)]
+pub struct OptionalPlateArgs {
+    /// Plate length from the hip axis to the tip (m), for a CSV log.
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
+    pub length_m: Option<f64>,
+    /// Plate width (m), for a CSV log.
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
+    pub width_m: Option<f64>,
+    /// Height of the hip axis above the free surface (m), for a CSV log; 0 puts the axis on
+    /// the surface.
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
+    pub hip_height_m: Option<f64>,
+}
+
+impl OptionalPlateArgs {
+    /// Whether any of the three was given.
+    pub fn any(&self) -> bool {
+        self.length_m.is_some() || self.width_m.is_some() || self.hip_height_m.is_some()
+    }
+
+    /// All three, as [`PlateArgs`]; `None` unless all three were given.
+    pub fn all(&self) -> Option<PlateArgs> {
+        Some(PlateArgs {
+            length_m: self.length_m?,
+            width_m: self.width_m?,
+            hip_height_m: self.hip_height_m?,
+        })
+    }
+}
+
 /// The medium: a preset, or custom soil values.
 #[derive(Debug, Clone, Args)]
 pub struct MediumArgs {
