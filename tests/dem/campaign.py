@@ -10,6 +10,7 @@ and hip torque in the hip frame, the attack angle beta) as one CSV per run, whic
 
     python3 tests/dem/campaign.py --out tests/dem/campaign           # the whole campaign
     python3 tests/dem/campaign.py --out /tmp/small --scene small      # the small scene of the test
+    python3 tests/dem/campaign.py --out tests/dem/campaign --rft      # the RFT calibration again
 
 Needs `liggghts` (Debian: apt-get install liggghts) and, for the sessions, the terzaghi binary
 (--terzaghi, default target/release/terzaghi). Standard library only.
@@ -637,12 +638,24 @@ def sensor_variant(samples, kind, peak, seed=7):
 # RFT calibration
 
 
+# The RFT calibration's bed and intrusions. The element starts in the hole cut for it, and the
+# stress on it builds as it travels, until the grains ahead of it have jammed: moving down, its
+# stress per depth over 15-30 mm of travel is 1.2-1.6 times that over 3.75-15 mm (a drag
+# element's levels off within 7.5 mm). The element travels 30 mm and alpha is fitted over the
+# second half, in a bed 0.18 x 0.10 m and 0.11 m deep, whose walls and floor stay 47 mm (8 grain
+# diameters) or more from it: in the first calibration's bed (0.12 x 0.08 m, 0.08 m deep, 15 mm
+# of travel) a drag element's stress rose by half over its last 10 mm, toward a wall.
+RFT_BED = {"hx": 0.09, "hy": 0.05, "depth": 0.11}
+RFT_TRAVEL_M = 0.03
+RFT_FIT_FROM = 0.5
+
+
 def run_intrusion(cfg, name, workdir, bed, beta_r, gamma, plate_len=0.025, width=0.025,
-                  depth0=0.03, travel=0.015, speed=0.05):
+                  depth0=0.03, travel=RFT_TRAVEL_M, speed=0.05, fit_from=RFT_FIT_FROM):
     """A plate element (plate_len x width) at attack angle beta_r, its centre buried at depth0,
     moved `travel` in the direction gamma below the horizontal at `speed`. Returns
-    (alpha_x, alpha_z) in N/cm^3 from F = alpha |z| A, fitted over the travel after the first
-    quarter (depth |z| of the element's centre)."""
+    (alpha_x, alpha_z) in N/cm^3 from F = alpha |z| A, fitted over the travel past the fraction
+    `fit_from` of it (depth |z| of the element's centre)."""
     dt = cfg["dt"]
     surface = bed["surface_z_m"]
     cx, cz = 0.0, surface - depth0
@@ -682,7 +695,7 @@ def run_intrusion(cfg, name, workdir, bed, beta_r, gamma, plate_len=0.025, width
     sxz = szz = sxx = 0.0
     for row in rows:
         moved = (row[0] - start_step - nav / 2.0) * dt * speed
-        if moved < travel / 4:
+        if moved < travel * fit_from:
             continue
         depth = surface - (cz + vz / speed * moved)
         if depth <= 0:
@@ -781,6 +794,28 @@ class Campaign:
             self.beds[name] = b
         return b
 
+    def rft_grid(self, jobs):
+        """The RFT calibration: a bed of its own, and 6 attack angles times 5 intrusion angles,
+        `jobs` engine processes at once."""
+        bd = self.bed("bed_rft", **RFT_BED)
+        plan = [("rft_b%+03d_g%+03d" % (b, g), b, g)
+                for b in (-60, -30, 0, 30, 60, 90) for g in (-90, -45, 0, 45, 90)]
+        with cf.ThreadPoolExecutor(max_workers=jobs) as pool:
+            out = list(pool.map(lambda p: run_intrusion(self.cfg, p[0], self.work, bd, math.radians(p[1]),
+                                                        math.radians(p[2])), plan))
+        self.log("RFT grid: %d intrusions" % len(out))
+        return out
+
+    def write_rft_grid(self, grid):
+        with open(os.path.join(self.out, "rft_grid.csv"), "w") as f:
+            f.write("# RFT stress per depth measured by intruding a 25 x 25 mm plate element in the DEM bed\n")
+            f.write("# (tests/dem/campaign.py). Units: alpha in N/cm^3; beta = attack angle, gamma = intrusion\n")
+            f.write("# angle below the horizontal (gamma > 0: moving down), radians; alpha_x resists the motion's\n")
+            f.write("# horizontal component, alpha_z is up.\n")
+            f.write("beta_rad,gamma_rad,alpha_x,alpha_z\n")
+            for r in sorted(grid, key=lambda r: (r["gamma_rad"], r["beta_rad"])):
+                f.write("%.6f,%.6f,%.6g,%.6g\n" % (r["beta_rad"], r["gamma_rad"], r["alpha_x"], r["alpha_z"]))
+
     def save(self, run, samples, bed):
         """Writes the run's CSV (its session is written at the end, by import_sessions)."""
         run = dict(run)
@@ -865,21 +900,7 @@ class Campaign:
         jobs.append(pool.submit(stroke("var_fast", base, omega=10 * w0, **std)))
 
         # RFT from the same medium: a smaller bed, a grid of intrusions.
-        def rft():
-            bd = self.bed("bed_rft", hx=0.06, hy=0.04, depth=0.08)
-            out = []
-            futs = []
-            for bd_deg in (-60, -30, 0, 30, 60, 90):
-                for g_deg in (-90, -45, 0, 45, 90):
-                    name = "rft_b%+03d_g%+03d" % (bd_deg, g_deg)
-                    futs.append((name, bd_deg, g_deg))
-            for name, bd_deg, g_deg in futs:
-                r = run_intrusion(c, name, self.work, bd, math.radians(bd_deg), math.radians(g_deg))
-                out.append(r)
-            self.log("RFT grid: %d intrusions" % len(out))
-            return out
-
-        f_rft = pool.submit(rft)
+        f_rft = pool.submit(self.rft_grid, 1)
         base_run, base_samples = f_base.result()
         peak = max(max(abs(s[2]), abs(s[3])) for s in base_samples)
         for kind in ("bias", "delay", "noise"):
@@ -904,14 +925,7 @@ class Campaign:
             self.log("%s has no import-dem: sessions not written (rerun with --import-only)" % self.terzaghi)
         grid = getattr(self, "rft", [])
         if grid:
-            with open(os.path.join(self.out, "rft_grid.csv"), "w") as f:
-                f.write("# RFT stress per depth measured by intruding a 25 x 25 mm plate element in the DEM bed\n")
-                f.write("# (tests/dem/campaign.py). Units: alpha in N/cm^3; beta = attack angle, gamma = intrusion\n")
-                f.write("# angle below the horizontal (gamma > 0: moving down), radians; alpha_x resists the motion's\n")
-                f.write("# horizontal component, alpha_z is up.\n")
-                f.write("beta_rad,gamma_rad,alpha_x,alpha_z\n")
-                for r in sorted(grid, key=lambda r: (r["gamma_rad"], r["beta_rad"])):
-                    f.write("%.6f,%.6f,%.6g,%.6g\n" % (r["beta_rad"], r["gamma_rad"], r["alpha_x"], r["alpha_z"]))
+            self.write_rft_grid(grid)
         manifest = {
             "engine": self.engine,
             "command": "python3 tests/dem/campaign.py --out %s --scene %s --jobs %d" % (
@@ -1083,6 +1097,36 @@ def run_diagnosis_part(args):
     camp.log("diagnosis part done in %.0f s (%.1f min): %d runs" % (seconds, seconds / 60, len(names)))
 
 
+def run_rft_part(args):
+    """Runs the RFT calibration again in an existing campaign: its bed and grid of intrusions,
+    rft_grid.csv rewritten, and the calibration recorded in the manifest under `rft`."""
+    out = os.path.abspath(args.out)
+    path = os.path.join(out, "campaign.json")
+    with open(path) as f:
+        manifest = json.load(f)
+    camp = Campaign(args)
+    camp.t0 = time.time()
+    camp.log("engine: %s; RFT calibration, %d jobs" % (camp.engine, args.jobs))
+    grid = camp.rft_grid(args.jobs)
+    camp.write_rft_grid(grid)
+    seconds = round(time.time() - camp.t0, 1)
+    manifest["beds"]["bed_rft"] = {k: v for k, v in camp.beds["bed_rft"].items() if k != "restart"}
+    manifest["rft"] = {
+        "command": "python3 tests/dem/campaign.py --out %s --rft --jobs %d" % (
+            os.path.relpath(out, os.path.dirname(os.path.dirname(HERE))), args.jobs),
+        "engine": camp.engine,
+        "intrusions": len(grid),
+        "travel_m": RFT_TRAVEL_M,
+        "fitted_over_travel_from_m": RFT_TRAVEL_M * RFT_FIT_FROM,
+        "seconds": seconds,
+    }
+    with open(path, "w") as f:
+        json.dump(manifest, f, indent=1, sort_keys=True)
+    if not args.keep_work:
+        shutil.rmtree(camp.work, ignore_errors=True)
+    camp.log("RFT calibration done in %.0f s (%.1f min): %d intrusions" % (seconds, seconds / 60, len(grid)))
+
+
 def import_sessions(out, terzaghi, log=print, only=None):
     """Writes every run's CSV in out/runs (or those named in `only`) as a ROS 2 MCAP session
     beside it, through `terzaghi import-dem`, which refuses a run that made no contact, has a
@@ -1122,6 +1166,9 @@ def main():
                     help="add the diagnosis part (independent beds and strokes per condition) to the campaign in --out")
     ap.add_argument("--only", metavar="RUN[,RUN...]",
                     help="with --diagnosis: run only these runs of the diagnosis part and add them to the campaign")
+    ap.add_argument("--rft", action="store_true",
+                    help="run the RFT calibration (its bed and intrusions) again in the campaign in --out, "
+                         "rewriting rft_grid.csv")
     ap.add_argument("--import-only", action="store_true",
                     help="only write the sessions of the CSV runs already in --out (no engine)")
     args = ap.parse_args()
@@ -1139,6 +1186,9 @@ def main():
         sys.exit("--only goes with --diagnosis")
     if args.diagnosis:
         run_diagnosis_part(args)
+        return
+    if args.rft:
+        run_rft_part(args)
         return
     Campaign(args).run()
 

@@ -109,6 +109,22 @@ fn render(m: &serde_json::Value, r: &CampaignReport) -> String {
             }
         }
     }
+    // The RFT calibration, where it was run again on its own.
+    let rft = &m["rft"];
+    if let Some(n) = rft["intrusions"].as_u64() {
+        let bed = &m["beds"]["bed_rft"];
+        s += &format!(
+            "RFT calibration: {n} intrusions of {:.0} mm, alpha fitted past {:.0} mm, in a bed of {} grains {:.2} x {:.2} x {:.2} m, {:.1} min ({})\n",
+            1000.0 * rft["travel_m"].as_f64().unwrap_or(f64::NAN),
+            1000.0 * rft["fitted_over_travel_from_m"].as_f64().unwrap_or(f64::NAN),
+            bed["grains"],
+            2.0 * bed["hx"].as_f64().unwrap_or(f64::NAN),
+            2.0 * bed["hy"].as_f64().unwrap_or(f64::NAN),
+            bed["depth"].as_f64().unwrap_or(f64::NAN),
+            rft["seconds"].as_f64().unwrap_or(0.0) / 60.0,
+            rft["command"].as_str().unwrap_or("")
+        );
+    }
     let base = &m["beds"]["bed_base"];
     let med = &m["medium"];
     s += &format!(
