@@ -116,7 +116,10 @@ fn render(m: &serde_json::Value, r: &CampaignReport) -> String {
         s += &format!(
             "RFT calibration: {n} intrusions of {:.0} mm, alpha fitted past {:.0} mm, in a bed of {} grains {:.2} x {:.2} x {:.2} m, {:.1} min ({})\n",
             1000.0 * rft["travel_m"].as_f64().unwrap_or(f64::NAN),
-            1000.0 * rft["fitted_over_travel_from_m"].as_f64().unwrap_or(f64::NAN),
+            1000.0
+                * rft["fitted_over_travel_from_m"]
+                    .as_f64()
+                    .unwrap_or(f64::NAN),
             bed["grains"],
             2.0 * bed["hx"].as_f64().unwrap_or(f64::NAN),
             2.0 * bed["hy"].as_f64().unwrap_or(f64::NAN),
