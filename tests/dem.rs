@@ -487,6 +487,44 @@ fn reevaluated(session: &str, params_file: &str, extra: &[&str]) -> (f64, f64, f
     (after("RMSE "), after("R^2 drag "), after("lift "))
 }
 
+/// [`reevaluated`] stroke by stroke (`--per-stroke`): each stroke's printed
+/// `RMSE ... (R^2 drag ..., lift ...)`.
+fn reevaluated_strokes(session: &str, params_file: &str, extra: &[&str]) -> Vec<(f64, f64, f64)> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut args = vec![
+        "replay",
+        session,
+        "--reevaluate",
+        "--per-stroke",
+        "--params-file",
+        params_file,
+        "-o",
+        "/dev/null",
+    ];
+    args.extend_from_slice(extra);
+    let o = Command::new(common::terzaghi())
+        .current_dir(dir)
+        .args(&args)
+        .output()
+        .unwrap();
+    let printed = text(&o);
+    assert!(o.status.success(), "{printed}");
+    let num = |line: &str, what: &str| -> f64 {
+        let at = line.find(what).unwrap_or_else(|| panic!("{line}")) + what.len();
+        line[at..]
+            .split([',', ')', ' '])
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap_or_else(|e| panic!("{what}: {e} in {line}"))
+    };
+    printed
+        .lines()
+        .filter(|l| l.starts_with("leg stroke "))
+        .map(|l| (num(l, "RMSE "), num(l, "R^2 drag "), num(l, "lift ")))
+        .collect()
+}
+
 /// The DEM strokes whose hip moves (`mv_*`): the node told the hip's trajectory by the session's
 /// `/tf` (`leg.hip_frame`) against the node at the fixed, mean hip height, both through `replay
 /// --reevaluate` with nothing fitted to these strokes. On the single strokes into the settled bed
@@ -535,6 +573,40 @@ fn the_hips_trajectory_from_tf_predicts_the_dem_strokes_better() {
         }
     }
     assert_eq!(checked, 7);
+    // The two-stroke runs stroke by stroke (`--per-stroke`): into the settled bed, the first
+    // stroke told its trajectory is better as the single strokes are; the flat leg's second,
+    // through the first one's trough, is worse (docs' table, each row as printed).
+    for (run, params) in [
+        ("mv_heave", flat),
+        ("mv_walk", flat),
+        ("mv_cleg_walk", cleg),
+    ] {
+        let session = format!("tests/dem/campaign/runs/{run}.mcap");
+        let with_tf = reevaluated_strokes(&session, params, &[]);
+        let fixed = reevaluated_strokes(&session, params, &["-p", "leg.hip_frame:="]);
+        assert_eq!((with_tf.len(), fixed.len()), (2, 2), "{run}");
+        for (k, (t, f)) in with_tf.iter().zip(&fixed).enumerate() {
+            let row = format!(
+                "| `{run}`, stroke {} | {:.3} | {:.3} / {:.3} | {:.3} | {:.3} / {:.3} |",
+                k + 1,
+                t.0,
+                t.1,
+                t.2,
+                f.0,
+                f.1,
+                f.2
+            );
+            assert!(readme.contains(&row), "README lacks the row\n{row}");
+        }
+        let (t, f) = (with_tf[0], fixed[0]);
+        assert!(
+            t.0 < 0.9 * f.0 && t.1 > f.1 + 0.05 && t.2 > f.2 + 0.04,
+            "{run}, first stroke: {t:?} {f:?}"
+        );
+        if params == flat {
+            assert!(with_tf[1].0 > fixed[1].0, "{run}: {with_tf:?} {fixed:?}");
+        }
+    }
     // The expected miss: through the first stroke's trough, the heaving hip's second stroke.
     let heave = reevaluated("tests/dem/campaign/runs/mv_heave.mcap", flat, &[]);
     let heave_fixed = reevaluated(

@@ -36,6 +36,10 @@ pub struct ReplayArgs {
     /// refused; a CSV output is replaced).
     #[arg(long)]
     pub overwrite: bool,
+    /// --reevaluate: also print each leg's error stroke by stroke (a stroke: a full turn of the
+    /// leg, counted from its first sample, as diagnose counts them).
+    #[arg(long, requires = "reevaluate")]
+    pub per_stroke: bool,
     /// Replay speed factor.
     #[arg(long, default_value_t = 1.0, conflicts_with = "as_fast_as_possible")]
     pub rate: f64,
@@ -205,16 +209,23 @@ fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
             summary.skipped_samples
         );
     }
-    eprint!("{}", error_table(&done));
+    eprint!("{}", error_table(&done, a.per_stroke));
     Ok(())
 }
 
 /// Each leg's prediction error against its measurements: the expected F/T reading (with the
-/// leg's corrections, where it has them) and the bare model.
-fn error_table(done: &Reevaluation) -> String {
+/// leg's corrections, where it has them) and the bare model; with `per_stroke`, the expected
+/// reading's stroke by stroke too.
+fn error_table(done: &Reevaluation, per_stroke: bool) -> String {
     use crate::session::reevaluate::RowErrors;
     let mut out = String::new();
-    for (l, e) in done.config.legs.iter().zip(&done.summary.errors) {
+    for (i, (l, e)) in done
+        .config
+        .legs
+        .iter()
+        .zip(&done.summary.errors)
+        .enumerate()
+    {
         if e.samples() == 0 {
             continue;
         }
@@ -241,6 +252,21 @@ fn error_table(done: &Reevaluation) -> String {
             );
         }
         out.push('\n');
+        let strokes = done.summary.stroke_errors.get(i).map_or(&[][..], |v| v);
+        for (k, s) in strokes.iter().enumerate().filter(|_| per_stroke) {
+            if s.samples() == 0 {
+                continue;
+            }
+            out += &format!(
+                "{} stroke {}: RMSE {:.3} N (R^2 drag {:.3}, lift {:.3}) over {} samples\n",
+                l.name,
+                k + 1,
+                RowErrors::rmse_n(&s.expected),
+                s.expected[0].fit().r2,
+                s.expected[1].fit().r2,
+                s.samples()
+            );
+        }
     }
     out
 }

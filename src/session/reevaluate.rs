@@ -104,6 +104,10 @@ pub struct Summary {
     /// Per leg, how far its predictions lie from its measurements.
     #[serde(skip)]
     pub errors: Vec<RowErrors>,
+    /// Per leg, the same stroke by stroke (full turns, [`StrokeCounter`]): where a session's
+    /// error lies.
+    #[serde(skip)]
+    pub stroke_errors: Vec<Vec<RowErrors>>,
 }
 
 impl Summary {
@@ -119,6 +123,35 @@ impl Summary {
             estimates: vec![None; legs],
             ..Default::default()
         }
+    }
+}
+
+/// Numbers a leg's rows by stroke as the diagnosis does (`diagnose::kinematics`): a stroke is a
+/// full turn of the leg's angle, counted from its first row.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct StrokeCounter {
+    /// The first row's angle and the previous one's, made continuous across turns (rad).
+    start_rad: Option<f64>,
+    prev_rad: f64,
+}
+
+impl StrokeCounter {
+    /// The stroke (from 0) of the next row, at angle `beta_rad`; a non-finite angle counts in
+    /// the stroke of the row before it.
+    pub fn stroke(&mut self, beta_rad: f64) -> usize {
+        use std::f64::consts::{PI, TAU};
+        let Some(start) = self.start_rad else {
+            if beta_rad.is_finite() {
+                self.start_rad = Some(beta_rad);
+                self.prev_rad = beta_rad;
+            }
+            return 0;
+        };
+        if beta_rad.is_finite() {
+            let d = (beta_rad - self.prev_rad + PI).rem_euclid(TAU) - PI;
+            self.prev_rad += d;
+        }
+        ((self.prev_rad - start) / TAU).floor().max(0.0) as usize
     }
 }
 
@@ -151,6 +184,8 @@ struct Driver {
     has_ft: Vec<bool>,
     rows: u64,
     errors: Vec<RowErrors>,
+    strokes: Vec<StrokeCounter>,
+    stroke_errors: Vec<Vec<RowErrors>>,
     outputs: Outputs,
     jobs: Vec<GapJob>,
 }
@@ -165,6 +200,8 @@ impl Driver {
                 .map(|l| l.ft_topic.is_some())
                 .collect(),
             errors: vec![RowErrors::default(); core.legs()],
+            strokes: vec![StrokeCounter::default(); core.legs()],
+            stroke_errors: vec![Vec::new(); core.legs()],
             core,
             rows: 0,
             outputs: Outputs::default(),
@@ -245,6 +282,12 @@ impl Driver {
                 expected_reading_lift_n: r.sensor_n[1],
             };
             self.errors[leg].add(&row);
+            let k = self.strokes[leg].stroke(row.beta_rad);
+            let per = &mut self.stroke_errors[leg];
+            if per.len() <= k {
+                per.resize(k + 1, RowErrors::default());
+            }
+            per[k].add(&row);
             on_row(&row);
         }
     }
@@ -253,6 +296,7 @@ impl Driver {
     fn finish(self, mut sum: Summary) -> Summary {
         sum.rows = self.rows;
         sum.errors = self.errors;
+        sum.stroke_errors = self.stroke_errors;
         sum.estimates = (0..self.core.legs())
             .map(|i| self.core.estimate(i))
             .collect();
@@ -712,4 +756,43 @@ pub fn reevaluate_to_mcap(
     })?;
     let s = result.ok_or_else(|| anyhow!("nothing re-evaluated"))?;
     Ok(p.done(s))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::StrokeCounter;
+    use crate::diagnose::kinematics;
+    use crate::ident::Sample;
+
+    /// The re-evaluation numbers strokes as the diagnosis does: full turns from the first angle,
+    /// across the wrap at 2 pi, backwards and through a non-finite angle.
+    #[test]
+    fn strokes_are_counted_as_the_diagnosis_counts_them() {
+        let mut angles: Vec<f64> = (0..900).map(|i| 0.3 + 0.021 * i as f64).collect();
+        let last = angles[899];
+        angles.extend((0..100).map(|i| last - 0.01 * i as f64));
+        let wrapped: Vec<f64> = angles
+            .iter()
+            .map(|a| a.rem_euclid(std::f64::consts::TAU))
+            .collect();
+        let samples: Vec<Sample> = wrapped
+            .iter()
+            .enumerate()
+            .map(|(i, &b)| Sample {
+                t_s: Some(i as f64 * 0.002),
+                beta_rad: b,
+                drag_n: 0.0,
+                lift_n: 0.0,
+            })
+            .collect();
+        let expected = kinematics(&samples, 5).stroke;
+        let mut c = StrokeCounter::default();
+        let counted: Vec<usize> = wrapped.iter().map(|&b| c.stroke(b)).collect();
+        assert_eq!(counted, expected);
+        assert_eq!(counted.iter().max(), Some(&3));
+        // A non-finite angle counts in the stroke before it and moves nothing.
+        let before = c.stroke(wrapped[999]);
+        assert_eq!(c.stroke(f64::NAN), before);
+        assert_eq!(c.stroke(wrapped[999]), before);
+    }
 }
