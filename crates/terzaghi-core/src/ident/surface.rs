@@ -241,7 +241,7 @@ mod tests {
 
     #[test]
     fn learns_a_surface_higher_or_lower_than_configured_and_follows_a_ledge() {
-        for dz in [0.02, -0.015, 0.0] {
+        for dz in [0.02, 0.01, -0.015, 0.0] {
             let mut est = SurfaceEstimator::new(&model(0.15), OnlineOptions::default());
             let mut t = 0.0;
             turns(&mut est, dz, 4, &mut t, 1);
