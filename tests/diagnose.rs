@@ -750,10 +750,11 @@ fn the_corrected_model_closes_the_reported_share_on_held_out_strokes() {
         }
     }
     // DEM: every case gets corrections that predict its held-out strokes better; they close the
-    // reported share within 10 points except in three, which the README names: the strokes at
-    // rising speeds (flat plate and C-leg) are predicted at speeds the first strokes did not
-    // reach, and the offset's cohesion-like companion generalises less than reported.
-    let expected_misses = ["cleg_speed", "sensor_bias", "speed"];
+    // reported share within 10 points except in two, which the README names: the C-leg told as a
+    // flat plate at rising speeds is predicted at speeds the first strokes did not reach, and the
+    // offset's cohesion-like companion generalises less than reported. The flat plate's strokes
+    // at rising speeds hold, with `rate` in the corrected model.
+    let expected_misses = ["cleg_speed", "sensor_bias"];
     let mut misses: Vec<&str> = Vec::new();
     for s in &dem {
         assert!(kept(s), "{s}");
@@ -767,6 +768,8 @@ fn the_corrected_model_closes_the_reported_share_on_held_out_strokes() {
         misses, expected_misses,
         "the DEM cases whose held-out share falls short"
     );
+    let speed = dem.iter().find(|s| s["case"] == "speed").unwrap();
+    assert!(speed["kept"].to_string().contains("rate"), "{speed}");
 }
 
 /// The node watching its own gap (gap_check): a six-legged session at 1 kHz, run through the
