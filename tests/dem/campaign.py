@@ -798,6 +798,8 @@ class Campaign:
         """The RFT calibration: a bed of its own, and 6 attack angles times 5 intrusion angles,
         `jobs` engine processes at once."""
         bd = self.bed("bed_rft", **RFT_BED)
+        if not bd["settled"]:
+            raise SystemExit("the RFT bed did not settle (KE ratio %.2g): no grid is written" % bd["settled_ke_ratio"])
         plan = [("rft_b%+03d_g%+03d" % (b, g), b, g)
                 for b in (-60, -30, 0, 30, 60, 90) for g in (-90, -45, 0, 45, 90)]
         with cf.ThreadPoolExecutor(max_workers=jobs) as pool:
