@@ -456,6 +456,25 @@ fn the_node_predicts_the_dem_c_leg_with_rft_from_the_dem() {
 /// One `replay --reevaluate` of a DEM session through the node's own code: its printed
 /// `RMSE ... (R^2 drag ..., lift ...)` as (RMSE, R^2 drag, R^2 lift).
 fn reevaluated(session: &str, params_file: &str, extra: &[&str]) -> (f64, f64, f64) {
+    let printed = replay_reevaluate(session, params_file, extra);
+    errors_in(&printed, &printed)
+}
+
+/// [`reevaluated`] stroke by stroke (`--per-stroke`): each stroke's printed errors.
+fn reevaluated_strokes(session: &str, params_file: &str, extra: &[&str]) -> Vec<(f64, f64, f64)> {
+    let mut args = vec!["--per-stroke"];
+    args.extend_from_slice(extra);
+    let printed = replay_reevaluate(session, params_file, &args);
+    printed
+        .lines()
+        .filter(|l| l.starts_with("leg stroke "))
+        .map(|l| errors_in(l, &printed))
+        .collect()
+}
+
+/// What `terzaghi replay SESSION --reevaluate --params-file PARAMS_FILE EXTRA... -o /dev/null`
+/// printed; it must succeed.
+fn replay_reevaluate(session: &str, params_file: &str, extra: &[&str]) -> String {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR"));
     let mut args = vec![
         "replay",
@@ -474,9 +493,15 @@ fn reevaluated(session: &str, params_file: &str, extra: &[&str]) -> (f64, f64, f
         .unwrap();
     let printed = text(&o);
     assert!(o.status.success(), "{printed}");
+    printed
+}
+
+/// The first `RMSE ... (R^2 drag ..., lift ...)` of `text` as (RMSE, R^2 drag, R^2 lift);
+/// `printed`, the whole output, names it in a failure.
+fn errors_in(text: &str, printed: &str) -> (f64, f64, f64) {
     let after = |what: &str| -> f64 {
-        let at = printed.find(what).unwrap_or_else(|| panic!("{printed}")) + what.len();
-        printed[at..]
+        let at = text.find(what).unwrap_or_else(|| panic!("{printed}")) + what.len();
+        text[at..]
             .split([',', ')', ' '])
             .next()
             .unwrap()
@@ -485,44 +510,6 @@ fn reevaluated(session: &str, params_file: &str, extra: &[&str]) -> (f64, f64, f
             .unwrap_or_else(|e| panic!("{what}: {e} in {printed}"))
     };
     (after("RMSE "), after("R^2 drag "), after("lift "))
-}
-
-/// [`reevaluated`] stroke by stroke (`--per-stroke`): each stroke's printed
-/// `RMSE ... (R^2 drag ..., lift ...)`.
-fn reevaluated_strokes(session: &str, params_file: &str, extra: &[&str]) -> Vec<(f64, f64, f64)> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let mut args = vec![
-        "replay",
-        session,
-        "--reevaluate",
-        "--per-stroke",
-        "--params-file",
-        params_file,
-        "-o",
-        "/dev/null",
-    ];
-    args.extend_from_slice(extra);
-    let o = Command::new(common::terzaghi())
-        .current_dir(dir)
-        .args(&args)
-        .output()
-        .unwrap();
-    let printed = text(&o);
-    assert!(o.status.success(), "{printed}");
-    let num = |line: &str, what: &str| -> f64 {
-        let at = line.find(what).unwrap_or_else(|| panic!("{line}")) + what.len();
-        line[at..]
-            .split([',', ')', ' '])
-            .next()
-            .unwrap()
-            .parse()
-            .unwrap_or_else(|e| panic!("{what}: {e} in {line}"))
-    };
-    printed
-        .lines()
-        .filter(|l| l.starts_with("leg stroke "))
-        .map(|l| (num(l, "RMSE "), num(l, "R^2 drag "), num(l, "lift ")))
-        .collect()
 }
 
 /// The DEM strokes whose hip moves (`mv_*`): the node told the hip's trajectory by the session's

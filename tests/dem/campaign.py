@@ -1092,11 +1092,18 @@ def run_diagnosis_part(args):
             "runs": sorted(names - own),
             "seconds": seconds,
         }
+    close_part(camp, args, path, manifest,
+               "diagnosis part done in %.0f s (%.1f min): %d runs" % (seconds, seconds / 60, len(names)))
+
+
+def close_part(camp, args, path, manifest, done):
+    """Writes the manifest a part of the campaign added to, removes the engine's work (unless
+    --keep-work) and logs `done`."""
     with open(path, "w") as f:
         json.dump(manifest, f, indent=1, sort_keys=True)
     if not args.keep_work:
         shutil.rmtree(camp.work, ignore_errors=True)
-    camp.log("diagnosis part done in %.0f s (%.1f min): %d runs" % (seconds, seconds / 60, len(names)))
+    camp.log(done)
 
 
 def run_rft_part(args):
@@ -1122,11 +1129,8 @@ def run_rft_part(args):
         "fitted_over_travel_from_m": RFT_TRAVEL_M * RFT_FIT_FROM,
         "seconds": seconds,
     }
-    with open(path, "w") as f:
-        json.dump(manifest, f, indent=1, sort_keys=True)
-    if not args.keep_work:
-        shutil.rmtree(camp.work, ignore_errors=True)
-    camp.log("RFT calibration done in %.0f s (%.1f min): %d intrusions" % (seconds, seconds / 60, len(grid)))
+    close_part(camp, args, path, manifest,
+               "RFT calibration done in %.0f s (%.1f min): %d intrusions" % (seconds, seconds / 60, len(grid)))
 
 
 def import_sessions(out, terzaghi, log=print, only=None):
