@@ -1111,6 +1111,8 @@ def run_rft_part(args):
     rft_grid.csv rewritten, and the calibration recorded in the manifest under `rft`."""
     out = os.path.abspath(args.out)
     path = os.path.join(out, "campaign.json")
+    if not os.path.exists(path):
+        sys.exit("--rft runs the RFT calibration again in a campaign: %s has none (run the campaign first)" % path)
     with open(path) as f:
         manifest = json.load(f)
     camp = Campaign(args)
