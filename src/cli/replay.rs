@@ -252,11 +252,11 @@ fn error_table(done: &Reevaluation, per_stroke: bool) -> String {
             );
         }
         out.push('\n');
+        if !per_stroke {
+            continue;
+        }
         let strokes = done.summary.stroke_errors.get(i).map_or(&[][..], |v| v);
-        for (k, s) in strokes.iter().enumerate().filter(|_| per_stroke) {
-            if s.samples() == 0 {
-                continue;
-            }
+        for (k, s) in strokes.iter().enumerate().filter(|(_, s)| s.samples() > 0) {
             out += &format!(
                 "{} stroke {}: RMSE {:.3} N (R^2 drag {:.3}, lift {:.3}) over {} samples\n",
                 l.name,

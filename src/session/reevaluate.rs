@@ -7,6 +7,7 @@ use super::csv_rows::{CSV_HEADER, CsvRows};
 use super::files::{refuse_existing_recording, write_atomically};
 use super::inputs::{Read, input_count, scan_inputs, session_config_with};
 use crate::config::{NodeConfig, ParamMap, RosArgs, load_params};
+use crate::diagnose::Turns;
 use crate::ident::{Estimate, FitSums, Sample};
 use crate::model::Regime;
 use crate::msgs::{Gap, JointState, LegForce, ModelParams, Time, WrenchStamped};
@@ -104,8 +105,8 @@ pub struct Summary {
     /// Per leg, how far its predictions lie from its measurements.
     #[serde(skip)]
     pub errors: Vec<RowErrors>,
-    /// Per leg, the same stroke by stroke (full turns, [`StrokeCounter`]): where a session's
-    /// error lies.
+    /// Per leg, the same stroke by stroke (full turns, numbered as the diagnosis numbers them:
+    /// [`Turns`]): where a session's error lies.
     #[serde(skip)]
     pub stroke_errors: Vec<Vec<RowErrors>>,
 }
@@ -123,35 +124,6 @@ impl Summary {
             estimates: vec![None; legs],
             ..Default::default()
         }
-    }
-}
-
-/// Numbers a leg's rows by stroke as the diagnosis does (`diagnose::kinematics`): a stroke is a
-/// full turn of the leg's angle, counted from its first row.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct StrokeCounter {
-    /// The first row's angle and the previous one's, made continuous across turns (rad).
-    start_rad: Option<f64>,
-    prev_rad: f64,
-}
-
-impl StrokeCounter {
-    /// The stroke (from 0) of the next row, at angle `beta_rad`; a non-finite angle counts in
-    /// the stroke of the row before it.
-    pub fn stroke(&mut self, beta_rad: f64) -> usize {
-        use std::f64::consts::{PI, TAU};
-        let Some(start) = self.start_rad else {
-            if beta_rad.is_finite() {
-                self.start_rad = Some(beta_rad);
-                self.prev_rad = beta_rad;
-            }
-            return 0;
-        };
-        if beta_rad.is_finite() {
-            let d = (beta_rad - self.prev_rad + PI).rem_euclid(TAU) - PI;
-            self.prev_rad += d;
-        }
-        ((self.prev_rad - start) / TAU).floor().max(0.0) as usize
     }
 }
 
@@ -184,7 +156,7 @@ struct Driver {
     has_ft: Vec<bool>,
     rows: u64,
     errors: Vec<RowErrors>,
-    strokes: Vec<StrokeCounter>,
+    turns: Vec<Turns>,
     stroke_errors: Vec<Vec<RowErrors>>,
     outputs: Outputs,
     jobs: Vec<GapJob>,
@@ -200,7 +172,7 @@ impl Driver {
                 .map(|l| l.ft_topic.is_some())
                 .collect(),
             errors: vec![RowErrors::default(); core.legs()],
-            strokes: vec![StrokeCounter::default(); core.legs()],
+            turns: vec![Turns::default(); core.legs()],
             stroke_errors: vec![Vec::new(); core.legs()],
             core,
             rows: 0,
@@ -282,7 +254,7 @@ impl Driver {
                 expected_reading_lift_n: r.sensor_n[1],
             };
             self.errors[leg].add(&row);
-            let k = self.strokes[leg].stroke(row.beta_rad);
+            let (_, k) = self.turns[leg].push(row.beta_rad);
             let per = &mut self.stroke_errors[leg];
             if per.len() <= k {
                 per.resize(k + 1, RowErrors::default());
@@ -760,8 +732,7 @@ pub fn reevaluate_to_mcap(
 
 #[cfg(test)]
 mod tests {
-    use super::StrokeCounter;
-    use crate::diagnose::kinematics;
+    use crate::diagnose::{Turns, kinematics};
     use crate::ident::Sample;
 
     /// The re-evaluation numbers strokes as the diagnosis does: full turns from the first angle,
@@ -786,13 +757,13 @@ mod tests {
             })
             .collect();
         let expected = kinematics(&samples, 5).stroke;
-        let mut c = StrokeCounter::default();
-        let counted: Vec<usize> = wrapped.iter().map(|&b| c.stroke(b)).collect();
+        let mut c = Turns::default();
+        let counted: Vec<usize> = wrapped.iter().map(|&b| c.push(b).1).collect();
         assert_eq!(counted, expected);
         assert_eq!(counted.iter().max(), Some(&3));
         // A non-finite angle counts in the stroke before it and moves nothing.
-        let before = c.stroke(wrapped[999]);
-        assert_eq!(c.stroke(f64::NAN), before);
-        assert_eq!(c.stroke(wrapped[999]), before);
+        let before = c.push(wrapped[999]).1;
+        assert_eq!(c.push(f64::NAN).1, before);
+        assert_eq!(c.push(wrapped[999]).1, before);
     }
 }

@@ -28,33 +28,9 @@ impl Kinematics {
 /// derivative), which smooths without lagging. Samples need `t_s`, in time order; a sample
 /// without a finite time or angle takes its neighbours' values.
 pub fn kinematics(samples: &[Sample], half_window: usize) -> Kinematics {
-    let n = samples.len();
-    let mut unwrapped = Vec::with_capacity(n);
-    let mut prev: Option<f64> = None;
-    let mut offset = 0.0;
-    for s in samples {
-        let b = if s.beta_rad.is_finite() {
-            s.beta_rad.rem_euclid(TAU)
-        } else {
-            prev.map_or(0.0, |p| p.rem_euclid(TAU))
-        };
-        if let Some(p) = prev {
-            let d = b + offset - p;
-            if d < -PI {
-                offset += TAU;
-            } else if d > PI {
-                offset -= TAU;
-            }
-        }
-        let u = b + offset;
-        unwrapped.push(u);
-        prev = Some(u);
-    }
-    let start = unwrapped.first().copied().unwrap_or(0.0);
-    let stroke = unwrapped
-        .iter()
-        .map(|u| ((u - start) / TAU).floor().max(0.0) as usize)
-        .collect();
+    let mut turns = Turns::default();
+    let (unwrapped, stroke): (Vec<f64>, Vec<usize>) =
+        samples.iter().map(|s| turns.push(s.beta_rad)).unzip();
     let times: Vec<f64> = samples.iter().map(|s| s.t_s.unwrap_or(f64::NAN)).collect();
     let speed = derivative(&times, &unwrapped, half_window);
     let accel = derivative(&times, &speed, half_window);
@@ -63,6 +39,43 @@ pub fn kinematics(samples: &[Sample], half_window: usize) -> Kinematics {
         stroke,
         speed_rad_s: speed,
         accel_rad_s2: accel,
+    }
+}
+
+/// A leg's angle made continuous across turns and numbered by stroke (full turns from its first
+/// angle), one sample at a time: [`kinematics`] over a log, and the re-evaluation of a session
+/// row by row, count strokes alike.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Turns {
+    /// The first angle (continuous), the previous one, and the whole turns added to the wrapped
+    /// angle (rad).
+    start_rad: Option<f64>,
+    prev_rad: f64,
+    offset_rad: f64,
+}
+
+impl Turns {
+    /// The next angle made continuous, and its stroke (from 0). A non-finite angle repeats the
+    /// previous one (0 for a first).
+    pub fn push(&mut self, beta_rad: f64) -> (f64, usize) {
+        let b = if beta_rad.is_finite() {
+            beta_rad
+        } else {
+            self.prev_rad
+        }
+        .rem_euclid(TAU);
+        if self.start_rad.is_some() {
+            let d = b + self.offset_rad - self.prev_rad;
+            if d < -PI {
+                self.offset_rad += TAU;
+            } else if d > PI {
+                self.offset_rad -= TAU;
+            }
+        }
+        let u = b + self.offset_rad;
+        self.prev_rad = u;
+        let start = *self.start_rad.get_or_insert(u);
+        (u, ((u - start) / TAU).floor().max(0.0) as usize)
     }
 }
 

@@ -28,7 +28,7 @@ pub mod signatures;
 
 pub(crate) use context::Context;
 pub use effects::Effect;
-pub use kinematics::{Kinematics, kinematics};
+pub use kinematics::{Kinematics, Turns, kinematics};
 pub use report::{Diagnosis, Evidence, Report, VerdictEffect};
 
 use crate::ident::Sample;

@@ -6,7 +6,7 @@ use super::effects::{ALL, Effect};
 use super::fit::{Design, Fit, fit};
 use super::signatures::{self, Signatures, t_critical_5pct, t_statistic};
 use crate::model::Regime;
-use crate::model::corrections::{Corrections, Term};
+use crate::model::corrections::{Corrections, CorrectionsError, Term};
 use std::collections::BTreeMap;
 
 /// The report and the per-point series behind its plots.
@@ -460,21 +460,13 @@ pub(super) fn analyse(
     // within the terms' physical bounds (a step whose fit leaves them, a negative b_k say,
     // explains part of the gap but is no model to predict with).
     let length_m = ctx.model.plate().length_m();
-    let mut admissible = (corrected_model(ctx, &base), 0.0);
-    let mut admissible_fit = base.clone();
-    let mut left_out: Vec<String> = Vec::new();
-    let mut admit = |f: &Fit, admissible: &mut (Corrections, f64), admissible_fit: &mut Fit| {
-        let c = corrected_model(ctx, f);
-        match c.validate(length_m) {
-            Ok(()) => {
-                *admissible = (c, closed(f.heldout_mse()));
-                *admissible_fit = f.clone();
-            }
-            Err(e) => left_out.push(format!(
-                "{} ({e})",
-                f.design.effects.last().map_or("baseline", |e| e.name())
-            )),
-        }
+    let mut admissible = base.clone();
+    // The steps left out, by the effect they added, with why.
+    let mut left_out: Vec<(Option<Effect>, CorrectionsError)> = Vec::new();
+    let mut admit = |f: &Fit, admissible: &mut Fit| match corrected_model(ctx, f).validate(length_m)
+    {
+        Ok(()) => *admissible = f.clone(),
+        Err(e) => left_out.push((f.design.effects.last().copied(), e)),
     };
     let mut remaining: Vec<(Effect, f64)> = Vec::new();
     while real && steps.len() < opts.max_steps {
@@ -535,7 +527,7 @@ pub(super) fn analyse(
             ..step(ctx, &next, mse, t, &closed, excess)
         });
         current = next;
-        admit(&current, &mut admissible, &mut admissible_fit);
+        admit(&current, &mut admissible);
         remaining.clear();
         if current.heldout_mse() - var <= opts.min_excess_ratio * var {
             break;
@@ -564,7 +556,7 @@ pub(super) fn analyse(
             });
             if f.heldout_mse() < mse {
                 current = f;
-                admit(&current, &mut admissible, &mut admissible_fit);
+                admit(&current, &mut admissible);
             }
         }
     }
@@ -629,26 +621,24 @@ pub(super) fn analyse(
     // predicts the held-out strokes better is kept (on DEM strokes of rising speed, `rate`
     // beside a cohesion-like term, once a surcharge step before it had fitted a negative b_k).
     for e in steps.iter().map(|st| st.effect) {
-        if admissible_fit.design.effects.contains(&e) {
+        if admissible.design.effects.contains(&e) {
             continue;
         }
-        let f = fit(ctx, &admissible_fit.design, Some(e));
-        let c = corrected_model(ctx, &f);
-        if c.validate(length_m).is_ok() && f.heldout_mse() < admissible_fit.heldout_mse() {
-            admissible = (c, closed(f.heldout_mse()));
-            admissible_fit = f;
+        let f = fit(ctx, &admissible.design, Some(e));
+        if corrected_model(ctx, &f).validate(length_m).is_ok()
+            && f.heldout_mse() < admissible.heldout_mse()
+        {
+            admissible = f;
         }
     }
-    left_out.retain(|s| {
-        !admissible_fit
-            .design
-            .effects
-            .iter()
-            .any(|e| s.starts_with(&format!("{} (", e.name())))
-    });
     let after = current.heldout_n.clone();
-    let (corrected_model, corrected_model_gap_closed_pct) = admissible;
-    let corrected_model_left_out = left_out;
+    let corrected_model_gap_closed_pct = closed(admissible.heldout_mse());
+    let corrected_model_left_out = left_out
+        .into_iter()
+        .filter(|(e, _)| e.is_none_or(|e| !admissible.design.effects.contains(&e)))
+        .map(|(e, why)| format!("{} ({why})", e.map_or("baseline", Effect::name)))
+        .collect();
+    let corrected_model = corrected_model(ctx, &admissible);
 
     let where_ = where_bins(ctx, &base.heldout_n, var);
     let unexplained = real.then(|| {
