@@ -124,7 +124,8 @@ fn rclpy_peer_over_fast_dds_sees_what_a_ros_user_relies_on() {
 }
 
 /// Time from the node's start to the first prediction a peer receives, for a Cyclone DDS and an
-/// rclpy (Fast DDS) peer, each started before and after the node: p90 within 1 s. Before the
+/// rclpy (Fast DDS) peer, each started before and after the node: p90 within 1 s over 20 starts
+/// (with 10, two starts slowed to 1.2 s by a busy machine were enough to fail it). Before the
 /// RustDDS patch (patches/README.md) a Cyclone peer that was up first waited 7.9 s every time.
 #[test]
 fn discovery_with_cyclone_and_rclpy_peers_is_under_a_second() {
@@ -150,7 +151,7 @@ fn discovery_with_cyclone_and_rclpy_peers_is_under_a_second() {
                 "--order",
                 order,
                 "--starts",
-                "10",
+                "20",
                 "--domain",
                 &domain,
             ],

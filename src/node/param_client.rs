@@ -21,36 +21,66 @@ fn service_name(node: &str, service: &str) -> Result<Name> {
     Name::new(node, service).map_err(|e| anyhow!("node {node:?}: {e:?}"))
 }
 
-/// Sends `request` and waits for the answer. A reply sent before the node has discovered our
-/// reply reader is lost (DDS discovery is not symmetric), so a request unanswered for 2 s is
-/// sent again; get and set are idempotent.
+/// Sends `request` to `service` and waits at most `timeout` for the answer.
+///
+/// - The wait for the service re-checks the match state every 250 ms: ros2-client wakes the
+///   waiter by an event on a bounded channel, and an event dropped while the channel was full
+///   would otherwise leave it waiting although the service had been found.
+/// - A reply sent before the node has discovered our reply reader is lost (DDS discovery is not
+///   symmetric), and a node's reply writer may refuse a reply while an earlier reader has not
+///   acknowledged the last one; so a request unanswered for 1 s is sent again, and a reply to any
+///   copy is taken (get and set are idempotent).
 async fn call<Req: Message + Clone + 'static, Resp: Message + 'static>(
     node: &ros2_client::Node,
     client: &Client<Req, Resp>,
+    service: &Name,
     request: Req,
     timeout: Duration,
 ) -> Result<Resp> {
-    const RETRY: Duration = Duration::from_secs(2);
-    tokio::time::timeout(timeout, async {
-        client.wait_for_service(node).await;
-        loop {
-            let id = client
-                .async_send_request(request.clone())
-                .await
-                .map_err(|e| anyhow!("cannot send the request: {e:?}"))?;
-            if let Ok(reply) = tokio::time::timeout(RETRY, client.async_receive_response(id)).await
-            {
-                return reply.map_err(|e| anyhow!("no response: {e:?}"));
+    const RECHECK: Duration = Duration::from_millis(250);
+    const RESEND: Duration = Duration::from_secs(1);
+    const POLL: Duration = Duration::from_millis(10);
+    let deadline = tokio::time::Instant::now() + timeout;
+    let found = tokio::time::timeout_at(deadline, async {
+        while tokio::time::timeout(RECHECK, client.wait_for_service(node))
+            .await
+            .is_err()
+        {}
+    })
+    .await;
+    if found.is_err() {
+        bail!(
+            "no service {service} found within {} s (is the node running, on this domain?)",
+            timeout.as_secs_f64()
+        );
+    }
+    let mut sent = Vec::new();
+    let mut unreadable = None;
+    while tokio::time::Instant::now() < deadline {
+        // A request the writer could not take now is sent again at the next turn.
+        if let Ok(id) = client.async_send_request(request.clone()).await {
+            sent.push(id);
+        }
+        let resend_at = (tokio::time::Instant::now() + RESEND).min(deadline);
+        while tokio::time::Instant::now() < resend_at {
+            match client.receive_response() {
+                Ok(Some((id, reply))) if sent.contains(&id) => return Ok(reply),
+                Ok(Some(_)) => {} // a reply to another client
+                Ok(None) => tokio::time::sleep(POLL).await,
+                Err(e) => {
+                    // Not ours to judge: the reply topic is shared by every client.
+                    unreadable = Some(format!("{e:?}"));
+                    tokio::time::sleep(POLL).await
+                }
             }
         }
-    })
-    .await
-    .map_err(|_| {
-        anyhow!(
-            "the node did not answer within {} s (is it running, on this domain?)",
-            timeout.as_secs_f64()
-        )
-    })?
+    }
+    bail!(
+        "the node's service {service} was found but answered none of {} requests within {} s{}",
+        sent.len(),
+        timeout.as_secs_f64(),
+        unreadable.map_or(String::new(), |e| format!(" (a reply could not be read: {e})"))
+    )
 }
 
 /// A ROS 2 node that talks to other nodes' parameter services.
@@ -83,15 +113,19 @@ impl ParamClient {
         target: &str,
         service: &str,
         type_name: &str,
-    ) -> Result<Client<Req, Resp>> {
-        let qos = QosProfile::publisher_default().history(History::KeepLast { depth: 1 });
-        Ok(self.node.create_client::<Req, Resp>(
+    ) -> Result<(Client<Req, Resp>, Name)> {
+        // A history of a few samples: a resent request is not held back by an earlier copy
+        // that the node has not acknowledged yet.
+        let qos = QosProfile::publisher_default().history(History::KeepLast { depth: 8 });
+        let name = service_name(target, service)?;
+        let client = self.node.create_client::<Req, Resp>(
             ServiceMapping::Enhanced,
-            &service_name(target, service)?,
+            &name,
             &ServiceTypeName::new("rcl_interfaces", type_name),
             qos.clone(),
             qos,
-        )?)
+        )?;
+        Ok((client, name))
     }
 
     /// The values of `names` on the node `target` (e.g. `/terzaghi`); `None` for a parameter
@@ -100,7 +134,7 @@ impl ParamClient {
         if names.is_empty() {
             bail!("name at least one parameter");
         }
-        let client = self.client::<GetParametersRequest, GetParametersResponse>(
+        let (client, service) = self.client::<GetParametersRequest, GetParametersResponse>(
             target,
             "get_parameters",
             "GetParameters",
@@ -108,7 +142,7 @@ impl ParamClient {
         let request = GetParametersRequest {
             names: names.to_vec(),
         };
-        let resp = call(&self.node, &client, request, self.timeout).await?;
+        let resp = call(&self.node, &client, &service, request, self.timeout).await?;
         Ok(resp
             .values
             .into_iter()
@@ -131,7 +165,7 @@ impl ParamClient {
         if let (Some(ParamValue::Double(_)), ParamValue::Int(i)) = (&current, &new_value) {
             new_value = ParamValue::Double(*i as f64);
         }
-        let client = self.client::<SetParametersRequest, SetParametersResponse>(
+        let (client, service) = self.client::<SetParametersRequest, SetParametersResponse>(
             target,
             "set_parameters",
             "SetParameters",
@@ -143,7 +177,7 @@ impl ParamClient {
         let request = SetParametersRequest {
             parameter: vec![p.into()],
         };
-        let resp = call(&self.node, &client, request, self.timeout).await?;
+        let resp = call(&self.node, &client, &service, request, self.timeout).await?;
         match resp.results.first() {
             Some(r) if r.successful => Ok(()),
             Some(r) => bail!("the node refused {name} = {value}: {}", r.reason),
