@@ -11,6 +11,7 @@ and hip torque in the hip frame, the attack angle beta) as one CSV per run, whic
     python3 tests/dem/campaign.py --out tests/dem/campaign           # the whole campaign
     python3 tests/dem/campaign.py --out /tmp/small --scene small      # the small scene of the test
     python3 tests/dem/campaign.py --out tests/dem/campaign --rft      # the RFT calibration again
+    python3 tests/dem/campaign.py --out tests/dem/campaign --rft-speed  # its intrusions at speed
 
 Needs `liggghts` (Debian: apt-get install liggghts) and, for the sessions, the terzaghi binary
 (--terzaghi, default target/release/terzaghi). Standard library only.
@@ -648,10 +649,16 @@ def sensor_variant(samples, kind, peak, seed=7):
 RFT_BED = {"hx": 0.09, "hy": 0.05, "depth": 0.11}
 RFT_TRAVEL_M = 0.03
 RFT_FIT_FROM = 0.5
+# The grid's intrusions move at RFT_SPEED_M_S. The same intrusions at higher speeds give RFT's
+# speed law: a C-leg's tip moves at up to 0.75 m/s at 7.5 rad/s.
+RFT_SPEED_M_S = 0.05
+RFT_SPEEDS_M_S = (0.2, 0.4, 0.8)
+RFT_SPEED_BETAS_DEG = (-60, -30, 0, 30, 60, 90)
+RFT_SPEED_GAMMAS_DEG = (-45, 0, 45, 90)
 
 
 def run_intrusion(cfg, name, workdir, bed, beta_r, gamma, plate_len=0.025, width=0.025,
-                  depth0=0.03, travel=RFT_TRAVEL_M, speed=0.05, fit_from=RFT_FIT_FROM):
+                  depth0=0.03, travel=RFT_TRAVEL_M, speed=RFT_SPEED_M_S, fit_from=RFT_FIT_FROM):
     """A plate element (plate_len x width) at attack angle beta_r, its centre buried at depth0,
     moved `travel` in the direction gamma below the horizontal at `speed`. Returns
     (alpha_x, alpha_z) in N/cm^3 from F = alpha |z| A, fitted over the travel past the fraction
@@ -807,6 +814,46 @@ class Campaign:
                                                         math.radians(p[2])), plan))
         self.log("RFT grid: %d intrusions" % len(out))
         return out
+
+    def rft_speed(self, jobs):
+        """The grid's intrusions again at each of RFT_SPEEDS_M_S, in the same bed, for a subset of
+        attack and intrusion angles (`jobs` engine processes at once)."""
+        bd = self.bed("bed_rft", **RFT_BED)
+        if not bd["settled"]:
+            raise SystemExit("the RFT bed did not settle (KE ratio %.2g): nothing is written" % bd["settled_ke_ratio"])
+        plan = [("rfts_v%03d_b%+03d_g%+03d" % (round(v * 100), b, g), v, b, g)
+                for v in RFT_SPEEDS_M_S for b in RFT_SPEED_BETAS_DEG for g in RFT_SPEED_GAMMAS_DEG]
+
+        def one(p):
+            r = run_intrusion(self.cfg, p[0], self.work, bd, math.radians(p[2]), math.radians(p[3]), speed=p[1])
+            r["speed_m_s"] = p[1]
+            return r
+
+        with cf.ThreadPoolExecutor(max_workers=jobs) as pool:
+            out = list(pool.map(one, plan))
+        self.log("RFT at speed: %d intrusions" % len(out))
+        return out
+
+    def write_rft_speed(self, rows):
+        """rft_speed.csv: the intrusions at speed, and the same angles' rows of rft_grid.csv at
+        the grid's speed, so that the file holds its own reference."""
+        with open(os.path.join(self.out, "rft_grid.csv")) as f:
+            grid = {(round(float(c[0]), 6), round(float(c[1]), 6)): (float(c[2]), float(c[3]))
+                    for c in (l.strip().split(",") for l in f if l[:1] not in "#b" and l.strip())}
+        rows = list(rows)
+        for key in sorted({(round(r["beta_rad"], 6), round(r["gamma_rad"], 6)) for r in rows}):
+            if key not in grid:
+                raise SystemExit("rft_grid.csv has no intrusion at beta %.6f, gamma %.6f rad: run --rft first" % key)
+            rows.append({"speed_m_s": RFT_SPEED_M_S, "beta_rad": key[0], "gamma_rad": key[1],
+                         "alpha_x": grid[key][0], "alpha_z": grid[key][1]})
+        with open(os.path.join(self.out, "rft_speed.csv"), "w") as f:
+            f.write("# RFT stress per depth of the 25 x 25 mm plate element of rft_grid.csv, intruded at several\n")
+            f.write("# speeds in the same bed (tests/dem/campaign.py --rft-speed); the rows at %.2f m/s, the\n" % RFT_SPEED_M_S)
+            f.write("# slowest, are rft_grid.csv's. Units and angles as in rft_grid.csv; speed in m/s.\n")
+            f.write("speed_m_s,beta_rad,gamma_rad,alpha_x,alpha_z\n")
+            for r in sorted(rows, key=lambda r: (r["speed_m_s"], r["gamma_rad"], r["beta_rad"])):
+                f.write("%.3f,%.6f,%.6f,%.6g,%.6g\n" % (r["speed_m_s"], r["beta_rad"], r["gamma_rad"],
+                                                      r["alpha_x"], r["alpha_z"]))
 
     def write_rft_grid(self, grid):
         with open(os.path.join(self.out, "rft_grid.csv"), "w") as f:
@@ -1135,6 +1182,35 @@ def run_rft_part(args):
                "RFT calibration done in %.0f s (%.1f min): %d intrusions" % (seconds, seconds / 60, len(grid)))
 
 
+def run_rft_speed_part(args):
+    """Runs the RFT intrusions at speed in an existing campaign: rft_speed.csv written, and the
+    run recorded in the manifest under `rft_speed`."""
+    out = os.path.abspath(args.out)
+    path = os.path.join(out, "campaign.json")
+    if not os.path.exists(path):
+        sys.exit("--rft-speed adds to a campaign: %s has none (run the campaign first)" % path)
+    with open(path) as f:
+        manifest = json.load(f)
+    camp = Campaign(args)
+    camp.t0 = time.time()
+    camp.log("engine: %s; RFT intrusions at speed, %d jobs" % (camp.engine, args.jobs))
+    rows = camp.rft_speed(args.jobs)
+    camp.write_rft_speed(rows)
+    seconds = round(time.time() - camp.t0, 1)
+    manifest["rft_speed"] = {
+        "command": "python3 tests/dem/campaign.py --out %s --rft-speed --jobs %d" % (
+            os.path.relpath(out, os.path.dirname(os.path.dirname(HERE))), args.jobs),
+        "engine": camp.engine,
+        "intrusions": len(rows),
+        "speeds_m_s": [RFT_SPEED_M_S] + list(RFT_SPEEDS_M_S),
+        "travel_m": RFT_TRAVEL_M,
+        "fitted_over_travel_from_m": RFT_TRAVEL_M * RFT_FIT_FROM,
+        "seconds": seconds,
+    }
+    close_part(camp, args, path, manifest,
+               "RFT at speed done in %.0f s (%.1f min): %d intrusions" % (seconds, seconds / 60, len(rows)))
+
+
 def import_sessions(out, terzaghi, log=print, only=None):
     """Writes every run's CSV in out/runs (or those named in `only`) as a ROS 2 MCAP session
     beside it, through `terzaghi import-dem`, which refuses a run that made no contact, has a
@@ -1177,6 +1253,8 @@ def main():
     ap.add_argument("--rft", action="store_true",
                     help="run the RFT calibration (its bed and intrusions) again in the campaign in --out, "
                          "rewriting rft_grid.csv")
+    ap.add_argument("--rft-speed", action="store_true",
+                    help="run the RFT intrusions at higher speeds in the campaign in --out, writing rft_speed.csv")
     ap.add_argument("--import-only", action="store_true",
                     help="only write the sessions of the CSV runs already in --out (no engine)")
     args = ap.parse_args()
@@ -1197,6 +1275,9 @@ def main():
         return
     if args.rft:
         run_rft_part(args)
+        return
+    if args.rft_speed:
+        run_rft_speed_part(args)
         return
     Campaign(args).run()
 
