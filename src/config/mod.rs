@@ -269,6 +269,19 @@ other_node:
                 "-p model:=rft -p right.rft_coeffs:=poppy_lp -p left.rft_grid_file:=/nonexistent/grid.csv",
                 "/nonexistent/grid.csv",
             ),
+            // A speed law without RFT, one from no file, and one from the grid (not a speed table).
+            (
+                "-p left.rft_speed_file:=tests/dem/campaign/rft_speed.csv",
+                "left.rft_speed_file",
+            ),
+            (
+                "-p model:=rft -p left.rft_coeffs:=poppy_lp -p right.rft_coeffs:=poppy_lp -p left.rft_speed_file:=/nonexistent/speed.csv",
+                "/nonexistent/speed.csv",
+            ),
+            (
+                "-p model:=rft -p left.rft_coeffs:=poppy_lp -p right.rft_coeffs:=poppy_lp -p left.rft_speed_file:=tests/dem/campaign/rft_grid.csv",
+                "no RFT speed law",
+            ),
             (
                 "-p left.corrections.effects:=[sensor_bias] -p left.corrections.sensor_bias.drag_n:=1e6 -p left.corrections.sensor_bias.lift_n:=0.0",
                 "left.corrections.sensor_bias.drag_n = 1000000",

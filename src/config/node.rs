@@ -78,6 +78,8 @@ pub struct LegConfig {
     pub ft_topic: Option<String>,
     pub ft_frame: FtFrame,
     pub rft: Option<RftCoefficients>,
+    /// RFT's speed law, fitted to `<leg>.rft_speed_file`'s intrusions at several speeds.
+    pub rft_speed: Option<crate::model::RftSpeedFit>,
     /// The leg's shape: `None` for a flat plate, else its mid-line (`<leg>.shape` `c_leg` or
     /// `polyline`), which only RFT predicts.
     pub profile: Option<LegProfile>,
@@ -112,6 +114,7 @@ impl LegConfig {
             ft_topic: None,
             ft_frame: FtFrame::Hip,
             rft: None,
+            rft_speed: None,
             profile: None,
             corrections: None,
         }
@@ -221,7 +224,7 @@ pub const STARTUP_ONLY: [&str; 5] = [
 ];
 
 /// Names of the per-leg parameters (`<leg>.<name>`).
-pub const LEG_KEYS: [&str; 23] = [
+pub const LEG_KEYS: [&str; 24] = [
     "joint",
     "direction",
     "angle_offset_rad",
@@ -239,6 +242,7 @@ pub const LEG_KEYS: [&str; 23] = [
     "rft_coeffs",
     "rft_zeta",
     "rft_grid_file",
+    "rft_speed_file",
     "shape",
     "profile",
     "c_leg.radius_m",
@@ -641,15 +645,19 @@ impl NodeConfig {
                 ForceModel::Terzaghi(TerzaghiModel::conventional(leg.plate, medium))
             }
             ModelKind::Rft => match (&leg.rft, &leg.profile) {
-                (Some(c), Some(p)) => ForceModel::Rft(RftModel::with_profile(
-                    leg.plate,
-                    c.clone(),
-                    self.rft_elements,
-                    p.line.clone(),
-                )?),
-                (Some(c), None) => {
-                    ForceModel::Rft(RftModel::new(leg.plate, c.clone(), self.rft_elements)?)
-                }
+                (Some(c), Some(p)) => ForceModel::Rft(
+                    RftModel::with_profile(
+                        leg.plate,
+                        c.clone(),
+                        self.rft_elements,
+                        p.line.clone(),
+                    )?
+                    .with_speed_law(leg.rft_speed.map(|f| f.law)),
+                ),
+                (Some(c), None) => ForceModel::Rft(
+                    RftModel::new(leg.plate, c.clone(), self.rft_elements)?
+                        .with_speed_law(leg.rft_speed.map(|f| f.law)),
+                ),
                 (None, _) => ForceModel::Terzaghi(TerzaghiModel::new(leg.plate, medium, width)),
             },
         })
@@ -785,6 +793,17 @@ fn leg_config(
         }
         (None, None) => None,
     };
+    let rft_speed = match g.str(&k("rft_speed_file"))?.filter(|f| !f.is_empty()) {
+        None => None,
+        Some(_) if rft.is_none() => {
+            return Err(invalid(
+                &k("rft_speed_file"),
+                &model.as_str(),
+                "a speed law is RFT's: give RFT coefficients (rft_coeffs or rft_grid_file) and set model to rft",
+            ));
+        }
+        Some(f) => Some(rft_speed_from_file(&k("rft_speed_file"), &f)?),
+    };
     let profile = leg_profile(g, leg, &plate)?;
     if let Some(p) = &profile
         && model != ModelKind::Rft
@@ -844,6 +863,7 @@ fn leg_config(
         ft_topic,
         ft_frame,
         rft,
+        rft_speed,
         profile,
         corrections,
         hip_frame,
@@ -871,6 +891,17 @@ fn rft_from_grid_file(name: &str, path: &str) -> Result<RftCoefficients, ConfigE
                 ),
             )
         })
+}
+
+/// RFT's speed law fitted to a table of intrusions at several speeds: a CSV of
+/// `speed_m_s,beta_rad,gamma_rad,alpha_x,alpha_z` rows, the format of the DEM campaign's
+/// `rft_speed.csv` (its slowest speed the calibration's).
+fn rft_speed_from_file(name: &str, path: &str) -> Result<crate::model::RftSpeedFit, ConfigError> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| invalid(name, &path, format!("cannot read it: {e}")))?;
+    crate::model::RftSpeedTable::parse(&text)
+        .and_then(|t| t.fit())
+        .map_err(|e| invalid(name, &path, format!("no RFT speed law: {e}")))
 }
 
 /// `<leg>.shape` and what it needs: `plate` (the default), `c_leg` (`c_leg.radius_m`, default

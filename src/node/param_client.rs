@@ -79,7 +79,9 @@ async fn call<Req: Message + Clone + 'static, Resp: Message + 'static>(
         "the node's service {service} was found but answered none of {} requests within {} s{}",
         sent.len(),
         timeout.as_secs_f64(),
-        unreadable.map_or(String::new(), |e| format!(" (a reply could not be read: {e})"))
+        unreadable.map_or(String::new(), |e| format!(
+            " (a reply could not be read: {e})"
+        ))
     )
 }
 

@@ -32,7 +32,14 @@ pub fn report(a: DemReportArgs) -> Result<()> {
     if a.json {
         return print_out(&(serde_json::to_string_pretty(&r)? + "\n"));
     }
-    print_out(&render(&c.manifest, &r))
+    let speed = match &c.rft_speed {
+        Some(t) => Some(
+            t.fit()
+                .map_err(|e| anyhow::anyhow!("{}/rft_speed.csv: {e}", a.campaign.display()))?,
+        ),
+        None => None,
+    };
+    print_out(&render(&c.manifest, &r, speed.as_ref()))
 }
 
 fn pct(x: f64) -> String {
@@ -69,7 +76,11 @@ fn gof(g: &GoodnessOfFit) -> String {
     )
 }
 
-fn render(m: &serde_json::Value, r: &CampaignReport) -> String {
+fn render(
+    m: &serde_json::Value,
+    r: &CampaignReport,
+    speed: Option<&terzaghi::model::RftSpeedFit>,
+) -> String {
     let mut s = format!(
         "engine: {}\ncampaign: {} runs, {:.1} min ({})\n",
         m["engine"].as_str().unwrap_or("?"),
@@ -126,6 +137,28 @@ fn render(m: &serde_json::Value, r: &CampaignReport) -> String {
             bed["depth"].as_f64().unwrap_or(f64::NAN),
             rft["seconds"].as_f64().unwrap_or(0.0) / 60.0,
             rft["command"].as_str().unwrap_or("")
+        );
+    }
+    // RFT's speed law, from the same intrusions at several speeds.
+    if let Some(f) = speed {
+        let at = &m["rft_speed"];
+        let speeds: Vec<String> = at["speeds_m_s"]
+            .as_array()
+            .map_or(&[][..], |v| v.as_slice())
+            .iter()
+            .filter_map(|v| v.as_f64())
+            .map(|v| format!("{v}"))
+            .collect();
+        s += &format!(
+            "RFT speed law: {} intrusions at {} m/s against the grid's at {} m/s; stress x (1 + {:.3} s/m (v - {} m/s)), {:.0} % of the change explained, {:.1} min ({})\n",
+            f.rows,
+            speeds.get(1..).map_or(String::new(), |v| v.join(", ")),
+            f.law.ref_speed_m_s,
+            f.law.gain_s_m,
+            f.law.ref_speed_m_s,
+            100.0 * f.r2_of_change,
+            at["seconds"].as_f64().unwrap_or(0.0) / 60.0,
+            at["command"].as_str().unwrap_or("")
         );
     }
     let base = &m["beds"]["bed_base"];

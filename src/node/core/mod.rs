@@ -27,6 +27,7 @@ use crate::msgs::{
     WrenchStamped,
 };
 use std::collections::VecDeque;
+use std::f64::consts::{PI, TAU};
 
 pub use super::matcher::Matched;
 
@@ -558,7 +559,11 @@ impl NodeCore {
     /// `hip_frame`; counted when it falls back to the configured height (`None`).
     fn hip_motion(&mut self, i: usize, stamp_ns: i64, beta_rad: f64) -> Option<HipMotion> {
         let omega = match self.legs[i].last_angle.replace((stamp_ns, beta_rad)) {
-            Some((t0, b0)) if stamp_ns > t0 => (beta_rad - b0) / ((stamp_ns - t0) as f64 * 1e-9),
+            // The turn between the two angles, the short way: a stroke that passes 2 pi wraps.
+            Some((t0, b0)) if stamp_ns > t0 => {
+                let turn = (beta_rad - b0 + PI).rem_euclid(TAU) - PI;
+                turn / ((stamp_ns - t0) as f64 * 1e-9)
+            }
             _ => 0.0,
         };
         self.legs[i].omega_rad_s = omega;
@@ -600,14 +605,21 @@ impl NodeCore {
     }
 
     /// `hip` (the robot's state's, or the configured still hip when `None`) with the learnt
-    /// surface: that much lower above it.
+    /// surface: that much lower above it. A leg predicted by RFT with a speed law is given its
+    /// rotation rate at the configured height too.
     fn with_surface(&self, i: usize, hip: Option<HipMotion>) -> Option<HipMotion> {
-        let Some(dz) = self.surface_offset_m(i) else {
+        let offset = self.surface_offset_m(i);
+        // RFT with a speed law needs the leg's rotation rate even at the configured height.
+        let speed = self.legs[i].model.rft_speed_law().is_some();
+        if offset.is_none() && (hip.is_some() || !speed) {
             return hip;
-        };
-        let base = hip.unwrap_or_else(|| HipMotion::still(self.cfg.legs[i].plate.hip_height_m()));
+        }
+        let base = hip.unwrap_or_else(|| HipMotion {
+            omega_rad_s: if speed { self.legs[i].omega_rad_s } else { 0.0 },
+            ..HipMotion::still(self.cfg.legs[i].plate.hip_height_m())
+        });
         Some(HipMotion {
-            height_m: base.height_m - dz,
+            height_m: base.height_m - offset.unwrap_or(0.0),
             ..base
         })
     }
@@ -1099,6 +1111,56 @@ mod tests {
         assert_eq!(fl.wrench.wrench.torque.y, fl.force.hip_torque_nm);
         // direction -1 maps -60 deg to +60 deg.
         assert!((out[1].force.attack_angle_rad - 60f64.to_radians()).abs() < 1e-12);
+    }
+
+    /// An RFT leg with a speed law is predicted at the rate its joint turns, also at the
+    /// configured height and across the angle's wrap at 2 pi.
+    #[test]
+    fn an_rft_leg_with_a_speed_law_is_predicted_at_its_turning_rate() {
+        let yaml = "/**:\n  ros__parameters:\n    legs: [fl]\n    model: rft\n    fl:\n      length_m: 0.25\n      width_m: 0.06\n      hip_height_m: 0.15\n      medium: poppy_lp\n      rft_coeffs: poppy_lp\n      rft_speed_file: tests/dem/campaign/rft_speed.csv\n";
+        let mut p = defaults();
+        p.extend(parse_params_yaml(yaml, "t", "terzaghi", "/").unwrap());
+        let cfg = NodeConfig::from_params(&p, "terzaghi", "/", &[]).unwrap();
+        let law = cfg.legs[0].rft_speed.unwrap().law;
+        let core_rft_elements = cfg.rft_elements;
+        let mut core = NodeCore::new(cfg);
+        let mut out = Vec::new();
+        // 4 rad/s: 0.04 rad every 10 ms, through 2 pi and on to 1 rad.
+        let mut beta = TAU - 0.1;
+        for k in 0..30 {
+            core.on_joint_state(
+                &js(1_000_000_000 + 10_000_000 * k, &["fl"], &[beta]),
+                &mut out,
+            );
+            assert!(
+                (core.legs[0].omega_rad_s - 4.0).abs() < 1e-6 || k == 0,
+                "{k}: {}",
+                core.legs[0].omega_rad_s
+            );
+            beta = (beta + 0.04) % TAU;
+        }
+        let last = out.last().unwrap();
+        let rft = crate::model::RftModel::new(
+            Plate::new(0.25, 0.06, 0.15).unwrap(),
+            crate::model::RftCoefficients::Fit(crate::model::RftFit::POPPY_LP),
+            core_rft_elements,
+        )
+        .unwrap();
+        let hip = HipMotion {
+            omega_rad_s: 4.0,
+            ..HipMotion::still(0.15)
+        };
+        let want = rft
+            .clone()
+            .with_speed_law(Some(law))
+            .evaluate_moving(last.force.attack_angle_rad, &hip)
+            .unwrap();
+        let quasi_static = rft.evaluate(last.force.attack_angle_rad).unwrap();
+        assert!((last.force.drag_n - want.drag_n).abs() < 1e-9 * want.drag_n.abs().max(1.0));
+        assert!(
+            want.drag_n > 1.2 * quasi_static.drag_n,
+            "{want:?} {quasi_static:?}"
+        );
     }
 
     fn hip_tf(t_ns: i64, z_m: f64, pitch_rad: f64) -> TfMessage {

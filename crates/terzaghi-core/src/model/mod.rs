@@ -27,8 +27,8 @@ pub use corrections::{CorrectedModel, CorrectedPrediction, Corrections, Effect};
 pub use medium::{FittingWidth, Medium, MediumPreset, Provenance};
 pub use plate::{Plate, wrap_beta_rad};
 pub use rft::{
-    MAX_PROFILE_POINTS, RftCoefficients, RftFit, RftGrid, RftModel, c_leg_profile, check_profile,
-    rft_leg, rft_leg_moving,
+    MAX_PROFILE_POINTS, RftCoefficients, RftFit, RftGrid, RftModel, RftSpeedFit, RftSpeedLaw,
+    RftSpeedTable, c_leg_profile, check_profile, rft_leg, rft_leg_moving,
 };
 pub use terzaghi::{Terms, TerzaghiForce, TerzaghiModel};
 
@@ -121,6 +121,16 @@ pub enum ModelError {
         name: String,
         /// The sets there are.
         known: String,
+    },
+    /// A value outside the range the model takes.
+    #[error("{what} must lie in {range}, got {value}")]
+    OutOfRange {
+        /// The value's name, with its unit.
+        what: &'static str,
+        /// The value given.
+        value: f64,
+        /// The range it must lie in.
+        range: String,
     },
     /// A leg's mid-line that is no leg: too few or too many points, a segment of zero length,
     /// or segments that cross.
@@ -290,6 +300,14 @@ impl ForceModel {
                 .evaluate(finite("attack angle beta (rad)", beta_rad)? + hip.pitch_rad)
                 .map(|f| f.prediction()),
             ForceModel::Rft(m) => m.evaluate_moving(beta_rad, hip),
+        }
+    }
+
+    /// RFT's speed law, where the model is RFT with one.
+    pub fn rft_speed_law(&self) -> Option<&RftSpeedLaw> {
+        match self {
+            ForceModel::Terzaghi(_) => None,
+            ForceModel::Rft(m) => m.speed_law(),
         }
     }
 

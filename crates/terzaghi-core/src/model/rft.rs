@@ -300,6 +300,147 @@ fn bracket(axis: &[f64], x: f64) -> (usize, f64) {
     (i, t)
 }
 
+/// RFT's speed law: an element moving at `v` feels its quasi-static stress times
+/// `1 + gain_s_m (v - ref_speed_m_s)`, and the quasi-static stress at or below `ref_speed_m_s`,
+/// the speed the coefficients were calibrated at. Intrusions in a granular bed resist more the
+/// faster they go (the grains ahead must be accelerated and the jammed region grows); measured
+/// as `alpha` at several speeds ([`RftSpeedTable`]).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct RftSpeedLaw {
+    /// The speed of the calibration the coefficients come from (m/s).
+    pub ref_speed_m_s: f64,
+    /// The stress's relative growth per m/s above it (s/m).
+    pub gain_s_m: f64,
+}
+
+impl RftSpeedLaw {
+    /// The largest gain taken (s/m): a stress that grows 100-fold per m/s is no medium's.
+    pub const MAX_GAIN_S_M: f64 = 100.0;
+
+    /// A law calibrated at `ref_speed_m_s` (> 0) with `gain_s_m` in `[0, MAX_GAIN_S_M]`.
+    pub fn new(ref_speed_m_s: f64, gain_s_m: f64) -> Result<RftSpeedLaw, ModelError> {
+        let ref_speed_m_s = positive("RFT calibration speed (m/s)", ref_speed_m_s)?;
+        let gain_s_m = finite("RFT speed gain (s/m)", gain_s_m)?;
+        if !(0.0..=Self::MAX_GAIN_S_M).contains(&gain_s_m) {
+            return Err(ModelError::OutOfRange {
+                what: "RFT speed gain (s/m)",
+                value: gain_s_m,
+                range: format!("[0, {}]", Self::MAX_GAIN_S_M),
+            });
+        }
+        Ok(RftSpeedLaw {
+            ref_speed_m_s,
+            gain_s_m,
+        })
+    }
+
+    /// The factor on the quasi-static stress of an element moving at `speed_m_s` (1 for a
+    /// speed that is not finite: no speed is known).
+    pub fn factor(&self, speed_m_s: f64) -> f64 {
+        if speed_m_s.is_finite() {
+            1.0 + self.gain_s_m * (speed_m_s - self.ref_speed_m_s).max(0.0)
+        } else {
+            1.0
+        }
+    }
+}
+
+/// Intrusions of one element at several speeds: rows of
+/// `speed_m_s,beta_rad,gamma_rad,alpha_x,alpha_z` (the DEM campaign's `rft_speed.csv`), the
+/// slowest speed the reference every other row is compared with at its own angles.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RftSpeedTable {
+    rows: Vec<[f64; 5]>,
+}
+
+/// What [`RftSpeedTable::fit`] found.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct RftSpeedFit {
+    /// The law.
+    pub law: RftSpeedLaw,
+    /// The share of the change of `alpha` from the reference speed that the law explains.
+    pub r2_of_change: f64,
+    /// Rows compared with their reference.
+    pub rows: usize,
+}
+
+impl RftSpeedTable {
+    /// Parses the table (`#` comments, one header line); every row finite, speeds positive.
+    pub fn parse(text: &str) -> Result<RftSpeedTable, String> {
+        let mut rows = Vec::new();
+        for (i, line) in text.lines().enumerate() {
+            let line = line.trim();
+            if line.is_empty() || line.starts_with('#') || line.starts_with("speed_m_s") {
+                continue;
+            }
+            let cells: Vec<f64> = line
+                .split(',')
+                .map(|c| c.trim().parse::<f64>())
+                .collect::<Result<_, _>>()
+                .map_err(|e| format!("line {}: {e}", i + 1))?;
+            if cells.len() != 5 || cells.iter().any(|c| !c.is_finite()) {
+                return Err(format!(
+                    "line {}: expected 5 finite numbers (speed_m_s,beta_rad,gamma_rad,alpha_x,alpha_z)",
+                    i + 1
+                ));
+            }
+            if cells[0] <= 0.0 {
+                return Err(format!(
+                    "line {}: speed {} m/s, expected > 0",
+                    i + 1,
+                    cells[0]
+                ));
+            }
+            rows.push([cells[0], cells[1], cells[2], cells[3], cells[4]]);
+        }
+        Ok(RftSpeedTable { rows })
+    }
+
+    /// The law's gain by least squares over both components of every row faster than the
+    /// reference: `alpha(v) - alpha_ref = gain (v - v_ref) alpha_ref`. An error says what is
+    /// missing: a reference row for some angles, a second speed, or a gain out of bounds.
+    pub fn fit(&self) -> Result<RftSpeedFit, String> {
+        let v_ref = self.rows.iter().map(|r| r[0]).fold(f64::INFINITY, f64::min);
+        let same = |a: f64, b: f64| (a - b).abs() < 1e-6;
+        let reference = |r: &[f64; 5]| {
+            self.rows
+                .iter()
+                .find(|q| q[0] == v_ref && same(q[1], r[1]) && same(q[2], r[2]))
+        };
+        let (mut sxy, mut sxx, mut n) = (0.0, 0.0, 0usize);
+        let mut pairs = Vec::new();
+        for r in self.rows.iter().filter(|r| r[0] > v_ref) {
+            let q = reference(r).ok_or_else(|| {
+                format!(
+                    "no row at the reference speed {v_ref} m/s for beta {} rad, gamma {} rad",
+                    r[1], r[2]
+                )
+            })?;
+            for (a0, a) in [(q[3], r[3]), (q[4], r[4])] {
+                let x = (r[0] - v_ref) * a0;
+                sxy += x * (a - a0);
+                sxx += x * x;
+                pairs.push((x, a - a0));
+            }
+            n += 1;
+        }
+        if n == 0 || sxx <= 0.0 {
+            return Err(format!(
+                "no row faster than the reference speed {v_ref} m/s with a stress to compare"
+            ));
+        }
+        let gain = sxy / sxx;
+        let law = RftSpeedLaw::new(v_ref, gain).map_err(|e| e.to_string())?;
+        let sse: f64 = pairs.iter().map(|(x, y)| (y - gain * x).powi(2)).sum();
+        let sst: f64 = pairs.iter().map(|(_, y)| y * y).sum();
+        Ok(RftSpeedFit {
+            law,
+            r2_of_change: if sst > 0.0 { 1.0 - sse / sst } else { 0.0 },
+            rows: n,
+        })
+    }
+}
+
 /// Which stress law RFT uses.
 #[derive(Debug, Clone, PartialEq)]
 pub enum RftCoefficients {
@@ -367,6 +508,8 @@ pub struct RftModel {
     /// A leg that is not a flat plate: its mid-line `(s, q)` in the leg's frame (see
     /// [`rft_leg`]); `None` for the plate itself.
     profile: Option<Vec<(f64, f64)>>,
+    /// The stress's growth with the element's speed; `None`: quasi-static.
+    speed_law: Option<RftSpeedLaw>,
 }
 
 impl RftModel {
@@ -390,7 +533,21 @@ impl RftModel {
             coefficients,
             elements,
             profile: None,
+            speed_law: None,
         })
+    }
+
+    /// The model with each element's stress grown with its speed by `law`. The speed comes
+    /// from the leg's rotation rate (and the hip's velocity) of [`Self::evaluate_moving`]; where
+    /// neither is known ([`Self::evaluate`]) the stress is the quasi-static one.
+    pub fn with_speed_law(mut self, law: Option<RftSpeedLaw>) -> Self {
+        self.speed_law = law;
+        self
+    }
+
+    /// The speed law, if any.
+    pub fn speed_law(&self) -> Option<&RftSpeedLaw> {
+        self.speed_law.as_ref()
     }
 
     /// RFT for a leg whose mid-line is `profile` (at least two points, in the leg's frame: `s`
@@ -434,6 +591,7 @@ impl RftModel {
             beta,
             per_segment,
             (hip.omega_rad_s, hip.leg_frame_velocity_m_s()),
+            self.speed_law.as_ref(),
         );
         // Depth of the lowest point, and the length of the mid-line below the surface.
         let (sin_b, cos_b) = beta.sin_cos();
@@ -550,9 +708,15 @@ impl RftModel {
                     (m, self.coefficients.alpha_along((m * ux, uz), (m * vx, vz)))
                 }
             };
+            // A turning leg's element moves at |omega| r about a still hip.
+            let speed = match (&self.speed_law, moving) {
+                (None, _) => 1.0,
+                (Some(law), true) => law.factor(vx.hypot(vz)),
+                (Some(law), false) => law.factor((hip.omega_rad_s * r).abs()),
+            };
             let (d_drag, d_lift) = (
-                m * ax * N_CM3_TO_N_M3 * depth * area,
-                az * N_CM3_TO_N_M3 * depth * area,
+                speed * m * ax * N_CM3_TO_N_M3 * depth * area,
+                speed * az * N_CM3_TO_N_M3 * depth * area,
             );
             drag += d_drag;
             lift += d_lift;
@@ -600,14 +764,17 @@ pub fn rft_leg(
         beta_rad,
         per_segment,
         (1.0, [0.0, 0.0]),
+        None,
     )
 }
 
 /// [`rft_leg`] for a leg turning at `omega_rad_s` about a hip that moves at
 /// `hip_velocity_m_s = [x, z]` in the leg's frame (x along the submerged tip's travel, which is
 /// backward for a robot walking forward; z up): each element's intrusion direction is its own
-/// velocity, the rotation's plus the hip's. A leg that neither turns nor moves is evaluated as
-/// if turning forward at its angle.
+/// velocity, the rotation's plus the hip's, and with `speed_law` its stress grows with that
+/// velocity's magnitude. A leg that neither turns nor moves is evaluated as if turning forward
+/// at its angle, quasi-statically.
+#[allow(clippy::too_many_arguments)]
 pub fn rft_leg_moving(
     coefficients: &RftCoefficients,
     line: &[(f64, f64)],
@@ -616,6 +783,7 @@ pub fn rft_leg_moving(
     beta_rad: f64,
     per_segment: usize,
     (omega_rad_s, hip_velocity_m_s): (f64, [f64; 2]),
+    speed_law: Option<&RftSpeedLaw>,
 ) -> (f64, f64, f64) {
     let still = omega_rad_s == 0.0 && hip_velocity_m_s == [0.0, 0.0];
     let (omega, v_hip) = if still || !omega_rad_s.is_finite() {
@@ -623,6 +791,8 @@ pub fn rft_leg_moving(
     } else {
         (omega_rad_s, hip_velocity_m_s)
     };
+    // Quasi-static where the leg neither turns nor moves (its speed is not known).
+    let speed_law = speed_law.filter(|_| !still && omega_rad_s.is_finite());
     let (sin_b, cos_b) = beta_rad.sin_cos();
     let (u, n) = ((-cos_b, -sin_b), (sin_b, -cos_b));
     let world = |(s, q): (f64, f64)| (s * u.0 + q * n.0, s * u.1 + q * n.1);
@@ -653,7 +823,8 @@ pub fn rft_leg_moving(
             // Mirror x when the element moves toward -x.
             let m = if vx < 0.0 { -1.0 } else { 1.0 };
             let (ax, az) = coefficients.alpha_along((m * tx, tz), (m * vx, vz));
-            let k = N_CM3_TO_N_M3 * depth * width_m * len;
+            let speed = speed_law.map_or(1.0, |law| law.factor(vx.hypot(vz)));
+            let k = speed * N_CM3_TO_N_M3 * depth * width_m * len;
             // alpha_x resists the motion's horizontal part: F_x = -m ax k.
             let (fx, fz) = (-m * ax * k, az * k);
             drag -= fx;
@@ -1021,5 +1192,85 @@ mod tests {
             (p.drag_n, p.lift_n, p.regime),
             (0.0, 0.0, Regime::OutOfMedium)
         );
+    }
+
+    #[test]
+    fn the_speed_law_grows_stress_above_its_calibration_speed_only() {
+        let law = RftSpeedLaw::new(0.05, 0.9).unwrap();
+        assert_eq!(law.factor(0.0), 1.0);
+        assert_eq!(law.factor(0.05), 1.0);
+        assert!((law.factor(0.85) - 1.72).abs() < 1e-12);
+        assert_eq!(law.factor(f64::NAN), 1.0);
+        let e = RftSpeedLaw::new(0.05, -0.2).unwrap_err().to_string();
+        assert!(e.contains("speed gain") && e.contains("-0.2"), "{e}");
+        assert!(RftSpeedLaw::new(0.0, 0.5).is_err());
+    }
+
+    #[test]
+    fn a_speed_table_gives_back_the_gain_it_was_made_with() {
+        let mut text = String::from("# made here\nspeed_m_s,beta_rad,gamma_rad,alpha_x,alpha_z\n");
+        for (b, g) in [(0.0, 0.5), (0.5, 1.0), (-0.5, 0.0)] {
+            let (ax, az) = RftFit::POPPY_LP.alpha(b, g);
+            for v in [0.05, 0.2, 0.8] {
+                let f = 1.0 + 1.5 * (v - 0.05);
+                text += &format!("{v},{b},{g},{},{}\n", ax * f, az * f);
+            }
+        }
+        let fit = RftSpeedTable::parse(&text).unwrap().fit().unwrap();
+        assert!((fit.law.gain_s_m - 1.5).abs() < 1e-9, "{fit:?}");
+        assert_eq!((fit.law.ref_speed_m_s, fit.rows), (0.05, 6));
+        assert!(fit.r2_of_change > 0.999_999);
+        // A faster row without its reference, a row of four cells, a speed of zero.
+        let e = RftSpeedTable::parse("0.05,0,0,1,1\n0.4,0.3,0,1,1\n")
+            .unwrap()
+            .fit()
+            .unwrap_err();
+        assert!(e.contains("beta 0.3"), "{e}");
+        assert!(
+            RftSpeedTable::parse("0.05,0,0,1\n")
+                .unwrap_err()
+                .contains("line 1")
+        );
+        assert!(
+            RftSpeedTable::parse("0,0,0,1,1\n")
+                .unwrap_err()
+                .contains("speed 0")
+        );
+        assert!(
+            RftSpeedTable::parse("0.05,0,0,1,1\n")
+                .unwrap()
+                .fit()
+                .is_err()
+        );
+    }
+
+    #[test]
+    fn with_a_speed_law_a_faster_leg_is_pushed_harder_and_an_unknown_speed_is_quasi_static() {
+        let law = RftSpeedLaw::new(0.05, 1.0).unwrap();
+        let c = RftCoefficients::Fit(RftFit::POPPY_LP);
+        let plain = RftModel::new(plate(), c.clone(), 200).unwrap();
+        let fast = RftModel::new(plate(), c.clone(), 200)
+            .unwrap()
+            .with_speed_law(Some(law));
+        let beta = 60f64.to_radians();
+        let still = plain.evaluate(beta).unwrap();
+        // No rotation rate known: the quasi-static stress.
+        assert_eq!(fast.evaluate(beta).unwrap().drag_n, still.drag_n);
+        // At 4 rad/s every submerged element (0.15-0.25 m from the hip) moves at 0.6-1 m/s.
+        let hip = HipMotion {
+            omega_rad_s: 4.0,
+            ..HipMotion::still(plate().hip_height_m())
+        };
+        let p = fast.evaluate_moving(beta, &hip).unwrap();
+        let ratio = p.drag_n / still.drag_n;
+        assert!(ratio > 1.0 + 0.55 && ratio < 1.0 + 0.95, "{ratio}");
+        assert!((p.lift_n / still.lift_n - ratio).abs() < 1e-9);
+        // A C-leg likewise, and quasi-static when it neither turns nor moves.
+        let line = c_leg_profile(0.05, PI, 16);
+        let q = |omega: f64, law: Option<&RftSpeedLaw>| {
+            rft_leg_moving(&c, &line, 0.03, 0.04, 2.0, 4, (omega, [0.0, 0.0]), law).0
+        };
+        assert!(q(7.5, Some(&law)) > 1.2 * q(7.5, None));
+        assert_eq!(q(0.0, Some(&law)), q(0.0, None));
     }
 }
