@@ -612,11 +612,26 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
     Ok(summary)
 }
 
-/// The first line the node logs: who it is and what it listens to.
+/// The first line the node logs: who it is and what it listens to, and the speed law each RFT
+/// leg fitted to its table.
 fn startup_line(setup: &NodeSetup) -> String {
     let c = &setup.config;
+    let speed_laws: String = c
+        .legs
+        .iter()
+        .filter_map(|l| {
+            let f = l.rft_speed?;
+            Some(format!(
+                "; {}: RFT's stress x (1 + {:.3} s/m (v - {} m/s)) from its speed table ({:.0} % of the change)",
+                l.name,
+                f.law.gain_s_m,
+                f.law.ref_speed_m_s,
+                100.0 * f.r2_of_change
+            ))
+        })
+        .collect();
     format!(
-        "terzaghi node {}/{}: {} legs ({}), model {}, joint states on {}, domain {}{}",
+        "terzaghi node {}/{}: {} legs ({}), model {}, joint states on {}, domain {}{}{speed_laws}",
         c.namespace.trim_end_matches('/'),
         c.node_name,
         c.legs.len(),
