@@ -3,7 +3,7 @@
 use criterion::{Criterion, black_box, criterion_group, criterion_main};
 use terzaghi::model::{
     FittingWidth, ForceModel, HipMotion, Medium, Plate, RftCoefficients, RftFit, RftModel,
-    TerzaghiModel, c_leg_profile,
+    RftSpeedLaw, TerzaghiModel, c_leg_profile,
 };
 
 fn models(c: &mut Criterion) {
@@ -40,9 +40,29 @@ fn models(c: &mut Criterion) {
         omega_rad_s: 5.0,
         forward_m_s: 0.1,
         up_m_s: -0.05,
+        forward_position_m: 0.0,
     };
     c.bench_function("rft_c_leg_evaluate", |b| {
         b.iter(|| c_leg.predict_moving(black_box(beta), &hip).unwrap().drag_n)
+    });
+    // The same leg with RFT's speed law (the DEM medium's, `launch_configs/dem_cleg.yaml`).
+    let c_leg_speed = ForceModel::Rft(
+        RftModel::with_profile(
+            c_plate,
+            RftCoefficients::Fit(RftFit::POPPY_LP),
+            100,
+            c_leg_profile(0.05, std::f64::consts::PI, 32),
+        )
+        .unwrap()
+        .with_speed_law(Some(RftSpeedLaw::new(0.05, 0.885).unwrap())),
+    );
+    c.bench_function("rft_c_leg_speed_law_evaluate", |b| {
+        b.iter(|| {
+            c_leg_speed
+                .predict_moving(black_box(beta), &hip)
+                .unwrap()
+                .drag_n
+        })
     });
 }
 

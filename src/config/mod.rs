@@ -269,6 +269,9 @@ other_node:
                 "-p model:=rft -p right.rft_coeffs:=poppy_lp -p left.rft_grid_file:=/nonexistent/grid.csv",
                 "/nonexistent/grid.csv",
             ),
+            // A trough deeper than the leg is long, or negative.
+            ("-p left.trough_depth_m:=0.3", "left.trough_depth_m"),
+            ("-p left.trough_depth_m:=-0.01", "left.trough_depth_m"),
             // A speed law without RFT, one from no file, and one from the grid (not a speed table).
             (
                 "-p left.rft_speed_file:=tests/dem/campaign/rft_speed.csv",

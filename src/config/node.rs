@@ -80,6 +80,10 @@ pub struct LegConfig {
     pub rft: Option<RftCoefficients>,
     /// RFT's speed law, fitted to `<leg>.rft_speed_file`'s intrusions at several speeds.
     pub rft_speed: Option<crate::model::RftSpeedFit>,
+    /// How much lower the surface is where the leg's own earlier strokes passed (m); 0: the
+    /// surface is where it was. The robot's state (`hip_frame`) places the strokes; without it
+    /// the hip stays where configured, as on a testbed.
+    pub trough_depth_m: f64,
     /// The leg's shape: `None` for a flat plate, else its mid-line (`<leg>.shape` `c_leg` or
     /// `polyline`), which only RFT predicts.
     pub profile: Option<LegProfile>,
@@ -115,6 +119,7 @@ impl LegConfig {
             ft_frame: FtFrame::Hip,
             rft: None,
             rft_speed: None,
+            trough_depth_m: 0.0,
             profile: None,
             corrections: None,
         }
@@ -224,7 +229,7 @@ pub const STARTUP_ONLY: [&str; 5] = [
 ];
 
 /// Names of the per-leg parameters (`<leg>.<name>`).
-pub const LEG_KEYS: [&str; 24] = [
+pub const LEG_KEYS: [&str; 25] = [
     "joint",
     "direction",
     "angle_offset_rad",
@@ -249,6 +254,7 @@ pub const LEG_KEYS: [&str; 24] = [
     "c_leg.span_deg",
     "hip_frame",
     "hip_offset_m",
+    "trough_depth_m",
 ];
 
 /// Global parameters and their defaults.
@@ -849,6 +855,17 @@ fn leg_config(
             "expected a frame name of /tf (no spaces)",
         ));
     }
+    let trough_depth_m = g.f64(&k("trough_depth_m"))?.unwrap_or(0.0);
+    if !(trough_depth_m.is_finite() && (0.0..plate.length_m()).contains(&trough_depth_m)) {
+        return Err(invalid(
+            &k("trough_depth_m"),
+            &trough_depth_m,
+            format!(
+                "expected a depth in metres from 0 up to the leg's length, {} m",
+                plate.length_m()
+            ),
+        ));
+    }
     Ok(LegConfig {
         name: leg.to_string(),
         ft_topic_given: g.str(&k("ft_topic"))?.unwrap_or_default(),
@@ -864,6 +881,7 @@ fn leg_config(
         ft_frame,
         rft,
         rft_speed,
+        trough_depth_m,
         profile,
         corrections,
         hip_frame,

@@ -267,6 +267,7 @@ fn measure_curved(
                 omega_rad_s: m.omega_rad_s,
                 forward_m_s,
                 up_m_s,
+                forward_position_m: 0.0,
             };
             model
                 .predict_moving(m.beta_rad, &hip)

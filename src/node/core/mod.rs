@@ -6,6 +6,7 @@
 mod gap;
 mod robot_state;
 mod status;
+mod trough;
 
 pub use gap::GapJob;
 pub use robot_state::{NoState, TfTree};
@@ -84,6 +85,8 @@ struct Leg {
     omega_rad_s: f64,
     /// The surface's level, learnt online (`estimator.fit_surface`).
     surface: Option<SurfaceEstimator>,
+    /// Where its own strokes dug the ground (`<leg>.trough_depth_m`).
+    troughs: trough::Troughs,
 }
 
 impl Leg {
@@ -432,6 +435,7 @@ impl NodeCore {
             last_angle: None,
             omega_rad_s: 0.0,
             surface: self.surface_estimator(i),
+            troughs: trough::Troughs::default(),
         }
     }
 
@@ -590,12 +594,50 @@ impl NodeCore {
 
     /// Where leg `leg`'s hip was at `stamp_ns` (an angle a measurement was matched with), for a
     /// leg the robot's state places; not counted (its prediction was).
-    fn hip_at(&self, leg: usize, stamp_ns: i64) -> Option<HipMotion> {
-        let frame = self.cfg.legs.get(leg)?.hip_frame.as_deref()?;
+    fn hip_at(&self, leg: usize, stamp_ns: i64, beta_rad: f64) -> Option<HipMotion> {
         let omega = self.legs.get(leg)?.omega_rad_s;
-        self.tf
-            .hip_motion(&self.cfg.robot_state, frame, stamp_ns, omega)
-            .ok()
+        let hip = self.cfg.legs[leg].hip_frame.as_deref().and_then(|frame| {
+            self.tf
+                .hip_motion(&self.cfg.robot_state, frame, stamp_ns, omega)
+                .ok()
+        });
+        self.in_trough(leg, hip, beta_rad).0
+    }
+
+    /// `hip` (the robot's state's, or the configured still hip at position 0 when `None`)
+    /// `<leg>.trough_depth_m` higher above the surface where an earlier stroke of leg `i` dug
+    /// the ground it crosses at `beta_rad`; and that crossing.
+    fn in_trough(
+        &self,
+        i: usize,
+        hip: Option<HipMotion>,
+        beta_rad: f64,
+    ) -> (Option<HipMotion>, Option<f64>) {
+        let lc = &self.cfg.legs[i];
+        if lc.trough_depth_m <= 0.0 {
+            return (hip, None);
+        }
+        let base = hip.unwrap_or_else(|| HipMotion::still(lc.plate.hip_height_m()));
+        let crossing = trough::Troughs::crossing_m(
+            base.forward_position_m,
+            base.height_m,
+            beta_rad + base.pitch_rad,
+            lc.plate.length_m(),
+        );
+        if !self.legs[i].troughs.dug(crossing) {
+            return (hip, crossing);
+        }
+        let speed = hip.is_none() && self.legs[i].model.rft_speed_law().is_some();
+        let hip = HipMotion {
+            height_m: base.height_m + lc.trough_depth_m,
+            omega_rad_s: if speed {
+                self.legs[i].omega_rad_s
+            } else {
+                base.omega_rad_s
+            },
+            ..base
+        };
+        (Some(hip), crossing)
     }
 
     /// The surface's offset leg `i` predicts with: the learnt one once converged (and used).
@@ -654,6 +696,10 @@ impl NodeCore {
             };
             let hip = self.hip_motion(i, stamp_ns, beta);
             let from_state = hip.is_some();
+            let (hip, crossing) = self.in_trough(i, hip, beta);
+            if self.cfg.legs[i].trough_depth_m > 0.0 {
+                self.legs[i].troughs.observe(crossing);
+            }
             let hip = self.with_surface(i, hip);
             let corrected = self.legs[i]
                 .corrected
@@ -785,7 +831,7 @@ impl NodeCore {
             Match::Matched(mt) => {
                 self.matches.push((leg, mt));
                 // Where the robot's state put the hip at the matched angle, once for both.
-                let state_hip = self.hip_at(leg, mt.angle_t_ns);
+                let state_hip = self.hip_at(leg, mt.angle_t_ns, mt.beta_rad);
                 self.watch_gap(leg, &mt, state_hip);
                 if let Some(p) = self.learn(leg, &mt, state_hip) {
                     self.params_out.push((leg, p));
@@ -998,11 +1044,12 @@ impl NodeCore {
                 .find(|(t, _)| *t == mt.angle_t_ns)
                 .map(|(_, p)| *p),
             None => {
-                let p = match self.with_surface(leg, self.hip_at(leg, mt.angle_t_ns)) {
-                    Some(h) => l.model.predict_moving(mt.beta_rad, &h),
-                    None => l.model.predict(mt.beta_rad),
-                }
-                .ok()?;
+                let p =
+                    match self.with_surface(leg, self.hip_at(leg, mt.angle_t_ns, mt.beta_rad)) {
+                        Some(h) => l.model.predict_moving(mt.beta_rad, &h),
+                        None => l.model.predict(mt.beta_rad),
+                    }
+                    .ok()?;
                 let p = match l.rft_scale(self.cfg.use_identified) {
                     Some(s) => scaled(p, s),
                     None => p,

@@ -369,8 +369,15 @@ impl TfTree {
             omega_rad_s,
             forward_m_s: velocity.dot(&forward),
             up_m_s: velocity.z,
+            forward_position_m: p.dot(&forward),
         };
-        let values = [hip.height_m, hip.pitch_rad, hip.forward_m_s, hip.up_m_s];
+        let values = [
+            hip.height_m,
+            hip.pitch_rad,
+            hip.forward_m_s,
+            hip.up_m_s,
+            hip.forward_position_m,
+        ];
         if values.iter().all(|v| v.is_finite()) {
             Ok(hip)
         } else {

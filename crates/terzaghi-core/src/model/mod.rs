@@ -263,6 +263,9 @@ pub struct HipMotion {
     pub forward_m_s: f64,
     /// The hip's vertical velocity, up (m/s).
     pub up_m_s: f64,
+    /// Where the hip is along the robot's forward, horizontal, in the world frame (m): where
+    /// on the ground the leg strokes (0 where the robot's state does not tell).
+    pub forward_position_m: f64,
 }
 
 impl HipMotion {
