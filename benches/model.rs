@@ -24,16 +24,19 @@ fn models(c: &mut Criterion) {
     // RHex's C-leg as the node predicts it (`<leg>.shape: c_leg`, a half circle on a 100 mm
     // chord in 32 segments, the node's default of 100 elements), its hip 40 mm up and moving
     // as a walking robot's does.
-    let c_plate = Plate::new(0.1, 0.03, 0.04).unwrap();
-    let c_leg = ForceModel::Rft(
-        RftModel::with_profile(
-            c_plate,
-            RftCoefficients::Fit(RftFit::POPPY_LP),
-            100,
-            c_leg_profile(0.05, std::f64::consts::PI, 32),
+    let c_leg_model = |law: Option<RftSpeedLaw>| {
+        ForceModel::Rft(
+            RftModel::with_profile(
+                Plate::new(0.1, 0.03, 0.04).unwrap(),
+                RftCoefficients::Fit(RftFit::POPPY_LP),
+                100,
+                c_leg_profile(0.05, std::f64::consts::PI, 32),
+            )
+            .unwrap()
+            .with_speed_law(law),
         )
-        .unwrap(),
-    );
+    };
+    let c_leg = c_leg_model(None);
     let hip = HipMotion {
         height_m: 0.04,
         pitch_rad: 0.02,
@@ -46,16 +49,7 @@ fn models(c: &mut Criterion) {
         b.iter(|| c_leg.predict_moving(black_box(beta), &hip).unwrap().drag_n)
     });
     // The same leg with RFT's speed law (the DEM medium's, `launch_configs/dem_cleg.yaml`).
-    let c_leg_speed = ForceModel::Rft(
-        RftModel::with_profile(
-            c_plate,
-            RftCoefficients::Fit(RftFit::POPPY_LP),
-            100,
-            c_leg_profile(0.05, std::f64::consts::PI, 32),
-        )
-        .unwrap()
-        .with_speed_law(Some(RftSpeedLaw::new(0.05, 0.885).unwrap())),
-    );
+    let c_leg_speed = c_leg_model(Some(RftSpeedLaw::new(0.05, 0.885).unwrap()));
     c.bench_function("rft_c_leg_speed_law_evaluate", |b| {
         b.iter(|| {
             c_leg_speed

@@ -1153,18 +1153,26 @@ def close_part(camp, args, path, manifest, done):
     camp.log(done)
 
 
-def run_rft_part(args):
-    """Runs the RFT calibration again in an existing campaign: its bed and grid of intrusions,
-    rft_grid.csv rewritten, and the calibration recorded in the manifest under `rft`."""
+def open_part(args, flag, what):
+    """An existing campaign's directory, manifest path, manifest and Campaign, its clock started
+    and `what` logged, for a part that `flag` adds to it; exits naming the directory when it has
+    no campaign."""
     out = os.path.abspath(args.out)
     path = os.path.join(out, "campaign.json")
     if not os.path.exists(path):
-        sys.exit("--rft runs the RFT calibration again in a campaign: %s has none (run the campaign first)" % path)
+        sys.exit("%s adds to a campaign: %s has none (run the campaign first)" % (flag, path))
     with open(path) as f:
         manifest = json.load(f)
     camp = Campaign(args)
     camp.t0 = time.time()
-    camp.log("engine: %s; RFT calibration, %d jobs" % (camp.engine, args.jobs))
+    camp.log("engine: %s; %s, %d jobs" % (camp.engine, what, args.jobs))
+    return out, path, manifest, camp
+
+
+def run_rft_part(args):
+    """Runs the RFT calibration again in an existing campaign: its bed and grid of intrusions,
+    rft_grid.csv rewritten, and the calibration recorded in the manifest under `rft`."""
+    out, path, manifest, camp = open_part(args, "--rft", "RFT calibration")
     grid = camp.rft_grid(args.jobs)
     camp.write_rft_grid(grid)
     seconds = round(time.time() - camp.t0, 1)
@@ -1185,15 +1193,7 @@ def run_rft_part(args):
 def run_rft_speed_part(args):
     """Runs the RFT intrusions at speed in an existing campaign: rft_speed.csv written, and the
     run recorded in the manifest under `rft_speed`."""
-    out = os.path.abspath(args.out)
-    path = os.path.join(out, "campaign.json")
-    if not os.path.exists(path):
-        sys.exit("--rft-speed adds to a campaign: %s has none (run the campaign first)" % path)
-    with open(path) as f:
-        manifest = json.load(f)
-    camp = Campaign(args)
-    camp.t0 = time.time()
-    camp.log("engine: %s; RFT intrusions at speed, %d jobs" % (camp.engine, args.jobs))
+    out, path, manifest, camp = open_part(args, "--rft-speed", "RFT intrusions at speed")
     rows = camp.rft_speed(args.jobs)
     camp.write_rft_speed(rows)
     seconds = round(time.time() - camp.t0, 1)

@@ -205,25 +205,8 @@ impl RftGrid {
     /// Parses `beta_rad,gamma_rad,alpha_x,alpha_z` rows (`#` comments, one header line) that
     /// cover a full rectilinear grid.
     pub fn parse(text: &str) -> Result<RftGrid, String> {
-        let mut rows = Vec::new();
-        for (i, line) in text.lines().enumerate() {
-            let line = line.trim();
-            if line.is_empty() || line.starts_with('#') || line.starts_with("beta_rad") {
-                continue;
-            }
-            let cells: Vec<f64> = line
-                .split(',')
-                .map(|c| c.trim().parse::<f64>())
-                .collect::<Result<_, _>>()
-                .map_err(|e| format!("RFT grid line {}: {e}", i + 1))?;
-            if cells.len() != 4 || cells.iter().any(|c| !c.is_finite()) {
-                return Err(format!(
-                    "RFT grid line {}: expected 4 finite numbers",
-                    i + 1
-                ));
-            }
-            rows.push([cells[0], cells[1], cells[2], cells[3]]);
-        }
+        let rows = numeric_rows::<4>(text, "beta_rad", "beta_rad,gamma_rad,alpha_x,alpha_z")
+            .map_err(|e| format!("RFT grid {e}"))?;
         let axis = |col: usize| {
             let mut v: Vec<f64> = rows.iter().map(|r| r[col]).collect();
             v.sort_by(f64::total_cmp);
@@ -290,6 +273,37 @@ impl RftGrid {
         };
         (lerp2(&self.alpha_x), lerp2(&self.alpha_z))
     }
+}
+
+/// The rows of a CSV table of `N` finite numbers (`#` comments, a header line starting with
+/// `header`); an error names the line and the columns expected (`columns`).
+fn numeric_rows<const N: usize>(
+    text: &str,
+    header: &str,
+    columns: &str,
+) -> Result<Vec<[f64; N]>, String> {
+    let mut rows = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') || line.starts_with(header) {
+            continue;
+        }
+        let cells: Vec<f64> = line
+            .split(',')
+            .map(|c| c.trim().parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|e| format!("line {}: {e}", i + 1))?;
+        match <[f64; N]>::try_from(cells) {
+            Ok(row) if row.iter().all(|c| c.is_finite()) => rows.push(row),
+            _ => {
+                return Err(format!(
+                    "line {}: expected {N} finite numbers ({columns})",
+                    i + 1
+                ));
+            }
+        }
+    }
+    Ok(rows)
 }
 
 /// Index `i` and fraction `t` with `x = axis[i] + t (axis[i+1] - axis[i])`, clamped to the axis.
@@ -367,31 +381,16 @@ pub struct RftSpeedFit {
 impl RftSpeedTable {
     /// Parses the table (`#` comments, one header line); every row finite, speeds positive.
     pub fn parse(text: &str) -> Result<RftSpeedTable, String> {
-        let mut rows = Vec::new();
-        for (i, line) in text.lines().enumerate() {
-            let line = line.trim();
-            if line.is_empty() || line.starts_with('#') || line.starts_with("speed_m_s") {
-                continue;
-            }
-            let cells: Vec<f64> = line
-                .split(',')
-                .map(|c| c.trim().parse::<f64>())
-                .collect::<Result<_, _>>()
-                .map_err(|e| format!("line {}: {e}", i + 1))?;
-            if cells.len() != 5 || cells.iter().any(|c| !c.is_finite()) {
-                return Err(format!(
-                    "line {}: expected 5 finite numbers (speed_m_s,beta_rad,gamma_rad,alpha_x,alpha_z)",
-                    i + 1
-                ));
-            }
-            if cells[0] <= 0.0 {
-                return Err(format!(
-                    "line {}: speed {} m/s, expected > 0",
-                    i + 1,
-                    cells[0]
-                ));
-            }
-            rows.push([cells[0], cells[1], cells[2], cells[3], cells[4]]);
+        let rows = numeric_rows::<5>(
+            text,
+            "speed_m_s",
+            "speed_m_s,beta_rad,gamma_rad,alpha_x,alpha_z",
+        )?;
+        if let Some(r) = rows.iter().find(|r| r[0] <= 0.0) {
+            return Err(format!(
+                "the row at beta {} rad, gamma {} rad has speed {} m/s, expected > 0",
+                r[1], r[2], r[0]
+            ));
         }
         Ok(RftSpeedTable { rows })
     }
@@ -1234,7 +1233,7 @@ mod tests {
         assert!(
             RftSpeedTable::parse("0,0,0,1,1\n")
                 .unwrap_err()
-                .contains("speed 0")
+                .contains("speed 0 m/s")
         );
         assert!(
             RftSpeedTable::parse("0.05,0,0,1,1\n")
