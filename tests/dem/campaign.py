@@ -1193,6 +1193,10 @@ def run_rft_part(args):
 def run_rft_speed_part(args):
     """Runs the RFT intrusions at speed in an existing campaign: rft_speed.csv written, and the
     run recorded in the manifest under `rft_speed`."""
+    # Its reference rows are the grid's: refused before any intrusion, not after them.
+    grid_path = os.path.join(os.path.abspath(args.out), "rft_grid.csv")
+    if os.path.exists(os.path.join(os.path.abspath(args.out), "campaign.json")) and not os.path.exists(grid_path):
+        sys.exit("--rft-speed compares with the RFT grid: %s is missing (run --rft first)" % grid_path)
     out, path, manifest, camp = open_part(args, "--rft-speed", "RFT intrusions at speed")
     rows = camp.rft_speed(args.jobs)
     camp.write_rft_speed(rows)

@@ -13,6 +13,7 @@ pub use robot_state::{NoState, TfTree};
 
 use super::matcher::{FtMatcher, Match, NoAngle, usable_stamp_ns};
 use crate::config::{ModelKind, NodeConfig};
+use crate::diagnose::Turns;
 use crate::ident::{
     CorrectedEstimator, Estimate, OnlineEstimator, Sample, ScaleEstimator, SurfaceEstimator,
 };
@@ -28,7 +29,6 @@ use crate::msgs::{
     WrenchStamped,
 };
 use std::collections::VecDeque;
-use std::f64::consts::{PI, TAU};
 
 pub use super::matcher::Matched;
 
@@ -80,7 +80,9 @@ struct Leg {
     at_last_diag: LegCounters,
     /// Its recent strokes, for the node's own diagnosis.
     gap: gap::GapWatch,
-    /// Its last angle and stamp, for its rotation rate, and that rate.
+    /// Its angle made continuous across turns, its last stamp and continuous angle, for its
+    /// rotation rate, and that rate.
+    turns: Turns,
     last_angle: Option<(i64, f64)>,
     omega_rad_s: f64,
     /// The surface's level, learnt online (`estimator.fit_surface`).
@@ -432,6 +434,7 @@ impl NodeCore {
             counters: LegCounters::default(),
             at_last_diag: LegCounters::default(),
             gap: gap::GapWatch::default(),
+            turns: Turns::default(),
             last_angle: None,
             omega_rad_s: 0.0,
             surface: self.surface_estimator(i),
@@ -562,12 +565,10 @@ impl NodeCore {
     /// Where leg `i`'s hip is at `stamp_ns`, from the robot's state, for a leg with a
     /// `hip_frame`; counted when it falls back to the configured height (`None`).
     fn hip_motion(&mut self, i: usize, stamp_ns: i64, beta_rad: f64) -> Option<HipMotion> {
-        let omega = match self.legs[i].last_angle.replace((stamp_ns, beta_rad)) {
-            // The turn between the two angles, the short way: a stroke that passes 2 pi wraps.
-            Some((t0, b0)) if stamp_ns > t0 => {
-                let turn = (beta_rad - b0 + PI).rem_euclid(TAU) - PI;
-                turn / ((stamp_ns - t0) as f64 * 1e-9)
-            }
+        // Continuous across turns: a stroke that passes 2 pi does not jump back.
+        let (angle, _) = self.legs[i].turns.push(beta_rad);
+        let omega = match self.legs[i].last_angle.replace((stamp_ns, angle)) {
+            Some((t0, a0)) if stamp_ns > t0 => (angle - a0) / ((stamp_ns - t0) as f64 * 1e-9),
             _ => 0.0,
         };
         self.legs[i].omega_rad_s = omega;
@@ -617,7 +618,7 @@ impl NodeCore {
         if lc.trough_depth_m <= 0.0 {
             return (hip, None);
         }
-        let base = hip.unwrap_or_else(|| HipMotion::still(lc.plate.hip_height_m()));
+        let base = hip.unwrap_or_else(|| self.configured_hip(i));
         let crossing = trough::Troughs::crossing_m(
             base.forward_position_m,
             base.height_m,
@@ -627,17 +628,25 @@ impl NodeCore {
         if !self.legs[i].troughs.dug(crossing) {
             return (hip, crossing);
         }
-        let speed = hip.is_none() && self.legs[i].model.rft_speed_law().is_some();
         let hip = HipMotion {
             height_m: base.height_m + lc.trough_depth_m,
-            omega_rad_s: if speed {
-                self.legs[i].omega_rad_s
-            } else {
-                base.omega_rad_s
-            },
             ..base
         };
         (Some(hip), crossing)
+    }
+
+    /// Leg `i`'s hip where configured, still; turning at the leg's rate where RFT's speed law
+    /// needs it (elsewhere the rate would only change a curved leg's intrusion directions).
+    fn configured_hip(&self, i: usize) -> HipMotion {
+        let leg = &self.legs[i];
+        HipMotion {
+            omega_rad_s: if leg.model.rft_speed_law().is_some() {
+                leg.omega_rad_s
+            } else {
+                0.0
+            },
+            ..HipMotion::still(self.cfg.legs[i].plate.hip_height_m())
+        }
     }
 
     /// The surface's offset leg `i` predicts with: the learnt one once converged (and used).
@@ -656,10 +665,7 @@ impl NodeCore {
         if offset.is_none() && (hip.is_some() || !speed) {
             return hip;
         }
-        let base = hip.unwrap_or_else(|| HipMotion {
-            omega_rad_s: if speed { self.legs[i].omega_rad_s } else { 0.0 },
-            ..HipMotion::still(self.cfg.legs[i].plate.hip_height_m())
-        });
+        let base = hip.unwrap_or_else(|| self.configured_hip(i));
         Some(HipMotion {
             height_m: base.height_m - offset.unwrap_or(0.0),
             ..base
@@ -696,10 +702,9 @@ impl NodeCore {
             };
             let hip = self.hip_motion(i, stamp_ns, beta);
             let from_state = hip.is_some();
+            // A leg without a trough has no crossing, and its memory stays empty.
             let (hip, crossing) = self.in_trough(i, hip, beta);
-            if self.cfg.legs[i].trough_depth_m > 0.0 {
-                self.legs[i].troughs.observe(crossing);
-            }
+            self.legs[i].troughs.observe(crossing);
             let hip = self.with_surface(i, hip);
             let corrected = self.legs[i]
                 .corrected
@@ -1164,6 +1169,7 @@ mod tests {
     /// configured height and across the angle's wrap at 2 pi.
     #[test]
     fn an_rft_leg_with_a_speed_law_is_predicted_at_its_turning_rate() {
+        use std::f64::consts::TAU;
         let yaml = "/**:\n  ros__parameters:\n    legs: [fl]\n    model: rft\n    fl:\n      length_m: 0.25\n      width_m: 0.06\n      hip_height_m: 0.15\n      medium: poppy_lp\n      rft_coeffs: poppy_lp\n      rft_speed_file: tests/dem/campaign/rft_speed.csv\n";
         let mut p = defaults();
         p.extend(parse_params_yaml(yaml, "t", "terzaghi", "/").unwrap());

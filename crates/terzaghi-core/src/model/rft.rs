@@ -406,7 +406,7 @@ impl RftSpeedTable {
                 .iter()
                 .find(|q| q[0] == v_ref && same(q[1], r[1]) && same(q[2], r[2]))
         };
-        let (mut sxy, mut sxx, mut n) = (0.0, 0.0, 0usize);
+        // Per component of each faster row: (gain's column, change of alpha).
         let mut pairs = Vec::new();
         for r in self.rows.iter().filter(|r| r[0] > v_ref) {
             let q = reference(r).ok_or_else(|| {
@@ -416,13 +416,12 @@ impl RftSpeedTable {
                 )
             })?;
             for (a0, a) in [(q[3], r[3]), (q[4], r[4])] {
-                let x = (r[0] - v_ref) * a0;
-                sxy += x * (a - a0);
-                sxx += x * x;
-                pairs.push((x, a - a0));
+                pairs.push(((r[0] - v_ref) * a0, a - a0));
             }
-            n += 1;
         }
+        let n = pairs.len() / 2;
+        let sxy: f64 = pairs.iter().map(|(x, y)| x * y).sum();
+        let sxx: f64 = pairs.iter().map(|(x, _)| x * x).sum();
         if n == 0 || sxx <= 0.0 {
             return Err(format!(
                 "no row faster than the reference speed {v_ref} m/s with a stress to compare"
