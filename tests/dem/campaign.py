@@ -12,6 +12,7 @@ and hip torque in the hip frame, the attack angle beta) as one CSV per run, whic
     python3 tests/dem/campaign.py --out /tmp/small --scene small      # the small scene of the test
     python3 tests/dem/campaign.py --out tests/dem/campaign --rft      # the RFT calibration again
     python3 tests/dem/campaign.py --out tests/dem/campaign --rft-speed  # its intrusions at speed
+    python3 tests/dem/campaign.py --out tests/dem/campaign --rft-entry  # ... from the surface
 
 Needs `liggghts` (Debian: apt-get install liggghts) and, for the sessions, the terzaghi binary
 (--terzaghi, default target/release/terzaghi). Standard library only.
@@ -657,12 +658,12 @@ RFT_SPEED_BETAS_DEG = (-60, -30, 0, 30, 60, 90)
 RFT_SPEED_GAMMAS_DEG = (-45, 0, 45, 90)
 
 
-def run_intrusion(cfg, name, workdir, bed, beta_r, gamma, plate_len=0.025, width=0.025,
-                  depth0=0.03, travel=RFT_TRAVEL_M, speed=RFT_SPEED_M_S, fit_from=RFT_FIT_FROM):
-    """A plate element (plate_len x width) at attack angle beta_r, its centre buried at depth0,
-    moved `travel` in the direction gamma below the horizontal at `speed`. Returns
-    (alpha_x, alpha_z) in N/cm^3 from F = alpha |z| A, fitted over the travel past the fraction
-    `fit_from` of it (depth |z| of the element's centre)."""
+def intrude(cfg, name, workdir, bed, beta_r, gamma, plate_len=0.025, width=0.025,
+            depth0=0.03, travel=RFT_TRAVEL_M, speed=RFT_SPEED_M_S):
+    """A plate element (plate_len x width) at attack angle beta_r, its centre at depth0 below
+    the surface (negative: above it), moved `travel` in the direction gamma below the horizontal
+    at `speed`. Returns its force as rows (travel m, depth of the centre m, F_x N, F_z N), F_x
+    along +x (the motion's horizontal direction, or +x for a motion straight down) and F_z up."""
     dt = cfg["dt"]
     surface = bed["surface_z_m"]
     cx, cz = 0.0, surface - depth0
@@ -697,22 +698,40 @@ def run_intrusion(cfg, name, workdir, bed, beta_r, gamma, plate_len=0.025, width
     )
     printed = run_engine("intrude.in", v, workdir, name, raw_lines=['variable inhole atom "%s"' % hole])
     start_step = int(printed["START_STEP"])
-    rows = read_ave_time(os.path.join(workdir, name + ".forces"))
-    area = plate_len * width
-    sxz = szz = sxx = 0.0
-    for row in rows:
+    out = []
+    for row in read_ave_time(os.path.join(workdir, name + ".forces")):
         moved = (row[0] - start_step - nav / 2.0) * dt * speed
-        if moved < travel * fit_from:
+        out.append((moved, surface - (cz + vz / speed * moved), row[1], row[3]))
+    return out
+
+
+def run_intrusion(cfg, name, workdir, bed, beta_r, gamma, plate_len=0.025, width=0.025,
+                  depth0=0.03, travel=RFT_TRAVEL_M, speed=RFT_SPEED_M_S, fit_from=RFT_FIT_FROM):
+    """An intrusion of `intrude`, its centre buried at depth0. Returns (alpha_x, alpha_z) in
+    N/cm^3 from F = alpha |z| A, fitted over the travel past the fraction `fit_from` of it
+    (depth |z| of the element's centre)."""
+    rows = intrude(cfg, name, workdir, bed, beta_r, gamma, plate_len, width, depth0, travel, speed)
+    sxz = szz = sxx = 0.0
+    for moved, depth, fx, fz in rows:
+        if moved < travel * fit_from or depth <= 0:
             continue
-        depth = surface - (cz + vz / speed * moved)
-        if depth <= 0:
-            continue
-        sxx += -row[1] * depth
-        sxz += row[3] * depth
+        sxx += -fx * depth
+        sxz += fz * depth
         szz += depth * depth
-    k = 1e-6 / (area * szz)  # N/m^3 -> N/cm^3
+    k = 1e-6 / (plate_len * width * szz)  # N/m^3 -> N/cm^3
     return {"name": name, "beta_rad": beta_r, "gamma_rad": gamma, "alpha_x": sxx * k,
             "alpha_z": sxz * k}
+
+
+# Intrusions from the surface: the grid's element starts with its lowest point 2 mm above the
+# bed and moves 50 mm into it, as each element of a leg enters the medium. These show how stress
+# grows over the first centimetres, where the grid's buried intrusions do not reach, and at
+# which depths a faster element's extra stress appears.
+RFT_ENTRY_TRAVEL_M = 0.05
+# The element's side (m): 25 x 25 mm, as the grid's.
+RFT_ELEMENT_M = 0.025
+RFT_ENTRY_BETAS_DEG = (0, 45, 90)
+RFT_ENTRY_GAMMAS_DEG = (45, 90)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -833,6 +852,45 @@ class Campaign:
             out = list(pool.map(one, plan))
         self.log("RFT at speed: %d intrusions" % len(out))
         return out
+
+    def rft_entry(self, jobs):
+        """The grid's element intruded from the surface at the grid's speed and at each of
+        RFT_SPEEDS_M_S, in the same bed (`jobs` engine processes at once)."""
+        bd = self.bed("bed_rft", **RFT_BED)
+        if not bd["settled"]:
+            raise SystemExit("the RFT bed did not settle (KE ratio %.2g): nothing is written" % bd["settled_ke_ratio"])
+        plan = [("rfte_v%03d_b%+03d_g%+03d" % (round(v * 100), b, g), v, b, g)
+                for v in (RFT_SPEED_M_S,) + RFT_SPEEDS_M_S for b in RFT_ENTRY_BETAS_DEG
+                for g in RFT_ENTRY_GAMMAS_DEG]
+
+        def one(p):
+            beta = math.radians(p[2])
+            depth0 = -(0.0125 * abs(math.sin(beta)) + 0.002)
+            rows = intrude(self.cfg, p[0], self.work, bd, beta, math.radians(p[3]), depth0=depth0,
+                           travel=RFT_ENTRY_TRAVEL_M, speed=p[1])
+            return {"speed_m_s": p[1], "beta_rad": beta, "gamma_rad": math.radians(p[3]), "rows": rows}
+
+        with cf.ThreadPoolExecutor(max_workers=jobs) as pool:
+            out = list(pool.map(one, plan))
+        self.log("RFT from the surface: %d intrusions" % len(out))
+        return out
+
+    def write_rft_entry(self, intrusions):
+        """rft_entry.csv: every sample of the intrusions from the surface."""
+        with open(os.path.join(self.out, "rft_entry.csv"), "w") as f:
+            f.write("# The 25 x 25 mm plate element of rft_grid.csv intruded from the surface of the same bed\n")
+            f.write("# (tests/dem/campaign.py --rft-entry): its lowest point starts 2 mm above the bed and it\n")
+            f.write("# moves %.0f mm at speed_m_s in the direction gamma below the horizontal. One row per\n" % (RFT_ENTRY_TRAVEL_M * 1e3))
+            f.write("# sample: the element's length (at attack angle beta) and width, its centre's depth below\n")
+            f.write("# the surface (negative above it); drag_n resists the motion's horizontal part, lift_n is\n")
+            f.write("# up. Angles as in rft_grid.csv.\n")
+            f.write("speed_m_s,beta_rad,gamma_rad,length_m,width_m,depth_m,drag_n,lift_n\n")
+            for i in sorted(intrusions, key=lambda r: (r["speed_m_s"], r["gamma_rad"], r["beta_rad"])):
+                for moved, depth, fx, fz in i["rows"]:
+                    if moved < 0:
+                        continue
+                    f.write("%.3f,%.6f,%.6f,%.3f,%.3f,%.6f,%.6g,%.6g\n" % (
+                        i["speed_m_s"], i["beta_rad"], i["gamma_rad"], RFT_ELEMENT_M, RFT_ELEMENT_M, depth, -fx, fz))
 
     def write_rft_speed(self, rows):
         """rft_speed.csv: the intrusions at speed, and the same angles' rows of rft_grid.csv at
@@ -1169,25 +1227,27 @@ def open_part(args, flag, what):
     return out, path, manifest, camp
 
 
+def finish_part(camp, args, out, path, manifest, key, flag, done, intrusions, **fields):
+    """Records a part in the manifest under `key` (the command that remakes it, the engine, its
+    duration, its intrusions and `fields`), writes the manifest and logs `done`."""
+    seconds = round(time.time() - camp.t0, 1)
+    manifest[key] = dict(
+        command="python3 tests/dem/campaign.py --out %s %s --jobs %d" % (
+            os.path.relpath(out, os.path.dirname(os.path.dirname(HERE))), flag, args.jobs),
+        engine=camp.engine, intrusions=intrusions, seconds=seconds, **fields)
+    close_part(camp, args, path, manifest,
+               "%s done in %.0f s (%.1f min): %d intrusions" % (done, seconds, seconds / 60, intrusions))
+
+
 def run_rft_part(args):
     """Runs the RFT calibration again in an existing campaign: its bed and grid of intrusions,
     rft_grid.csv rewritten, and the calibration recorded in the manifest under `rft`."""
     out, path, manifest, camp = open_part(args, "--rft", "RFT calibration")
     grid = camp.rft_grid(args.jobs)
     camp.write_rft_grid(grid)
-    seconds = round(time.time() - camp.t0, 1)
     manifest["beds"]["bed_rft"] = {k: v for k, v in camp.beds["bed_rft"].items() if k != "restart"}
-    manifest["rft"] = {
-        "command": "python3 tests/dem/campaign.py --out %s --rft --jobs %d" % (
-            os.path.relpath(out, os.path.dirname(os.path.dirname(HERE))), args.jobs),
-        "engine": camp.engine,
-        "intrusions": len(grid),
-        "travel_m": RFT_TRAVEL_M,
-        "fitted_over_travel_from_m": RFT_TRAVEL_M * RFT_FIT_FROM,
-        "seconds": seconds,
-    }
-    close_part(camp, args, path, manifest,
-               "RFT calibration done in %.0f s (%.1f min): %d intrusions" % (seconds, seconds / 60, len(grid)))
+    finish_part(camp, args, out, path, manifest, "rft", "--rft", "RFT calibration", len(grid),
+                travel_m=RFT_TRAVEL_M, fitted_over_travel_from_m=RFT_TRAVEL_M * RFT_FIT_FROM)
 
 
 def run_rft_speed_part(args):
@@ -1200,19 +1260,20 @@ def run_rft_speed_part(args):
     out, path, manifest, camp = open_part(args, "--rft-speed", "RFT intrusions at speed")
     rows = camp.rft_speed(args.jobs)
     camp.write_rft_speed(rows)
-    seconds = round(time.time() - camp.t0, 1)
-    manifest["rft_speed"] = {
-        "command": "python3 tests/dem/campaign.py --out %s --rft-speed --jobs %d" % (
-            os.path.relpath(out, os.path.dirname(os.path.dirname(HERE))), args.jobs),
-        "engine": camp.engine,
-        "intrusions": len(rows),
-        "speeds_m_s": [RFT_SPEED_M_S] + list(RFT_SPEEDS_M_S),
-        "travel_m": RFT_TRAVEL_M,
-        "fitted_over_travel_from_m": RFT_TRAVEL_M * RFT_FIT_FROM,
-        "seconds": seconds,
-    }
-    close_part(camp, args, path, manifest,
-               "RFT at speed done in %.0f s (%.1f min): %d intrusions" % (seconds, seconds / 60, len(rows)))
+    finish_part(camp, args, out, path, manifest, "rft_speed", "--rft-speed", "RFT at speed", len(rows),
+                speeds_m_s=[RFT_SPEED_M_S] + list(RFT_SPEEDS_M_S), travel_m=RFT_TRAVEL_M,
+                fitted_over_travel_from_m=RFT_TRAVEL_M * RFT_FIT_FROM)
+
+
+def run_rft_entry_part(args):
+    """Runs the intrusions from the surface in an existing campaign: rft_entry.csv written, and
+    the run recorded in the manifest under `rft_entry`."""
+    out, path, manifest, camp = open_part(args, "--rft-entry", "RFT intrusions from the surface")
+    intrusions = camp.rft_entry(args.jobs)
+    camp.write_rft_entry(intrusions)
+    finish_part(camp, args, out, path, manifest, "rft_entry", "--rft-entry", "RFT from the surface",
+                len(intrusions), speeds_m_s=[RFT_SPEED_M_S] + list(RFT_SPEEDS_M_S),
+                travel_m=RFT_ENTRY_TRAVEL_M)
 
 
 def import_sessions(out, terzaghi, log=print, only=None):
@@ -1259,6 +1320,9 @@ def main():
                          "rewriting rft_grid.csv")
     ap.add_argument("--rft-speed", action="store_true",
                     help="run the RFT intrusions at higher speeds in the campaign in --out, writing rft_speed.csv")
+    ap.add_argument("--rft-entry", action="store_true",
+                    help="run the RFT intrusions from the surface at the grid's and higher speeds in the campaign "
+                         "in --out, writing rft_entry.csv")
     ap.add_argument("--import-only", action="store_true",
                     help="only write the sessions of the CSV runs already in --out (no engine)")
     args = ap.parse_args()
@@ -1282,6 +1346,9 @@ def main():
         return
     if args.rft_speed:
         run_rft_speed_part(args)
+        return
+    if args.rft_entry:
+        run_rft_entry_part(args)
         return
     Campaign(args).run()
 
