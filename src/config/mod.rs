@@ -274,7 +274,7 @@ other_node:
             ("-p left.trough_depth_m:=-0.01", "left.trough_depth_m"),
             // A speed law without RFT, one from no file, and one from the grid (not a speed table).
             (
-                "-p left.rft_speed_file:=tests/dem/campaign/rft_speed.csv",
+                "-p left.rft_speed_file:=tests/dem/campaign/rft_entry.csv",
                 "left.rft_speed_file",
             ),
             (

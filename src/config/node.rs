@@ -808,7 +808,10 @@ fn leg_config(
                 "a speed law is RFT's: give RFT coefficients (rft_coeffs or rft_grid_file) and set model to rft",
             ));
         }
-        Some(f) => Some(rft_speed_from_file(&k("rft_speed_file"), &f)?),
+        Some(f) => match &rft {
+            Some(c) => Some(rft_speed_from_file(&k("rft_speed_file"), &f, c)?),
+            None => None,
+        },
     };
     let profile = leg_profile(g, leg, &plate)?;
     if let Some(p) = &profile
@@ -911,14 +914,18 @@ fn rft_from_grid_file(name: &str, path: &str) -> Result<RftCoefficients, ConfigE
         })
 }
 
-/// RFT's speed law fitted to a table of intrusions at several speeds: a CSV of
-/// `speed_m_s,beta_rad,gamma_rad,alpha_x,alpha_z` rows, the format of the DEM campaign's
-/// `rft_speed.csv` (its slowest speed the calibration's).
-fn rft_speed_from_file(name: &str, path: &str) -> Result<crate::model::RftSpeedFit, ConfigError> {
+/// RFT's speed law fitted to intrusions from the surface at several speeds against the leg's
+/// RFT coefficients: a CSV of `speed_m_s,beta_rad,gamma_rad,length_m,width_m,depth_m,drag_n,lift_n`
+/// rows, the format of the DEM campaign's `rft_entry.csv` (its slowest speed the calibration's).
+fn rft_speed_from_file(
+    name: &str,
+    path: &str,
+    coefficients: &RftCoefficients,
+) -> Result<crate::model::RftSpeedFit, ConfigError> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| invalid(name, &path, format!("cannot read it: {e}")))?;
     crate::model::RftSpeedTable::parse(&text)
-        .and_then(|t| t.fit())
+        .and_then(|t| t.fit(coefficients))
         .map_err(|e| invalid(name, &path, format!("no RFT speed law: {e}")))
 }
 

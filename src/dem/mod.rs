@@ -315,15 +315,16 @@ pub fn join_runs(runs: Vec<DemRun>) -> Result<DemRun, DemError> {
 
 /// A campaign as `tests/dem/campaign.py` writes it: `campaign.json` (engine, scene, the beds
 /// and the medium measured in them, the time it took), `runs/*.csv`, `rft_grid.csv` (the
-/// intrusions' stresses) and `rft_speed.csv` (the same intrusions at several speeds).
+/// intrusions' stresses) and `rft_entry.csv` (its element intruded from the surface at several
+/// speeds).
 #[derive(Debug, Clone)]
 pub struct Campaign {
     pub manifest: serde_json::Value,
     pub runs: Vec<DemRun>,
     /// `(beta_r, gamma, alpha_x, alpha_z)`, N/cm^3.
     pub rft_grid: Vec<(f64, f64, f64, f64)>,
-    /// The intrusions at several speeds, where the campaign has them.
-    pub rft_speed: Option<crate::model::RftSpeedTable>,
+    /// The intrusions from the surface at several speeds, where the campaign has them.
+    pub rft_entry: Option<crate::model::RftSpeedTable>,
 }
 
 impl Campaign {
@@ -363,23 +364,23 @@ pub fn read_campaign(dir: &Path) -> Result<Campaign, DemError> {
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Vec::new(),
         Err(e) => return Err(io(&grid_path)(e)),
     };
-    let speed_path = dir.join("rft_speed.csv");
-    let rft_speed = match std::fs::read_to_string(&speed_path) {
+    let entry_path = dir.join("rft_entry.csv");
+    let rft_entry = match std::fs::read_to_string(&entry_path) {
         Ok(text) => Some(
             crate::model::RftSpeedTable::parse(&text).map_err(|message| DemError::Malformed {
-                path: speed_path.display().to_string(),
+                path: entry_path.display().to_string(),
                 line: 0,
                 message,
             })?,
         ),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
-        Err(e) => return Err(io(&speed_path)(e)),
+        Err(e) => return Err(io(&entry_path)(e)),
     };
     Ok(Campaign {
         manifest,
         runs,
         rft_grid,
-        rft_speed,
+        rft_entry,
     })
 }
 

@@ -32,12 +32,16 @@ pub fn report(a: DemReportArgs) -> Result<()> {
     if a.json {
         return print_out(&(serde_json::to_string_pretty(&r)? + "\n"));
     }
-    let speed = match &c.rft_speed {
-        Some(t) => Some(
-            t.fit()
-                .map_err(|e| anyhow::anyhow!("{}/rft_speed.csv: {e}", a.campaign.display()))?,
+    // The speed law as a leg calibrated by the campaign's grid fits it (rft_grid_file).
+    let speed = match (
+        &c.rft_entry,
+        terzaghi::model::RftFit::fit_to_points(&c.rft_grid),
+    ) {
+        (Some(t), Some(grid)) => Some(
+            t.fit(&terzaghi::model::RftCoefficients::Fit(grid))
+                .map_err(|e| anyhow::anyhow!("{}/rft_entry.csv: {e}", a.campaign.display()))?,
         ),
-        None => None,
+        _ => None,
     };
     print_out(&render(&c.manifest, &r, speed.as_ref()))
 }
@@ -139,9 +143,9 @@ fn render(
             rft["command"].as_str().unwrap_or("")
         );
     }
-    // RFT's speed law, from the same intrusions at several speeds.
+    // RFT's speed law, from the grid's element intruded from the surface at several speeds.
     if let Some(f) = speed {
-        let at = &m["rft_speed"];
+        let at = &m["rft_entry"];
         let speeds: Vec<String> = at["speeds_m_s"]
             .as_array()
             .map_or(&[][..], |v| v.as_slice())
@@ -150,13 +154,16 @@ fn render(
             .map(|v| format!("{v}"))
             .collect();
         s += &format!(
-            "RFT speed law: {} intrusions at {} m/s against the grid's at {} m/s; stress x (1 + {:.3} s/m (v - {} m/s)), {:.0} % of the change explained, {:.1} min ({})\n",
-            f.rows,
+            "RFT speed law: {} intrusions from the surface at {} m/s against the grid's element at {} m/s ({} samples); elements {:.4} s (v - {} m/s) deeper, {:.0} % of the change explained (in v^2 - v0^2: {:.0} %; a factor on the stress: {:.0} %), {:.1} min ({})\n",
+            f.intrusions,
             speeds.get(1..).map_or(String::new(), |v| v.join(", ")),
             f.law.ref_speed_m_s,
-            f.law.gain_s_m,
+            f.samples,
+            f.law.depth_per_speed_s,
             f.law.ref_speed_m_s,
-            100.0 * f.r2_of_change,
+            100.0 * f.explained,
+            100.0 * f.quadratic_explained,
+            100.0 * f.factor_law_explained,
             at["seconds"].as_f64().unwrap_or(0.0) / 60.0,
             at["command"].as_str().unwrap_or("")
         );

@@ -1170,7 +1170,7 @@ mod tests {
     #[test]
     fn an_rft_leg_with_a_speed_law_is_predicted_at_its_turning_rate() {
         use std::f64::consts::TAU;
-        let yaml = "/**:\n  ros__parameters:\n    legs: [fl]\n    model: rft\n    fl:\n      length_m: 0.25\n      width_m: 0.06\n      hip_height_m: 0.15\n      medium: poppy_lp\n      rft_coeffs: poppy_lp\n      rft_speed_file: tests/dem/campaign/rft_speed.csv\n";
+        let yaml = "/**:\n  ros__parameters:\n    legs: [fl]\n    model: rft\n    fl:\n      length_m: 0.25\n      width_m: 0.06\n      hip_height_m: 0.15\n      medium: poppy_lp\n      rft_coeffs: poppy_lp\n      rft_speed_file: tests/dem/campaign/rft_entry.csv\n";
         let mut p = defaults();
         p.extend(parse_params_yaml(yaml, "t", "terzaghi", "/").unwrap());
         let cfg = NodeConfig::from_params(&p, "terzaghi", "/", &[]).unwrap();
