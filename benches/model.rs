@@ -49,7 +49,7 @@ fn models(c: &mut Criterion) {
         b.iter(|| c_leg.predict_moving(black_box(beta), &hip).unwrap().drag_n)
     });
     // The same leg with RFT's speed law (the DEM medium's, `launch_configs/dem_cleg.yaml`).
-    let c_leg_speed = c_leg_model(Some(RftSpeedLaw::new(0.05, 0.0332).unwrap()));
+    let c_leg_speed = c_leg_model(Some(RftSpeedLaw::new(0.05, 0.0332, 0.8).unwrap()));
     c.bench_function("rft_c_leg_speed_law_evaluate", |b| {
         b.iter(|| {
             c_leg_speed

@@ -320,13 +320,17 @@ fn bracket(axis: &[f64], x: f64) -> (usize, f64) {
 /// by intruding an element from the surface at several speeds ([`RftSpeedTable`]): there the
 /// extra force of speed appears from the first millimetres in the bed on and hardly grows with
 /// depth, which a factor on the stress (zero at the surface) cannot give; and it grows about in
-/// proportion to the speed (the table's fit compares the forms).
+/// proportion to the speed (the table's fit compares the forms). Above the fastest speed it was
+/// measured at the law is not extrapolated: the dynamic stress stays at that speed's (a joint
+/// stamp glitch that reads as thousands of rad/s must not make an element metres deeper).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct RftSpeedLaw {
     /// The speed of the calibration the coefficients come from (m/s).
     pub ref_speed_m_s: f64,
     /// `k`: the depth the dynamic stress is worth per m/s above it (m per m/s: s).
     pub depth_per_speed_s: f64,
+    /// The fastest speed the law was measured at (m/s).
+    pub max_speed_m_s: f64,
 }
 
 impl RftSpeedLaw {
@@ -334,9 +338,21 @@ impl RftSpeedLaw {
     pub const MAX_DEPTH_PER_SPEED_S: f64 = 1.0;
 
     /// A law calibrated at `ref_speed_m_s` (> 0) with `depth_per_speed_s` in
-    /// `[0, MAX_DEPTH_PER_SPEED_S]`.
-    pub fn new(ref_speed_m_s: f64, depth_per_speed_s: f64) -> Result<RftSpeedLaw, ModelError> {
+    /// `[0, MAX_DEPTH_PER_SPEED_S]`, measured up to `max_speed_m_s` (at least `ref_speed_m_s`).
+    pub fn new(
+        ref_speed_m_s: f64,
+        depth_per_speed_s: f64,
+        max_speed_m_s: f64,
+    ) -> Result<RftSpeedLaw, ModelError> {
         let ref_speed_m_s = positive("RFT calibration speed (m/s)", ref_speed_m_s)?;
+        let max_speed_m_s = finite("RFT speed law's fastest speed (m/s)", max_speed_m_s)?;
+        if max_speed_m_s < ref_speed_m_s {
+            return Err(ModelError::OutOfRange {
+                what: "RFT speed law's fastest speed (m/s)",
+                value: max_speed_m_s,
+                range: format!("[{ref_speed_m_s}, inf)"),
+            });
+        }
         let depth_per_speed_s = finite("RFT speed gain (s)", depth_per_speed_s)?;
         if !(0.0..=Self::MAX_DEPTH_PER_SPEED_S).contains(&depth_per_speed_s) {
             return Err(ModelError::OutOfRange {
@@ -348,14 +364,17 @@ impl RftSpeedLaw {
         Ok(RftSpeedLaw {
             ref_speed_m_s,
             depth_per_speed_s,
+            max_speed_m_s,
         })
     }
 
     /// The depth (m) the dynamic stress of an element moving at `speed_m_s` is worth: 0 at or
-    /// below the calibration speed, and for a speed that is not finite (none is known).
+    /// below the calibration speed, and for a speed that is not finite (none is known); above
+    /// the fastest speed measured, that speed's.
     pub fn extra_depth_m(&self, speed_m_s: f64) -> f64 {
         if speed_m_s.is_finite() {
-            self.depth_per_speed_s * (speed_m_s - self.ref_speed_m_s).max(0.0)
+            let v = speed_m_s.min(self.max_speed_m_s);
+            self.depth_per_speed_s * (v - self.ref_speed_m_s).max(0.0)
         } else {
             0.0
         }
@@ -418,6 +437,7 @@ impl RftSpeedTable {
     /// missing: a slowest intrusion for some element, a faster one, or a gain out of bounds.
     pub fn fit(&self, coefficients: &RftCoefficients) -> Result<RftSpeedFit, String> {
         let v_ref = self.rows.iter().map(|r| r[0]).fold(f64::INFINITY, f64::min);
+        let v_max = self.rows.iter().map(|r| r[0]).fold(0.0, f64::max);
         let same = |a: &[f64; 8], b: &[f64; 8]| (1..5).all(|k| (a[k] - b[k]).abs() < 1e-6);
         // Intrusions: runs of rows of one speed and element, in file order.
         let mut intrusions: Vec<Vec<[f64; 8]>> = Vec::new();
@@ -484,7 +504,7 @@ impl RftSpeedTable {
                 "no intrusion faster than the reference speed {v_ref} m/s with the element in the medium"
             ));
         };
-        let law = RftSpeedLaw::new(v_ref, gain).map_err(|e| e.to_string())?;
+        let law = RftSpeedLaw::new(v_ref, gain, v_max).map_err(|e| e.to_string())?;
         Ok(RftSpeedFit {
             law,
             explained,
@@ -1278,15 +1298,19 @@ mod tests {
 
     #[test]
     fn the_speed_law_adds_depth_above_its_calibration_speed_only() {
-        let law = RftSpeedLaw::new(0.05, 0.04).unwrap();
+        let law = RftSpeedLaw::new(0.05, 0.04, 1.0).unwrap();
         assert_eq!(law.extra_depth_m(0.0), 0.0);
         assert_eq!(law.extra_depth_m(0.05), 0.0);
         assert!((law.extra_depth_m(0.85) - 0.04 * 0.8).abs() < 1e-12);
         assert_eq!(law.extra_depth_m(f64::NAN), 0.0);
-        let e = RftSpeedLaw::new(0.05, -0.2).unwrap_err().to_string();
+        // Not extrapolated past its fastest speed: a glitch's 1000 m/s is 1 m/s.
+        assert_eq!(law.extra_depth_m(1000.0), law.extra_depth_m(1.0));
+        let e = RftSpeedLaw::new(0.05, -0.2, 1.0).unwrap_err().to_string();
         assert!(e.contains("speed gain") && e.contains("-0.2"), "{e}");
-        assert!(RftSpeedLaw::new(0.0, 0.5).is_err());
-        assert!(RftSpeedLaw::new(0.05, 1.5).is_err());
+        assert!(RftSpeedLaw::new(0.0, 0.5, 1.0).is_err());
+        assert!(RftSpeedLaw::new(0.05, 1.5, 1.0).is_err());
+        let e = RftSpeedLaw::new(0.05, 0.04, 0.01).unwrap_err().to_string();
+        assert!(e.contains("fastest speed") && e.contains("0.01"), "{e}");
     }
 
     /// Intrusions from the surface of one element whose force follows RFT at depth plus
@@ -1328,7 +1352,10 @@ mod tests {
         let text = entry_table(&c, |v, _| N_CM3_TO_N_M3 * 0.025 * k * (v - 0.05));
         let fit = RftSpeedTable::parse(&text).unwrap().fit(&c).unwrap();
         assert!((fit.law.depth_per_speed_s - k).abs() < 1e-3 * k, "{fit:?}");
-        assert_eq!((fit.law.ref_speed_m_s, fit.intrusions), (0.05, 6));
+        assert_eq!(
+            (fit.law.ref_speed_m_s, fit.law.max_speed_m_s, fit.intrusions),
+            (0.05, 0.8, 6)
+        );
         assert!(fit.explained > 0.999, "{fit:?}");
         assert!(fit.factor_law_explained < 0.9, "{fit:?}");
         assert!(fit.quadratic_explained < 0.99, "{fit:?}");
@@ -1369,7 +1396,7 @@ mod tests {
 
     #[test]
     fn with_a_speed_law_a_faster_leg_is_pushed_harder_and_an_unknown_speed_is_quasi_static() {
-        let law = RftSpeedLaw::new(0.05, 0.03).unwrap();
+        let law = RftSpeedLaw::new(0.05, 0.03, 1.0).unwrap();
         let c = RftCoefficients::Fit(RftFit::POPPY_LP);
         let plain = RftModel::new(plate(), c.clone(), 200).unwrap();
         let fast = RftModel::new(plate(), c.clone(), 200)
@@ -1402,7 +1429,7 @@ mod tests {
     /// plate is pushed many times harder than a slow one, deep in the bed only somewhat harder.
     #[test]
     fn the_dynamic_stress_weighs_most_where_the_leg_enters() {
-        let law = RftSpeedLaw::new(0.05, 0.03).unwrap();
+        let law = RftSpeedLaw::new(0.05, 0.03, 1.0).unwrap();
         let c = RftCoefficients::Fit(RftFit::POPPY_LP);
         let fast = RftModel::new(plate(), c.clone(), 400)
             .unwrap()
