@@ -356,10 +356,11 @@ fn the_online_estimator_converges_on_six_joined_dem_strokes() {
 }
 
 /// The node predicts the DEM's C-leg (`<leg>.shape: c_leg`, `model: rft`, coefficients fitted to
-/// the campaign's own intrusions and their speed law to the same element intruded from the surface at speed, nothing
-/// fitted to the leg), through its own code: `replay --reevaluate` of the C-leg's sessions with
-/// `launch_configs/dem_cleg.yaml`. Quasi-static (`-p leg.rft_speed_file:=`), its figures are the
-/// offline comparison's (`dem-report`), over the same stroke.
+/// the campaign's own intrusions and their speed law to the same element intruded from the
+/// surface at speed, nothing fitted to the leg), through its own code: `replay --reevaluate` of
+/// the C-leg's sessions with `launch_configs/dem_cleg.yaml`. Quasi-static
+/// (`-p leg.rft_speed_file:=`), its figures are the offline comparison's (`dem-report`), over
+/// the same stroke.
 #[test]
 fn the_node_predicts_the_dem_c_leg_with_rft_from_the_dem() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR"));
