@@ -638,9 +638,10 @@ impl RftModel {
         })
     }
 
-    /// The model with each element's dynamic stress of `law` added to its quasi-static one. The speed comes
-    /// from the leg's rotation rate (and the hip's velocity) of [`Self::evaluate_moving`]; where
-    /// neither is known ([`Self::evaluate`]) the stress is the quasi-static one.
+    /// The model with each element's dynamic stress of `law` added to its quasi-static one. The
+    /// speed comes from the leg's rotation rate (and the hip's velocity) of
+    /// [`Self::evaluate_moving`]; where neither is known ([`Self::evaluate`]) the stress is the
+    /// quasi-static one.
     pub fn with_speed_law(mut self, law: Option<RftSpeedLaw>) -> Self {
         self.speed_law = law;
         self
@@ -873,8 +874,8 @@ pub fn rft_leg(
 /// `hip_velocity_m_s = [x, z]` in the leg's frame (x along the submerged tip's travel, which is
 /// backward for a robot walking forward; z up): each element's intrusion direction is its own
 /// velocity, the rotation's plus the hip's, and with `speed_law` it feels the dynamic stress of
-/// that velocity's magnitude too. A leg that neither turns nor moves is evaluated as if turning forward
-/// at its angle, quasi-statically.
+/// that velocity's magnitude too. A leg that neither turns nor moves is evaluated as if turning
+/// forward at its angle, quasi-statically.
 #[allow(clippy::too_many_arguments)]
 pub fn rft_leg_moving(
     coefficients: &RftCoefficients,
