@@ -820,12 +820,17 @@ class Campaign:
             self.beds[name] = b
         return b
 
+    def rft_bed(self):
+        """The RFT calibration's bed, settled; exits (nothing written) when it did not settle."""
+        bd = self.bed("bed_rft", **RFT_BED)
+        if not bd["settled"]:
+            raise SystemExit("the RFT bed did not settle (KE ratio %.2g): nothing is written" % bd["settled_ke_ratio"])
+        return bd
+
     def rft_grid(self, jobs):
         """The RFT calibration: a bed of its own, and 6 attack angles times 5 intrusion angles,
         `jobs` engine processes at once."""
-        bd = self.bed("bed_rft", **RFT_BED)
-        if not bd["settled"]:
-            raise SystemExit("the RFT bed did not settle (KE ratio %.2g): no grid is written" % bd["settled_ke_ratio"])
+        bd = self.rft_bed()
         plan = [("rft_b%+03d_g%+03d" % (b, g), b, g)
                 for b in (-60, -30, 0, 30, 60, 90) for g in (-90, -45, 0, 45, 90)]
         with cf.ThreadPoolExecutor(max_workers=jobs) as pool:
@@ -837,9 +842,7 @@ class Campaign:
     def rft_speed(self, jobs):
         """The grid's intrusions again at each of RFT_SPEEDS_M_S, in the same bed, for a subset of
         attack and intrusion angles (`jobs` engine processes at once)."""
-        bd = self.bed("bed_rft", **RFT_BED)
-        if not bd["settled"]:
-            raise SystemExit("the RFT bed did not settle (KE ratio %.2g): nothing is written" % bd["settled_ke_ratio"])
+        bd = self.rft_bed()
         plan = [("rfts_v%03d_b%+03d_g%+03d" % (round(v * 100), b, g), v, b, g)
                 for v in RFT_SPEEDS_M_S for b in RFT_SPEED_BETAS_DEG for g in RFT_SPEED_GAMMAS_DEG]
 
@@ -856,9 +859,7 @@ class Campaign:
     def rft_entry(self, jobs):
         """The grid's element intruded from the surface at the grid's speed and at each of
         RFT_SPEEDS_M_S, in the same bed (`jobs` engine processes at once)."""
-        bd = self.bed("bed_rft", **RFT_BED)
-        if not bd["settled"]:
-            raise SystemExit("the RFT bed did not settle (KE ratio %.2g): nothing is written" % bd["settled_ke_ratio"])
+        bd = self.rft_bed()
         plan = [("rfte_v%03d_b%+03d_g%+03d" % (round(v * 100), b, g), v, b, g)
                 for v in (RFT_SPEED_M_S,) + RFT_SPEEDS_M_S for b in RFT_ENTRY_BETAS_DEG
                 for g in RFT_ENTRY_GAMMAS_DEG]
