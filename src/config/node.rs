@@ -799,19 +799,16 @@ fn leg_config(
         }
         (None, None) => None,
     };
-    let rft_speed = match g.str(&k("rft_speed_file"))?.filter(|f| !f.is_empty()) {
-        None => None,
-        Some(_) if rft.is_none() => {
+    let rft_speed = match (g.str(&k("rft_speed_file"))?.filter(|f| !f.is_empty()), &rft) {
+        (None, _) => None,
+        (Some(_), None) => {
             return Err(invalid(
                 &k("rft_speed_file"),
                 &model.as_str(),
                 "a speed law is RFT's: give RFT coefficients (rft_coeffs or rft_grid_file) and set model to rft",
             ));
         }
-        Some(f) => match &rft {
-            Some(c) => Some(rft_speed_from_file(&k("rft_speed_file"), &f, c)?),
-            None => None,
-        },
+        (Some(f), Some(c)) => Some(rft_speed_from_file(&k("rft_speed_file"), &f, c)?),
     };
     let profile = leg_profile(g, leg, &plate)?;
     if let Some(p) = &profile

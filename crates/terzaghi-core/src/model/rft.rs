@@ -609,7 +609,7 @@ pub struct RftModel {
     /// A leg that is not a flat plate: its mid-line `(s, q)` in the leg's frame (see
     /// [`rft_leg`]); `None` for the plate itself.
     profile: Option<Vec<(f64, f64)>>,
-    /// The stress's growth with the element's speed; `None`: quasi-static.
+    /// The dynamic stress of the element's speed; `None`: quasi-static.
     speed_law: Option<RftSpeedLaw>,
 }
 
