@@ -477,6 +477,48 @@ fn a_warning_per_message_at_10_khz_is_throttled() {
     assert_eq!(v["node_exit_clean"], true);
 }
 
+/// The benchmark of `/tf`'s cost (`terzaghi-bench node --tf-hz 500 --against-fixed-height`)
+/// measures what its figure says: both nodes processed their own blocks' JointStates (about as
+/// many each, none lost), the first placed its hips by `/tf` and the ratio is of the two
+/// nodes' own processing times.
+#[test]
+fn the_tf_cost_benchmark_compares_two_nodes_in_one_run() {
+    let _guard = shared();
+    let out = isolated_command(&bench_exe())
+        .args([
+            "node",
+            "--tf-hz",
+            "500",
+            "--against-fixed-height",
+            "--seconds",
+            "2",
+        ])
+        .arg("--json")
+        .env("ROS_DOMAIN_ID", "17")
+        .output()
+        .expect("run terzaghi-bench node --against-fixed-height");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    eprintln!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let (tf, fixed) = (&v["node_processing"], &v["fixed_height_processing"]);
+    let count = |f: &serde_json::Value| f["count"].as_u64().unwrap();
+    // Two blocks of a second each (and a warm-up one) at 1 kHz per node.
+    for n in [count(tf), count(fixed)] {
+        assert!((2_500..=3_500).contains(&n), "{v}");
+    }
+    let (placed, seen) = (
+        v["tf_placed"][0].as_u64().unwrap(),
+        v["tf_placed"][1].as_u64().unwrap(),
+    );
+    assert!(seen >= 2_500 && placed + 20 >= seen, "{v}");
+    assert_eq!(v["node_lost_replies"], 0, "{v}");
+    assert_eq!(v["echo_lost_replies"], 0, "{v}");
+    let ratio = v["tf_ratio_p99"].as_f64().unwrap();
+    let expected = tf["p99_us"].as_f64().unwrap() / fixed["p99_us"].as_f64().unwrap();
+    assert!((ratio - expected).abs() < 1e-9 && ratio > 0.0, "{v}");
+}
+
 /// `terzaghi-bench node --load ARGS --json` on ROS_DOMAIN_ID `domain`: what it measured.
 fn bench_node_load(args: &[&str], domain: &str) -> serde_json::Value {
     let out = isolated_command(&bench_exe())

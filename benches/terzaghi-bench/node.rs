@@ -8,6 +8,11 @@
 //! outputs) comes from what it prints when it stops; its peak memory from /proc. Run it inside
 //! a private network namespace.
 //!
+//! With `--tf-hz N --against-fixed-height` the second target is not the echo but the same node
+//! without `/tf` (its hips at their configured heights, in namespace `/fixed`): the cost of
+//! placing every hip by `/tf` is then a ratio of two processing times measured in the same
+//! run, which the machine's drift between runs does not reach.
+//!
 //! `terzaghi-bench echo` (hidden) is the bare echo: JointState in, the same JointState out.
 
 use crate::print_out;
@@ -80,6 +85,13 @@ pub struct BenchNodeArgs {
     /// release, say, to compare in one run).
     #[arg(long, value_name = "PATH")]
     pub node_exe: Option<std::path::PathBuf>,
+    /// With --tf-hz: measure the cost of `/tf` in one run, against the same node at its fixed
+    /// hip heights. A second node (the same executable and options, without `hip_frame`, in
+    /// namespace `/fixed`) takes the echo's place, the blocks alternate between the two, and
+    /// `/tf` is sent in the first one's blocks only; both nodes' processing and their ratio are
+    /// reported. The machine's drift between runs then falls on both alike.
+    #[arg(long, requires = "tf_hz", conflicts_with = "load")]
+    pub against_fixed_height: bool,
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
@@ -151,7 +163,25 @@ struct Report {
     /// the hip by `/tf` and how many were received.
     tf_hz: Option<f64>,
     tf_placed: Option<(u64, u64)>,
+    /// With `--against-fixed-height`: the second node's processing (its hips at their
+    /// configured heights, no `/tf`), and the ratios of the first's p50 and p99 to it.
+    fixed_height_processing: Option<Figures>,
+    tf_ratio_p50: Option<f64>,
+    tf_ratio_p99: Option<f64>,
 }
+
+/// The block the client's second target takes: the bare echo, or (`--against-fixed-height`)
+/// the node again in namespace `/fixed` without `/tf`.
+enum Second {
+    Echo,
+    Node {
+        joint_states: String,
+        wrenches: Vec<String>,
+    },
+}
+
+/// The namespace of `--against-fixed-height`'s second node.
+const FIXED_NS: &str = "/fixed";
 
 struct Killer(Vec<Child>);
 
@@ -212,11 +242,32 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
             .into_iter()
             .map(|l| l.wrench)
             .collect(),
+        second: if a.against_fixed_height {
+            // The same parameters, loaded as the second node loads them in its namespace.
+            let (params, _) = terzaghi::sim::robot::rhex()?;
+            let fixed =
+                terzaghi::config::NodeConfig::from_params(&params, &cfg.node_name, FIXED_NS, &[])?;
+            Second::Node {
+                joint_states: terzaghi::config::resolve_topic(
+                    &fixed.joint_states_topic,
+                    &fixed.namespace,
+                    &fixed.node_name,
+                    &fixed.remaps,
+                ),
+                wrenches: terzaghi::config::OutputTopics::of(&fixed, &fixed.remaps)
+                    .legs
+                    .into_iter()
+                    .map(|l| l.wrench)
+                    .collect(),
+            }
+        } else {
+            Second::Echo
+        },
     };
-    let mut children = Killer(Vec::new());
-    children.0.push(
-        Command::new(&exe)
-            .arg("node")
+    // The node, and with --against-fixed-height the same node without /tf in FIXED_NS.
+    let node_command = |with_tf: bool, namespace: Option<&str>, log: &std::path::Path| {
+        let mut c = Command::new(&exe);
+        c.arg("node")
             .args(
                 a.node_realtime_priority
                     .map(|p| format!("--realtime-priority={p}")),
@@ -231,7 +282,7 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
                     .into_iter()
                     .flatten(),
             )
-            .args(cfg.legs.iter().filter(|_| a.tf_hz.is_some()).flat_map(|l| {
+            .args(cfg.legs.iter().filter(|_| with_tf).flat_map(|l| {
                 [
                     "-p".to_string(),
                     format!(
@@ -241,11 +292,25 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
                     ),
                 ]
             }))
-            .stderr(std::fs::File::create(&node_log)?)
-            .spawn()
-            .context("cannot start terzaghi node")?,
-    );
-    if !a.load {
+            .args(
+                namespace
+                    .map(|ns| ["-r".to_string(), format!("__ns:={ns}")])
+                    .into_iter()
+                    .flatten(),
+            )
+            .stderr(std::fs::File::create(log)?);
+        c.spawn().context("cannot start terzaghi node")
+    };
+    let mut children = Killer(Vec::new());
+    children
+        .0
+        .push(node_command(a.tf_hz.is_some(), None, &node_log)?);
+    let fixed_log = dir.join("fixed.log");
+    if a.against_fixed_height {
+        children
+            .0
+            .push(node_command(false, Some(FIXED_NS), &fixed_log)?);
+    } else if !a.load {
         children.0.push(
             Command::new(&bench_exe)
                 .arg("echo")
@@ -278,22 +343,29 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
     for c in children.0.iter_mut() {
         sigint(c);
     }
-    let node_exit_clean = {
-        let deadline = Instant::now() + Duration::from_secs(15);
-        loop {
-            match children.0[0].try_wait() {
-                Ok(Some(status)) => break status.success(),
-                Ok(None) if Instant::now() < deadline => {
-                    std::thread::sleep(Duration::from_millis(50))
-                }
-                _ => break false,
-            }
+    let deadline = Instant::now() + Duration::from_secs(15);
+    let exited_clean = |child: &mut Child| loop {
+        match child.try_wait() {
+            Ok(Some(status)) => break status.success(),
+            Ok(None) if Instant::now() < deadline => std::thread::sleep(Duration::from_millis(50)),
+            _ => break false,
         }
     };
+    let node_exit_clean = exited_clean(&mut children.0[0]);
     let text = std::fs::read_to_string(&node_log).context("the node's log is missing")?;
     let summary = stop_line(&text).with_context(|| {
         format!("the node did not report its run at shutdown; its log:\n{text}")
     })?;
+    let fixed = if a.against_fixed_height {
+        exited_clean(&mut children.0[1]);
+        let text = std::fs::read_to_string(&fixed_log)
+            .context("the fixed-height node's log is missing")?;
+        Some(stop_line(&text).with_context(|| {
+            format!("the fixed-height node did not report its run at shutdown; its log:\n{text}")
+        })?)
+    } else {
+        None
+    };
     let _ = std::fs::remove_dir_all(&dir);
 
     if a.load {
@@ -346,7 +418,22 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
     }
     let nr = Figures::from(&node_rt);
     let er = Figures::from(&echo_rt);
+    let processing = |s: &RunSummary| Figures {
+        p50_us: s.processing_p50_ns as f64 / 1e3,
+        p99_us: s.processing_p99_ns as f64 / 1e3,
+        max_us: s.processing_max_ns as f64 / 1e3,
+        count: s.processing_count,
+    };
+    let fixed_height_processing = fixed.as_ref().map(processing);
+    let ratio = |q: fn(&Figures) -> f64| {
+        fixed_height_processing
+            .as_ref()
+            .map(|f| q(&processing(&summary)) / q(f).max(1e-9))
+    };
     let report = Report {
+        tf_ratio_p50: ratio(|f| f.p50_us),
+        tf_ratio_p99: ratio(|f| f.p99_us),
+        fixed_height_processing,
         legs: legs.joints.len(),
         rate_hz: a.rate_hz,
         seconds_each: a.seconds,
@@ -385,10 +472,21 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
         "round trip: client -> node -> all 6 wrenches",
         &report.node_round_trip,
     );
-    s += &row(
-        "round trip: client -> bare echo -> client",
-        &report.echo_round_trip,
-    );
+    match &report.fixed_height_processing {
+        Some(f) => {
+            s += &row(
+                "round trip: client -> fixed-height node -> 6",
+                &report.echo_round_trip,
+            );
+            s += &row("fixed-height node processing (no /tf)", f);
+        }
+        None => {
+            s += &row(
+                "round trip: client -> bare echo -> client",
+                &report.echo_round_trip,
+            )
+        }
+    }
     if let (Some(hz), Some((placed, seen))) = (report.tf_hz, report.tf_placed) {
         s += &format!(
             "hips placed by /tf at {hz} Hz: {placed} of {seen} of the first leg's leg_force\n"
@@ -399,12 +497,22 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
             "the node's own diagnoses during the run: {made} ({skipped} superseded while waiting)\n"
         );
     }
+    let second = if a.against_fixed_height {
+        "fixed-height node"
+    } else {
+        "echo"
+    };
+    if let (Some(p50), Some(p99)) = (report.tf_ratio_p50, report.tf_ratio_p99) {
+        s += &format!("processing with /tf / at fixed heights: p50 {p50:.2}x, p99 {p99:.2}x\n");
+    }
     s += &format!(
-        "round trip node / echo: p50 {:.2}x, p99 {:.2}x; node dropped {} inputs; replies lost: node {}, echo {}\n",
+        "round trip node / {}: p50 {:.2}x, p99 {:.2}x; node dropped {} inputs; replies lost: node {}, {} {}\n",
+        second,
         report.round_trip_ratio_p50,
         report.round_trip_ratio_p99,
         report.node_dropped,
         report.node_lost_replies,
+        second,
         report.echo_lost_replies
     );
     print_out(&s)
@@ -433,6 +541,8 @@ struct RobotTopics {
     tf: Option<(terzaghi::config::NodeConfig, f64)>,
     /// The first leg's `leg_force`, which says whether the node placed its hip by `/tf`.
     first_force: Option<String>,
+    /// The target of every other block.
+    second: Second,
 }
 
 async fn client(
@@ -493,8 +603,27 @@ async fn client(
             }
         });
     }
-    let to_echo = publisher::<JointState>(&mut node, "/bench/echo_in")?;
-    let from_echo = subscription::<JointState>(&mut node, "/bench/echo_out")?;
+    let (to_echo, from_echo, mut second_wrench_subs) = match &legs.second {
+        Second::Echo => (
+            publisher::<JointState>(&mut node, "/bench/echo_in")?,
+            Some(subscription::<JointState>(&mut node, "/bench/echo_out")?),
+            Vec::new(),
+        ),
+        Second::Node {
+            joint_states,
+            wrenches,
+        } => {
+            let mut subs = Vec::new();
+            for topic in wrenches {
+                subs.push(subscription::<WrenchStamped>(&mut node, topic)?);
+            }
+            (
+                publisher::<JointState>(&mut node, joint_states)?,
+                None,
+                subs,
+            )
+        }
+    };
     let mut wrench_subs = Vec::new();
     for topic in &legs.wrenches {
         wrench_subs.push(subscription::<WrenchStamped>(&mut node, topic)?);
@@ -505,35 +634,15 @@ async fn client(
     let echo_sent: Sent = Arc::default();
     let node_hist = Arc::new(Mutex::new(Histogram::default()));
     let echo_hist = Arc::new(Mutex::new(Histogram::default()));
-    // Per stamp, how many legs answered so far.
-    let answers: Arc<Mutex<HashMap<i64, usize>>> = Arc::default();
     let n_legs = legs.joints.len();
-    let mut tasks = Vec::new();
-    for sub in wrench_subs {
-        let (sent, hist, answers) = (node_sent.clone(), node_hist.clone(), answers.clone());
-        tasks.push(tokio::spawn(async move {
-            while let Ok((w, _)) = sub.async_take().await {
-                let now = Instant::now();
-                let stamp = w.header.stamp.to_nanos();
-                let mut ans = answers.lock().unwrap_or_else(|p| p.into_inner());
-                let n = ans.entry(stamp).or_insert(0);
-                *n += 1;
-                if *n == n_legs {
-                    ans.remove(&stamp);
-                    if let Some(t) = sent
-                        .lock()
-                        .unwrap_or_else(|p| p.into_inner())
-                        .remove(&stamp)
-                    {
-                        hist.lock()
-                            .unwrap_or_else(|p| p.into_inner())
-                            .record((now - t).as_nanos() as u64);
-                    }
-                }
-            }
-        }));
-    }
-    {
+    let mut tasks = collect_wrenches(wrench_subs, n_legs, node_sent.clone(), node_hist.clone());
+    tasks.extend(collect_wrenches(
+        std::mem::take(&mut second_wrench_subs),
+        n_legs,
+        echo_sent.clone(),
+        echo_hist.clone(),
+    ));
+    if let Some(from_echo) = from_echo {
         let (sent, hist) = (echo_sent.clone(), echo_hist.clone());
         tasks.push(tokio::spawn(async move {
             while let Ok((m, _)) = from_echo.async_take().await {
@@ -587,7 +696,9 @@ async fn client(
                 1_000
             };
             k += 1;
+            // The robot's state goes to the node that uses it, in its blocks only.
             if let Some((_, tf, h0, every)) = &tf_pubs
+                && !to_echo_now
                 && k.is_multiple_of(*every)
             {
                 let t_s = (stamp_ns - 1_000_000_000_000) as f64 * 1e-9;
@@ -682,6 +793,44 @@ async fn client(
         .map(|h| h.clone())
         .map_err(|_| anyhow!("poisoned"))?;
     Ok((nh, eh, lost_node, lost_echo, figures))
+}
+
+/// Times each stamp from its `sent` instant to the last of `n_legs` predicted wrenches on
+/// `subs`, into `hist`.
+fn collect_wrenches(
+    subs: Vec<ros2_client::Subscription<WrenchStamped>>,
+    n_legs: usize,
+    sent: Sent,
+    hist: Arc<Mutex<Histogram>>,
+) -> Vec<tokio::task::JoinHandle<()>> {
+    // Per stamp, how many legs answered so far.
+    let answers: Arc<Mutex<HashMap<i64, usize>>> = Arc::default();
+    subs.into_iter()
+        .map(|sub| {
+            let (sent, hist, answers) = (sent.clone(), hist.clone(), answers.clone());
+            tokio::spawn(async move {
+                while let Ok((w, _)) = sub.async_take().await {
+                    let now = Instant::now();
+                    let stamp = w.header.stamp.to_nanos();
+                    let mut ans = answers.lock().unwrap_or_else(|p| p.into_inner());
+                    let n = ans.entry(stamp).or_insert(0);
+                    *n += 1;
+                    if *n == n_legs {
+                        ans.remove(&stamp);
+                        if let Some(t) = sent
+                            .lock()
+                            .unwrap_or_else(|p| p.into_inner())
+                            .remove(&stamp)
+                        {
+                            hist.lock()
+                                .unwrap_or_else(|p| p.into_inner())
+                                .record((now - t).as_nanos() as u64);
+                        }
+                    }
+                }
+            })
+        })
+        .collect()
 }
 
 /// What the load test saw from outside the node.
