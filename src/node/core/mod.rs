@@ -9,7 +9,7 @@ mod status;
 mod trough;
 
 pub use gap::GapJob;
-pub use robot_state::{NoState, TfTree};
+pub use robot_state::{FrameId, NoState, TfTree};
 
 use super::matcher::{FtMatcher, Match, NoAngle, usable_stamp_ns};
 use crate::config::{ModelKind, NodeConfig};
@@ -335,12 +335,18 @@ pub struct NodeCore {
     gap_jobs: Vec<GapJob>,
     /// The robot's state from `/tf` and `/tf_static`.
     tf: TfTree,
+    /// `robot_state.world_frame` and each leg's `hip_frame` in `tf`, numbered once per
+    /// configuration.
+    world_frame: FrameId,
+    hip_frames: Vec<Option<FrameId>>,
     /// [`TfTree::invalid`] at the previous `/diagnostics` report.
     tf_invalid_at_last_diag: u64,
 }
 
 impl NodeCore {
     pub fn new(cfg: NodeConfig) -> NodeCore {
+        let mut tf = TfTree::default();
+        let world_frame = tf.frame(&cfg.robot_state.world_frame);
         let mut core = NodeCore {
             legs: Vec::new(),
             params_out: Vec::new(),
@@ -351,7 +357,9 @@ impl NodeCore {
             decided: Vec::new(),
             matches: Vec::new(),
             gap_jobs: Vec::new(),
-            tf: TfTree::default(),
+            tf,
+            world_frame,
+            hip_frames: Vec::new(),
             tf_invalid_at_last_diag: 0,
         };
         core.legs = (0..core.cfg.legs.len()).map(|i| core.new_leg(i)).collect();
@@ -360,9 +368,16 @@ impl NodeCore {
     }
 
     /// The hips placed in the body by `<leg>.hip_offset_m`, as fixed transforms from
-    /// `robot_state.body_frame`.
+    /// `robot_state.body_frame`; the world's and the hips' frames numbered.
     fn install_hip_offsets(&mut self) {
         self.tf.place_hips(&self.cfg);
+        self.world_frame = self.tf.frame(&self.cfg.robot_state.world_frame);
+        self.hip_frames = self
+            .cfg
+            .legs
+            .iter()
+            .map(|l| l.hip_frame.as_deref().map(|f| self.tf.frame(f)))
+            .collect();
     }
 
     /// Handles one message: what it gives is appended to `out`.
@@ -572,12 +587,15 @@ impl NodeCore {
             _ => 0.0,
         };
         self.legs[i].omega_rad_s = omega;
-        let frame = self.cfg.legs[i].hip_frame.as_deref()?;
+        let hip = (*self.hip_frames.get(i)?)?;
         let c = &mut self.legs[i].counters;
-        match self
-            .tf
-            .hip_motion(&self.cfg.robot_state, frame, stamp_ns, omega)
-        {
+        match self.tf.hip_motion_of(
+            &self.cfg.robot_state,
+            self.world_frame,
+            hip,
+            stamp_ns,
+            omega,
+        ) {
             Ok(h) => {
                 c.state_used += 1;
                 Some(h)
@@ -597,9 +615,15 @@ impl NodeCore {
     /// leg the robot's state places; not counted (its prediction was).
     fn hip_at(&self, leg: usize, stamp_ns: i64, beta_rad: f64) -> Option<HipMotion> {
         let omega = self.legs.get(leg)?.omega_rad_s;
-        let hip = self.cfg.legs[leg].hip_frame.as_deref().and_then(|frame| {
+        let hip = self.hip_frames.get(leg).copied().flatten().and_then(|hip| {
             self.tf
-                .hip_motion(&self.cfg.robot_state, frame, stamp_ns, omega)
+                .hip_motion_of(
+                    &self.cfg.robot_state,
+                    self.world_frame,
+                    hip,
+                    stamp_ns,
+                    omega,
+                )
                 .ok()
         });
         self.in_trough(leg, hip, beta_rad).0

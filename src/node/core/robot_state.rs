@@ -9,7 +9,7 @@ use crate::msgs::{
     Header, PoseStamped, TfMessage, Time, Transform, TransformStamped, Vector3 as MsgVector3,
 };
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3};
-use std::cell::RefCell;
+use std::cell::{Cell, RefCell};
 use std::collections::{HashMap, VecDeque};
 
 /// Poses kept per frame: the newest within this span of the newest (and at most
@@ -34,15 +34,23 @@ pub enum NoState {
 
 /// A frame's pose in its parent: fixed (`/tf_static`) or its recent stamped poses.
 struct Link {
-    parent: String,
+    parent: FrameId,
     fixed: Option<Isometry3<f64>>,
     poses: VecDeque<(i64, Isometry3<f64>)>,
 }
 
+/// A frame known to a [`TfTree`], by its name's number: lookups through the tree compare
+/// numbers, not names.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FrameId(usize);
+
 /// The transform tree, fed by [`TfTree::insert`].
 #[derive(Default)]
 pub struct TfTree {
-    links: HashMap<String, Link>,
+    /// Every frame named so far (by a transform or by [`TfTree::frame`]), to its number.
+    ids: HashMap<String, FrameId>,
+    /// By frame number: the frame's link to its parent, once a transform gave one.
+    links: Vec<Option<Link>>,
     /// Transforms refused: non-finite values, a zero rotation, an invalid stamp, or a frame
     /// that is its own parent.
     pub invalid: u64,
@@ -51,12 +59,14 @@ pub struct TfTree {
     /// Frames' poses in the world found by recent lookups: the hips of one JointState share
     /// the body's chain, which is then walked once per stamp. Emptied by every insert.
     memo: RefCell<Vec<MemoEntry>>,
+    /// The memo's oldest entry, once it is full.
+    memo_next: Cell<usize>,
 }
 
 /// A frame's pose in `world` at `stamp` (looked up with `max_age_ns`).
 struct MemoEntry {
-    world: String,
-    frame: String,
+    world: FrameId,
+    frame: FrameId,
     stamp: i64,
     max_age_ns: i64,
     pose: Isometry3<f64>,
@@ -65,6 +75,10 @@ struct MemoEntry {
 /// Frames remembered: two stamps (the sample's and the one the hip's velocity is taken from)
 /// of a few bodies.
 const MEMO_ENTRIES: usize = 8;
+
+/// Newest poses searched one by one before a binary search: a JointState is looked up near
+/// the newest pose, and its velocity 20 ms before (ten poses at 500 Hz).
+const RECENT_POSES: usize = 16;
 
 fn isometry(t: &TransformStamped) -> Option<Isometry3<f64>> {
     let (v, q) = (t.transform.translation, t.transform.rotation);
@@ -83,11 +97,41 @@ fn isometry(t: &TransformStamped) -> Option<Isometry3<f64>> {
 }
 
 /// Frame names as tf2 compares them: without a leading `/`.
-fn frame(name: &str) -> &str {
+fn frame_name(name: &str) -> &str {
     name.strip_prefix('/').unwrap_or(name)
 }
 
+/// The number of poses in `poses` (in stamp order) stamped at or before `stamp`: counted from
+/// the newest when `stamp` is among the newest, else by binary search.
+fn poses_until(poses: &VecDeque<(i64, Isometry3<f64>)>, stamp: i64) -> usize {
+    let n = poses.len();
+    for k in 0..n.min(RECENT_POSES) {
+        if poses[n - 1 - k].0 <= stamp {
+            return n - k;
+        }
+    }
+    poses.partition_point(|(s, _)| *s <= stamp)
+}
+
 impl TfTree {
+    /// The number of frame `name` (without a leading `/`), given one if it had none: a name
+    /// the node looks up often (its world and hip frames) is numbered once, at start-up.
+    pub fn frame(&mut self, name: &str) -> FrameId {
+        let name = frame_name(name);
+        if let Some(&id) = self.ids.get(name) {
+            return id;
+        }
+        let id = FrameId(self.links.len());
+        self.links.push(None);
+        self.ids.insert(name.to_string(), id);
+        id
+    }
+
+    /// The number of frame `name`, if it has one.
+    fn known(&self, name: &str) -> Option<FrameId> {
+        self.ids.get(frame_name(name)).copied()
+    }
+
     /// Places the hips of `cfg`'s legs that give `<leg>.hip_offset_m` in
     /// `robot_state.body_frame`, as fixed transforms (a robot without TF gives its body's pose
     /// alone, [`TfTree::insert_pose`]).
@@ -157,8 +201,12 @@ impl TfTree {
     /// newest pose and the newest joint state are dropped.
     pub fn insert(&mut self, msg: &TfMessage, fixed: bool) {
         self.memo.get_mut().clear();
+        self.memo_next.set(0);
         for t in &msg.transforms {
-            let (parent, child) = (frame(&t.header.frame_id), frame(&t.child_frame_id));
+            let (parent, child) = (
+                frame_name(&t.header.frame_id),
+                frame_name(&t.child_frame_id),
+            );
             let stamp = t.header.stamp;
             let stamp = stamp.is_valid().then(|| stamp.to_nanos());
             let (Some(pose), Some(stamp)) = (isometry(t), stamp) else {
@@ -169,20 +217,15 @@ impl TfTree {
                 self.invalid += 1;
                 continue;
             }
-            if !self.links.contains_key(child) {
-                self.links.insert(
-                    child.to_string(),
-                    Link {
-                        parent: parent.to_string(),
-                        fixed: None,
-                        poses: VecDeque::new(),
-                    },
-                );
-            }
-            let link = self.links.get_mut(child).expect("inserted above");
+            let (parent, child) = (self.frame(parent), self.frame(child));
+            let link = self.links[child.0].get_or_insert_with(|| Link {
+                parent,
+                fixed: None,
+                poses: VecDeque::new(),
+            });
             if link.parent != parent {
                 // Re-parented: its history was in another frame.
-                link.parent = parent.to_string();
+                link.parent = parent;
                 link.fixed = None;
                 link.poses.clear();
             }
@@ -191,7 +234,7 @@ impl TfTree {
                 continue;
             }
             // Kept in stamp order; a late one is put in its place.
-            let at = link.poses.partition_point(|(s, _)| *s <= stamp);
+            let at = poses_until(&link.poses, stamp);
             if at > 0 && link.poses[at - 1].0 == stamp {
                 link.poses[at - 1].1 = pose;
             } else {
@@ -218,7 +261,7 @@ impl TfTree {
         if let Some(f) = link.fixed {
             return Ok(f);
         }
-        let at = link.poses.partition_point(|(s, _)| *s <= stamp);
+        let at = poses_until(&link.poses, stamp);
         let before = at.checked_sub(1).map(|i| link.poses[i]);
         let after = link.poses.get(at).copied();
         match (before, after) {
@@ -243,32 +286,35 @@ impl TfTree {
     /// The pose of `child` in `world` at `stamp`, through every frame between them.
     pub fn lookup(
         &self,
-        world: &str,
-        child: &str,
+        world: FrameId,
+        child: FrameId,
         stamp: i64,
         max_age_ns: i64,
     ) -> Result<Isometry3<f64>, NoState> {
-        let world = frame(world);
-        let mut name = frame(child);
-        // `pose` takes `child`'s coordinates into `name`'s.
+        let mut id = child;
+        // `pose` takes `child`'s coordinates into `id`'s.
         let mut pose = Isometry3::identity();
         // The first frame above `child`, and `child` in it: its world pose is remembered.
-        let mut above: Option<(&str, Isometry3<f64>)> = None;
+        let mut above: Option<(FrameId, Isometry3<f64>)> = None;
         for _ in 0..MAX_DEPTH {
-            if name == world {
+            if id == world {
                 self.remember(world, above, stamp, max_age_ns, &pose);
                 return Ok(pose);
             }
             if above.is_some()
-                && let Some(known) = self.remembered(world, name, stamp, max_age_ns)
+                && let Some(known) = self.remembered(world, id, stamp, max_age_ns)
             {
                 return Ok(known * pose);
             }
-            let link = self.links.get(name).ok_or(NoState::Unknown)?;
+            let link = self
+                .links
+                .get(id.0)
+                .and_then(Option::as_ref)
+                .ok_or(NoState::Unknown)?;
             pose = Self::link_at(link, stamp, max_age_ns)? * pose;
-            name = &link.parent;
-            if above.is_none() && name != world {
-                above = Some((name, pose));
+            id = link.parent;
+            if above.is_none() && id != world {
+                above = Some((id, pose));
             }
         }
         Err(NoState::Unknown)
@@ -276,8 +322,8 @@ impl TfTree {
 
     fn remembered(
         &self,
-        world: &str,
-        name: &str,
+        world: FrameId,
+        frame: FrameId,
         stamp: i64,
         max_age_ns: i64,
     ) -> Option<Isometry3<f64>> {
@@ -286,9 +332,9 @@ impl TfTree {
             .iter()
             .find(|e| {
                 e.stamp == stamp
-                    && e.max_age_ns == max_age_ns
-                    && e.frame == name
+                    && e.frame == frame
                     && e.world == world
+                    && e.max_age_ns == max_age_ns
             })
             .map(|e| e.pose)
     }
@@ -297,41 +343,35 @@ impl TfTree {
     /// child's world pose `child_in_world`.
     fn remember(
         &self,
-        world: &str,
-        above: Option<(&str, Isometry3<f64>)>,
+        world: FrameId,
+        above: Option<(FrameId, Isometry3<f64>)>,
         stamp: i64,
         max_age_ns: i64,
         child_in_world: &Isometry3<f64>,
     ) {
-        let Some((name, child_in_above)) = above else {
+        let Some((frame, child_in_above)) = above else {
             return;
         };
-        let pose = child_in_world * child_in_above.inverse();
+        let entry = MemoEntry {
+            world,
+            frame,
+            stamp,
+            max_age_ns,
+            pose: child_in_world * child_in_above.inverse(),
+        };
         let mut memo = self.memo.borrow_mut();
         if memo.len() < MEMO_ENTRIES {
-            memo.push(MemoEntry {
-                world: world.to_string(),
-                frame: name.to_string(),
-                stamp,
-                max_age_ns,
-                pose,
-            });
-            return;
+            memo.push(entry);
+        } else {
+            // Full: the oldest entry is overwritten in place.
+            let oldest = self.memo_next.get();
+            memo[oldest] = entry;
+            self.memo_next.set((oldest + 1) % MEMO_ENTRIES);
         }
-        // Full: the oldest entry is overwritten in place (its strings' buffers reused).
-        memo.rotate_left(1);
-        let e = memo.last_mut().expect("MEMO_ENTRIES > 0");
-        e.world.clear();
-        e.world.push_str(world);
-        e.frame.clear();
-        e.frame.push_str(name);
-        (e.stamp, e.max_age_ns, e.pose) = (stamp, max_age_ns, pose);
     }
 
-    /// The hip of frame `hip_frame` at `stamp` as the model takes it: its height above the
-    /// surface plane, the body's pitch, its forward and vertical velocity (from its pose
-    /// 20 ms before, when the tree has it; else zero), and the leg's rotation rate
-    /// `omega_rad_s` passed through.
+    /// [`TfTree::hip_motion_of`] by frame names (`hip_frame`, and `cfg.world_frame`); a name
+    /// the tree has never seen is [`NoState::Unknown`].
     pub fn hip_motion(
         &self,
         cfg: &RobotStateConfig,
@@ -339,8 +379,26 @@ impl TfTree {
         stamp: i64,
         omega_rad_s: f64,
     ) -> Result<HipMotion, NoState> {
+        let (Some(world), Some(hip)) = (self.known(&cfg.world_frame), self.known(hip_frame)) else {
+            return Err(NoState::Unknown);
+        };
+        self.hip_motion_of(cfg, world, hip, stamp, omega_rad_s)
+    }
+
+    /// The hip of frame `hip` at `stamp` as the model takes it: its height above the surface
+    /// plane (`cfg.surface_height_m` in `world`, which is `cfg.world_frame`'s number), the
+    /// body's pitch, its forward and vertical velocity (from its pose 20 ms before, when the
+    /// tree has it; else zero), and the leg's rotation rate `omega_rad_s` passed through.
+    pub fn hip_motion_of(
+        &self,
+        cfg: &RobotStateConfig,
+        world: FrameId,
+        hip: FrameId,
+        stamp: i64,
+        omega_rad_s: f64,
+    ) -> Result<HipMotion, NoState> {
         let max_age = (cfg.max_age_s * 1e9) as i64;
-        let pose = self.lookup(&cfg.world_frame, hip_frame, stamp, max_age)?;
+        let pose = self.lookup(world, hip, stamp, max_age)?;
         let p = pose.translation.vector;
         // The pitch of roll-pitch-yaw (as `euler_angles` gives it): -asin of the rotation
         // matrix's (2, 0), 2 (x z - w y) for the unit quaternion.
@@ -355,12 +413,7 @@ impl TfTree {
             Vector3::zeros()
         };
         let velocity = self
-            .lookup(
-                &cfg.world_frame,
-                hip_frame,
-                stamp - VELOCITY_SPAN_NS,
-                max_age,
-            )
+            .lookup(world, hip, stamp - VELOCITY_SPAN_NS, max_age)
             .map(|before| (p - before.translation.vector) / (VELOCITY_SPAN_NS as f64 * 1e-9))
             .unwrap_or_else(|_| Vector3::zeros());
         let hip = HipMotion {
@@ -504,6 +557,52 @@ mod tests {
         tree.insert(&at(sec, 0.9), false);
         let hip = tree.hip_motion(&cfg(), "fl_hip", 10 * sec, 0.0).unwrap();
         assert!((hip.height_m - (0.2 - 0.01)).abs() < 1e-12, "{hip:?}");
+    }
+
+    #[test]
+    fn poses_are_counted_up_to_a_stamp_as_a_binary_search_counts_them() {
+        // Near the newest pose (counted from the end) and far from it (binary search), late
+        // and early stamps, repeated stamps, and every length around RECENT_POSES.
+        for n in [
+            0,
+            1,
+            2,
+            RECENT_POSES - 1,
+            RECENT_POSES,
+            RECENT_POSES + 1,
+            100,
+        ] {
+            let poses: VecDeque<(i64, Isometry3<f64>)> = (0..n as i64)
+                .map(|k| (10 * (k / 2 * 2), Isometry3::identity()))
+                .collect();
+            for stamp in -5..(10 * n as i64 + 5) {
+                assert_eq!(
+                    poses_until(&poses, stamp),
+                    poses.partition_point(|(s, _)| *s <= stamp),
+                    "{n} poses, stamp {stamp}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn a_frame_numbered_before_any_transform_is_found_once_one_comes() {
+        let mut tree = TfTree::default();
+        let (world, hip) = (tree.frame("/odom"), tree.frame("fl_hip"));
+        assert_eq!(tree.frame("odom"), world);
+        assert_eq!(
+            tree.hip_motion_of(&cfg(), world, hip, 0, 0.0),
+            Err(NoState::Unknown)
+        );
+        tree.insert(
+            &TfMessage {
+                transforms: vec![tf("odom", "fl_hip", 0, [0.0, 0.0, 0.2], 0.0)],
+            },
+            false,
+        );
+        let by_number = tree.hip_motion_of(&cfg(), world, hip, 0, 0.0).unwrap();
+        assert_eq!(Ok(by_number), tree.hip_motion(&cfg(), "/fl_hip", 0, 0.0));
+        assert!((by_number.height_m - (0.2 - 0.01)).abs() < 1e-12);
     }
 
     #[test]
