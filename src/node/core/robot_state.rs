@@ -76,10 +76,6 @@ struct MemoEntry {
 /// of a few bodies.
 const MEMO_ENTRIES: usize = 8;
 
-/// Newest poses searched one by one before a binary search: a JointState is looked up near
-/// the newest pose, and its velocity 20 ms before (ten poses at 500 Hz).
-const RECENT_POSES: usize = 16;
-
 fn isometry(t: &TransformStamped) -> Option<Isometry3<f64>> {
     let (v, q) = (t.transform.translation, t.transform.rotation);
     let values = [v.x, v.y, v.z, q.x, q.y, q.z, q.w];
@@ -99,18 +95,6 @@ fn isometry(t: &TransformStamped) -> Option<Isometry3<f64>> {
 /// Frame names as tf2 compares them: without a leading `/`.
 fn frame_name(name: &str) -> &str {
     name.strip_prefix('/').unwrap_or(name)
-}
-
-/// The number of poses in `poses` (in stamp order) stamped at or before `stamp`: counted from
-/// the newest when `stamp` is among the newest, else by binary search.
-fn poses_until(poses: &VecDeque<(i64, Isometry3<f64>)>, stamp: i64) -> usize {
-    let n = poses.len();
-    for k in 0..n.min(RECENT_POSES) {
-        if poses[n - 1 - k].0 <= stamp {
-            return n - k;
-        }
-    }
-    poses.partition_point(|(s, _)| *s <= stamp)
 }
 
 impl TfTree {
@@ -234,7 +218,7 @@ impl TfTree {
                 continue;
             }
             // Kept in stamp order; a late one is put in its place.
-            let at = poses_until(&link.poses, stamp);
+            let at = link.poses.partition_point(|(s, _)| *s <= stamp);
             if at > 0 && link.poses[at - 1].0 == stamp {
                 link.poses[at - 1].1 = pose;
             } else {
@@ -261,7 +245,7 @@ impl TfTree {
         if let Some(f) = link.fixed {
             return Ok(f);
         }
-        let at = poses_until(&link.poses, stamp);
+        let at = link.poses.partition_point(|(s, _)| *s <= stamp);
         let before = at.checked_sub(1).map(|i| link.poses[i]);
         let after = link.poses.get(at).copied();
         match (before, after) {
@@ -557,32 +541,6 @@ mod tests {
         tree.insert(&at(sec, 0.9), false);
         let hip = tree.hip_motion(&cfg(), "fl_hip", 10 * sec, 0.0).unwrap();
         assert!((hip.height_m - (0.2 - 0.01)).abs() < 1e-12, "{hip:?}");
-    }
-
-    #[test]
-    fn poses_are_counted_up_to_a_stamp_as_a_binary_search_counts_them() {
-        // Near the newest pose (counted from the end) and far from it (binary search), late
-        // and early stamps, repeated stamps, and every length around RECENT_POSES.
-        for n in [
-            0,
-            1,
-            2,
-            RECENT_POSES - 1,
-            RECENT_POSES,
-            RECENT_POSES + 1,
-            100,
-        ] {
-            let poses: VecDeque<(i64, Isometry3<f64>)> = (0..n as i64)
-                .map(|k| (10 * (k / 2 * 2), Isometry3::identity()))
-                .collect();
-            for stamp in -5..(10 * n as i64 + 5) {
-                assert_eq!(
-                    poses_until(&poses, stamp),
-                    poses.partition_point(|(s, _)| *s <= stamp),
-                    "{n} poses, stamp {stamp}"
-                );
-            }
-        }
     }
 
     #[test]
