@@ -1,6 +1,7 @@
 //! Criterion benchmarks of one model evaluation: `cargo bench --bench model`.
 
 use criterion::{Criterion, black_box, criterion_group, criterion_main};
+use std::f64::consts::{FRAC_PI_2, FRAC_PI_4};
 use terzaghi::model::{
     FittingWidth, ForceModel, HipMotion, Medium, Plate, RftCoefficients, RftFit, RftModel,
     RftSpeedLaw, TerzaghiModel, c_leg_profile,
@@ -48,8 +49,22 @@ fn models(c: &mut Criterion) {
     c.bench_function("rft_c_leg_evaluate", |b| {
         b.iter(|| c_leg.predict_moving(black_box(beta), &hip).unwrap().drag_n)
     });
-    // The same leg with RFT's speed law (the DEM medium's, `launch_configs/dem_cleg.yaml`).
-    let c_leg_speed = c_leg_model(Some(RftSpeedLaw::new(0.05, 0.0332, 0.8).unwrap()));
+    // The same leg with RFT's speed law (the DEM medium's, `launch_configs/dem_cleg.yaml`: a
+    // gain per direction of motion, from straight up to straight down).
+    let c_leg_speed = c_leg_model(Some(
+        RftSpeedLaw::by_direction(
+            0.05,
+            &[
+                (-FRAC_PI_2, 0.0292),
+                (-FRAC_PI_4, 0.0145),
+                (0.0, 0.0274),
+                (FRAC_PI_4, 0.0282),
+                (FRAC_PI_2, 0.0376),
+            ],
+            0.8,
+        )
+        .unwrap(),
+    ));
     c.bench_function("rft_c_leg_speed_law_evaluate", |b| {
         b.iter(|| {
             c_leg_speed

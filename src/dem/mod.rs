@@ -315,8 +315,8 @@ pub fn join_runs(runs: Vec<DemRun>) -> Result<DemRun, DemError> {
 
 /// A campaign as `tests/dem/campaign.py` writes it: `campaign.json` (engine, scene, the beds
 /// and the medium measured in them, the time it took), `runs/*.csv`, `rft_grid.csv` (the
-/// intrusions' stresses) and `rft_entry.csv` (its element intruded from the surface at several
-/// speeds).
+/// intrusions' stresses) and `rft_entry.csv` (its element moved into, across and out of the bed
+/// at several speeds).
 #[derive(Debug, Clone)]
 pub struct Campaign {
     pub manifest: serde_json::Value,

@@ -622,11 +622,11 @@ fn startup_line(setup: &NodeSetup) -> String {
         .filter_map(|l| {
             let f = l.rft_speed?;
             Some(format!(
-                "; {}: RFT's elements {:.4} s (v - {} m/s) deeper up to {} m/s, from its intrusions at speed ({:.0} % of the change)",
+                "; {}: RFT's elements k (v - {} m/s) deeper up to {} m/s, k {} (by direction of motion below the horizontal), from its intrusions at speed ({:.0} % of the change)",
                 l.name,
-                f.law.depth_per_speed_s,
                 f.law.ref_speed_m_s,
                 f.law.max_speed_m_s,
+                f.law.gains_text(),
                 100.0 * f.explained
             ))
         })

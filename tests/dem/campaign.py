@@ -12,7 +12,7 @@ and hip torque in the hip frame, the attack angle beta) as one CSV per run, whic
     python3 tests/dem/campaign.py --out /tmp/small --scene small      # the small scene of the test
     python3 tests/dem/campaign.py --out tests/dem/campaign --rft      # the RFT calibration again
     python3 tests/dem/campaign.py --out tests/dem/campaign --rft-speed  # its intrusions at speed
-    python3 tests/dem/campaign.py --out tests/dem/campaign --rft-entry  # ... from the surface
+    python3 tests/dem/campaign.py --out tests/dem/campaign --rft-entry  # ... into, across and out of the bed
 
 Needs `liggghts` (Debian: apt-get install liggghts) and, for the sessions, the terzaghi binary
 (--terzaghi, default target/release/terzaghi). Standard library only.
@@ -659,14 +659,14 @@ RFT_SPEED_GAMMAS_DEG = (-45, 0, 45, 90)
 
 
 def intrude(cfg, name, workdir, bed, beta_r, gamma, plate_len=0.025, width=0.025,
-            depth0=0.03, travel=RFT_TRAVEL_M, speed=RFT_SPEED_M_S):
+            depth0=0.03, travel=RFT_TRAVEL_M, speed=RFT_SPEED_M_S, cx0=0.0):
     """A plate element (plate_len x width) at attack angle beta_r, its centre at depth0 below
-    the surface (negative: above it), moved `travel` in the direction gamma below the horizontal
-    at `speed`. Returns its force as rows (travel m, depth of the centre m, F_x N, F_z N), F_x
+    the surface (negative: above it) and cx0 along x, moved `travel` in the direction gamma
+    below the horizontal at `speed`. Returns its force as rows (travel m, depth of the centre m, F_x N, F_z N), F_x
     along +x (the motion's horizontal direction, or +x for a motion straight down) and F_z up."""
     dt = cfg["dt"]
     surface = bed["surface_z_m"]
-    cx, cz = 0.0, surface - depth0
+    cx, cz = cx0, surface - depth0
     tx, tz = math.cos(beta_r), math.sin(beta_r)
     a = (cx - tx * plate_len / 2, cz - tz * plate_len / 2)
     b_pt = (cx + tx * plate_len / 2, cz + tz * plate_len / 2)
@@ -732,6 +732,21 @@ RFT_ENTRY_TRAVEL_M = 0.05
 RFT_ELEMENT_M = 0.025
 RFT_ENTRY_BETAS_DEG = (0, 45, 90)
 RFT_ENTRY_GAMMAS_DEG = (45, 90)
+# The same element at the same speeds moving across the bed (gamma 0, its centre 30 mm deep,
+# as the grid's) and out of it (gamma -45 and -90, ending with its centre 2 mm deep), as a
+# leg's elements move past the bottom of a stroke: whether the extra force of speed depends
+# on the direction of motion. Each path is centred on the box's middle, away from its walls.
+RFT_ACROSS_DEPTH_M = 0.03
+RFT_OUT_GAMMAS_DEG = (0, -45, -90)
+
+
+def out_start(gamma_r, travel=RFT_ENTRY_TRAVEL_M):
+    """(depth of the centre, x of the centre) where an element moving `travel` at gamma_r (0 or
+    upward) starts: across at RFT_ACROSS_DEPTH_M, or out to 2 mm below the surface."""
+    dx = travel * math.cos(gamma_r)
+    if gamma_r == 0:
+        return RFT_ACROSS_DEPTH_M, -dx / 2
+    return travel * math.sin(-gamma_r) + 0.002, -dx / 2
 
 
 # ---------------------------------------------------------------------------------------------
@@ -857,18 +872,22 @@ class Campaign:
         return out
 
     def rft_entry(self, jobs):
-        """The grid's element intruded from the surface at the grid's speed and at each of
-        RFT_SPEEDS_M_S, in the same bed (`jobs` engine processes at once)."""
+        """The grid's element intruded from the surface, and moved across and out of the bed, at
+        the grid's speed and at each of RFT_SPEEDS_M_S, in the same bed (`jobs` engine processes
+        at once)."""
         bd = self.rft_bed()
         plan = [("rfte_v%03d_b%+03d_g%+03d" % (round(v * 100), b, g), v, b, g)
                 for v in (RFT_SPEED_M_S,) + RFT_SPEEDS_M_S for b in RFT_ENTRY_BETAS_DEG
-                for g in RFT_ENTRY_GAMMAS_DEG]
+                for g in RFT_ENTRY_GAMMAS_DEG + RFT_OUT_GAMMAS_DEG]
 
         def one(p):
-            beta = math.radians(p[2])
-            depth0 = -(0.0125 * abs(math.sin(beta)) + 0.002)
-            rows = intrude(self.cfg, p[0], self.work, bd, beta, math.radians(p[3]), depth0=depth0,
-                           travel=RFT_ENTRY_TRAVEL_M, speed=p[1])
+            beta, gamma = math.radians(p[2]), math.radians(p[3])
+            if p[3] > 0:
+                depth0, cx0 = -(0.0125 * abs(math.sin(beta)) + 0.002), 0.0
+            else:
+                depth0, cx0 = out_start(gamma)
+            rows = intrude(self.cfg, p[0], self.work, bd, beta, gamma, depth0=depth0,
+                           travel=RFT_ENTRY_TRAVEL_M, speed=p[1], cx0=cx0)
             return {"speed_m_s": p[1], "beta_rad": beta, "gamma_rad": math.radians(p[3]), "rows": rows}
 
         with cf.ThreadPoolExecutor(max_workers=jobs) as pool:
@@ -879,9 +898,11 @@ class Campaign:
     def write_rft_entry(self, intrusions):
         """rft_entry.csv: every sample of the intrusions from the surface."""
         with open(os.path.join(self.out, "rft_entry.csv"), "w") as f:
-            f.write("# The 25 x 25 mm plate element of rft_grid.csv intruded from the surface of the same bed\n")
-            f.write("# (tests/dem/campaign.py --rft-entry): its lowest point starts 2 mm above the bed and it\n")
-            f.write("# moves %.0f mm at speed_m_s in the direction gamma below the horizontal. One row per\n" % (RFT_ENTRY_TRAVEL_M * 1e3))
+            f.write("# The 25 x 25 mm plate element of rft_grid.csv moved %.0f mm through the same bed at\n" % (RFT_ENTRY_TRAVEL_M * 1e3))
+            f.write("# speed_m_s in the direction gamma below the horizontal (tests/dem/campaign.py --rft-entry):\n")
+            f.write("# into it from the surface (gamma > 0: its lowest point starts 2 mm above the bed),\n")
+            f.write("# across it (gamma 0, its centre %.0f mm deep) and out of it (gamma < 0, to its centre 2 mm\n" % (RFT_ACROSS_DEPTH_M * 1e3))
+            f.write("# deep). One row per\n")
             f.write("# sample: the element's length (at attack angle beta) and width, its centre's depth below\n")
             f.write("# the surface (negative above it); drag_n resists the motion's horizontal part, lift_n is\n")
             f.write("# up. Angles as in rft_grid.csv.\n")
@@ -1322,8 +1343,8 @@ def main():
     ap.add_argument("--rft-speed", action="store_true",
                     help="run the RFT intrusions at higher speeds in the campaign in --out, writing rft_speed.csv")
     ap.add_argument("--rft-entry", action="store_true",
-                    help="run the RFT intrusions from the surface at the grid's and higher speeds in the campaign "
-                         "in --out, writing rft_entry.csv")
+                    help="run the RFT element into the bed from its surface, across it and out of it at the grid's "
+                         "and higher speeds in the campaign in --out, writing rft_entry.csv")
     ap.add_argument("--import-only", action="store_true",
                     help="only write the sessions of the CSV runs already in --out (no engine)")
     args = ap.parse_args()

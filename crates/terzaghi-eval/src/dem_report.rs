@@ -154,14 +154,15 @@ fn render(
             .map(|v| format!("{v}"))
             .collect();
         s += &format!(
-            "RFT speed law: {} intrusions from the surface at {} m/s against the grid's element at {} m/s ({} samples); elements {:.4} s (v - {} m/s) deeper, {:.0} % of the change explained (in v^2 - v0^2: {:.0} %; a factor on the stress: {:.0} %), {:.1} min ({})\n",
+            "RFT speed law: {} intrusions into, across and out of the bed at {} m/s against the grid's element at {} m/s ({} samples); elements k (v - {} m/s) deeper, k {}: {:.0} % of the change explained (one k for every direction: {:.0} %; in v^2 - v0^2: {:.0} %; a factor on the stress: {:.0} %), {:.1} min ({})\n",
             f.intrusions,
             speeds.get(1..).map_or(String::new(), |v| v.join(", ")),
             f.law.ref_speed_m_s,
             f.samples,
-            f.law.depth_per_speed_s,
             f.law.ref_speed_m_s,
+            f.law.gains_text(),
             100.0 * f.explained,
+            100.0 * f.one_gain_explained,
             100.0 * f.quadratic_explained,
             100.0 * f.factor_law_explained,
             at["seconds"].as_f64().unwrap_or(0.0) / 60.0,

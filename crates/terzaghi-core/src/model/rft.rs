@@ -317,31 +317,56 @@ fn bracket(axis: &[f64], x: f64) -> (usize, f64) {
 /// RFT's speed law: an element moving at `v` above `ref_speed_m_s` (the speed its coefficients
 /// were calibrated at) feels its quasi-static stress `alpha |z|` plus a dynamic one,
 /// `alpha k (v - v_ref)`, the same at every depth: as if it were `k (v - v_ref)` deeper. Measured
-/// by intruding an element from the surface at several speeds ([`RftSpeedTable`]): there the
-/// extra force of speed appears from the first millimetres in the bed on and hardly grows with
-/// depth, which a factor on the stress (zero at the surface) cannot give; and it grows about in
-/// proportion to the speed (the table's fit compares the forms). Above the fastest speed it was
-/// measured at the law is not extrapolated: the dynamic stress stays at that speed's (a joint
-/// stamp glitch that reads as thousands of rad/s must not make an element metres deeper).
+/// by moving an element through the bed at several speeds ([`RftSpeedTable`]): into it from
+/// the surface, the extra force of speed appears from the first millimetres on and hardly grows
+/// with depth, which a factor on the stress (zero at the surface) cannot give; and it grows
+/// about in proportion to the speed (the table's fit compares the forms). The gain `k` depends
+/// on the direction of motion, the intrusion angle `gamma` below the horizontal: an element
+/// pushed into or across the bed meets the dynamic stress, one pulled out of it (upward) much
+/// less. `k` is measured per direction and taken linearly in `sin gamma` between them (the
+/// nearest one's beyond): the sine is the velocity's own downward share, so that an element's
+/// gain needs no angle computed. Above the fastest speed it was measured at the law is not extrapolated: the
+/// dynamic stress stays at that speed's (a joint stamp glitch that reads as thousands of rad/s
+/// must not make an element metres deeper).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct RftSpeedLaw {
     /// The speed of the calibration the coefficients come from (m/s).
     pub ref_speed_m_s: f64,
-    /// `k`: the depth the dynamic stress is worth per m/s above it (m per m/s: s).
-    pub depth_per_speed_s: f64,
+    /// `(gamma_rad, k_s)`: `k` (the depth the dynamic stress is worth per m/s above the
+    /// calibration speed, m per m/s: s) measured moving at `gamma` below the horizontal;
+    /// ascending in `gamma`, the first `directions` of them.
+    gains: [(f64, f64); MAX_SPEED_LAW_DIRECTIONS],
+    /// `sin gamma` of each.
+    sines: [f64; MAX_SPEED_LAW_DIRECTIONS],
+    directions: usize,
     /// The fastest speed the law was measured at (m/s).
     pub max_speed_m_s: f64,
 }
+
+/// Directions of motion a speed law's gain can be given for, at most.
+pub const MAX_SPEED_LAW_DIRECTIONS: usize = 8;
 
 impl RftSpeedLaw {
     /// The largest gain taken (s): a metre of depth per m/s is no medium's.
     pub const MAX_DEPTH_PER_SPEED_S: f64 = 1.0;
 
     /// A law calibrated at `ref_speed_m_s` (> 0) with `depth_per_speed_s` in
-    /// `[0, MAX_DEPTH_PER_SPEED_S]`, measured up to `max_speed_m_s` (at least `ref_speed_m_s`).
+    /// `[0, MAX_DEPTH_PER_SPEED_S]` whatever the direction, measured up to `max_speed_m_s` (at
+    /// least `ref_speed_m_s`).
     pub fn new(
         ref_speed_m_s: f64,
         depth_per_speed_s: f64,
+        max_speed_m_s: f64,
+    ) -> Result<RftSpeedLaw, ModelError> {
+        Self::by_direction(ref_speed_m_s, &[(0.0, depth_per_speed_s)], max_speed_m_s)
+    }
+
+    /// A law whose gain was measured per direction: `(gamma_rad, depth_per_speed_s)`, each
+    /// `gamma` in `[-pi/2, pi/2]` and each gain in `[0, MAX_DEPTH_PER_SPEED_S]`, one to
+    /// [`MAX_SPEED_LAW_DIRECTIONS`] distinct directions in any order.
+    pub fn by_direction(
+        ref_speed_m_s: f64,
+        gains: &[(f64, f64)],
         max_speed_m_s: f64,
     ) -> Result<RftSpeedLaw, ModelError> {
         let ref_speed_m_s = positive("RFT calibration speed (m/s)", ref_speed_m_s)?;
@@ -353,40 +378,122 @@ impl RftSpeedLaw {
                 range: format!("[{ref_speed_m_s}, inf)"),
             });
         }
-        let depth_per_speed_s = finite("RFT speed gain (s)", depth_per_speed_s)?;
-        if !(0.0..=Self::MAX_DEPTH_PER_SPEED_S).contains(&depth_per_speed_s) {
+        if gains.is_empty() || gains.len() > MAX_SPEED_LAW_DIRECTIONS {
             return Err(ModelError::OutOfRange {
-                what: "RFT speed gain (s)",
-                value: depth_per_speed_s,
-                range: format!("[0, {}]", Self::MAX_DEPTH_PER_SPEED_S),
+                what: "RFT speed law's directions",
+                value: gains.len() as f64,
+                range: format!("[1, {MAX_SPEED_LAW_DIRECTIONS}]"),
             });
+        }
+        let mut table = [(0.0, 0.0); MAX_SPEED_LAW_DIRECTIONS];
+        for (slot, &(gamma, k)) in table.iter_mut().zip(gains) {
+            let gamma = finite("RFT speed law's direction gamma (rad)", gamma)?;
+            if gamma.abs() > FRAC_PI_2 + 1e-9 {
+                return Err(ModelError::OutOfRange {
+                    what: "RFT speed law's direction gamma (rad)",
+                    value: gamma,
+                    range: "[-pi/2, pi/2]".into(),
+                });
+            }
+            let k = finite("RFT speed gain (s)", k)?;
+            if !(0.0..=Self::MAX_DEPTH_PER_SPEED_S).contains(&k) {
+                return Err(ModelError::OutOfRange {
+                    what: "RFT speed gain (s)",
+                    value: k,
+                    range: format!("[0, {}]", Self::MAX_DEPTH_PER_SPEED_S),
+                });
+            }
+            *slot = (gamma, k);
+        }
+        let given = &mut table[..gains.len()];
+        given.sort_by(|a, b| a.0.total_cmp(&b.0));
+        if let Some(w) = given.windows(2).find(|w| w[1].0 - w[0].0 < 1e-9) {
+            return Err(ModelError::OutOfRange {
+                what: "RFT speed law's direction gamma (rad), given twice",
+                value: w[0].0,
+                range: "distinct directions".into(),
+            });
+        }
+        let mut sines = [0.0; MAX_SPEED_LAW_DIRECTIONS];
+        for (s, g) in sines.iter_mut().zip(&table) {
+            *s = g.0.sin();
         }
         Ok(RftSpeedLaw {
             ref_speed_m_s,
-            depth_per_speed_s,
+            gains: table,
+            sines,
+            directions: gains.len(),
             max_speed_m_s,
         })
     }
 
-    /// The depth (m) the dynamic stress of an element moving at `speed_m_s` is worth: 0 at or
-    /// below the calibration speed, and for a speed that is not finite (none is known); above
-    /// the fastest speed measured, that speed's.
-    pub fn extra_depth_m(&self, speed_m_s: f64) -> f64 {
-        if speed_m_s.is_finite() {
+    /// The gains as measured: `(gamma_rad, depth_per_speed_s)`, ascending in `gamma`.
+    pub fn gains(&self) -> &[(f64, f64)] {
+        &self.gains[..self.directions]
+    }
+
+    /// `k` (s) for a motion at `gamma_rad` below the horizontal: linear in `sin gamma` between
+    /// the directions measured, the nearest one's beyond them.
+    pub fn depth_per_speed_s(&self, gamma_rad: f64) -> f64 {
+        self.gain_at_sine(gamma_rad.clamp(-FRAC_PI_2, FRAC_PI_2).sin())
+    }
+
+    /// `k` (s) for a motion whose downward share of the speed is `sine`.
+    fn gain_at_sine(&self, sine: f64) -> f64 {
+        let (sines, g) = (&self.sines[..self.directions], self.gains());
+        let i = sines.partition_point(|&a| a <= sine);
+        match (i.checked_sub(1), i < sines.len()) {
+            (Some(j), true) => {
+                g[j].1 + (sine - sines[j]) / (sines[i] - sines[j]) * (g[i].1 - g[j].1)
+            }
+            (Some(j), false) => g[j].1,
+            (None, true) => g[0].1,
+            (None, false) => 0.0,
+        }
+    }
+
+    /// The depth (m) the dynamic stress of an element moving at `speed_m_s` in the direction
+    /// `gamma_rad` below the horizontal is worth: 0 at or below the calibration speed, and for a
+    /// speed or direction that is not finite (none is known); above the fastest speed
+    /// measured, that speed's.
+    pub fn extra_depth_m(&self, speed_m_s: f64, gamma_rad: f64) -> f64 {
+        if speed_m_s.is_finite() && gamma_rad.is_finite() {
             let v = speed_m_s.min(self.max_speed_m_s);
-            self.depth_per_speed_s * (v - self.ref_speed_m_s).max(0.0)
+            self.depth_per_speed_s(gamma_rad) * (v - self.ref_speed_m_s).max(0.0)
         } else {
             0.0
         }
     }
+
+    /// [`Self::extra_depth_m`] of a velocity `(vx, vz)` (z up).
+    pub fn extra_depth_of_velocity_m(&self, vx: f64, vz: f64) -> f64 {
+        let speed = vx.hypot(vz);
+        if !(speed.is_finite() && speed > self.ref_speed_m_s) {
+            return 0.0;
+        }
+        let v = speed.min(self.max_speed_m_s);
+        self.gain_at_sine((-vz / speed).clamp(-1.0, 1.0)) * (v - self.ref_speed_m_s)
+    }
+
+    /// The gains for people: "0.0290 s moving at 90 deg, ..., 0.0051 s at -90 deg" (below the
+    /// horizontal; negative: upward, out of the bed).
+    pub fn gains_text(&self) -> String {
+        self.gains()
+            .iter()
+            .rev()
+            .map(|&(g, k)| format!("{k:.4} s at {:.0} deg", g.to_degrees()))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
 }
 
-/// Intrusions of a plate element from the surface at several speeds, sample by sample: rows of
+/// A plate element moved through the bed at several speeds, sample by sample: rows of
 /// `speed_m_s,beta_rad,gamma_rad,length_m,width_m,depth_m,drag_n,lift_n` (the DEM campaign's
-/// `rft_entry.csv`): the element's attack angle, intrusion angle below the horizontal, length
-/// and width, its centre's depth below the surface, and the force on it (drag resisting the
-/// motion's horizontal part, lift up). The slowest speed is the calibration's: every faster
-/// intrusion is compared with the slowest of the same element and angles, depth for depth.
+/// `rft_entry.csv`: into the bed from its surface, across it and out of it): the element's
+/// attack angle, intrusion angle below the horizontal (negative: upward), length and width, its
+/// centre's depth below the surface, and the force on it (drag resisting the motion's
+/// horizontal part, lift up). The slowest speed is the calibration's: every faster intrusion is
+/// compared with the slowest of the same element and angles, depth for depth.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RftSpeedTable {
     rows: Vec<[f64; 8]>,
@@ -397,10 +504,14 @@ pub struct RftSpeedTable {
 pub struct RftSpeedFit {
     /// The law.
     pub law: RftSpeedLaw,
-    /// The share of the force's change from the calibration speed that the law explains.
+    /// The share of the force's change from the calibration speed that the law (its gain per
+    /// direction) explains, over every faster intrusion.
     pub explained: f64,
-    /// The same share for the other forms, each fitted alike: a dynamic stress growing with
-    /// `v^2 - v_ref^2` instead (inertia's), and a factor `1 + g (v - v_ref)` on the stress.
+    /// The same share with one gain for every direction: the law's form without the direction.
+    pub one_gain_explained: f64,
+    /// The same share for the other forms, each with one gain fitted alike: a dynamic stress
+    /// growing with `v^2 - v_ref^2` instead (inertia's), and a factor `1 + g (v - v_ref)` on
+    /// the stress.
     pub quadratic_explained: f64,
     /// See [`Self::quadratic_explained`].
     pub factor_law_explained: f64,
@@ -430,11 +541,13 @@ impl RftSpeedTable {
         Ok(RftSpeedTable { rows })
     }
 
-    /// The law's gain by least squares over both components of every sample of the faster
-    /// intrusions with the element in the medium, against the slowest intrusion of the same
-    /// element at the same depth (interpolated): `F(v) - F(v_ref) = alpha w l k (v - v_ref)`,
-    /// `alpha` from `coefficients` and `l` the element's submerged length. An error says what is
-    /// missing: a slowest intrusion for some element, a faster one, or a gain out of bounds.
+    /// The law's gain for each direction of motion in the table, by least squares over both
+    /// components of every sample of its faster intrusions with the element in the medium,
+    /// against the slowest intrusion of the same element at the same depth (interpolated):
+    /// `F(v) - F(v_ref) = alpha w l k (v - v_ref)`, `alpha` from `coefficients` and `l` the
+    /// element's submerged length. A direction where speed lowers the force gets no dynamic
+    /// stress (`k` = 0). An error says what is missing: a slowest intrusion for some element, a
+    /// faster one, or more directions than a law holds.
     pub fn fit(&self, coefficients: &RftCoefficients) -> Result<RftSpeedFit, String> {
         let v_ref = self.rows.iter().map(|r| r[0]).fold(f64::INFINITY, f64::min);
         let v_max = self.rows.iter().map(|r| r[0]).fold(0.0, f64::max);
@@ -450,28 +563,37 @@ impl RftSpeedTable {
         // Per component of each faster sample: the columns of the law, of the quadratic law
         // and of the factor law, and the change.
         let mut samples: Vec<[f64; 4]> = Vec::new();
+        // The direction (gamma) of each sample pair's intrusion.
+        let mut directions: Vec<f64> = Vec::new();
         let mut compared = 0;
         for run in intrusions.iter().filter(|run| run[0][0] > v_ref) {
             let e = run[0];
-            let mut reference: Vec<[f64; 3]> = intrusions
+            // Both move at a constant speed from the same start, sampled at a constant rate: a
+            // row's share of its intrusion's rows is its share of the travel. (Depth would not
+            // tell the points of a motion across the bed apart.)
+            let along = |rows: &[[f64; 8]]| -> Vec<[f64; 3]> {
+                let last = rows.len().saturating_sub(1).max(1) as f64;
+                rows.iter()
+                    .enumerate()
+                    .map(|(k, q)| [k as f64 / last, q[6], q[7]])
+                    .collect()
+            };
+            let reference: Vec<[f64; 3]> = intrusions
                 .iter()
-                .filter(|q| q[0][0] == v_ref && same(&q[0], &e))
-                .flatten()
-                .map(|q| [q[5], q[6], q[7]])
-                .collect();
+                .find(|q| q[0][0] == v_ref && same(&q[0], &e))
+                .map_or_else(Vec::new, |q| along(q));
             if reference.len() < 2 {
                 return Err(format!(
                     "no intrusion at the reference speed {v_ref} m/s for the element at beta {} rad, gamma {} rad, {} x {} m",
                     e[1], e[2], e[3], e[4]
                 ));
             }
-            reference.sort_by(|a, b| a[0].total_cmp(&b[0]));
             let (ax, az) = coefficients.alpha(e[1], e[2]);
             let (v, len, width) = (e[0], e[3], e[4]);
             let mut used = false;
-            for r in run {
+            for (r, at) in run.iter().zip(along(run)) {
                 let submerged = submerged_length_m(len, e[1], r[5]);
-                let Some([d0, l0]) = interpolate_by_depth(&reference, r[5]) else {
+                let Some([d0, l0]) = interpolate_along(&reference, at[0]) else {
                     continue;
                 };
                 if submerged <= 0.0 {
@@ -481,33 +603,74 @@ impl RftSpeedTable {
                 let (lin, quad) = (area * (v - v_ref), area * (v * v - v_ref * v_ref));
                 samples.push([ax * lin, ax * quad, (v - v_ref) * d0, r[6] - d0]);
                 samples.push([az * lin, az * quad, (v - v_ref) * l0, r[7] - l0]);
+                directions.extend([e[2], e[2]]);
                 used = true;
             }
             compared += usize::from(used);
         }
-        // The gain of column `c` by least squares, and the share of the change it explains.
-        let slope = |c: usize| {
-            let sxx: f64 = samples.iter().map(|t| t[c] * t[c]).sum();
-            let sxy: f64 = samples.iter().map(|t| t[c] * t[3]).sum();
-            let sst: f64 = samples.iter().map(|t| t[3] * t[3]).sum();
-            if sxx <= 0.0 {
-                return None;
-            }
-            let g = sxy / sxx;
-            let sse: f64 = samples.iter().map(|t| (t[3] - g * t[c]).powi(2)).sum();
-            Some((g, if sst > 0.0 { 1.0 - sse / sst } else { 0.0 }))
+        let sst: f64 = samples.iter().map(|t| t[3] * t[3]).sum();
+        let share = |sse: f64| if sst > 0.0 { 1.0 - sse / sst } else { 0.0 };
+        // The gain of column `c` by least squares over the samples `keep` takes.
+        let gain_of = |c: usize, keep: &dyn Fn(usize) -> bool| {
+            let (sxx, sxy) = samples
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| keep(*i))
+                .fold((0.0, 0.0), |(xx, xy), (_, t)| {
+                    (xx + t[c] * t[c], xy + t[c] * t[3])
+                });
+            (sxx > 0.0).then(|| sxy / sxx)
         };
-        let (Some((gain, explained)), Some((_, quadratic)), Some((_, factor))) =
-            (slope(0), slope(1), slope(2))
-        else {
+        // One gain for every sample, and the share of the change it explains.
+        let slope = |c: usize| {
+            let g = gain_of(c, &|_| true)?;
+            Some(share(
+                samples.iter().map(|t| (t[3] - g * t[c]).powi(2)).sum(),
+            ))
+        };
+        let (Some(one_gain), Some(quadratic), Some(factor)) = (slope(0), slope(1), slope(2)) else {
             return Err(format!(
                 "no intrusion faster than the reference speed {v_ref} m/s with the element in the medium"
             ));
         };
-        let law = RftSpeedLaw::new(v_ref, gain, v_max).map_err(|e| e.to_string())?;
+        // A gain per direction.
+        let mut gammas: Vec<f64> = Vec::new();
+        for &g in &directions {
+            if !gammas.iter().any(|&x| (x - g).abs() < 1e-6) {
+                gammas.push(g);
+            }
+        }
+        if gammas.len() > MAX_SPEED_LAW_DIRECTIONS {
+            return Err(format!(
+                "intrusions in {} directions: a speed law holds at most {MAX_SPEED_LAW_DIRECTIONS}",
+                gammas.len()
+            ));
+        }
+        let gains: Vec<(f64, f64)> = gammas
+            .iter()
+            .filter_map(|&g| {
+                let k = gain_of(0, &|i| (directions[i] - g).abs() < 1e-6)?;
+                Some((g, k.clamp(0.0, RftSpeedLaw::MAX_DEPTH_PER_SPEED_S)))
+            })
+            .collect();
+        let gain_at = |g: f64| {
+            gains
+                .iter()
+                .find(|(x, _)| (x - g).abs() < 1e-6)
+                .map_or(0.0, |p| p.1)
+        };
+        let explained = share(
+            samples
+                .iter()
+                .zip(&directions)
+                .map(|(t, &g)| (t[3] - gain_at(g) * t[0]).powi(2))
+                .sum(),
+        );
+        let law = RftSpeedLaw::by_direction(v_ref, &gains, v_max).map_err(|e| e.to_string())?;
         Ok(RftSpeedFit {
             law,
             explained,
+            one_gain_explained: one_gain,
             quadratic_explained: quadratic,
             factor_law_explained: factor,
             intrusions: compared,
@@ -526,16 +689,16 @@ fn submerged_length_m(length_m: f64, beta_r: f64, depth_m: f64) -> f64 {
     length_m * ((depth_m + half_drop) / (2.0 * half_drop)).clamp(0.0, 1.0)
 }
 
-/// `[drag, lift]` of rows `[depth, drag, lift]` (sorted by depth) at `depth_m`, linearly; none
-/// outside their depths.
-fn interpolate_by_depth(rows: &[[f64; 3]], depth_m: f64) -> Option<[f64; 2]> {
-    let i = rows.partition_point(|r| r[0] < depth_m);
+/// `[drag, lift]` of rows `[x, drag, lift]` (sorted by `x`: the share of the travel) at `x`,
+/// linearly; none outside them.
+fn interpolate_along(rows: &[[f64; 3]], x: f64) -> Option<[f64; 2]> {
+    let i = rows.partition_point(|r| r[0] < x);
     if i == 0 || i == rows.len() {
-        return (i < rows.len() && rows[i][0] == depth_m).then(|| [rows[i][1], rows[i][2]]);
+        return (i < rows.len() && rows[i][0] == x).then(|| [rows[i][1], rows[i][2]]);
     }
     let (a, b) = (rows[i - 1], rows[i]);
     let t = if b[0] > a[0] {
-        (depth_m - a[0]) / (b[0] - a[0])
+        (x - a[0]) / (b[0] - a[0])
     } else {
         0.0
     };
@@ -813,8 +976,12 @@ impl RftModel {
             // A turning leg's element moves at |omega| r about a still hip.
             let extra = match (&self.speed_law, moving) {
                 (None, _) => 0.0,
-                (Some(law), true) => law.extra_depth_m(vx.hypot(vz)),
-                (Some(law), false) => law.extra_depth_m((hip.omega_rad_s * r).abs()),
+                (Some(law), true) => law.extra_depth_of_velocity_m(vx, vz),
+                // Along n at omega r: n's direction, reversed for a rotation backward.
+                (Some(law), false) => {
+                    let w = hip.omega_rad_s * r;
+                    law.extra_depth_of_velocity_m(w * vx, w * vz)
+                }
             };
             let (d_drag, d_lift) = (
                 m * ax * N_CM3_TO_N_M3 * (depth + extra) * area,
@@ -925,7 +1092,7 @@ pub fn rft_leg_moving(
             // Mirror x when the element moves toward -x.
             let m = if vx < 0.0 { -1.0 } else { 1.0 };
             let (ax, az) = coefficients.alpha_along((m * tx, tz), (m * vx, vz));
-            let extra = speed_law.map_or(0.0, |law| law.extra_depth_m(vx.hypot(vz)));
+            let extra = speed_law.map_or(0.0, |law| law.extra_depth_of_velocity_m(vx, vz));
             let k = N_CM3_TO_N_M3 * (depth + extra) * width_m * len;
             // alpha_x resists the motion's horizontal part: F_x = -m ax k.
             let (fx, fz) = (-m * ax * k, az * k);
@@ -1300,12 +1467,18 @@ mod tests {
     #[test]
     fn the_speed_law_adds_depth_above_its_calibration_speed_only() {
         let law = RftSpeedLaw::new(0.05, 0.04, 1.0).unwrap();
-        assert_eq!(law.extra_depth_m(0.0), 0.0);
-        assert_eq!(law.extra_depth_m(0.05), 0.0);
-        assert!((law.extra_depth_m(0.85) - 0.04 * 0.8).abs() < 1e-12);
-        assert_eq!(law.extra_depth_m(f64::NAN), 0.0);
-        // Not extrapolated past its fastest speed: a glitch's 1000 m/s is 1 m/s.
-        assert_eq!(law.extra_depth_m(1000.0), law.extra_depth_m(1.0));
+        for gamma in [-FRAC_PI_2, 0.0, 1.0] {
+            assert_eq!(law.extra_depth_m(0.0, gamma), 0.0);
+            assert_eq!(law.extra_depth_m(0.05, gamma), 0.0);
+            assert!((law.extra_depth_m(0.85, gamma) - 0.04 * 0.8).abs() < 1e-12);
+            assert_eq!(law.extra_depth_m(f64::NAN, gamma), 0.0);
+            // Not extrapolated past its fastest speed: a glitch's 1000 m/s is 1 m/s.
+            assert_eq!(
+                law.extra_depth_m(1000.0, gamma),
+                law.extra_depth_m(1.0, gamma)
+            );
+        }
+        assert_eq!(law.extra_depth_m(0.85, f64::NAN), 0.0);
         let e = RftSpeedLaw::new(0.05, -0.2, 1.0).unwrap_err().to_string();
         assert!(e.contains("speed gain") && e.contains("-0.2"), "{e}");
         assert!(RftSpeedLaw::new(0.0, 0.5, 1.0).is_err());
@@ -1314,17 +1487,74 @@ mod tests {
         assert!(e.contains("fastest speed") && e.contains("0.01"), "{e}");
     }
 
+    #[test]
+    fn a_gain_measured_per_direction_is_taken_linearly_in_its_sine_between_them() {
+        // Into the bed at 0.03 s, across at 0.02 s, out of it at none; given in any order.
+        let law = RftSpeedLaw::by_direction(
+            0.05,
+            &[(0.0, 0.02), (-FRAC_PI_2, 0.0), (FRAC_PI_2, 0.03)],
+            0.8,
+        )
+        .unwrap();
+        assert_eq!(
+            law.gains(),
+            &[(-FRAC_PI_2, 0.0), (0.0, 0.02), (FRAC_PI_2, 0.03)]
+        );
+        // Linear in the sine of the direction: at 45 deg down, 0.707 of the way from across to
+        // straight down.
+        let half = FRAC_PI_4.sin();
+        assert!((law.depth_per_speed_s(FRAC_PI_4) - (0.02 + 0.01 * half)).abs() < 1e-12);
+        assert!((law.depth_per_speed_s(-FRAC_PI_4) - (0.02 - 0.02 * half)).abs() < 1e-12);
+        let (vx, vz) = (0.45 * half, -0.45 * half);
+        assert!(
+            (law.extra_depth_of_velocity_m(vx, vz) - law.extra_depth_m(0.45, FRAC_PI_4)).abs()
+                < 1e-12
+        );
+        // A velocity's direction: straight down, horizontal either way, straight up.
+        let v = 0.45;
+        assert!((law.extra_depth_of_velocity_m(0.0, -v) - 0.03 * 0.4).abs() < 1e-12);
+        assert!((law.extra_depth_of_velocity_m(v, 0.0) - 0.02 * 0.4).abs() < 1e-12);
+        assert!((law.extra_depth_of_velocity_m(-v, 0.0) - 0.02 * 0.4).abs() < 1e-12);
+        assert_eq!(law.extra_depth_of_velocity_m(0.0, v), 0.0);
+        assert_eq!(
+            law.gains_text(),
+            "0.0300 s at 90 deg, 0.0200 s at 0 deg, 0.0000 s at -90 deg"
+        );
+        // No direction, one given twice, one beyond straight down, a negative gain.
+        assert!(RftSpeedLaw::by_direction(0.05, &[], 0.8).is_err());
+        let e = RftSpeedLaw::by_direction(0.05, &[(0.3, 0.01), (0.3, 0.02)], 0.8)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("given twice") && e.contains("0.3"), "{e}");
+        assert!(RftSpeedLaw::by_direction(0.05, &[(2.0, 0.01)], 0.8).is_err());
+        assert!(RftSpeedLaw::by_direction(0.05, &[(0.0, -0.01)], 0.8).is_err());
+    }
+
     /// Intrusions from the surface of one element whose force follows RFT at depth plus
     /// `dynamic(v)` times its submerged length (N/m): the table written as the campaign writes it.
     fn entry_table(c: &RftCoefficients, dynamic: impl Fn(f64, f64) -> f64) -> String {
-        let mut text = format!("# made here\n{}\n", RftSpeedTable::COLUMNS);
-        let (len, width) = (0.025, 0.025);
-        for v in [0.05, 0.2, 0.8] {
-            for (b, g) in [
+        table_in(
+            c,
+            &[
                 (0.0, FRAC_PI_2),
                 (FRAC_PI_4, FRAC_PI_4),
                 (FRAC_PI_2, FRAC_PI_2),
-            ] {
+            ],
+            |v, depth, _| dynamic(v, depth),
+        )
+    }
+
+    /// [`entry_table`] for elements `(beta, gamma)`, the dynamic stress depending on `gamma`
+    /// too.
+    fn table_in(
+        c: &RftCoefficients,
+        elements: &[(f64, f64)],
+        dynamic: impl Fn(f64, f64, f64) -> f64,
+    ) -> String {
+        let mut text = format!("# made here\n{}\n", RftSpeedTable::COLUMNS);
+        let (len, width) = (0.025, 0.025);
+        for v in [0.05, 0.2, 0.8] {
+            for &(b, g) in elements {
                 let (ax, az) = c.alpha(b, g);
                 for i in 0..60 {
                     let depth = -0.01 + 0.001 * i as f64;
@@ -1337,7 +1567,7 @@ mod tests {
                             ls += len / 1000.0;
                         }
                     }
-                    let q = N_CM3_TO_N_M3 * width * iz + dynamic(v, depth) * ls;
+                    let q = N_CM3_TO_N_M3 * width * iz + dynamic(v, depth, g) * ls;
                     text += &format!("{v},{b},{g},{len},{width},{depth},{},{}\n", ax * q, az * q);
                 }
             }
@@ -1352,7 +1582,9 @@ mod tests {
         // A dynamic stress alpha k (v - v_ref), the same at every depth.
         let text = entry_table(&c, |v, _| N_CM3_TO_N_M3 * 0.025 * k * (v - 0.05));
         let fit = RftSpeedTable::parse(&text).unwrap().fit(&c).unwrap();
-        assert!((fit.law.depth_per_speed_s - k).abs() < 1e-3 * k, "{fit:?}");
+        for &(_, gain) in fit.law.gains() {
+            assert!((gain - k).abs() < 1e-3 * k, "{fit:?}");
+        }
         assert_eq!(
             (fit.law.ref_speed_m_s, fit.law.max_speed_m_s, fit.intrusions),
             (0.05, 0.8, 6)
@@ -1370,6 +1602,38 @@ mod tests {
         });
         let f = RftSpeedTable::parse(&factor).unwrap().fit(&c).unwrap();
         assert!(f.factor_law_explained > f.explained, "{f:?}");
+    }
+
+    #[test]
+    fn a_speed_table_in_several_directions_gives_each_its_gain() {
+        let c = RftCoefficients::Fit(RftFit::POPPY_LP);
+        // Into the bed and across it at 0.03 s; pulled out of it, none.
+        let text = table_in(
+            &c,
+            &[(0.0, FRAC_PI_2), (FRAC_PI_4, 0.0), (0.0, -FRAC_PI_2)],
+            |v, _, g| {
+                let k = if g < 0.0 { 0.0 } else { 0.03 };
+                N_CM3_TO_N_M3 * 0.025 * k * (v - 0.05)
+            },
+        );
+        let fit = RftSpeedTable::parse(&text).unwrap().fit(&c).unwrap();
+        let g = fit.law.gains();
+        assert_eq!(g.len(), 3, "{fit:?}");
+        assert!(g[0].0 == -FRAC_PI_2 && g[0].1 < 1e-6, "{fit:?}");
+        assert!(
+            (g[1].1 - 0.03).abs() < 3e-5 && (g[2].1 - 0.03).abs() < 3e-5,
+            "{fit:?}"
+        );
+        assert!(
+            fit.explained > 0.999 && fit.one_gain_explained < 0.97,
+            "{fit:?}"
+        );
+        // Where speed lowers the force, the law adds nothing (not a negative depth).
+        let lower = table_in(&c, &[(0.0, FRAC_PI_2), (0.0, -FRAC_PI_2)], |v, _, g| {
+            N_CM3_TO_N_M3 * 0.025 * 0.03 * (v - 0.05) * g.signum()
+        });
+        let fit = RftSpeedTable::parse(&lower).unwrap().fit(&c).unwrap();
+        assert_eq!(fit.law.depth_per_speed_s(-FRAC_PI_2), 0.0, "{fit:?}");
     }
 
     #[test]
