@@ -490,6 +490,13 @@ fn the_speed_law_has_the_form_the_dem_intrusions_show() {
     // The gain differs by direction: rising out of the bed at 45 deg, an element meets the
     // least dynamic stress, straight down the most.
     let gains = fit.law.gains();
+    // Written out (JSON), the law holds the five directions measured and nothing else.
+    let json = serde_json::to_value(fit.law).unwrap();
+    assert_eq!(
+        json["gains_gamma_rad_s"].as_array().unwrap().len(),
+        5,
+        "{json}"
+    );
     let least = gains.iter().min_by(|a, b| a.1.total_cmp(&b.1)).unwrap();
     let most = gains.iter().max_by(|a, b| a.1.total_cmp(&b.1)).unwrap();
     assert!(

@@ -328,7 +328,7 @@ fn bracket(axis: &[f64], x: f64) -> (usize, f64) {
 /// gain needs no angle computed. Above the fastest speed it was measured at the law is not extrapolated: the
 /// dynamic stress stays at that speed's (a joint stamp glitch that reads as thousands of rad/s
 /// must not make an element metres deeper).
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RftSpeedLaw {
     /// The speed of the calibration the coefficients come from (m/s).
     pub ref_speed_m_s: f64,
@@ -341,6 +341,18 @@ pub struct RftSpeedLaw {
     directions: usize,
     /// The fastest speed the law was measured at (m/s).
     pub max_speed_m_s: f64,
+}
+
+/// As written out: the gains measured, without the table's unused slots.
+impl serde::Serialize for RftSpeedLaw {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct;
+        let mut s = serializer.serialize_struct("RftSpeedLaw", 3)?;
+        s.serialize_field("ref_speed_m_s", &self.ref_speed_m_s)?;
+        s.serialize_field("gains_gamma_rad_s", self.gains())?;
+        s.serialize_field("max_speed_m_s", &self.max_speed_m_s)?;
+        s.end()
+    }
 }
 
 /// Directions of motion a speed law's gain can be given for, at most.
