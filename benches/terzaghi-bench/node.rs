@@ -131,6 +131,18 @@ struct Figures {
     count: u64,
 }
 
+/// The processing time a node printed when it stopped.
+impl From<&RunSummary> for Figures {
+    fn from(s: &RunSummary) -> Self {
+        Figures {
+            p50_us: s.processing_p50_ns as f64 / 1e3,
+            p99_us: s.processing_p99_ns as f64 / 1e3,
+            max_us: s.processing_max_ns as f64 / 1e3,
+            count: s.processing_count,
+        }
+    }
+}
+
 impl From<&Histogram> for Figures {
     fn from(h: &Histogram) -> Self {
         Figures {
@@ -380,12 +392,7 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
             node_peak_rss_kb,
             node_rss_kb_per_second: load.rss_kb,
             node_exit_clean,
-            node_processing: Figures {
-                p50_us: summary.processing_p50_ns as f64 / 1e3,
-                p99_us: summary.processing_p99_ns as f64 / 1e3,
-                max_us: summary.processing_max_ns as f64 / 1e3,
-                count: summary.processing_count,
-            },
+            node_processing: Figures::from(&summary),
             node_log_lines: text.lines().count(),
         };
         if a.json {
@@ -418,17 +425,12 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
     }
     let nr = Figures::from(&node_rt);
     let er = Figures::from(&echo_rt);
-    let processing = |s: &RunSummary| Figures {
-        p50_us: s.processing_p50_ns as f64 / 1e3,
-        p99_us: s.processing_p99_ns as f64 / 1e3,
-        max_us: s.processing_max_ns as f64 / 1e3,
-        count: s.processing_count,
-    };
-    let fixed_height_processing = fixed.as_ref().map(processing);
+    let node_processing = Figures::from(&summary);
+    let fixed_height_processing = fixed.as_ref().map(Figures::from);
     let ratio = |q: fn(&Figures) -> f64| {
         fixed_height_processing
             .as_ref()
-            .map(|f| q(&processing(&summary)) / q(f).max(1e-9))
+            .map(|f| q(&node_processing) / q(f).max(1e-9))
     };
     let report = Report {
         tf_ratio_p50: ratio(|f| f.p50_us),
@@ -437,12 +439,7 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
         legs: legs.joints.len(),
         rate_hz: a.rate_hz,
         seconds_each: a.seconds,
-        node_processing: Figures {
-            p50_us: summary.processing_p50_ns as f64 / 1e3,
-            p99_us: summary.processing_p99_ns as f64 / 1e3,
-            max_us: summary.processing_max_ns as f64 / 1e3,
-            count: summary.processing_count,
-        },
+        node_processing,
         round_trip_ratio_p50: nr.p50_us / er.p50_us.max(1e-9),
         round_trip_ratio_p99: nr.p99_us / er.p99_us.max(1e-9),
         node_round_trip: nr,
@@ -603,7 +600,7 @@ async fn client(
             }
         });
     }
-    let (to_echo, from_echo, mut second_wrench_subs) = match &legs.second {
+    let (to_echo, from_echo, second_wrench_subs) = match &legs.second {
         Second::Echo => (
             publisher::<JointState>(&mut node, "/bench/echo_in")?,
             Some(subscription::<JointState>(&mut node, "/bench/echo_out")?),
@@ -637,7 +634,7 @@ async fn client(
     let n_legs = legs.joints.len();
     let mut tasks = collect_wrenches(wrench_subs, n_legs, node_sent.clone(), node_hist.clone());
     tasks.extend(collect_wrenches(
-        std::mem::take(&mut second_wrench_subs),
+        second_wrench_subs,
         n_legs,
         echo_sent.clone(),
         echo_hist.clone(),

@@ -662,8 +662,9 @@ def intrude(cfg, name, workdir, bed, beta_r, gamma, plate_len=0.025, width=0.025
             depth0=0.03, travel=RFT_TRAVEL_M, speed=RFT_SPEED_M_S, cx0=0.0):
     """A plate element (plate_len x width) at attack angle beta_r, its centre at depth0 below
     the surface (negative: above it) and cx0 along x, moved `travel` in the direction gamma
-    below the horizontal at `speed`. Returns its force as rows (travel m, depth of the centre m, F_x N, F_z N), F_x
-    along +x (the motion's horizontal direction, or +x for a motion straight down) and F_z up."""
+    below the horizontal at `speed`. Returns its force as rows (travel m, depth of the centre m,
+    F_x N, F_z N), F_x along +x (the motion's horizontal direction, or +x for a motion straight
+    down) and F_z up."""
     dt = cfg["dt"]
     surface = bed["surface_z_m"]
     cx, cz = cx0, surface - depth0
@@ -902,10 +903,9 @@ class Campaign:
             f.write("# speed_m_s in the direction gamma below the horizontal (tests/dem/campaign.py --rft-entry):\n")
             f.write("# into it from the surface (gamma > 0: its lowest point starts 2 mm above the bed),\n")
             f.write("# across it (gamma 0, its centre %.0f mm deep) and out of it (gamma < 0, to its centre 2 mm\n" % (RFT_ACROSS_DEPTH_M * 1e3))
-            f.write("# deep). One row per\n")
-            f.write("# sample: the element's length (at attack angle beta) and width, its centre's depth below\n")
-            f.write("# the surface (negative above it); drag_n resists the motion's horizontal part, lift_n is\n")
-            f.write("# up. Angles as in rft_grid.csv.\n")
+            f.write("# deep). One row per sample, from the start of the motion: the element's length (at\n")
+            f.write("# attack angle beta) and width, its centre's depth below the surface (negative above it);\n")
+            f.write("# drag_n resists the motion's horizontal part, lift_n is up. Angles as in rft_grid.csv.\n")
             f.write("speed_m_s,beta_rad,gamma_rad,length_m,width_m,depth_m,drag_n,lift_n\n")
             for i in sorted(intrusions, key=lambda r: (r["speed_m_s"], r["gamma_rad"], r["beta_rad"])):
                 for moved, depth, fx, fz in i["rows"]:

@@ -343,10 +343,20 @@ pub struct NodeCore {
     tf_invalid_at_last_diag: u64,
 }
 
+/// `cfg`'s world frame and each leg's hip frame (if it has one), numbered in `tf`.
+fn state_frames(tf: &mut TfTree, cfg: &NodeConfig) -> (FrameId, Vec<Option<FrameId>>) {
+    let hips = cfg
+        .legs
+        .iter()
+        .map(|l| l.hip_frame.as_deref().map(|f| tf.frame(f)))
+        .collect();
+    (tf.frame(&cfg.robot_state.world_frame), hips)
+}
+
 impl NodeCore {
     pub fn new(cfg: NodeConfig) -> NodeCore {
         let mut tf = TfTree::default();
-        let world_frame = tf.frame(&cfg.robot_state.world_frame);
+        let (world_frame, hip_frames) = state_frames(&mut tf, &cfg);
         let mut core = NodeCore {
             legs: Vec::new(),
             params_out: Vec::new(),
@@ -359,7 +369,7 @@ impl NodeCore {
             gap_jobs: Vec::new(),
             tf,
             world_frame,
-            hip_frames: Vec::new(),
+            hip_frames,
             tf_invalid_at_last_diag: 0,
         };
         core.legs = (0..core.cfg.legs.len()).map(|i| core.new_leg(i)).collect();
@@ -371,13 +381,7 @@ impl NodeCore {
     /// `robot_state.body_frame`; the world's and the hips' frames numbered.
     fn install_hip_offsets(&mut self) {
         self.tf.place_hips(&self.cfg);
-        self.world_frame = self.tf.frame(&self.cfg.robot_state.world_frame);
-        self.hip_frames = self
-            .cfg
-            .legs
-            .iter()
-            .map(|l| l.hip_frame.as_deref().map(|f| self.tf.frame(f)))
-            .collect();
+        (self.world_frame, self.hip_frames) = state_frames(&mut self.tf, &self.cfg);
     }
 
     /// Handles one message: what it gives is appended to `out`.

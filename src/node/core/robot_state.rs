@@ -16,6 +16,10 @@ use std::collections::{HashMap, VecDeque};
 /// [`MAX_POSES_PER_FRAME`]).
 const HISTORY_NS: i64 = 2_000_000_000;
 const MAX_POSES_PER_FRAME: usize = 4096;
+/// Frames the tree numbers from transforms, at most (a large robot has a few hundred): a
+/// publisher naming ever new frames costs a counted skip each beyond it, not memory without
+/// bound.
+const MAX_FRAMES: usize = 1024;
 /// Frames followed from a hip up to the world, at most (a longer chain is a loop).
 const MAX_DEPTH: usize = 64;
 /// The hip's velocity: from its poses this long before the sample and at it.
@@ -51,8 +55,8 @@ pub struct TfTree {
     ids: HashMap<String, FrameId>,
     /// By frame number: the frame's link to its parent, once a transform gave one.
     links: Vec<Option<Link>>,
-    /// Transforms refused: non-finite values, a zero rotation, an invalid stamp, or a frame
-    /// that is its own parent.
+    /// Transforms refused: non-finite values, a zero rotation, an invalid stamp, a frame that is
+    /// its own parent, or a new frame beyond the most the tree numbers (1024).
     pub invalid: u64,
     /// The newest JointState stamp seen ([`TfTree::saw_joint_state`]).
     newest_joint_ns: Option<i64>,
@@ -198,6 +202,14 @@ impl TfTree {
                 continue;
             };
             if parent.is_empty() || child.is_empty() || parent == child {
+                self.invalid += 1;
+                continue;
+            }
+            let new_frames = [parent, child]
+                .iter()
+                .filter(|f| self.known(f).is_none())
+                .count();
+            if self.links.len() + new_frames > MAX_FRAMES {
                 self.invalid += 1;
                 continue;
             }
@@ -561,6 +573,34 @@ mod tests {
         let by_number = tree.hip_motion_of(&cfg(), world, hip, 0, 0.0).unwrap();
         assert_eq!(Ok(by_number), tree.hip_motion(&cfg(), "/fl_hip", 0, 0.0));
         assert!((by_number.height_m - (0.2 - 0.01)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_flood_of_new_frame_names_is_counted_not_kept() {
+        let mut tree = TfTree::default();
+        let hip = tree.frame("fl_hip");
+        for k in 0..MAX_FRAMES + 10 {
+            tree.insert(
+                &TfMessage {
+                    transforms: vec![tf("odom", &format!("junk_{k}"), 0, [0.0; 3], 0.0)],
+                },
+                false,
+            );
+        }
+        assert_eq!(tree.links.len(), MAX_FRAMES);
+        assert_eq!(
+            tree.invalid, 12,
+            "two frames taken before the flood: hip and odom"
+        );
+        // Frames already known still take transforms.
+        tree.insert(
+            &TfMessage {
+                transforms: vec![tf("odom", "fl_hip", 0, [0.0, 0.0, 0.2], 0.0)],
+            },
+            false,
+        );
+        let world = tree.frame("odom");
+        assert!(tree.hip_motion_of(&cfg(), world, hip, 0, 0.0).is_ok());
     }
 
     #[test]

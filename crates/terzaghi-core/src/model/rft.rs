@@ -321,11 +321,11 @@ fn bracket(axis: &[f64], x: f64) -> (usize, f64) {
 /// the surface, the extra force of speed appears from the first millimetres on and hardly grows
 /// with depth, which a factor on the stress (zero at the surface) cannot give; and it grows
 /// about in proportion to the speed (the table's fit compares the forms). The gain `k` depends
-/// on the direction of motion, the intrusion angle `gamma` below the horizontal: an element
-/// pushed into or across the bed meets the dynamic stress, one pulled out of it (upward) much
-/// less. `k` is measured per direction and taken linearly in `sin gamma` between them (the
-/// nearest one's beyond): the sine is the velocity's own downward share, so that an element's
-/// gain needs no angle computed. Above the fastest speed it was measured at the law is not extrapolated: the
+/// on the direction of motion, the intrusion angle `gamma` below the horizontal (in the DEM's
+/// medium it is largest pushed straight down and smallest rising at 45 deg). `k` is measured
+/// per direction and taken linearly in `sin gamma` between them (the nearest one's beyond): the
+/// sine is the velocity's own downward share, so that an element's gain needs no angle
+/// computed. Above the fastest speed it was measured at the law is not extrapolated: the
 /// dynamic stress stays at that speed's (a joint stamp glitch that reads as thousands of rad/s
 /// must not make an element metres deeper).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -469,22 +469,23 @@ impl RftSpeedLaw {
     /// speed or direction that is not finite (none is known); above the fastest speed
     /// measured, that speed's.
     pub fn extra_depth_m(&self, speed_m_s: f64, gamma_rad: f64) -> f64 {
-        if speed_m_s.is_finite() && gamma_rad.is_finite() {
-            let v = speed_m_s.min(self.max_speed_m_s);
-            self.depth_per_speed_s(gamma_rad) * (v - self.ref_speed_m_s).max(0.0)
-        } else {
-            0.0
-        }
+        self.extra_at_sine_m(speed_m_s, gamma_rad.clamp(-FRAC_PI_2, FRAC_PI_2).sin())
     }
 
     /// [`Self::extra_depth_m`] of a velocity `(vx, vz)` (z up).
     pub fn extra_depth_of_velocity_m(&self, vx: f64, vz: f64) -> f64 {
         let speed = vx.hypot(vz);
-        if !(speed.is_finite() && speed > self.ref_speed_m_s) {
-            return 0.0;
+        self.extra_at_sine_m(speed, (-vz / speed).clamp(-1.0, 1.0))
+    }
+
+    /// [`Self::extra_depth_m`] for a motion whose downward share of the speed is `sine`.
+    fn extra_at_sine_m(&self, speed_m_s: f64, sine: f64) -> f64 {
+        if speed_m_s.is_finite() && sine.is_finite() && speed_m_s > self.ref_speed_m_s {
+            let v = speed_m_s.min(self.max_speed_m_s);
+            self.gain_at_sine(sine) * (v - self.ref_speed_m_s)
+        } else {
+            0.0
         }
-        let v = speed.min(self.max_speed_m_s);
-        self.gain_at_sine((-vz / speed).clamp(-1.0, 1.0)) * (v - self.ref_speed_m_s)
     }
 
     /// The gains for people: "0.0290 s moving at 90 deg, ..., 0.0051 s at -90 deg" (below the
@@ -504,8 +505,10 @@ impl RftSpeedLaw {
 /// `rft_entry.csv`: into the bed from its surface, across it and out of it): the element's
 /// attack angle, intrusion angle below the horizontal (negative: upward), length and width, its
 /// centre's depth below the surface, and the force on it (drag resisting the motion's
-/// horizontal part, lift up). The slowest speed is the calibration's: every faster intrusion is
-/// compared with the slowest of the same element and angles, depth for depth.
+/// horizontal part, lift up). Each intrusion's rows run in order from the start of its motion,
+/// at a constant speed and sampling rate. The slowest speed is the calibration's: every faster
+/// intrusion is compared with the slowest of the same element and angles at the same share of
+/// its travel.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RftSpeedTable {
     rows: Vec<[f64; 8]>,
@@ -555,7 +558,8 @@ impl RftSpeedTable {
 
     /// The law's gain for each direction of motion in the table, by least squares over both
     /// components of every sample of its faster intrusions with the element in the medium,
-    /// against the slowest intrusion of the same element at the same depth (interpolated):
+    /// against the slowest intrusion of the same element at the same share of its travel
+    /// (interpolated):
     /// `F(v) - F(v_ref) = alpha w l k (v - v_ref)`, `alpha` from `coefficients` and `l` the
     /// element's submerged length. A direction where speed lowers the force gets no dynamic
     /// stress (`k` = 0). An error says what is missing: a slowest intrusion for some element, a
