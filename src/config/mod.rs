@@ -272,6 +272,15 @@ other_node:
             // A trough deeper than the leg is long, or negative.
             ("-p left.trough_depth_m:=0.3", "left.trough_depth_m"),
             ("-p left.trough_depth_m:=-0.01", "left.trough_depth_m"),
+            // A heap higher than the leg is long, or no number.
+            (
+                "-p left.trough_exit_depth_m:=-0.3",
+                "left.trough_exit_depth_m",
+            ),
+            (
+                "-p left.trough_exit_depth_m:=nan",
+                "left.trough_exit_depth_m",
+            ),
             // A speed law without RFT, one from no file, and one from the grid (not a speed table).
             (
                 "-p left.rft_speed_file:=tests/dem/campaign/rft_entry.csv",

@@ -80,10 +80,14 @@ pub struct LegConfig {
     pub rft: Option<RftCoefficients>,
     /// RFT's speed law, fitted to `<leg>.rft_speed_file`'s intrusions at several speeds.
     pub rft_speed: Option<crate::model::RftSpeedFit>,
-    /// How much lower the surface is where the leg's own earlier strokes passed (m); 0: the
-    /// surface is where it was. The robot's state (`hip_frame`) places the strokes; without it
-    /// the hip stays where configured, as on a testbed.
+    /// How much lower the surface is where the leg's own earlier strokes entered the medium
+    /// (m); 0 with `trough_exit_depth_m` 0: the surface is where it was. The robot's state
+    /// (`hip_frame`) places the strokes; without it the hip stays where configured, as on a
+    /// testbed.
     pub trough_depth_m: f64,
+    /// How much lower the surface is where those strokes left the medium (m; negative: the
+    /// heap of grains they pushed back), linearly between entry and exit.
+    pub trough_exit_depth_m: f64,
     /// The leg's shape: `None` for a flat plate, else its mid-line (`<leg>.shape` `c_leg` or
     /// `polyline`), which only RFT predicts.
     pub profile: Option<LegProfile>,
@@ -120,6 +124,7 @@ impl LegConfig {
             rft: None,
             rft_speed: None,
             trough_depth_m: 0.0,
+            trough_exit_depth_m: 0.0,
             profile: None,
             corrections: None,
         }
@@ -229,7 +234,7 @@ pub const STARTUP_ONLY: [&str; 5] = [
 ];
 
 /// Names of the per-leg parameters (`<leg>.<name>`).
-pub const LEG_KEYS: [&str; 25] = [
+pub const LEG_KEYS: [&str; 26] = [
     "joint",
     "direction",
     "angle_offset_rad",
@@ -255,6 +260,7 @@ pub const LEG_KEYS: [&str; 25] = [
     "hip_frame",
     "hip_offset_m",
     "trough_depth_m",
+    "trough_exit_depth_m",
 ];
 
 /// Global parameters and their defaults.
@@ -866,6 +872,19 @@ fn leg_config(
             ),
         ));
     }
+    // Unset, the trough is as deep where the earlier stroke left as where it entered.
+    let trough_exit_depth_m = g.f64(&k("trough_exit_depth_m"))?.unwrap_or(trough_depth_m);
+    let length_m = plate.length_m();
+    if !(trough_exit_depth_m.is_finite() && trough_exit_depth_m.abs() < length_m) {
+        return Err(invalid(
+            &k("trough_exit_depth_m"),
+            &trough_exit_depth_m,
+            format!(
+                "expected a depth in metres within the leg's length, {length_m} m, of 0 \
+                 (negative: a heap)"
+            ),
+        ));
+    }
     Ok(LegConfig {
         name: leg.to_string(),
         ft_topic_given: g.str(&k("ft_topic"))?.unwrap_or_default(),
@@ -882,6 +901,7 @@ fn leg_config(
         rft,
         rft_speed,
         trough_depth_m,
+        trough_exit_depth_m,
         profile,
         corrections,
         hip_frame,

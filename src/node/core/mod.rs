@@ -634,33 +634,39 @@ impl NodeCore {
     }
 
     /// `hip` (the robot's state's, or the configured still hip at position 0 when `None`)
-    /// `<leg>.trough_depth_m` higher above the surface where an earlier stroke of leg `i` dug
-    /// the ground it crosses at `beta_rad`; and that crossing.
+    /// higher above the surface by the trough earlier strokes of leg `i` left under its
+    /// submerged part at `beta_rad` (`<leg>.trough_depth_m`, `trough_exit_depth_m`; lower over
+    /// a heap); and that part's span.
     fn in_trough(
         &self,
         i: usize,
         hip: Option<HipMotion>,
         beta_rad: f64,
-    ) -> (Option<HipMotion>, Option<f64>) {
+    ) -> (Option<HipMotion>, Option<trough::Span>) {
         let lc = &self.cfg.legs[i];
-        if lc.trough_depth_m <= 0.0 {
+        if lc.trough_depth_m == 0.0 && lc.trough_exit_depth_m == 0.0 {
             return (hip, None);
         }
         let base = hip.unwrap_or_else(|| self.configured_hip(i));
-        let crossing = trough::Troughs::crossing_m(
+        let span = trough::Span::of_leg(
             base.forward_position_m,
             base.height_m,
             beta_rad + base.pitch_rad,
             lc.plate.length_m(),
         );
-        if !self.legs[i].troughs.dug(crossing) {
-            return (hip, crossing);
-        }
+        let Some(depth_m) =
+            self.legs[i]
+                .troughs
+                .depth_m(span, lc.trough_depth_m, lc.trough_exit_depth_m)
+        else {
+            return (hip, span);
+        };
+        // A heap never raises the surface above the hip.
         let hip = HipMotion {
-            height_m: base.height_m + lc.trough_depth_m,
+            height_m: (base.height_m + depth_m).max(0.0),
             ..base
         };
-        (Some(hip), crossing)
+        (Some(hip), span)
     }
 
     /// Leg `i`'s hip where configured, still; turning at the leg's rate where RFT's speed law
@@ -730,9 +736,9 @@ impl NodeCore {
             };
             let hip = self.hip_motion(i, stamp_ns, beta);
             let from_state = hip.is_some();
-            // A leg without a trough has no crossing, and its memory stays empty.
-            let (hip, crossing) = self.in_trough(i, hip, beta);
-            self.legs[i].troughs.observe(crossing);
+            // A leg without a trough has no span, and its memory stays empty.
+            let (hip, span) = self.in_trough(i, hip, beta);
+            self.legs[i].troughs.observe(span);
             let hip = self.with_surface(i, hip);
             let corrected = self.legs[i]
                 .corrected
