@@ -733,6 +733,34 @@ fn a_legs_own_trough_is_remembered_on_dem_strokes() {
         }
         assert_eq!(with[0], without[0], "{run}: the first stroke has no trough");
     }
+    // The C-leg's walk, given the flat leg's trough: its second stroke worse, as the docs say.
+    let cleg = |entry_exit: [&str; 2]| {
+        let p = [
+            format!("leg.trough_depth_m:={}", entry_exit[0]),
+            format!("leg.trough_exit_depth_m:={}", entry_exit[1]),
+        ];
+        let args = ["-p", p[0].as_str(), "-p", p[1].as_str()];
+        reevaluated_strokes(
+            "tests/dem/campaign/runs/mv_cleg_walk.mcap",
+            "launch_configs/dem_moving_hip_cleg.yaml",
+            &args,
+        )[1]
+    };
+    let (none, one, profile) = (
+        cleg(["0.0", "0.0"]),
+        cleg(["0.007", "0.007"]),
+        cleg(["0.020", "-0.016"]),
+    );
+    assert!(
+        profile.0 > none.0 && one.0 > none.0,
+        "{none:?} {one:?} {profile:?}"
+    );
+    for printed in [
+        format!("({:.3} against {:.3} N)", profile.0, none.0),
+        format!("({:.3} N)", one.0),
+    ] {
+        assert!(readme.contains(&printed), "the docs lack {printed}");
+    }
 }
 
 /// The surface's level learnt online (`estimator.fit_surface`) on DEM strokes, through `replay
