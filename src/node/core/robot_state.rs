@@ -205,15 +205,14 @@ impl TfTree {
                 self.invalid += 1;
                 continue;
             }
-            let new_frames = [parent, child]
-                .iter()
-                .filter(|f| self.known(f).is_none())
-                .count();
+            let known = (self.known(parent), self.known(child));
+            let new_frames = usize::from(known.0.is_none()) + usize::from(known.1.is_none());
             if self.links.len() + new_frames > MAX_FRAMES {
                 self.invalid += 1;
                 continue;
             }
-            let (parent, child) = (self.frame(parent), self.frame(child));
+            let parent = known.0.unwrap_or_else(|| self.frame(parent));
+            let child = known.1.unwrap_or_else(|| self.frame(child));
             let link = self.links[child.0].get_or_insert_with(|| Link {
                 parent,
                 fixed: None,

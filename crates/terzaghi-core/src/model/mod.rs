@@ -299,8 +299,10 @@ impl ForceModel {
     pub fn predict_moving(&self, beta_rad: f64, hip: &HipMotion) -> Result<Prediction, ModelError> {
         match self {
             ForceModel::Terzaghi(m) => m
-                .with_hip_height_m(hip.height_m)?
-                .evaluate(finite("attack angle beta (rad)", beta_rad)? + hip.pitch_rad)
+                .evaluate_at_height(
+                    finite("attack angle beta (rad)", beta_rad)? + hip.pitch_rad,
+                    hip.height_m,
+                )
                 .map(|f| f.prediction()),
             ForceModel::Rft(m) => m.evaluate_moving(beta_rad, hip),
         }

@@ -209,12 +209,32 @@ impl TerzaghiModel {
     /// ```
     pub fn evaluate(&self, beta_rad: f64) -> Result<TerzaghiForce, ModelError> {
         let beta = wrap_beta_rad(finite("attack angle beta (rad)", beta_rad)?);
-        let f = self.evaluate_wrapped(beta);
+        self.checked(self.evaluate_wrapped(beta))
+    }
+
+    /// Forces at attack angle `beta_rad` with the hip at `hip_height_m` above the surface: what
+    /// `with_hip_height_m(hip_height_m)?.evaluate(beta_rad)` gives, without building that
+    /// model (the node's path for a hip the robot's state places, every sample of every leg).
+    pub fn evaluate_at_height(
+        &self,
+        beta_rad: f64,
+        hip_height_m: f64,
+    ) -> Result<TerzaghiForce, ModelError> {
+        let h = finite("hip height (m)", hip_height_m)?.max(0.0);
+        let plate = Plate::new(self.plate.length_m(), self.plate.width_m(), h)?;
+        let beta = wrap_beta_rad(finite("attack angle beta (rad)", beta_rad)?);
+        // The trigonometry is skipped only where the plate points up; the submerged length
+        // decides the rest, as the entry angle's range would (without its asin).
+        self.checked(self.evaluate_wrapped_on(&plate, (0.0, PI), beta))
+    }
+
+    /// `f`, or the overflow error of its angle where a force is not finite.
+    fn checked(&self, f: TerzaghiForce) -> Result<TerzaghiForce, ModelError> {
         if f.hip_torque_nm.is_finite() && f.drag_n.is_finite() && f.lift_n.is_finite() {
             Ok(f)
         } else {
             Err(ModelError::Overflow {
-                beta_deg: beta.to_degrees(),
+                beta_deg: f.beta_rad.to_degrees(),
                 phi_deg: self.medium.phi_deg(),
             })
         }
@@ -222,13 +242,24 @@ impl TerzaghiModel {
 
     /// [`TerzaghiModel::evaluate`] for an angle already wrapped to `[0, 2pi)`.
     fn evaluate_wrapped(&self, beta: f64) -> TerzaghiForce {
-        let (lo, hi) = self.submerged_rad;
+        self.evaluate_wrapped_on(&self.plate, self.submerged_rad, beta)
+    }
+
+    /// The forces on `plate` (this model's, or its hip elsewhere) at a wrapped `beta`; the
+    /// trigonometry skipped outside `submerged_rad`, where the plate is out of the medium.
+    fn evaluate_wrapped_on(
+        &self,
+        plate: &Plate,
+        submerged_rad: (f64, f64),
+        beta: f64,
+    ) -> TerzaghiForce {
+        let (lo, hi) = submerged_rad;
         let (sin_b, cos_b) = if (lo..=hi).contains(&beta) {
             beta.sin_cos()
         } else {
             (0.0, 1.0) // out of the medium for certain; only l_s <= 0 is used
         };
-        let l_s = self.plate.submerged_length_at_sin_m(sin_b);
+        let l_s = plate.submerged_length_at_sin_m(sin_b);
         if l_s <= 0.0 {
             return TerzaghiForce {
                 beta_rad: beta,
@@ -245,7 +276,7 @@ impl TerzaghiModel {
             };
         }
         let c = &self.c;
-        let b_e = self.plate.width_m() * self.width.b_k() * (-beta * self.ln_a).exp();
+        let b_e = plate.width_m() * self.width.b_k() * (-beta * self.ln_a).exp();
         let w = b_e * c.lambda; // N/m^3 * m = N/m^2 per unit side-view area
         let theta = c.theta_end - beta; // Eq. (13)
         let d_perp = 2.0 / 3.0 * l_s; // Eq. (21)
@@ -312,7 +343,7 @@ impl TerzaghiModel {
             normal_n: normal,
             tangential_n: tangential,
             // h / sin(beta) = l - l_s: the arm of F_pN about the hip.
-            hip_torque_nm: normal * (self.plate.length_m() - l_s + d_perp),
+            hip_torque_nm: normal * (plate.length_m() - l_s + d_perp),
             regime,
             terms,
         }
@@ -368,6 +399,30 @@ mod tests {
             }
             assert!(skipped > 10_000, "h {h_m}: only {skipped} angles skipped");
         }
+    }
+
+    /// A hip placed sample by sample: the same forces, bit for bit, as the model built for that
+    /// height, and its errors for a bad height or angle.
+    #[test]
+    fn evaluating_at_a_height_is_the_model_built_for_it() {
+        let model = case_a(1.3, 0.7);
+        for h_m in [-0.01, 0.0, 0.02, 0.15, 0.2499999, 0.25, 0.4] {
+            let built = model.with_hip_height_m(h_m).unwrap();
+            for i in -100..=800 {
+                let beta = i as f64 * TAU / 700.0;
+                let (got, want) = (
+                    model.evaluate_at_height(beta, h_m).unwrap(),
+                    built.evaluate(beta).unwrap(),
+                );
+                assert_eq!(
+                    format!("{got:?}"),
+                    format!("{want:?}"),
+                    "h {h_m} beta {beta}"
+                );
+            }
+        }
+        assert!(model.evaluate_at_height(1.0, f64::NAN).is_err());
+        assert!(model.evaluate_at_height(f64::INFINITY, 0.1).is_err());
     }
 
     fn assert_rel(got: f64, want: f64, what: &str) {
