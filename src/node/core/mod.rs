@@ -591,15 +591,9 @@ impl NodeCore {
             _ => 0.0,
         };
         self.legs[i].omega_rad_s = omega;
-        let hip = (*self.hip_frames.get(i)?)?;
+        let state = self.state_hip(i, stamp_ns, omega)?;
         let c = &mut self.legs[i].counters;
-        match self.tf.hip_motion_of(
-            &self.cfg.robot_state,
-            self.world_frame,
-            hip,
-            stamp_ns,
-            omega,
-        ) {
+        match state {
             Ok(h) => {
                 c.state_used += 1;
                 Some(h)
@@ -619,18 +613,26 @@ impl NodeCore {
     /// leg the robot's state places; not counted (its prediction was).
     fn hip_at(&self, leg: usize, stamp_ns: i64, beta_rad: f64) -> Option<HipMotion> {
         let omega = self.legs.get(leg)?.omega_rad_s;
-        let hip = self.hip_frames.get(leg).copied().flatten().and_then(|hip| {
-            self.tf
-                .hip_motion_of(
-                    &self.cfg.robot_state,
-                    self.world_frame,
-                    hip,
-                    stamp_ns,
-                    omega,
-                )
-                .ok()
-        });
+        let hip = self.state_hip(leg, stamp_ns, omega).and_then(Result::ok);
         self.in_trough(leg, hip, beta_rad).0
+    }
+
+    /// Leg `i`'s hip at `stamp_ns` from the robot's state (`None`: the leg has no
+    /// `hip_frame`), turning at `omega_rad_s`.
+    fn state_hip(
+        &self,
+        i: usize,
+        stamp_ns: i64,
+        omega_rad_s: f64,
+    ) -> Option<Result<HipMotion, NoState>> {
+        let hip = (*self.hip_frames.get(i)?)?;
+        Some(self.tf.hip_motion_of(
+            &self.cfg.robot_state,
+            self.world_frame,
+            hip,
+            stamp_ns,
+            omega_rad_s,
+        ))
     }
 
     /// `hip` (the robot's state's, or the configured still hip at position 0 when `None`)

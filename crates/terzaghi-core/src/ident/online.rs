@@ -443,8 +443,7 @@ impl OnlineEstimator {
         let f = match hip {
             Some(h) => self
                 .unit
-                .with_hip_height_m(h.height_m)
-                .and_then(|m| m.evaluate(s.beta_rad + h.pitch_rad)),
+                .evaluate_at_height(s.beta_rad + h.pitch_rad, h.height_m),
             None => self.unit.evaluate(s.beta_rad),
         }
         .map_err(|_| Skip::NonFinite)?;
