@@ -96,6 +96,60 @@ fn isometry(t: &TransformStamped) -> Option<Isometry3<f64>> {
     ))
 }
 
+/// The pose a fraction `t` of the way from `p0` to `p1`: the translation linear, the rotation
+/// spherical (as tf2 interpolates). Between poses less than a degree apart (a robot's state at
+/// hundreds of hertz) the normalised linear blend of the quaternions is used: it differs from the
+/// spherical one by less than 1e-7 rad there and takes no `acos` and `sin`.
+fn interpolate(p0: &Isometry3<f64>, p1: &Isometry3<f64>, t: f64) -> Isometry3<f64> {
+    let translation = p0.translation.vector.lerp(&p1.translation.vector, t);
+    let (q0, q1) = (p0.rotation, p1.rotation);
+    let cos_half = q0.coords.dot(&q1.coords);
+    let rotation = if cos_half.abs() >= NLERP_COS_HALF_ANGLE {
+        // The shorter way round: q and -q are the same rotation.
+        let q1 = if cos_half < 0.0 {
+            -q1.into_inner()
+        } else {
+            q1.into_inner()
+        };
+        UnitQuaternion::new_normalize(q0.into_inner().lerp(&q1, t))
+    } else {
+        q0.slerp(&q1, t)
+    };
+    Isometry3::from_parts(Translation3::from(translation), rotation)
+}
+
+/// The cosine of half of one degree: rotations closer than that are blended linearly.
+const NLERP_COS_HALF_ANGLE: f64 = 0.999_961_923_064_171_3;
+
+/// How many of `poses` (in stamp order) are stamped at or before `stamp`, as `partition_point`
+/// counts them, searched from the newest: the stamps a node asks for are among the last few
+/// of a history of thousands, so the search reads a few neighbouring entries instead of a
+/// binary search's scattered ones.
+fn at_or_before(poses: &VecDeque<(i64, Isometry3<f64>)>, stamp: i64) -> usize {
+    // Galloping back from the newest: every pose from `hi` on is after `stamp`.
+    let (mut lo, mut hi) = (0, poses.len());
+    let mut step = 1;
+    while hi > 0 {
+        let probe = hi.saturating_sub(step);
+        if poses[probe].0 <= stamp {
+            lo = probe + 1;
+            break;
+        }
+        hi = probe;
+        step *= 2;
+    }
+    // Then a binary search between: every pose before `lo` is at or before `stamp`.
+    while lo < hi {
+        let mid = lo + (hi - lo) / 2;
+        if poses[mid].0 <= stamp {
+            lo = mid + 1;
+        } else {
+            hi = mid;
+        }
+    }
+    lo
+}
+
 /// Frame names as tf2 compares them: without a leading `/`.
 fn frame_name(name: &str) -> &str {
     name.strip_prefix('/').unwrap_or(name)
@@ -229,7 +283,7 @@ impl TfTree {
                 continue;
             }
             // Kept in stamp order; a late one is put in its place.
-            let at = link.poses.partition_point(|(s, _)| *s <= stamp);
+            let at = at_or_before(&link.poses, stamp);
             if at > 0 && link.poses[at - 1].0 == stamp {
                 link.poses[at - 1].1 = pose;
             } else {
@@ -256,7 +310,7 @@ impl TfTree {
         if let Some(f) = link.fixed {
             return Ok(f);
         }
-        let at = link.poses.partition_point(|(s, _)| *s <= stamp);
+        let at = at_or_before(&link.poses, stamp);
         let before = at.checked_sub(1).map(|i| link.poses[i]);
         let after = link.poses.get(at).copied();
         match (before, after) {
@@ -265,7 +319,7 @@ impl TfTree {
                     return Err(NoState::Stale);
                 }
                 let t = (stamp - s0) as f64 / (s1 - s0) as f64;
-                Ok(p0.lerp_slerp(&p1, t))
+                Ok(interpolate(&p0, &p1, t))
             }
             (Some((s, p)), None) | (None, Some((s, p))) => {
                 if (stamp - s).abs() <= max_age_ns {
@@ -287,29 +341,39 @@ impl TfTree {
         max_age_ns: i64,
     ) -> Result<Isometry3<f64>, NoState> {
         let mut id = child;
-        // `pose` takes `child`'s coordinates into `id`'s.
-        let mut pose = Isometry3::identity();
+        // `pose` takes `child`'s coordinates into `id`'s (`None`: the identity, not multiplied).
+        let mut pose: Option<Isometry3<f64>> = None;
         // The first frame above `child`, and `child` in it: its world pose is remembered.
         let mut above: Option<(FrameId, Isometry3<f64>)> = None;
+        // `above`'s coordinates into `id`'s, once `id` is past it (`None`: the identity).
+        let mut above_pose: Option<Isometry3<f64>> = None;
         for _ in 0..MAX_DEPTH {
             if id == world {
-                self.remember(world, above, stamp, max_age_ns, &pose);
-                return Ok(pose);
+                if let Some((frame, _)) = above {
+                    let above_in_world = above_pose.unwrap_or_else(Isometry3::identity);
+                    self.remember(world, frame, stamp, max_age_ns, above_in_world);
+                }
+                return Ok(pose.unwrap_or_else(Isometry3::identity));
             }
-            if above.is_some()
+            if let Some((_, child_in_above)) = above
                 && let Some(known) = self.remembered(world, id, stamp, max_age_ns)
             {
-                return Ok(known * pose);
+                return Ok(known * child_in_above);
             }
             let link = self
                 .links
                 .get(id.0)
                 .and_then(Option::as_ref)
                 .ok_or(NoState::Unknown)?;
-            pose = Self::link_at(link, stamp, max_age_ns)? * pose;
+            let step = Self::link_at(link, stamp, max_age_ns)?;
+            if above.is_some() {
+                above_pose = Some(above_pose.map_or(step, |p| step * p));
+            }
+            let to_parent = pose.map_or(step, |p| step * p);
+            pose = Some(to_parent);
             id = link.parent;
             if above.is_none() && id != world {
-                above = Some((id, pose));
+                above = Some((id, to_parent));
             }
         }
         Err(NoState::Unknown)
@@ -322,9 +386,19 @@ impl TfTree {
         stamp: i64,
         max_age_ns: i64,
     ) -> Option<Isometry3<f64>> {
-        self.memo
-            .borrow()
+        // Newest first: the legs of one JointState ask for the stamps just remembered.
+        let memo = self.memo.borrow();
+        // Full, the entries before `memo_next` were written last, the newest just before it.
+        let split = if memo.len() < MEMO_ENTRIES {
+            memo.len()
+        } else {
+            self.memo_next.get()
+        };
+        let (recent, earlier) = memo.split_at(split);
+        recent
             .iter()
+            .rev()
+            .chain(earlier.iter().rev())
             .find(|e| {
                 e.stamp == stamp
                     && e.frame == frame
@@ -334,25 +408,21 @@ impl TfTree {
             .map(|e| e.pose)
     }
 
-    /// Remembers the world pose of `above` (a frame and the looked-up child in it), given the
-    /// child's world pose `child_in_world`.
+    /// Remembers `frame`'s pose in `world` at `stamp` (looked up with `max_age_ns`).
     fn remember(
         &self,
         world: FrameId,
-        above: Option<(FrameId, Isometry3<f64>)>,
+        frame: FrameId,
         stamp: i64,
         max_age_ns: i64,
-        child_in_world: &Isometry3<f64>,
+        pose: Isometry3<f64>,
     ) {
-        let Some((frame, child_in_above)) = above else {
-            return;
-        };
         let entry = MemoEntry {
             world,
             frame,
             stamp,
             max_age_ns,
-            pose: child_in_world * child_in_above.inverse(),
+            pose,
         };
         let mut memo = self.memo.borrow_mut();
         if memo.len() < MEMO_ENTRIES {
@@ -395,15 +465,20 @@ impl TfTree {
         let max_age = (cfg.max_age_s * 1e9) as i64;
         let pose = self.lookup(world, hip, stamp, max_age)?;
         let p = pose.translation.vector;
-        // The pitch of roll-pitch-yaw (as `euler_angles` gives it): -asin of the rotation
-        // matrix's (2, 0), 2 (x z - w y) for the unit quaternion.
+        // The hip frame's x axis in the world: the rotation matrix's first column, from the
+        // unit quaternion.
         let q = pose.rotation.quaternion();
-        let pitch = -(2.0 * (q.i * q.k - q.w * q.j)).clamp(-1.0, 1.0).asin();
+        let x = Vector3::new(
+            1.0 - 2.0 * (q.j * q.j + q.k * q.k),
+            2.0 * (q.i * q.j + q.w * q.k),
+            2.0 * (q.i * q.k - q.w * q.j),
+        );
+        // The pitch of roll-pitch-yaw (as `euler_angles` gives it): -asin of the matrix's (2, 0).
+        let pitch = -x.z.clamp(-1.0, 1.0).asin();
         // The robot's forward: the hip frame's x, horizontal.
-        let x = pose.rotation * Vector3::x();
-        let horizontal = Vector3::new(x.x, x.y, 0.0);
-        let forward = if horizontal.norm() > 1e-9 {
-            horizontal.normalize()
+        let horizontal_norm = (x.x * x.x + x.y * x.y).sqrt();
+        let forward = if horizontal_norm > 1e-9 {
+            Vector3::new(x.x / horizontal_norm, x.y / horizontal_norm, 0.0)
         } else {
             Vector3::zeros()
         };
@@ -626,5 +701,104 @@ mod tests {
             tree.hip_motion(&cfg(), "fl_hip", 0, 0.0),
             Err(NoState::Unknown)
         );
+    }
+
+    #[test]
+    fn a_small_turn_is_interpolated_as_slerp_does_and_a_large_one_by_slerp() {
+        let pose = |pitch: f64, yaw: f64| {
+            Isometry3::from_parts(
+                Translation3::new(0.1, -0.2, 0.3),
+                UnitQuaternion::from_euler_angles(0.2, pitch, yaw),
+            )
+        };
+        // Up to a degree apart, and one of them given as -q (the same rotation).
+        for (a, b) in [(0.0, 0.9f64.to_radians()), (0.3, 0.3 + 1e-4), (-0.1, -0.1)] {
+            let (p0, mut p1) = (pose(a, 0.1), pose(b, 0.1 + 1e-3));
+            for flip in [false, true] {
+                if flip {
+                    p1.rotation = UnitQuaternion::new_unchecked(-p1.rotation.into_inner());
+                }
+                for t in [0.0, 0.1, 0.25, 0.5, 0.8, 1.0] {
+                    let ours = interpolate(&p0, &p1, t);
+                    let tf2 = p0.lerp_slerp(&p1, t);
+                    assert!(ours.rotation.angle_to(&tf2.rotation) < 1e-7, "{a} {b} {t}");
+                    assert!((ours.translation.vector - tf2.translation.vector).norm() < 1e-15);
+                }
+            }
+        }
+        // Further apart: slerp itself.
+        let (p0, p1) = (pose(0.0, 0.0), pose(0.5, 0.2));
+        assert_eq!(interpolate(&p0, &p1, 0.3), p0.lerp_slerp(&p1, 0.3));
+    }
+
+    #[test]
+    fn remembered_poses_give_what_a_walk_through_the_tree_gives() {
+        // Two trees alike; the second forgets what it remembered before every lookup.
+        let (mut fast, mut walked) = (TfTree::default(), TfTree::default());
+        for tree in [&mut fast, &mut walked] {
+            tree.insert(
+                &TfMessage {
+                    transforms: (0..3)
+                        .map(|i| {
+                            tf(
+                                "base_link",
+                                &format!("hip{i}"),
+                                0,
+                                [0.1 * i as f64, 0.05, -0.02],
+                                0.1,
+                            )
+                        })
+                        .collect(),
+                },
+                true,
+            );
+            for k in 0..50i64 {
+                let ph = k as f64 * 0.1;
+                tree.insert(
+                    &TfMessage {
+                        transforms: vec![tf(
+                            "odom",
+                            "base_link",
+                            k * 2_000_000,
+                            [0.01 * ph, 0.0, 0.2 + 0.01 * ph.sin()],
+                            0.05 * ph.cos(),
+                        )],
+                    },
+                    false,
+                );
+            }
+        }
+        let world = fast.frame("odom");
+        let hips: Vec<_> = (0..3).map(|i| fast.frame(&format!("hip{i}"))).collect();
+        // More stamps than the memory holds, each asked for by every hip, and the stamps revisited.
+        for round in 0..2 {
+            for k in 0..12i64 {
+                let stamp = 20_000_000 + k * 1_300_000 + round;
+                for (i, &hip) in hips.iter().enumerate() {
+                    let got = fast.hip_motion_of(&cfg(), world, hip, stamp, 0.0);
+                    walked.insert(&TfMessage::default(), false);
+                    let want = walked.hip_motion(&cfg(), &format!("hip{i}"), stamp, 0.0);
+                    assert_eq!(got, want, "hip {i} at {stamp}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn poses_are_counted_from_the_newest_as_a_binary_search_counts_them() {
+        let pose = Isometry3::identity();
+        for n in [0usize, 1, 2, 3, 7, 100, 1000] {
+            // Stamps 10, 20, ... with a run of equal ones.
+            let poses: VecDeque<(i64, Isometry3<f64>)> = (0..n as i64)
+                .map(|k| (if (4..7).contains(&k) { 40 } else { 10 * k }, pose))
+                .collect();
+            for stamp in -5..(10 * n as i64 + 15) {
+                assert_eq!(
+                    at_or_before(&poses, stamp),
+                    poses.partition_point(|(s, _)| *s <= stamp),
+                    "{n} poses, stamp {stamp}"
+                );
+            }
+        }
     }
 }
