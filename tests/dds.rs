@@ -479,8 +479,8 @@ fn a_warning_per_message_at_10_khz_is_throttled() {
 
 /// The benchmark of `/tf`'s cost (`terzaghi-bench node --tf-hz 500 --against-fixed-height`)
 /// measures what its figure says: both nodes processed their own blocks' JointStates (about as
-/// many each, none lost), the first placed its hips by `/tf` and the ratio is of the two
-/// nodes' own processing times.
+/// many each, none lost), the first placed its hips by `/tf`, the ratio is of the two nodes' own
+/// processing times, and both exited cleanly.
 #[test]
 fn the_tf_cost_benchmark_compares_two_nodes_in_one_run() {
     let _guard = shared();
@@ -517,6 +517,8 @@ fn the_tf_cost_benchmark_compares_two_nodes_in_one_run() {
     let ratio = v["tf_ratio_p99"].as_f64().unwrap();
     let expected = tf["p99_us"].as_f64().unwrap() / fixed["p99_us"].as_f64().unwrap();
     assert!((ratio - expected).abs() < 1e-9 && ratio > 0.0, "{v}");
+    assert_eq!(v["node_exit_clean"], true, "{v}");
+    assert_eq!(v["fixed_height_exit_clean"], true, "{v}");
 }
 
 /// `terzaghi-bench node --load ARGS --json` on ROS_DOMAIN_ID `domain`: what it measured.

@@ -180,6 +180,10 @@ struct Report {
     fixed_height_processing: Option<Figures>,
     tf_ratio_p50: Option<f64>,
     tf_ratio_p99: Option<f64>,
+    /// Whether the node exited with success within 15 s of SIGINT, and the fixed-height node
+    /// (`--against-fixed-height`).
+    node_exit_clean: bool,
+    fixed_height_exit_clean: Option<bool>,
 }
 
 /// The block the client's second target takes: the bare echo, or (`--against-fixed-height`)
@@ -368,8 +372,10 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
     let summary = stop_line(&text).with_context(|| {
         format!("the node did not report its run at shutdown; its log:\n{text}")
     })?;
+    let fixed_exit_clean = a
+        .against_fixed_height
+        .then(|| exited_clean(&mut children.0[1]));
     let fixed = if a.against_fixed_height {
-        exited_clean(&mut children.0[1]);
         let text = std::fs::read_to_string(&fixed_log)
             .context("the fixed-height node's log is missing")?;
         Some(stop_line(&text).with_context(|| {
@@ -450,6 +456,8 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
         node_gap_checks: gap_line(&text),
         tf_hz: a.tf_hz,
         tf_placed: a.tf_hz.map(|_| (load.tf_placed, load.forces_seen)),
+        node_exit_clean,
+        fixed_height_exit_clean: fixed_exit_clean,
     };
     if a.json {
         return print_out(&(serde_json::to_string_pretty(&report)? + "\n"));
@@ -499,6 +507,12 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
     } else {
         "echo"
     };
+    let yes_no = |clean: bool| if clean { "yes" } else { "NO" };
+    s += &format!("clean exit: node {}", yes_no(report.node_exit_clean));
+    if let Some(clean) = report.fixed_height_exit_clean {
+        s += &format!(", fixed-height node {}", yes_no(clean));
+    }
+    s += "\n";
     if let (Some(p50), Some(p99)) = (report.tf_ratio_p50, report.tf_ratio_p99) {
         s += &format!("processing with /tf / at fixed heights: p50 {p50:.2}x, p99 {p99:.2}x\n");
     }
