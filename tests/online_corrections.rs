@@ -212,3 +212,53 @@ fn the_readme_tables_are_what_diagnose_eval_online_prints() {
         assert!(readme.contains(row), "the README lacks the row\n{row}");
     }
 }
+
+/// `diagnose-eval --online --json` gives every value behind the table: each case's batch and
+/// online values with the online standard deviation, its largest difference the table's.
+#[test]
+fn diagnose_eval_online_json_holds_the_values_behind_the_table() {
+    let out = std::process::Command::new(common::eval_exe())
+        .args(["diagnose-eval", "--online", "--json"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
+    let cases = v["cases"].as_array().unwrap();
+    assert_eq!(cases.len(), 9);
+    assert_eq!(v["steps"].as_array().unwrap().len(), STEP_CASES.len());
+    let readme = common::docs_text();
+    for c in cases {
+        let values = c["values"].as_array().unwrap();
+        assert!(values.len() >= 2, "{c}");
+        let num = |x: &serde_json::Value, k: &str| x[k].as_f64().unwrap();
+        // The table's rule: b_k and a always, a coefficient when over three deviations from 0.
+        let worst = values
+            .iter()
+            .filter(|x| {
+                let name = x["name"].as_str().unwrap();
+                name == "b_k" || name == "a" || num(x, "batch").abs() > 3.0 * num(x, "std")
+            })
+            .map(|x| {
+                let pct = 100.0 * (num(x, "online") - num(x, "batch")) / num(x, "batch").abs();
+                (x["name"].as_str().unwrap().to_string(), pct)
+            })
+            .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+            .unwrap();
+        let row = format!(
+            "| {} | {} | {} | ",
+            c["case"].as_str().unwrap(),
+            c["truth"].as_str().unwrap(),
+            c["strokes"]
+        );
+        let line = readme
+            .lines()
+            .find(|l| l.starts_with(&row))
+            .unwrap_or_else(|| panic!("no row {row}"));
+        let cell = format!("| {} {:+.1} % |", worst.0, worst.1);
+        assert!(line.contains(&cell), "{line} lacks {cell}");
+    }
+}

@@ -80,7 +80,7 @@ pub fn run_cmd(a: DiagnoseEvalArgs) -> Result<()> {
         return closed_loop(&a, campaign.as_ref(), threads);
     }
     if a.online {
-        return online(a.seed, threads);
+        return online(a.seed, threads, a.json);
     }
     let bar = if std::io::stderr().is_terminal() && !a.json {
         ProgressBar::new(a.cases as u64)
@@ -154,8 +154,9 @@ pub fn run_cmd(a: DiagnoseEvalArgs) -> Result<()> {
     print_out(&s)
 }
 
-/// `--online`: the corrected model learnt online against the batch diagnosis.
-fn online(seed: u64, threads: usize) -> Result<()> {
+/// `--online`: the corrected model learnt online against the batch diagnosis (as JSON, with
+/// every value, its batch value and its online standard deviation, with `json`).
+fn online(seed: u64, threads: usize, json: bool) -> Result<()> {
     use crate::closed_loop::{ONLINE_CASES, STEP_CASES, STEP_FACTOR, learnt_online, learnt_step};
     use rayon::prelude::*;
     let pool = rayon::ThreadPoolBuilder::new()
@@ -175,6 +176,18 @@ fn online(seed: u64, threads: usize) -> Result<()> {
     });
     let cases: Vec<_> = cases.into_iter().collect::<Result<_, _>>()?;
     let steps: Vec<_> = steps.into_iter().collect::<Result<_, _>>()?;
+    if json {
+        #[derive(serde::Serialize)]
+        struct Online<'a> {
+            cases: &'a [crate::closed_loop::LearntOnline],
+            steps: &'a [crate::closed_loop::LearntStep],
+        }
+        let all = Online {
+            cases: &cases,
+            steps: &steps,
+        };
+        return print_out(&(serde_json::to_string_pretty(&all)? + "\n"));
+    }
     print_out(&render_online(&cases, &steps))
 }
 
