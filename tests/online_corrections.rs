@@ -189,16 +189,7 @@ fn the_node_learns_its_corrections_and_predicts_with_them() {
 /// The README's tables of the corrections learnt online are what the command prints.
 #[test]
 fn the_readme_tables_are_what_diagnose_eval_online_prints() {
-    let out = std::process::Command::new(common::eval_exe())
-        .args(["diagnose-eval", "--online"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let printed = String::from_utf8(out.stdout).unwrap();
+    let printed = eval_stdout(&["diagnose-eval", "--online"]);
     let readme = common::docs_text();
     let rows: Vec<&str> = printed
         .lines()
@@ -217,16 +208,8 @@ fn the_readme_tables_are_what_diagnose_eval_online_prints() {
 /// online values with the online standard deviation, its largest difference the table's.
 #[test]
 fn diagnose_eval_online_json_holds_the_values_behind_the_table() {
-    let out = std::process::Command::new(common::eval_exe())
-        .args(["diagnose-eval", "--online", "--json"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
+    let printed = eval_stdout(&["diagnose-eval", "--online", "--json"]);
+    let v: serde_json::Value = serde_json::from_str(&printed).expect("JSON on stdout");
     let cases = v["cases"].as_array().unwrap();
     assert_eq!(cases.len(), 9);
     assert_eq!(v["steps"].as_array().unwrap().len(), STEP_CASES.len());
@@ -261,4 +244,18 @@ fn diagnose_eval_online_json_holds_the_values_behind_the_table() {
         let cell = format!("| {} {:+.1} % |", worst.0, worst.1);
         assert!(line.contains(&cell), "{line} lacks {cell}");
     }
+}
+
+/// What `terzaghi-eval ARGS` prints, once it succeeded.
+fn eval_stdout(args: &[&str]) -> String {
+    let out = std::process::Command::new(common::eval_exe())
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "terzaghi-eval {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
 }
