@@ -243,7 +243,24 @@ fn diagnose_eval_online_json_holds_the_values_behind_the_table() {
             .unwrap_or_else(|| panic!("no row {row}"));
         let cell = format!("| {} {:+.1} % |", worst.0, worst.1);
         assert!(line.contains(&cell), "{line} lacks {cell}");
+        // A miss is given with its values and deviation (four significant digits).
+        if worst.1.abs() > 10.0 {
+            let x = values
+                .iter()
+                .find(|x| x["name"] == worst.0.as_str())
+                .unwrap();
+            let (b, o, sd) = (num(x, "batch"), num(x, "online"), num(x, "std"));
+            let text = format!("batch {}, online {} ± {}", sig4(b), sig4(o), sig4(sd));
+            let flat = readme.split_whitespace().collect::<Vec<_>>().join(" ");
+            assert!(flat.contains(&text), "the docs lack {text}");
+        }
     }
+}
+
+/// `x` to four significant digits.
+fn sig4(x: f64) -> String {
+    let decimals = (3 - x.abs().log10().floor() as i32).max(0) as usize;
+    format!("{x:.decimals$}")
 }
 
 /// What `terzaghi-eval ARGS` prints, once it succeeded.
