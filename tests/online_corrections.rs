@@ -243,24 +243,34 @@ fn diagnose_eval_online_json_holds_the_values_behind_the_table() {
             .unwrap_or_else(|| panic!("no row {row}"));
         let cell = format!("| {} {:+.1} % |", worst.0, worst.1);
         assert!(line.contains(&cell), "{line} lacks {cell}");
-        // A miss is given with its values and deviation (four significant digits).
-        if worst.1.abs() > 10.0 {
-            let x = values
-                .iter()
-                .find(|x| x["name"] == worst.0.as_str())
-                .unwrap();
-            let (b, o, sd) = (num(x, "batch"), num(x, "online"), num(x, "std"));
-            let text = format!("batch {}, online {} ± {}", sig4(b), sig4(o), sig4(sd));
-            let flat = readme.split_whitespace().collect::<Vec<_>>().join(" ");
-            assert!(flat.contains(&text), "the docs lack {text}");
-        }
     }
 }
 
-/// `x` to four significant digits.
-fn sig4(x: f64) -> String {
-    let decimals = (3 - x.abs().log10().floor() as i32).max(0) as usize;
-    format!("{x:.decimals$}")
+/// The docs' table of the stroke jackknife is what `diagnose-eval --online --jackknife` prints:
+/// for each session that does not hold, how far leaving one stroke out moves its batch value.
+#[test]
+fn the_jackknife_table_is_what_diagnose_eval_online_jackknife_prints() {
+    let printed = eval_stdout(&["diagnose-eval", "--online", "--jackknife"]);
+    let jackknife = printed
+        .split_once("Stroke jackknife")
+        .expect("a jackknife table")
+        .1;
+    let is_row = |l: &&str| {
+        l.strip_prefix("| case ")
+            .is_some_and(|r| r.starts_with(|c: char| c.is_ascii_digit()))
+    };
+    let rows: Vec<&str> = jackknife.lines().filter(is_row).collect();
+    // The sessions that do not hold, in the first table (before its count).
+    let first_table = printed.split_once("\nholds: ").expect("the count").0;
+    let misses = first_table
+        .lines()
+        .filter(|l| is_row(l) && l.ends_with("| no |"))
+        .count();
+    assert!(misses > 0 && rows.len() == misses, "{printed}");
+    let docs = common::docs_text();
+    for row in rows {
+        assert!(docs.contains(row), "the docs lack the row\n{row}");
+    }
 }
 
 /// What `terzaghi-eval ARGS` prints, once it succeeded.

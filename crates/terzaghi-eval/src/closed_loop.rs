@@ -459,6 +459,84 @@ pub struct LearntStep {
     pub detected_after_strokes: Option<f64>,
 }
 
+/// How precisely a session determines a value of its batch diagnosis: the stroke jackknife.
+/// The diagnosis is run again with each stroke left out in turn; the spread of a value over
+/// those runs is its standard error as the session's strokes give it. The online standard
+/// deviation treats every sample as independent, but where a term's form is not the medium's the
+/// misfit runs through a whole stroke, so that deviation understates what the strokes allow.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Jackknife {
+    pub case: String,
+    pub truth: String,
+    /// The value (`b_k`, `a` or `<effect>.<param>`) and its batch value on the whole session.
+    pub name: String,
+    pub batch: f64,
+    /// The jackknife's standard error of the batch value, over the runs that kept the whole
+    /// session's terms (`runs` of `strokes`).
+    pub std_error: f64,
+    pub runs: usize,
+    pub strokes: usize,
+}
+
+/// The stroke jackknife of the batch value `name` of generated case `i` (see [`Jackknife`]).
+pub fn jackknife(i: usize, seed: u64, name: &str) -> Result<Jackknife, HeldOutError> {
+    let (case, samples) = crate::withheld::case_session(i, seed);
+    let err = |message: String| HeldOutError {
+        case: format!("case {i}"),
+        message,
+    };
+    let model = terzaghi::model::TerzaghiModel::conventional(case.plate, case.medium);
+    let opts = DiagnoseOptions::default();
+    let value_of = |c: &Corrections| -> Option<f64> {
+        let mut values = vec![("b_k".to_string(), c.b_k), ("a".to_string(), c.a)];
+        for t in &c.terms {
+            for (p, v) in t.effect.linear_params().iter().zip(&t.coefficients) {
+                values.push((format!("{}.{}", t.effect, p), *v));
+            }
+        }
+        values.into_iter().find(|(n, _)| n == name).map(|(_, v)| v)
+    };
+    let whole = diagnose(&model, &samples, &opts).map_err(|e| err(e.to_string()))?;
+    let full = whole.report.corrected_model;
+    let batch = value_of(&full).ok_or_else(|| err(format!("the diagnosis has no value {name}")))?;
+    let effects = |c: &Corrections| c.terms.iter().map(|t| t.effect).collect::<Vec<_>>();
+    let stroke_of = kinematics(&samples, 5).stroke;
+    let strokes = stroke_of.last().map_or(0, |s| s + 1);
+    let mut values = Vec::new();
+    for k in 0..strokes {
+        let kept: Vec<Sample> = samples
+            .iter()
+            .zip(&stroke_of)
+            .filter(|(_, s)| **s != k)
+            .map(|(x, _)| *x)
+            .collect();
+        let Ok(d) = diagnose(&model, &kept, &opts) else {
+            continue;
+        };
+        let c = d.report.corrected_model;
+        if effects(&c) == effects(&full)
+            && let Some(v) = value_of(&c)
+        {
+            values.push(v);
+        }
+    }
+    let m = values.len() as f64;
+    let mean = values.iter().sum::<f64>() / m.max(1.0);
+    let std_error = ((m - 1.0) / m.max(1.0)
+        * values.iter().map(|v| (v - mean).powi(2)).sum::<f64>())
+    .max(0.0)
+    .sqrt();
+    Ok(Jackknife {
+        case: format!("case {i}"),
+        truth: truth_of(&case),
+        name: name.to_string(),
+        batch,
+        std_error,
+        runs: values.len(),
+        strokes,
+    })
+}
+
 /// See [`LearntStep`].
 pub fn learnt_step(i: usize, seed: u64, factor: f64) -> Result<LearntStep, HeldOutError> {
     let (case, first) = crate::withheld::case_session(i, seed);

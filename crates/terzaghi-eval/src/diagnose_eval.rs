@@ -50,6 +50,11 @@ pub struct DiagnoseEvalArgs {
     /// them followed by a medium 1.4 times as strong. Prints each value against the batch one.
     #[arg(long, conflicts_with = "closed_loop")]
     pub online: bool,
+    /// With --online: for each session that does not hold, how precisely its strokes determine
+    /// the value that misses most: the diagnosis run again with each stroke left out in turn
+    /// (a stroke jackknife; about a minute per session).
+    #[arg(long, requires = "online")]
+    pub jackknife: bool,
 }
 
 pub fn run_cmd(a: DiagnoseEvalArgs) -> Result<()> {
@@ -80,7 +85,7 @@ pub fn run_cmd(a: DiagnoseEvalArgs) -> Result<()> {
         return closed_loop(&a, campaign.as_ref(), threads);
     }
     if a.online {
-        return online(a.seed, threads, a.json);
+        return online(a.seed, threads, a.json, a.jackknife);
     }
     let bar = if std::io::stderr().is_terminal() && !a.json {
         ProgressBar::new(a.cases as u64)
@@ -156,8 +161,10 @@ pub fn run_cmd(a: DiagnoseEvalArgs) -> Result<()> {
 
 /// `--online`: the corrected model learnt online against the batch diagnosis (as JSON, with
 /// every value, its batch value and its online standard deviation, with `json`).
-fn online(seed: u64, threads: usize, json: bool) -> Result<()> {
-    use crate::closed_loop::{ONLINE_CASES, STEP_CASES, STEP_FACTOR, learnt_online, learnt_step};
+fn online(seed: u64, threads: usize, json: bool, with_jackknife: bool) -> Result<()> {
+    use crate::closed_loop::{
+        ONLINE_CASES, STEP_CASES, STEP_FACTOR, jackknife, learnt_online, learnt_step,
+    };
     use rayon::prelude::*;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
@@ -176,19 +183,85 @@ fn online(seed: u64, threads: usize, json: bool) -> Result<()> {
     });
     let cases: Vec<_> = cases.into_iter().collect::<Result<_, _>>()?;
     let steps: Vec<_> = steps.into_iter().collect::<Result<_, _>>()?;
+    // The value that misses most in each session that does not hold.
+    let misses: Vec<(usize, String)> = if with_jackknife {
+        ONLINE_CASES
+            .zip(&cases)
+            .filter(|(_, c)| !c.holds())
+            .filter_map(|(i, c)| worst_value(c).map(|v| (i, v.name.clone())))
+            .collect()
+    } else {
+        Vec::new()
+    };
+    let jack: Vec<_> = pool.install(|| {
+        misses
+            .into_par_iter()
+            .map(|(i, name)| jackknife(i, seed, &name))
+            .collect()
+    });
+    let jack: Vec<_> = jack.into_iter().collect::<Result<_, _>>()?;
     if json {
         #[derive(serde::Serialize)]
         struct Online<'a> {
             cases: &'a [crate::closed_loop::LearntOnline],
             steps: &'a [crate::closed_loop::LearntStep],
+            #[serde(skip_serializing_if = "<[_]>::is_empty")]
+            jackknife: &'a [crate::closed_loop::Jackknife],
         }
         let all = Online {
             cases: &cases,
             steps: &steps,
+            jackknife: &jack,
         };
         return print_out(&(serde_json::to_string_pretty(&all)? + "\n"));
     }
-    print_out(&render_online(&cases, &steps))
+    let mut out = render_online(&cases, &steps);
+    if with_jackknife {
+        out += &render_jackknife(&cases, &jack);
+    }
+    print_out(&out)
+}
+
+/// A session's determined value farthest from its batch value.
+fn worst_value(c: &crate::closed_loop::LearntOnline) -> Option<&crate::closed_loop::LearntValue> {
+    c.values
+        .iter()
+        .filter(|v| v.determined())
+        .max_by(|a, b| a.diff_pct().abs().total_cmp(&b.diff_pct().abs()))
+}
+
+/// The table of `--online --jackknife`.
+pub fn render_jackknife(
+    cases: &[crate::closed_loop::LearntOnline],
+    jack: &[crate::closed_loop::Jackknife],
+) -> String {
+    let mut s = String::from(
+        "\nStroke jackknife of the value that misses most (the batch diagnosis run again with each stroke left out)\n\n| case | hidden effect | value | batch | online +- online std | jackknife standard error (runs) | online - batch, in jackknife errors |\n|---|---|---|---|---|---|---|\n",
+    );
+    for j in jack {
+        let Some(v) = cases
+            .iter()
+            .find(|c| c.case == j.case)
+            .and_then(|c| c.values.iter().find(|v| v.name == j.name))
+        else {
+            continue;
+        };
+        s += &format!(
+            "| {} | {} | {} | {:.4e} | {:.4e} +- {:.2e} | {:.2e} ({} of {}, {:.0} % of the value) | {:+.2} |\n",
+            j.case,
+            j.truth,
+            j.name,
+            j.batch,
+            v.online,
+            v.std,
+            j.std_error,
+            j.runs,
+            j.strokes,
+            100.0 * j.std_error / j.batch.abs().max(f64::MIN_POSITIVE),
+            (v.online - j.batch) / j.std_error.max(f64::MIN_POSITIVE)
+        );
+    }
+    s
 }
 
 /// The tables of `--online`.
@@ -201,13 +274,9 @@ pub fn render_online(
         "Corrected model learnt online from b_k = a = 1 and zero coefficients, against the batch diagnosis of the same session\n(a value counts as determined when its batch value is over three online standard deviations from zero; b_k and a always)\n\n| case | hidden effect | strokes | determined values within 10 % | largest difference of a determined value | converged | changes detected (the bare estimator's) | change alarms dismissed | holds |\n|---|---|---|---|---|---|---|---|---|\n",
     );
     let worst = |c: &LearntOnline| {
-        c.values
-            .iter()
-            .filter(|v| v.determined())
-            .max_by(|a, b| a.diff_pct().abs().total_cmp(&b.diff_pct().abs()))
-            .map_or("-".to_string(), |v| {
-                format!("{} {:+.1} %", v.name, v.diff_pct())
-            })
+        worst_value(c).map_or("-".to_string(), |v| {
+            format!("{} {:+.1} %", v.name, v.diff_pct())
+        })
     };
     let count = |c: &LearntOnline| {
         let d: Vec<_> = c.values.iter().filter(|v| v.determined()).collect();
