@@ -472,8 +472,8 @@ pub struct Jackknife {
     pub name: String,
     pub batch: f64,
     /// The jackknife's standard error of the batch value, over the runs that kept the whole
-    /// session's terms (`runs` of `strokes`).
-    pub std_error: f64,
+    /// session's terms (`runs` of `strokes`); `None` with fewer than two such runs.
+    pub std_error: Option<f64>,
     pub runs: usize,
     pub strokes: usize,
 }
@@ -521,11 +521,10 @@ pub fn jackknife(i: usize, seed: u64, name: &str) -> Result<Jackknife, HeldOutEr
         }
     }
     let m = values.len() as f64;
-    let mean = values.iter().sum::<f64>() / m.max(1.0);
-    let std_error = ((m - 1.0) / m.max(1.0)
-        * values.iter().map(|v| (v - mean).powi(2)).sum::<f64>())
-    .max(0.0)
-    .sqrt();
+    let std_error = (values.len() >= 2).then(|| {
+        let mean = values.iter().sum::<f64>() / m;
+        ((m - 1.0) / m * values.iter().map(|v| (v - mean).powi(2)).sum::<f64>()).sqrt()
+    });
     Ok(Jackknife {
         case: format!("case {i}"),
         truth: truth_of(&case),

@@ -246,19 +246,25 @@ pub fn render_jackknife(
         else {
             continue;
         };
+        // Fewer than two runs that kept the session's terms give no spread to report.
+        let (error, in_errors) = match j.std_error.filter(|e| *e > 0.0) {
+            Some(e) => (
+                format!(
+                    "{e:.2e} ({} of {}, {:.0} % of the value)",
+                    j.runs,
+                    j.strokes,
+                    100.0 * e / j.batch.abs()
+                ),
+                format!("{:+.2}", (v.online - j.batch) / e),
+            ),
+            None => (
+                format!("- ({} of {} runs kept the terms)", j.runs, j.strokes),
+                "-".to_string(),
+            ),
+        };
         s += &format!(
-            "| {} | {} | {} | {:.4e} | {:.4e} +- {:.2e} | {:.2e} ({} of {}, {:.0} % of the value) | {:+.2} |\n",
-            j.case,
-            j.truth,
-            j.name,
-            j.batch,
-            v.online,
-            v.std,
-            j.std_error,
-            j.runs,
-            j.strokes,
-            100.0 * j.std_error / j.batch.abs().max(f64::MIN_POSITIVE),
-            (v.online - j.batch) / j.std_error.max(f64::MIN_POSITIVE)
+            "| {} | {} | {} | {:.4e} | {:.4e} +- {:.2e} | {error} | {in_errors} |\n",
+            j.case, j.truth, j.name, j.batch, v.online, v.std,
         );
     }
     s
