@@ -182,7 +182,7 @@ pub fn leg_corrections(
             lo,
             hi,
         } => invalid(
-            &key(&format!("{effect}.{param}")),
+            &key(&effect.value_name(&param)),
             &value,
             format!("outside its physical bounds [{lo}, {hi}]"),
         ),
@@ -239,11 +239,11 @@ pub fn corrections_params(
     for t in &c.terms {
         let e = t.effect;
         for (p, v) in e.linear_params().iter().zip(&t.coefficients) {
-            out.push((key(&format!("{e}.{p}")), ParamValue::Double(*v)));
+            out.push((key(&e.value_name(p)), ParamValue::Double(*v)));
         }
         if let Some(p) = e.nonlinear_param() {
             out.push((
-                key(&format!("{e}.{p}")),
+                key(&e.value_name(p)),
                 ParamValue::Double(c.nonlinear.get(e)),
             ));
         }

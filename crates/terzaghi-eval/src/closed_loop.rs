@@ -383,7 +383,7 @@ fn learnt_values(batch: &Corrections, est: &CorrectedEstimator) -> Vec<LearntVal
     let batch_coefficients = batch.terms.iter().flat_map(|t| t.coefficients.iter());
     for (c, b) in est.coefficients().iter().zip(batch_coefficients) {
         values.push(LearntValue {
-            name: format!("{}.{}", c.effect, c.param),
+            name: c.name(),
             batch: *b,
             online: c.value,
             std: c.std,
@@ -489,11 +489,7 @@ pub fn jackknife(i: usize, seed: u64, name: &str) -> Result<Jackknife, HeldOutEr
     let opts = DiagnoseOptions::default();
     let value_of = |c: &Corrections| -> Option<f64> {
         let mut values = vec![("b_k".to_string(), c.b_k), ("a".to_string(), c.a)];
-        for t in &c.terms {
-            for (p, v) in t.effect.linear_params().iter().zip(&t.coefficients) {
-                values.push((format!("{}.{}", t.effect, p), *v));
-            }
-        }
+        values.extend(c.linear_values());
         values.into_iter().find(|(n, _)| n == name).map(|(_, v)| v)
     };
     let whole = diagnose(&model, &samples, &opts).map_err(|e| err(e.to_string()))?;

@@ -1052,10 +1052,7 @@ impl NodeCore {
             innovation_rms_n: e.innovation_rms_n,
             converged: e.converged,
             changes_detected: e.changes_detected.min(u32::MAX as u64) as u32,
-            correction_params: coefficients
-                .iter()
-                .map(|c| format!("{}.{}", c.effect, c.param))
-                .collect(),
+            correction_params: coefficients.iter().map(|c| c.name()).collect(),
             correction_values: coefficients.iter().map(|c| c.value).collect(),
             correction_stds: coefficients.iter().map(|c| c.std).collect(),
             rft_scale,

@@ -289,6 +289,13 @@ pub struct Coefficient {
     pub std: f64,
 }
 
+impl Coefficient {
+    /// Its name, `<effect>.<param>` ([`Effect::value_name`]).
+    pub fn name(&self) -> String {
+        self.effect.value_name(self.param)
+    }
+}
+
 /// The online estimator of a corrected leg.
 #[derive(Debug, Clone)]
 pub struct CorrectedEstimator {

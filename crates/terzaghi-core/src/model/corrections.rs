@@ -108,6 +108,13 @@ impl Effect {
         matches!(self, Effect::SensorBias | Effect::SensorLag)
     }
 
+    /// The name of this term's parameter `param` (one of [`Effect::linear_params`] or its
+    /// [`Effect::nonlinear_param`]), `<effect>.<param>`: the node's parameter under
+    /// `<leg>.corrections`, and how `model_params` and the evaluations name a learnt value.
+    pub fn value_name(self, param: &str) -> String {
+        format!("{self}.{param}")
+    }
+
     /// Names (with units) of the linear parameters, in column order.
     pub fn linear_params(self) -> &'static [&'static str] {
         match self {
@@ -486,6 +493,22 @@ impl Corrections {
             typical_speed_rad_s: 0.0,
             session_strokes: 0,
         }
+    }
+
+    /// Every term's linear coefficients by name (`<effect>.<param>`, [`Effect::value_name`]),
+    /// in the order of the terms and of their columns: the order the online estimator learns
+    /// them in.
+    pub fn linear_values(&self) -> Vec<(String, f64)> {
+        self.terms
+            .iter()
+            .flat_map(|t| {
+                let e = t.effect;
+                e.linear_params()
+                    .iter()
+                    .zip(&t.coefficients)
+                    .map(move |(p, v)| (e.value_name(p), *v))
+            })
+            .collect()
     }
 
     /// The same terms and nonlinear values with nothing learnt: `b_k = a = 1` (the conventional
@@ -1099,6 +1122,33 @@ mod tests {
     }
     fn medium() -> Medium {
         Medium::new(16170.0, 32.0, 19.0).unwrap()
+    }
+
+    #[test]
+    fn linear_values_are_named_by_effect_and_parameter_in_column_order() {
+        let mut c = Corrections::none(2.0, 1.5);
+        c.terms = vec![
+            Term {
+                effect: Effect::Rate,
+                coefficients: vec![1.0, 2.0, 3.0, 4.0],
+            },
+            Term {
+                effect: Effect::SensorBias,
+                coefficients: vec![5.0, 6.0],
+            },
+        ];
+        let names: Vec<String> = [Effect::Rate, Effect::SensorBias]
+            .iter()
+            .flat_map(|e| e.linear_params().iter().map(move |p| format!("{e}.{p}")))
+            .collect();
+        let values = c.linear_values();
+        assert_eq!(values.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>(), names);
+        assert_eq!(
+            values.iter().map(|(_, v)| *v).collect::<Vec<_>>(),
+            [1.0, 2.0, 3.0, 4.0, 5.0, 6.0]
+        );
+        assert_eq!(names[0], "rate.normal_kg_m3");
+        assert_eq!(names[5], "sensor_bias.lift_n");
     }
 
     #[test]
