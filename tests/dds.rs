@@ -480,10 +480,14 @@ fn a_warning_per_message_at_10_khz_is_throttled() {
 /// The benchmark of `/tf`'s cost (`terzaghi-bench node --tf-hz 500 --against-fixed-height`)
 /// measures what its figure says: both nodes processed their own blocks' JointStates (about as
 /// many each, none lost), the first placed its hips by `/tf`, the ratio is of the two nodes' own
-/// processing times, and both exited cleanly.
+/// processing times, and both exited cleanly. The fixed-height node is run from another
+/// executable (`--fixed-height-exe`, as a previous release is), here a copy of this one.
 #[test]
 fn the_tf_cost_benchmark_compares_two_nodes_in_one_run() {
     let _guard = shared();
+    let dir = tempfile::tempdir().unwrap();
+    let other = dir.path().join("terzaghi-other");
+    std::fs::copy(terzaghi(), &other).unwrap();
     let out = isolated_command(&bench_exe())
         .args([
             "node",
@@ -493,6 +497,8 @@ fn the_tf_cost_benchmark_compares_two_nodes_in_one_run() {
             "--seconds",
             "2",
         ])
+        .arg("--fixed-height-exe")
+        .arg(&other)
         .arg("--json")
         .env("ROS_DOMAIN_ID", "17")
         .output()
@@ -519,6 +525,17 @@ fn the_tf_cost_benchmark_compares_two_nodes_in_one_run() {
     assert!((ratio - expected).abs() < 1e-9 && ratio > 0.0, "{v}");
     assert_eq!(v["node_exit_clean"], true, "{v}");
     assert_eq!(v["fixed_height_exit_clean"], true, "{v}");
+    assert_eq!(v["fixed_height_exe"], other.to_str().unwrap(), "{v}");
+    // A path that is not there is refused before anything starts.
+    let missing = isolated_command(&bench_exe())
+        .args(["node", "--tf-hz", "500", "--against-fixed-height"])
+        .arg("--fixed-height-exe")
+        .arg(dir.path().join("missing"))
+        .output()
+        .unwrap();
+    assert!(!missing.status.success());
+    let err = String::from_utf8_lossy(&missing.stderr);
+    assert!(err.contains("--fixed-height-exe") && err.contains("no such file"), "{err}");
 }
 
 /// `terzaghi-bench node --load ARGS --json` on ROS_DOMAIN_ID `domain`: what it measured.

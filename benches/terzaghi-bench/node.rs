@@ -92,6 +92,11 @@ pub struct BenchNodeArgs {
     /// reported. The machine's drift between runs then falls on both alike.
     #[arg(long, requires = "tf_hz", conflicts_with = "load")]
     pub against_fixed_height: bool,
+    /// With --against-fixed-height: run this terzaghi as the node at fixed heights (the
+    /// release before the node took `/tf`, say), so that the node placing its hips by `/tf`
+    /// is compared with it in one run.
+    #[arg(long, value_name = "PATH", requires = "against_fixed_height")]
+    pub fixed_height_exe: Option<std::path::PathBuf>,
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
@@ -178,6 +183,8 @@ struct Report {
     /// With `--against-fixed-height`: the second node's processing (its hips at their
     /// configured heights, no `/tf`), and the ratios of the first's p50 and p99 to it.
     fixed_height_processing: Option<Figures>,
+    /// The fixed-height node's executable, when it is not the node's (`--fixed-height-exe`).
+    fixed_height_exe: Option<std::path::PathBuf>,
     tf_ratio_p50: Option<f64>,
     tf_ratio_p99: Option<f64>,
     /// Whether the node exited with success within 15 s of SIGINT, and the fixed-height node
@@ -237,6 +244,11 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
         Some(p) => bail!("--node-exe {}: no such file", p.display()),
         None => crate::terzaghi_exe()?,
     };
+    let fixed_exe = match &a.fixed_height_exe {
+        Some(p) if p.exists() => p.clone(),
+        Some(p) => bail!("--fixed-height-exe {}: no such file", p.display()),
+        None => exe.clone(),
+    };
     let bench_exe = std::env::current_exe().context("cannot find the terzaghi-bench executable")?;
     let dir = tempdir()?;
     let params = dir.join("rhex.yaml");
@@ -280,52 +292,54 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
             Second::Echo
         },
     };
-    // The node, and with --against-fixed-height the same node without /tf in FIXED_NS.
-    let node_command = |with_tf: bool, namespace: Option<&str>, log: &std::path::Path| {
-        let mut c = Command::new(&exe);
-        c.arg("node")
-            .args(
-                a.node_realtime_priority
-                    .map(|p| format!("--realtime-priority={p}")),
-            )
-            .args(a.node_cpu.map(|c| format!("--cpu={c}")))
-            .args(&a.node_arg)
-            .args(["--ros-args", "--params-file"])
-            .arg(&params)
-            .args(
-                a.gap_check_every
-                    .map(|n| ["-p".to_string(), format!("gap_check.every_strokes:={n}")])
-                    .into_iter()
-                    .flatten(),
-            )
-            .args(cfg.legs.iter().filter(|_| with_tf).flat_map(|l| {
-                [
-                    "-p".to_string(),
-                    format!(
-                        "{}.hip_frame:={}",
-                        l.name,
-                        terzaghi::sim::robot::hip_frame(&l.name)
-                    ),
-                ]
-            }))
-            .args(
-                namespace
-                    .map(|ns| ["-r".to_string(), format!("__ns:={ns}")])
-                    .into_iter()
-                    .flatten(),
-            )
-            .stderr(std::fs::File::create(log)?);
-        c.spawn().context("cannot start terzaghi node")
-    };
+    // The node, and with --against-fixed-height the same node (or --fixed-height-exe) without
+    // /tf in FIXED_NS.
+    let node_command =
+        |exe: &std::path::Path, with_tf: bool, namespace: Option<&str>, log: &std::path::Path| {
+            let mut c = Command::new(exe);
+            c.arg("node")
+                .args(
+                    a.node_realtime_priority
+                        .map(|p| format!("--realtime-priority={p}")),
+                )
+                .args(a.node_cpu.map(|c| format!("--cpu={c}")))
+                .args(&a.node_arg)
+                .args(["--ros-args", "--params-file"])
+                .arg(&params)
+                .args(
+                    a.gap_check_every
+                        .map(|n| ["-p".to_string(), format!("gap_check.every_strokes:={n}")])
+                        .into_iter()
+                        .flatten(),
+                )
+                .args(cfg.legs.iter().filter(|_| with_tf).flat_map(|l| {
+                    [
+                        "-p".to_string(),
+                        format!(
+                            "{}.hip_frame:={}",
+                            l.name,
+                            terzaghi::sim::robot::hip_frame(&l.name)
+                        ),
+                    ]
+                }))
+                .args(
+                    namespace
+                        .map(|ns| ["-r".to_string(), format!("__ns:={ns}")])
+                        .into_iter()
+                        .flatten(),
+                )
+                .stderr(std::fs::File::create(log)?);
+            c.spawn().context("cannot start terzaghi node")
+        };
     let mut children = Killer(Vec::new());
     children
         .0
-        .push(node_command(a.tf_hz.is_some(), None, &node_log)?);
+        .push(node_command(&exe, a.tf_hz.is_some(), None, &node_log)?);
     let fixed_log = dir.join("fixed.log");
     if a.against_fixed_height {
         children
             .0
-            .push(node_command(false, Some(FIXED_NS), &fixed_log)?);
+            .push(node_command(&fixed_exe, false, Some(FIXED_NS), &fixed_log)?);
     } else if !a.load {
         children.0.push(
             Command::new(&bench_exe)
@@ -442,6 +456,7 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
         tf_ratio_p50: ratio(|f| f.p50_us),
         tf_ratio_p99: ratio(|f| f.p99_us),
         fixed_height_processing,
+        fixed_height_exe: a.fixed_height_exe.clone(),
         legs: legs.joints.len(),
         rate_hz: a.rate_hz,
         seconds_each: a.seconds,
@@ -484,6 +499,9 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
                 &report.echo_round_trip,
             );
             s += &row("fixed-height node processing (no /tf)", f);
+            if let Some(p) = &report.fixed_height_exe {
+                s += &format!("the fixed-height node: {}\n", p.display());
+            }
         }
         None => {
             s += &row(
