@@ -538,6 +538,30 @@ fn the_tf_cost_benchmark_compares_two_nodes_in_one_run() {
     assert!(err.contains("--fixed-height-exe") && err.contains("no such file"), "{err}");
 }
 
+/// The node's writes wake DDS's event loop once per JointState, not once per written sample
+/// (`patches/README.md`: a wake-up is a write to the loop's eventfd, a system call each, and
+/// the six predicted wrenches were six of them inside the processing time). Counted from
+/// `/proc/PID/io` over a run of the benchmark: about 2 write calls per JointState with the
+/// patch (the node's wake of its loop, the loop's wake of the node), 8 without.
+#[test]
+fn the_node_wakes_its_dds_loop_once_per_joint_state() {
+    let _guard = shared();
+    let out = isolated_command(&bench_exe())
+        .args(["node", "--seconds", "2", "--json"])
+        .env("ROS_DOMAIN_ID", "19")
+        .output()
+        .expect("run terzaghi-bench node");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    eprintln!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert!(v["node_processing"]["count"].as_u64().unwrap() >= 2_500, "{v}");
+    assert_eq!(v["node_lost_replies"], 0, "{v}");
+    let writes = v["node_write_calls_per_joint_state"].as_f64().unwrap();
+    assert!(writes < 4.0, "{writes} write calls per JointState: {v}");
+    assert_eq!(v["node_exit_clean"], true, "{v}");
+}
+
 /// `terzaghi-bench node --load ARGS --json` on ROS_DOMAIN_ID `domain`: what it measured.
 fn bench_node_load(args: &[&str], domain: &str) -> serde_json::Value {
     let out = isolated_command(&bench_exe())

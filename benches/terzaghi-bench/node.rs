@@ -187,6 +187,10 @@ struct Report {
     fixed_height_exe: Option<std::path::PathBuf>,
     tf_ratio_p50: Option<f64>,
     tf_ratio_p99: Option<f64>,
+    /// The node's write calls (`/proc/PID/io`'s `syscw`, all its threads, from its start) per
+    /// JointState it processed: the wake-ups of DDS's event loop by the node's writes are
+    /// among them.
+    node_write_calls_per_joint_state: Option<f64>,
     /// Whether the node exited with success within 15 s of SIGINT, and the fixed-height node
     /// (`--against-fixed-height`).
     node_exit_clean: bool,
@@ -368,8 +372,9 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
         a.load.then_some(node_pid),
         a.bad_leg,
     ))?;
-    // The node's peak memory, read before it is asked to stop.
+    // The node's peak memory and its write calls, read before it is asked to stop.
     let node_peak_rss_kb = peak_rss_kb(node_pid);
+    let node_write_calls = write_calls(node_pid);
     for c in children.0.iter_mut() {
         sigint(c);
     }
@@ -452,6 +457,8 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
             .as_ref()
             .map(|f| q(&node_processing) / q(f).max(1e-9))
     };
+    let node_write_calls_per_joint_state =
+        node_write_calls.map(|w| w as f64 / node_processing.count.max(1) as f64);
     let report = Report {
         tf_ratio_p50: ratio(|f| f.p50_us),
         tf_ratio_p99: ratio(|f| f.p99_us),
@@ -471,6 +478,7 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
         node_gap_checks: gap_line(&text),
         tf_hz: a.tf_hz,
         tf_placed: a.tf_hz.map(|_| (load.tf_placed, load.forces_seen)),
+        node_write_calls_per_joint_state,
         node_exit_clean,
         fixed_height_exit_clean: fixed_exit_clean,
     };
@@ -525,6 +533,9 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
     } else {
         "echo"
     };
+    if let Some(w) = report.node_write_calls_per_joint_state {
+        s += &format!("the node's write calls per JointState (all threads): {w:.2}\n");
+    }
     let yes_no = |clean: bool| if clean { "yes" } else { "NO" };
     s += &format!("clean exit: node {}", yes_no(report.node_exit_clean));
     if let Some(clean) = report.fixed_height_exit_clean {
@@ -939,6 +950,16 @@ fn gap_line(log: &str) -> Option<(u64, u64)> {
 }
 
 /// Peak resident memory of process `pid` (kB), from /proc (Linux).
+/// The write calls (`write`, `writev` and their kind, not socket sends) process `pid` has made
+/// so far, all its threads (`syscw` of `/proc/PID/io`): among them, the wake-ups of DDS's
+/// event loop by its writers.
+fn write_calls(pid: u32) -> Option<u64> {
+    let s = std::fs::read_to_string(format!("/proc/{pid}/io")).ok()?;
+    s.lines()
+        .find_map(|l| l.strip_prefix("syscw:"))
+        .and_then(|v| v.trim().parse().ok())
+}
+
 fn peak_rss_kb(pid: u32) -> Option<u64> {
     let s = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
     s.lines()

@@ -10,7 +10,10 @@
 
 use std::{
   collections::BTreeMap,
-  sync::{mpsc, Arc, OnceLock},
+  sync::{
+    atomic::{AtomicBool, Ordering},
+    mpsc, Arc, OnceLock,
+  },
   time::{Duration, Instant},
 };
 
@@ -24,12 +27,35 @@ use crate::structure::guid::EntityId;
 #[derive(Clone)]
 pub(crate) struct LoopWaker {
   slot: Arc<OnceLock<Waker>>,
+  /// For a [`coalescing`](Self::coalescing) waker: set by a wake, cleared by the loop when it
+  /// starts draining ([`draining`](Self::draining)). While it is set, the loop is already due to
+  /// drain, and a wake needs no second write to the poll's eventfd (a system call each).
+  pending: Option<Arc<AtomicBool>>,
 }
 
 impl LoopWaker {
   pub(crate) fn new() -> Self {
     Self {
       slot: Arc::new(OnceLock::new()),
+      pending: None,
+    }
+  }
+
+  /// A waker whose wakes between two drains of its loop write the poll's eventfd once: a
+  /// thread that writes several samples in a row wakes the loop once. The loop must call
+  /// [`draining`](Self::draining) before each drain of every queue that wakes it.
+  pub(crate) fn coalescing() -> Self {
+    Self {
+      slot: Arc::new(OnceLock::new()),
+      pending: Some(Arc::new(AtomicBool::new(false))),
+    }
+  }
+
+  /// The loop is about to drain every queue: a wake from now on wakes it again. (A sender
+  /// enqueues before it wakes, so what was enqueued before this is drained now.)
+  pub(crate) fn draining(&self) {
+    if let Some(pending) = &self.pending {
+      pending.store(false, Ordering::SeqCst);
     }
   }
 
@@ -44,6 +70,11 @@ impl LoopWaker {
   }
 
   pub(crate) fn wake(&self) {
+    if let Some(pending) = &self.pending {
+      if pending.swap(true, Ordering::SeqCst) {
+        return; // woken since the loop last started draining
+      }
+    }
     if let Some(waker) = self.slot.get() {
       if let Err(e) = waker.wake() {
         log::debug!("LoopWaker::wake: {e}");

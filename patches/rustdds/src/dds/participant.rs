@@ -283,7 +283,7 @@ impl DomainParticipantBuilder {
 
     // One waker per reactor. Queues created now can enqueue before the loop
     // installs the waker; the loop drains once after install.
-    let dp_waker = LoopWaker::new();
+    let dp_waker = LoopWaker::coalescing();
     let discovery_waker = LoopWaker::new();
 
     // Channel is used to notify Discovery of (duplicate) SPDP messages from the

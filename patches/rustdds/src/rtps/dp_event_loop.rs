@@ -278,6 +278,7 @@ impl DPEventLoop {
     let mut writers_to_remove: Vec<GUID> = Vec::new();
 
     // Anything enqueued before the waker existed would not have woken us.
+    ev_wrapper.waker.draining();
     if ev_wrapper.drain_queues(
       &mut readers_to_remove,
       &mut writers_to_remove,
@@ -371,6 +372,7 @@ impl DPEventLoop {
       }
 
       ev_wrapper.drain_timers(preparing_to_stop);
+      ev_wrapper.waker.draining();
       if ev_wrapper.drain_queues(
         &mut readers_to_remove,
         &mut writers_to_remove,
