@@ -535,7 +535,10 @@ fn the_tf_cost_benchmark_compares_two_nodes_in_one_run() {
         .unwrap();
     assert!(!missing.status.success());
     let err = String::from_utf8_lossy(&missing.stderr);
-    assert!(err.contains("--fixed-height-exe") && err.contains("no such file"), "{err}");
+    assert!(
+        err.contains("--fixed-height-exe") && err.contains("no such file"),
+        "{err}"
+    );
 }
 
 /// The node's writes wake DDS's event loop once per JointState, not once per written sample
@@ -555,7 +558,10 @@ fn the_node_wakes_its_dds_loop_once_per_joint_state() {
     eprintln!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
     assert!(out.status.success());
     let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
-    assert!(v["node_processing"]["count"].as_u64().unwrap() >= 2_500, "{v}");
+    assert!(
+        v["node_processing"]["count"].as_u64().unwrap() >= 2_500,
+        "{v}"
+    );
     assert_eq!(v["node_lost_replies"], 0, "{v}");
     let writes = v["node_write_calls_per_joint_state"].as_f64().unwrap();
     assert!(writes < 4.0, "{writes} write calls per JointState: {v}");

@@ -1142,7 +1142,10 @@ mod tests {
             .flat_map(|e| e.linear_params().iter().map(move |p| format!("{e}.{p}")))
             .collect();
         let values = c.linear_values();
-        assert_eq!(values.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>(), names);
+        assert_eq!(
+            values.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>(),
+            names
+        );
         assert_eq!(
             values.iter().map(|(_, v)| *v).collect::<Vec<_>>(),
             [1.0, 2.0, 3.0, 4.0, 5.0, 6.0]
