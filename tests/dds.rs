@@ -488,25 +488,18 @@ fn the_tf_cost_benchmark_compares_two_nodes_in_one_run() {
     let dir = tempfile::tempdir().unwrap();
     let other = dir.path().join("terzaghi-other");
     std::fs::copy(terzaghi(), &other).unwrap();
-    let out = isolated_command(&bench_exe())
-        .args([
-            "node",
+    let v = bench_node(
+        &[
             "--tf-hz",
             "500",
             "--against-fixed-height",
             "--seconds",
             "2",
-        ])
-        .arg("--fixed-height-exe")
-        .arg(&other)
-        .arg("--json")
-        .env("ROS_DOMAIN_ID", "17")
-        .output()
-        .expect("run terzaghi-bench node --against-fixed-height");
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    eprintln!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
-    assert!(out.status.success());
-    let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+            "--fixed-height-exe",
+            other.to_str().unwrap(),
+        ],
+        "17",
+    );
     let (tf, fixed) = (&v["node_processing"], &v["fixed_height_processing"]);
     let count = |f: &serde_json::Value| f["count"].as_u64().unwrap();
     // Two blocks of a second each (and a warm-up one) at 1 kHz per node.
@@ -549,15 +542,7 @@ fn the_tf_cost_benchmark_compares_two_nodes_in_one_run() {
 #[test]
 fn the_node_wakes_its_dds_loop_once_per_joint_state() {
     let _guard = shared();
-    let out = isolated_command(&bench_exe())
-        .args(["node", "--seconds", "2", "--json"])
-        .env("ROS_DOMAIN_ID", "19")
-        .output()
-        .expect("run terzaghi-bench node");
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    eprintln!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
-    assert!(out.status.success());
-    let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let v = bench_node(&["--seconds", "2"], "19");
     assert!(
         v["node_processing"]["count"].as_u64().unwrap() >= 2_500,
         "{v}"
@@ -570,16 +555,22 @@ fn the_node_wakes_its_dds_loop_once_per_joint_state() {
 
 /// `terzaghi-bench node --load ARGS --json` on ROS_DOMAIN_ID `domain`: what it measured.
 fn bench_node_load(args: &[&str], domain: &str) -> serde_json::Value {
+    bench_node(&[&["--load"], args].concat(), domain)
+}
+
+/// `terzaghi-bench node ARGS --json` on ROS_DOMAIN_ID `domain`, once it succeeded: what it
+/// measured.
+fn bench_node(args: &[&str], domain: &str) -> serde_json::Value {
     let out = isolated_command(&bench_exe())
-        .args(["node", "--load"])
+        .arg("node")
         .args(args)
         .arg("--json")
         .env("ROS_DOMAIN_ID", domain)
         .output()
-        .expect("run terzaghi-bench node --load");
+        .expect("run terzaghi-bench node");
     let stdout = String::from_utf8_lossy(&out.stdout);
     eprintln!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
-    assert!(out.status.success(), "terzaghi-bench node --load {args:?}");
+    assert!(out.status.success(), "terzaghi-bench node {args:?}");
     serde_json::from_str(&stdout).unwrap()
 }
 

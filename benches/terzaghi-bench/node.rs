@@ -885,11 +885,9 @@ struct LoadFigures {
     rss_kb: Vec<u64>,
 }
 
+/// Resident memory of process `pid` now (kB), from /proc (Linux).
 fn rss_kb(pid: u32) -> Option<u64> {
-    let s = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
-    s.lines()
-        .find_map(|l| l.strip_prefix("VmRSS:"))
-        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse().ok())
+    proc_field(pid, "status", "VmRSS:")
 }
 
 #[derive(Debug, serde::Serialize)]
@@ -949,21 +947,23 @@ fn gap_line(log: &str) -> Option<(u64, u64)> {
     Some((*n.first()?, *n.get(1)?))
 }
 
-/// Peak resident memory of process `pid` (kB), from /proc (Linux).
 /// The write calls (`write`, `writev` and their kind, not socket sends) process `pid` has made
 /// so far, all its threads (`syscw` of `/proc/PID/io`): among them, the wake-ups of DDS's
 /// event loop by its writers.
 fn write_calls(pid: u32) -> Option<u64> {
-    let s = std::fs::read_to_string(format!("/proc/{pid}/io")).ok()?;
-    s.lines()
-        .find_map(|l| l.strip_prefix("syscw:"))
-        .and_then(|v| v.trim().parse().ok())
+    proc_field(pid, "io", "syscw:")
 }
 
+/// Peak resident memory of process `pid` (kB), from /proc (Linux).
 fn peak_rss_kb(pid: u32) -> Option<u64> {
-    let s = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
+    proc_field(pid, "status", "VmHWM:")
+}
+
+/// The number after `key` in `/proc/PID/FILE` (a unit after it, as `kB`, dropped).
+fn proc_field(pid: u32, file: &str, key: &str) -> Option<u64> {
+    let s = std::fs::read_to_string(format!("/proc/{pid}/{file}")).ok()?;
     s.lines()
-        .find_map(|l| l.strip_prefix("VmHWM:"))
+        .find_map(|l| l.strip_prefix(key))
         .and_then(|v| v.trim().trim_end_matches("kB").trim().parse().ok())
 }
 
