@@ -618,7 +618,12 @@ impl OnlineEstimator {
 /// noise, the recent RMS, Huber weights, and the CUSUM of change detection.
 #[derive(Debug, Clone)]
 pub(crate) struct Innovations {
+    /// The sensor noise's variance, followed over the last few hundred rows: it standardizes
+    /// the innovations (Huber, change detection) and weights the rows of [`Innovations::row`].
     pub(crate) noise_var: f64,
+    /// The same noise followed over strokes: it weights the rows of
+    /// [`Innovations::row_over_strokes`].
+    pub(crate) stroke_noise_var: f64,
     pub(crate) innov_ms: f64,
     pub(crate) cusum: f64,
     /// The CUSUM runs once the estimate has converged since the last reset or change.
@@ -629,6 +634,7 @@ impl Innovations {
     pub(crate) fn new(initial_noise_n: f64) -> Innovations {
         Innovations {
             noise_var: initial_noise_n.powi(2),
+            stroke_noise_var: initial_noise_n.powi(2),
             innov_ms: 0.0,
             cusum: 0.0,
             armed: false,
@@ -649,27 +655,66 @@ impl Innovations {
     /// for the update (a large standardized innovation counts as noisier, Huber) and its clipped
     /// squared standardized innovation.
     pub(crate) fn row(&mut self, e: f64, hph: f64, o: &OnlineOptions) -> (f64, f64) {
-        let var = hph + self.noise_var;
-        let z = e / var.sqrt();
-        let w = if z.abs() <= o.huber_k {
+        let r = self.noise_var / self.huber_weight(e, hph, o);
+        (r, self.follow(e, hph, o, None))
+    }
+
+    /// [`Innovations::row`] with the row weighted by the noise followed over strokes (`keep`:
+    /// the share of it this row keeps, a memory of some strokes) rather than over the last few
+    /// hundred rows. Where the model's misfit runs through one part of every stroke (a term's
+    /// form that is not the medium's), the fast noise rises in that part and weighs it less
+    /// than the rest; the learnt coefficients then settle away from the batch diagnosis's,
+    /// which weighs every sample alike.
+    pub(crate) fn row_over_strokes(
+        &mut self,
+        e: f64,
+        hph: f64,
+        o: &OnlineOptions,
+        keep: f64,
+    ) -> (f64, f64) {
+        let r = self.stroke_noise_var / self.huber_weight(e, hph, o);
+        (r, self.follow(e, hph, o, Some(keep)))
+    }
+
+    /// The Huber weight of innovation `e`, standardized by the fast noise.
+    fn huber_weight(&self, e: f64, hph: f64, o: &OnlineOptions) -> f64 {
+        let z = e / (hph + self.noise_var).sqrt();
+        if z.abs() <= o.huber_k {
             1.0
         } else {
             o.huber_k / z.abs()
-        };
-        let r = self.noise_var / w;
+        }
+    }
+
+    /// Follows the noise with innovation `e` (and over strokes with `keep`, if given); returns
+    /// the clipped squared standardized innovation.
+    fn follow(&mut self, e: f64, hph: f64, o: &OnlineOptions, keep: Option<f64>) -> f64 {
+        let var = hph + self.noise_var;
+        let z = e / var.sqrt();
         let nis = (z * z).min(o.huber_k * o.huber_k);
         // Noise variance from clipped innovations, slowly, and not while the CUSUM builds up: a
         // change of the medium must not pass for noise.
         if self.cusum < 0.25 * o.cusum_alarm {
             let clipped = e.abs().min(o.huber_k * var.sqrt());
-            self.noise_var = 0.998 * self.noise_var + 0.002 * (clipped * clipped - hph).max(0.0);
+            let sq = (clipped * clipped - hph).max(0.0);
+            self.noise_var = 0.998 * self.noise_var + 0.002 * sq;
+            if let Some(k) = keep {
+                self.stroke_noise_var = k * self.stroke_noise_var + (1.0 - k) * sq;
+            }
         }
         self.innov_ms = 0.99 * self.innov_ms + 0.01 * e * e;
-        (r, nis)
+        nis
+    }
+
+    /// Both noises start from (or are reset to) the variance `var`.
+    pub(crate) fn set_noise(&mut self, var: f64) {
+        self.noise_var = var;
+        self.stroke_noise_var = var;
     }
 
     pub(crate) fn floor_noise(&mut self) {
         self.noise_var = self.noise_var.max(1e-12);
+        self.stroke_noise_var = self.stroke_noise_var.max(1e-12);
     }
 
     /// The CUSUM of clipped NIS over `rows` rows (mean `rows` without a change), once armed:
@@ -708,9 +753,15 @@ impl StuckDetector {
 /// spans `span_rad`.
 pub(crate) fn forgetting_factor(o: &OnlineOptions, dbeta: f64, span_rad: f64) -> f64 {
     match o.forgetting {
-        Forgetting::Strokes(m) => (-dbeta.min(0.2) / (m * span_rad)).exp(),
+        Forgetting::Strokes(m) => stroke_memory_keep(m, dbeta, span_rad),
         Forgetting::PerSample(l) => l,
     }
+}
+
+/// The share kept, at one update that swept `dbeta` (rad), by a memory of `strokes` strokes
+/// whose penetration spans `span_rad`.
+pub(crate) fn stroke_memory_keep(strokes: f64, dbeta: f64, span_rad: f64) -> f64 {
+    (-dbeta.min(0.2) / (strokes * span_rad)).exp()
 }
 
 /// Angle swept between two wrapped angles, the short way round.
