@@ -65,8 +65,11 @@ impl GapJob {
 
     /// Runs the diagnosis of the job: what a worker does, off the message path.
     pub fn run(&self) -> Result<Report, String> {
+        // The watch reports effects and shares, not a corrected model's values: no refit on
+        // denser points.
         let opts = DiagnoseOptions {
             max_points: GAP_MAX_POINTS,
+            max_fit_points: GAP_MAX_POINTS,
             ..Default::default()
         };
         let (samples, hips) = self.samples();

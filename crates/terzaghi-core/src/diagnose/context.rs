@@ -138,6 +138,19 @@ impl Context {
         }
     }
 
+    /// The typical speed in the medium the rate term's columns are scaled by (rad/s).
+    pub fn typical_speed_rad_s(&self) -> f64 {
+        self.points.first().map_or(0.0, |p| p.typical_speed_rad_s)
+    }
+
+    /// Scales the rate term's columns by `speed_rad_s` (another context's typical speed), so
+    /// that a fit here is the same model as there.
+    pub fn set_typical_speed(&mut self, speed_rad_s: f64) {
+        for p in &mut self.points {
+            p.typical_speed_rad_s = speed_rad_s;
+        }
+    }
+
     /// Share of the points in the medium (0 to 1; 0 for no points): out of it the baseline
     /// predicts no force, so gaps of two sessions compare per sample in the medium.
     pub fn in_medium_frac(&self) -> f64 {

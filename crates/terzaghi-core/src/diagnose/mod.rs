@@ -44,6 +44,10 @@ pub struct DiagnoseOptions {
     /// Most samples analysed (longer logs are thinned evenly; speed and acceleration come from
     /// every sample first).
     pub max_points: usize,
+    /// Most samples the corrected model's values are fitted on, once the search on `max_points`
+    /// has chosen its terms and their nonlinear values: up to this many, every sample (longer
+    /// logs are thinned evenly). Below `max_points`, the corrected model is the search's fit.
+    pub max_fit_points: usize,
     /// A gap is real when the held-out mean squared residual exceeds the noise variance by this
     /// fraction (and the excess is significant).
     pub min_excess_ratio: f64,
@@ -67,6 +71,7 @@ impl Default for DiagnoseOptions {
             folds: 5,
             min_strokes: 4,
             max_points: 16_000,
+            max_fit_points: 200_000,
             min_excess_ratio: 0.1,
             accept_pct: 30.0,
             step_pct: 5.0,
@@ -135,8 +140,14 @@ pub fn diagnose_placed(
     hips: &[Option<HipMotion>],
     opts: &DiagnoseOptions,
 ) -> Result<Diagnosis, DiagnoseError> {
-    let (ctx, skipped, stride) = prepare(model, samples, hips, opts)?;
-    Ok(report::analyse(&ctx, opts, skipped, stride))
+    let (ctx, skipped, stride, fit_ctx) = prepare(model, samples, hips, opts, true)?;
+    Ok(report::analyse(
+        &ctx,
+        fit_ctx.as_ref(),
+        opts,
+        skipped,
+        stride,
+    ))
 }
 
 /// The baseline alone on held-out strokes.
@@ -155,7 +166,7 @@ pub fn baseline_heldout(
     samples: &[Sample],
     opts: &DiagnoseOptions,
 ) -> Result<BaselineHeldOut, DiagnoseError> {
-    let (ctx, ..) = prepare(model, samples, &[], opts)?;
+    let (ctx, ..) = prepare(model, samples, &[], opts, false)?;
     Ok(BaselineHeldOut {
         mse_n2: fit::fit(&ctx, &fit::Design::baseline(ctx.folds), None).heldout_mse(),
         in_medium_frac: ctx.in_medium_frac(),
@@ -168,17 +179,19 @@ pub fn in_medium_frac(
     samples: &[Sample],
     opts: &DiagnoseOptions,
 ) -> Result<f64, DiagnoseError> {
-    prepare(model, samples, &[], opts).map(|(ctx, ..)| ctx.in_medium_frac())
+    prepare(model, samples, &[], opts, false).map(|(ctx, ..)| ctx.in_medium_frac())
 }
 
 /// Checks the log and builds the analysed points: returns them with the count of skipped
-/// samples and the thinning stride.
+/// samples, the thinning stride and, if `with_fit` and the search thins the log, the denser
+/// points the corrected model's values are fitted on (`max_fit_points`).
 fn prepare(
     model: &TerzaghiModel,
     samples: &[Sample],
     hips: &[Option<HipMotion>],
     opts: &DiagnoseOptions,
-) -> Result<(Context, usize, usize), DiagnoseError> {
+    with_fit: bool,
+) -> Result<(Context, usize, usize, Option<Context>), DiagnoseError> {
     let total = samples.len();
     let mut usable: Vec<(Sample, Option<HipMotion>)> = samples
         .iter()
@@ -227,7 +240,18 @@ fn prepare(
             total,
         });
     }
-    Ok((ctx, total - usable.len(), stride))
+    // The search's points are every `stride`-th sample; the corrected model's values take the
+    // rest too: a term that acts in a short phase of each stroke (extraction) has few points
+    // there, and which third of them the search kept moved its coefficient by 15 %.
+    let fit_stride = usable
+        .len()
+        .div_ceil(opts.max_fit_points.max(opts.max_points).max(1000));
+    let fit_ctx = (with_fit && fit_stride < stride).then(|| {
+        let mut c = Context::new(model, &usable, &hips, &kin, folds, fit_stride);
+        c.set_typical_speed(ctx.typical_speed_rad_s());
+        c
+    });
+    Ok((ctx, total - usable.len(), stride, fit_ctx))
 }
 
 fn median_step(s: &[Sample]) -> f64 {
@@ -307,6 +331,53 @@ mod tests {
             .find(|b| b.label == "out_of_medium")
             .unwrap();
         assert!(out.significant && out.share_of_gap > 30.0, "{out:?}");
+    }
+
+    #[test]
+    fn a_thinned_search_writes_the_values_of_every_sample() {
+        let s = session(20, |d, l| (d + 3.0, l - 2.0));
+        let thinned = DiagnoseOptions {
+            max_points: 1000,
+            ..Default::default()
+        };
+        let whole = DiagnoseOptions {
+            max_points: s.len(),
+            ..Default::default()
+        };
+        let t = diagnose(&unit(), &s, &thinned).unwrap().report;
+        let w = diagnose(&unit(), &s, &whole).unwrap().report;
+        assert!(
+            t.analysed * 2 <= t.samples,
+            "{} of {}",
+            t.analysed,
+            t.samples
+        );
+        assert_eq!(w.analysed, w.samples);
+        let (ct, cw) = (&t.corrected_model, &w.corrected_model);
+        assert_eq!(ct.terms.len(), 1);
+        assert_eq!(ct.terms[0].effect, Effect::SensorBias);
+        assert_eq!(cw.terms[0].effect, Effect::SensorBias);
+        assert!(
+            (ct.b_k / cw.b_k - 1.0).abs() < 1e-9,
+            "{} {}",
+            ct.b_k,
+            cw.b_k
+        );
+        assert!((ct.a / cw.a - 1.0).abs() < 1e-9, "{} {}", ct.a, cw.a);
+        for (x, y) in ct.terms[0]
+            .coefficients
+            .iter()
+            .zip(&cw.terms[0].coefficients)
+        {
+            assert!((x - y).abs() < 1e-9 * y.abs().max(1.0), "{x} {y}");
+        }
+        // Without the refit the thinned fit's own values, which differ.
+        let search_only = DiagnoseOptions {
+            max_fit_points: 1000,
+            ..thinned
+        };
+        let o = diagnose(&unit(), &s, &search_only).unwrap().report;
+        assert!(o.corrected_model.b_k != cw.b_k);
     }
 
     #[test]
@@ -461,7 +532,7 @@ mod tests {
             let f = truth.evaluate(b).unwrap();
             (f.drag_n * (1.0 + 0.2 * b.sin()) + 1.0, f.lift_n - 0.5)
         });
-        let (ctx, ..) = prepare(&unit(), &s, &[], &DiagnoseOptions::default()).unwrap();
+        let (ctx, ..) = prepare(&unit(), &s, &[], &DiagnoseOptions::default(), false).unwrap();
         let nl = Nonlinear {
             surface_drop_m: 0.008,
             lag_s: 0.01,

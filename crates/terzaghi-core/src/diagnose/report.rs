@@ -375,6 +375,7 @@ pub struct PlotData {
 
 pub(super) fn analyse(
     ctx: &Context,
+    fit_ctx: Option<&Context>,
     opts: &DiagnoseOptions,
     skipped: usize,
     stride: usize,
@@ -638,7 +639,20 @@ pub(super) fn analyse(
         .filter(|(e, _)| e.is_none_or(|e| !admissible.design.effects.contains(&e)))
         .map(|(e, why)| format!("{} ({why})", e.map_or("baseline", Effect::name)))
         .collect();
-    let corrected_model = corrected_model(ctx, &admissible);
+    // The chosen terms with the nonlinear values the search chose, fitted again on every
+    // sample: `b_k`, `a` and the coefficients. Without terms the corrected model is the
+    // report's baseline, as the search fitted it.
+    let corrected_model = fit_ctx
+        .filter(|_| !admissible.design.effects.is_empty())
+        .map(|full| {
+            let design = Design {
+                effects: admissible.design.effects.clone(),
+                fixed: admissible.nonlinear.clone(),
+            };
+            corrected_model(full, &fit(full, &design, None))
+        })
+        .filter(|c| c.validate(length_m).is_ok())
+        .unwrap_or_else(|| corrected_model(ctx, &admissible));
 
     let where_ = where_bins(ctx, &base.heldout_n, var);
     let unexplained = real.then(|| {
@@ -733,7 +747,7 @@ pub(crate) fn corrected_model(ctx: &Context, f: &Fit) -> Corrections {
         j += n;
     }
     c.nonlinear = f.nonlinear.last().copied().unwrap_or_default();
-    c.typical_speed_rad_s = ctx.points.first().map_or(0.0, |p| p.typical_speed_rad_s);
+    c.typical_speed_rad_s = ctx.typical_speed_rad_s();
     c.session_strokes = ctx.strokes;
     c
 }
