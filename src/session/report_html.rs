@@ -28,6 +28,16 @@ pub fn html(leg: &str, d: &Diagnosis) -> Result<String> {
     );
     s += &format!("<p>What it says: {}.</p>\n", escape(&r.verdict.claim));
     s += &format!("<p>{}</p>\n", escape(&r.summary));
+    if !r.corrected_model.terms.is_empty() {
+        s += &format!(
+            "<p>The corrected model (<code>corrected.yaml</code>) closes {:.0} % of the gap on held-out strokes{}.</p>\n",
+            r.corrected_model_gap_closed_pct,
+            r.corrected_model_forward_gap_closed_pct
+                .map_or(String::new(), |f| format!(
+                    ", and {f:.0} % on the session's last third when fitted on the strokes before it (what carries forward to strokes it has not seen)"
+                ))
+        );
+    }
     s += &facts_table(r);
     s += "<h2>Measured and predicted forces against attack angle</h2>\n<p>Grey: measured. Blue: baseline model (held-out). Red: with the correction (held-out).</p>\n";
     s += &forces_svg(&d.plot)?;

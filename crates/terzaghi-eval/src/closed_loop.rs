@@ -55,6 +55,9 @@ pub struct HeldOut {
     pub kept: Vec<Effect>,
     /// Share of the gap the steps it wrote into the corrected model close, as it reported (%).
     pub reported_pct: f64,
+    /// The share the diagnosis reported its corrected model carries forward: fitted on its
+    /// earlier strokes, scored on its own last third (%; `None` where it gives none).
+    pub reported_forward_pct: Option<f64>,
     pub bare: HeldOutFit,
     pub corrected: HeldOutFit,
     /// Share of the held-out gap (the bare model's squared residual in excess of the noise the
@@ -168,6 +171,7 @@ pub fn held_out(
         verdict: r.verdict.effect.to_string(),
         kept,
         reported_pct,
+        reported_forward_pct: r.corrected_model_forward_gap_closed_pct,
         bare,
         corrected,
         measured_pct,

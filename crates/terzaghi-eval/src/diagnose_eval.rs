@@ -410,12 +410,13 @@ pub fn render_closed_loop(
         done.len()
     );
     out += &format!(
-        "{:<9} {:<wc$} {:<wt$} {:<wk$} {:>8} {:>8} {:>21} {:>21} {:>5}\n",
+        "{:<9} {:<wc$} {:<wt$} {:<wk$} {:>8} {:>7} {:>8} {:>21} {:>21} {:>5}\n",
         "source",
         "case",
         "truth",
         "kept",
         "reported",
+        "forward",
         "measured",
         "bare RMSE (R^2 d/l)",
         "corrected (R^2 d/l)",
@@ -426,7 +427,7 @@ pub fn render_closed_loop(
             format!("{:.3} N ({:.2}/{:.2})", f.rmse_n, f.r2_drag, f.r2_lift)
         };
         out += &format!(
-            "{:<9} {:<wc$} {:<wt$} {:<wk$} {:>8} {:>8} {:>21} {:>21} {:>5}\n",
+            "{:<9} {:<wc$} {:<wt$} {:<wk$} {:>8} {:>7} {:>8} {:>21} {:>21} {:>5}\n",
             h.source,
             h.case,
             h.truth,
@@ -436,6 +437,7 @@ pub fn render_closed_loop(
             } else {
                 whole(h.reported_pct)
             },
+            h.reported_forward_pct.map_or("-".to_string(), whole),
             h.measured_pct.map_or("-".to_string(), whole),
             fit(&h.bare),
             fit(&h.corrected),
@@ -456,8 +458,15 @@ pub fn render_closed_loop(
             .iter()
             .filter(|h| h.corrected.rmse_n < h.bare.rmse_n)
             .count();
+        let forward_holds = corrected
+            .iter()
+            .filter(|h| match (h.reported_forward_pct, h.measured_pct) {
+                (Some(f), Some(m)) => m >= f - 10.0,
+                _ => h.holds,
+            })
+            .count();
         out += &format!(
-            "{source}: {} sessions, {} with corrections; the corrected model closes at least the reported share less 10 points in {holds} of them, and predicts the held-out strokes better than the bare model in {better}\n",
+            "{source}: {} sessions, {} with corrections; the corrected model closes at least the reported share less 10 points in {holds} of them (the forward share less 10 points in {forward_holds}), and predicts the held-out strokes better than the bare model in {better}\n",
             of.len(),
             corrected.len()
         );

@@ -106,6 +106,17 @@ impl Context {
             .collect()
     }
 
+    /// The same points in two folds: the strokes from `first_test` on (fold 0) and those before
+    /// them (fold 1), so that fold 0 is predicted from the earlier strokes alone.
+    pub fn forward_split(&self, first_test: usize) -> Context {
+        let mut c = self.clone();
+        for p in &mut c.points {
+            p.fold = usize::from(p.stroke < first_test);
+        }
+        c.folds = 2;
+        c
+    }
+
     /// The strokes `keep` (in increasing order) as a session of their own: renumbered from 0,
     /// `folds` folds of whole strokes (one stroke: its samples alternately in two folds).
     pub fn sub_session(&self, keep: &[usize], folds: usize) -> Context {

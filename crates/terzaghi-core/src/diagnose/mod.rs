@@ -311,6 +311,7 @@ mod tests {
         assert!((r.baseline.a / 1.5 - 1.0).abs() < 0.01, "{}", r.baseline.a);
         assert!(r.gap.excess_ratio.abs() < 0.1, "{}", r.gap.excess_ratio);
         assert!(r.candidates.iter().all(|c| c.gap_closed_pct.is_none()));
+        assert_eq!(r.corrected_model_forward_gap_closed_pct, None, "no step");
     }
 
     #[test]
@@ -324,6 +325,14 @@ mod tests {
         assert!((c.params["drag_n"] - 3.0).abs() < 0.1, "{:?}", c.params);
         assert!((c.params["lift_n"] + 2.0).abs() < 0.1, "{:?}", c.params);
         assert!(r.verdict.gap_closed_pct > 95.0);
+        // A steady offset carries forward to the session's last strokes as it holds across the
+        // folds.
+        let forward = r.corrected_model_forward_gap_closed_pct.unwrap();
+        assert!(
+            (forward - r.corrected_model_gap_closed_pct).abs() < 3.0,
+            "{forward} against {}",
+            r.corrected_model_gap_closed_pct
+        );
         // The gap sits in the air too: the out-of-medium bin holds much of it.
         let out = r
             .where_

@@ -60,6 +60,13 @@ pub struct Report {
     /// Share of the gap the corrected model closes on held-out strokes, %: the last step's
     /// `gap_closed_pct` it holds (0 with no step).
     pub corrected_model_gap_closed_pct: f64,
+    /// Share of the gap the corrected model closes on the session's last third of strokes,
+    /// fitted on the strokes before them (its terms and nonlinear values as the whole session
+    /// chose them), %: what carries forward to strokes it has not seen. Below
+    /// `corrected_model_gap_closed_pct` where the session drifts (a bed a leg digs its trough in,
+    /// speeds that rise) and a term takes up misfit of the earlier strokes only. `None` with
+    /// fewer than three strokes, without a step, or without a gap on the last third.
+    pub corrected_model_forward_gap_closed_pct: Option<f64>,
     /// Steps whose fit left the terms' physical bounds, with the value that did: the corrected
     /// model stops before the first of them, unless a later step's fit is within bounds again.
     pub corrected_model_left_out: Vec<String>,
@@ -634,6 +641,7 @@ pub(super) fn analyse(
     }
     let after = current.heldout_n.clone();
     let corrected_model_gap_closed_pct = closed(admissible.heldout_mse());
+    let corrected_model_forward_gap_closed_pct = forward_gap_closed_pct(ctx, &admissible, var);
     let corrected_model_left_out = left_out
         .into_iter()
         .filter(|(e, _)| e.is_none_or(|e| !admissible.design.effects.contains(&e)))
@@ -716,6 +724,7 @@ pub(super) fn analyse(
             signatures,
             corrected_model,
             corrected_model_gap_closed_pct,
+            corrected_model_forward_gap_closed_pct,
             corrected_model_left_out,
             hip_placed_points: ctx
                 .points
@@ -732,6 +741,40 @@ pub(super) fn analyse(
             noise_var_n2: var,
         },
     }
+}
+
+/// The share of the gap (over the noise variance `var`) that the design of `f` closes on the
+/// last third of the session's strokes, fitted on the strokes before them with `f`'s nonlinear
+/// values (see `Report::corrected_model_forward_gap_closed_pct`).
+fn forward_gap_closed_pct(ctx: &Context, f: &Fit, var: f64) -> Option<f64> {
+    if f.design.effects.is_empty() || ctx.strokes < 3 {
+        return None;
+    }
+    let first_test = ctx.strokes - (ctx.strokes / 3).max(1);
+    let split = ctx.forward_split(first_test);
+    let whole = f.nonlinear.last().copied().unwrap_or_default();
+    let design = Design {
+        effects: f.design.effects.clone(),
+        fixed: vec![whole; split.folds + 1],
+    };
+    let test_mse = |g: &Fit| {
+        let (sse, n) = split
+            .points
+            .iter()
+            .zip(&g.heldout_n)
+            .filter(|(p, _)| p.fold == 0)
+            .fold((0.0, 0usize), |(sse, n), (p, h)| {
+                (
+                    sse + (p.y_n[0] - h[0]).powi(2) + (p.y_n[1] - h[1]).powi(2),
+                    n + 2,
+                )
+            });
+        (n > 0).then(|| sse / n as f64)
+    };
+    let bare = test_mse(&fit(&split, &Design::baseline(split.folds), None))?;
+    let corrected = test_mse(&fit(&split, &design, None))?;
+    let excess = bare - var;
+    (excess > 0.0).then(|| 100.0 * (bare - corrected) / excess)
 }
 
 /// The corrected model of the fit `f` on every stroke.
