@@ -58,6 +58,10 @@ pub struct HeldOut {
     /// The share the diagnosis reported its corrected model carries forward: fitted on its
     /// earlier strokes, scored on its own last third (%; `None` where it gives none).
     pub reported_forward_pct: Option<f64>,
+    /// The bare model's mean squared residual per component on the diagnosed strokes, held out
+    /// by the diagnosis's folds (N^2): set against `bare.mse_n2`, how much harder the held-out
+    /// strokes are.
+    pub diagnosed_bare_mse_n2: f64,
     pub bare: HeldOutFit,
     pub corrected: HeldOutFit,
     /// Share of the held-out gap (the bare model's squared residual in excess of the noise the
@@ -172,6 +176,7 @@ pub fn held_out(
         kept,
         reported_pct,
         reported_forward_pct: r.corrected_model_forward_gap_closed_pct,
+        diagnosed_bare_mse_n2: r.gap.heldout_mse_n2,
         bare,
         corrected,
         measured_pct,
