@@ -242,7 +242,7 @@ fn prepare(
     }
     // The search's points are every `stride`-th sample; the corrected model's values take the
     // rest too: a term that acts in a short phase of each stroke (extraction) has few points
-    // there, and which third of them the search kept moved its coefficient by 15 %.
+    // there, and which of them the search kept moves its coefficients.
     let fit_stride = usable
         .len()
         .div_ceil(opts.max_fit_points.max(opts.max_points).max(1000));
