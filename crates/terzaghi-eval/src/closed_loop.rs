@@ -81,6 +81,12 @@ pub struct HeldOutError {
     pub message: String,
 }
 
+/// The target's rule: a measured share of the gap (%) holds against a share the diagnosis
+/// reported (%) when it is at most 10 points below it.
+pub fn closes_share(measured_pct: f64, reported_pct: f64) -> bool {
+    measured_pct >= reported_pct - 10.0
+}
+
 /// Share of the strokes diagnosed; the rest are predicted.
 pub const TRAIN_FRAC: f64 = 2.0 / 3.0;
 
@@ -161,7 +167,7 @@ pub fn held_out(
     let kept: Vec<Effect> = c.terms.iter().map(|t| t.effect).collect();
     let holds = kept.is_empty()
         || match measured_pct {
-            Some(m) => m >= reported_pct - 10.0,
+            Some(m) => closes_share(m, reported_pct),
             // No gap left to close on the held-out strokes: the corrections cannot show more.
             None => corrected.mse_n2 <= bare.mse_n2 * 1.01 || corrected.mse_n2 <= 1.1 * var,
         };

@@ -461,7 +461,7 @@ pub fn render_closed_loop(
         let forward_holds = corrected
             .iter()
             .filter(|h| match (h.reported_forward_pct, h.measured_pct) {
-                (Some(f), Some(m)) => m >= f - 10.0,
+                (Some(f), Some(m)) => crate::closed_loop::closes_share(m, f),
                 _ => h.holds,
             })
             .count();
