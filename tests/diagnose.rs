@@ -546,7 +546,7 @@ fn on_the_dem_campaign_the_varied_effect_is_reported() {
         !speed_effects.contains("compaction") && !speed_effects.contains("sensor_lag"),
         "speed: {speed_effects}"
     );
-    // A sensor offset is measured directly where the leg is out of the medium: the share of
+    // A sensor offset is measured directly where the leg is far out of the medium: the share of
     // the gap it closes agrees with the share measured against the same strokes without it;
     // so does the share the surface level closes alone.
     // A bed that gets denser, or a trough passed through again, changes the strokes from some
@@ -584,31 +584,51 @@ fn on_the_dem_campaign_the_varied_effect_is_reported() {
             assert!((r - m).abs() <= 10.0, "{name}: reported {r}, measured {m}");
         }
     }
-    // On the C-leg, whose early entry a `hip_height` term takes beside the offset, the offset's
-    // share misses by 13 points: a stated miss (README), held within 15.
-    for (name, points) in [
-        ("sensor_bias", 10.0),
-        ("surface_level", 10.0),
-        ("cleg_sensor_bias", 15.0),
-    ] {
+    // The offset's share, read directly, agrees with the measured one on the flat plate and on
+    // the C-leg told as a flat plate (whose early entry a `hip_height` term takes beside it).
+    for name in ["sensor_bias", "surface_level", "cleg_sensor_bias"] {
         let c = case(name);
         let (r, m) = (
             c["reported_pct"].as_f64().unwrap(),
             c["measured_pct"].as_f64().unwrap(),
         );
+        assert!((r - m).abs() <= 10.0, "{name}: reported {r}, measured {m}");
+    }
+    // The offset's direct signature is read where the leg is farthest from the medium: there
+    // it is the sensor's offset within 2 %, on drag and on lift, also on the C-leg, whose arc
+    // puts force on the sensor where the flat plate is out of the medium near the surface
+    // (read from there, the C-leg's lift offset was 19 % too high). Where the sensor adds none,
+    // none is found, also on the C-leg at rising speeds.
+    let offset = |name: &str| case(name)["report"]["signatures"]["sensor_offset"].clone();
+    for name in ["sensor_bias", "cleg_sensor_bias"] {
+        let truth = case(name)["sensor_offset_n"].as_f64().unwrap();
+        assert!(truth > 0.0, "{name}");
+        assert_eq!(offset(name)["significant"], true, "{name}");
+        for c in ["drag_n", "lift_n"] {
+            let read = offset(name)[c].as_f64().unwrap();
+            assert!(
+                (read - truth).abs() <= 0.02 * truth,
+                "{name}: {c} read {read} N, the sensor added {truth} N"
+            );
+        }
+    }
+    for c in dem
+        .iter()
+        .filter(|c| c["sensor_offset_n"].as_f64() == Some(0.0))
+    {
+        let name = c["case"].as_str().unwrap();
+        assert_eq!(
+            offset(name)["significant"],
+            false,
+            "{name}: {}",
+            offset(name)
+        );
         assert!(
-            (r - m).abs() <= points,
-            "{name}: reported {r}, measured {m}"
+            !c["effects"].to_string().contains("sensor_bias"),
+            "{name}: {}",
+            c["effects"]
         );
     }
-    // The offset's direct signature, force out of the medium: clear on the flat plate; on the
-    // C-leg told as a flat plate it falls short of the t 4 over strokes it asks (the arc's own
-    // entry force comes where the flat plate is out of the medium), and the offset is found by
-    // its term.
-    let offset = |name: &str| case(name)["report"]["signatures"]["sensor_offset"].clone();
-    assert_eq!(offset("sensor_bias")["significant"], true);
-    assert_eq!(offset("cleg_sensor_bias")["significant"], false);
-    assert!(offset("cleg_sensor_bias")["t_strokes"].as_f64().unwrap() > 3.0);
     // Where the speeds vary, the report splits each stroke's best-aligning shift into time and
     // angle. A late sensor moves the time part by its delay, against the same strokes without
     // it; in a session alone the time part is net of the medium's own lead over the
@@ -750,11 +770,10 @@ fn the_corrected_model_closes_the_reported_share_on_held_out_strokes() {
         }
     }
     // DEM: every case gets corrections that predict its held-out strokes better; they close the
-    // reported share within 10 points except in two, which the README names: the C-leg told as a
-    // flat plate at rising speeds is predicted at speeds the first strokes did not reach, and the
-    // offset's cohesion-like companion generalises less than reported. The flat plate's strokes
-    // at rising speeds hold, with `rate` in the corrected model.
-    let expected_misses = ["cleg_speed", "sensor_bias"];
+    // reported share within 10 points except in one, which the README names: the C-leg told as
+    // a flat plate at rising speeds is predicted at speeds the first strokes did not reach. The
+    // flat plate's strokes at rising speeds hold, with `rate` in the corrected model.
+    let expected_misses = ["cleg_speed"];
     let mut misses: Vec<&str> = Vec::new();
     for s in &dem {
         assert!(kept(s), "{s}");
@@ -778,21 +797,14 @@ fn the_corrected_model_closes_the_reported_share_on_held_out_strokes() {
         assert!(s["reported_forward_pct"].is_number(), "{s}");
     }
     let pct = |s: &Value, k: &str| s[k].as_f64().unwrap();
-    // The offset case is the base case's strokes with an offset added. Its miss is the share's:
-    // the held-out stroke is over twice as hard for the bare model as the diagnosed ones, so the
-    // offset the correction removes whole is a smaller part of its gap; the corrected model
-    // predicts it within 25 % of the base case's corrected error.
+    // The held-out strokes are whole strokes, in and out of the medium, as the diagnosed ones
+    // are: on the base case (four beds alike) the bare model misfits them about as much. A
+    // last stroke cut off where the leg leaves the medium is over twice as hard per sample,
+    // and an offset, on every sample, a smaller part of its gap.
     let case = |name: &str| dem.iter().find(|s| s["case"] == name).unwrap();
-    let (base, offset) = (case("base"), case("sensor_bias"));
-    let mse = |s: &Value, which: &str| s[which]["mse_n2"].as_f64().unwrap();
-    assert!(
-        mse(base, "bare") > 2.0 * pct(base, "diagnosed_bare_mse_n2"),
-        "{base}"
-    );
-    assert!(
-        mse(offset, "corrected") < 1.25 * mse(base, "corrected"),
-        "{offset}\n{base}"
-    );
+    let base = case("base");
+    let ratio = base["bare"]["mse_n2"].as_f64().unwrap() / pct(base, "diagnosed_bare_mse_n2");
+    assert!((0.67..1.5).contains(&ratio), "{ratio}: {base}");
     let cleg = dem.iter().find(|s| s["case"] == "cleg_speed").unwrap();
     assert!(
         pct(cleg, "reported_forward_pct") < pct(cleg, "reported_pct") - 3.0,

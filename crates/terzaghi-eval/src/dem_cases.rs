@@ -261,6 +261,9 @@ pub struct DemOutcome {
     pub measured_pct: Option<f64>,
     /// Share of the gap no significant effect explains, %.
     pub unexplained_pct: f64,
+    /// The offset the sensor added to drag and lift (N; 0 but for the offset cases): the truth
+    /// of the report's direct signature of an offset.
+    pub sensor_offset_n: f64,
     /// Held-out Psi of the baseline (drag, lift).
     pub baseline_psi: [f64; 2],
     /// The whole report, as `terzaghi diagnose` writes it.
@@ -301,52 +304,56 @@ pub fn compose(
     let mut t_s: Vec<f64> = Vec::new();
     let mut beta: Vec<f64> = Vec::new();
     let mut force: Vec<[f64; 2]> = Vec::new();
+    let turn = std::f64::consts::TAU;
+    // Where the session's current stroke began (rad), and the last run's sample period (s).
+    let mut stroke_start = 0.0;
+    let mut period = 0.0;
     for (i, r) in runs.iter().enumerate() {
         let s = &r.samples;
         if s.len() < 2 {
             return Err(format!("{} has fewer than two samples", r.name));
         }
-        let period = (s[s.len() - 1].t_s - s[0].t_s) / (s.len() - 1) as f64;
+        period = (s[s.len() - 1].t_s - s[0].t_s) / (s.len() - 1) as f64;
         if i > 0 {
             // Through the air to where this run starts, a turn later, the speed changing
             // linearly from the last run's to this one's.
-            let (t_end, b_end) = (
-                *t_s.last().expect("a run was added"),
-                *beta.last().expect("a run was added"),
-            );
-            let turn = std::f64::consts::TAU;
+            let b_end = *beta.last().expect("a run was added");
             let target = s[0].beta_rad + ((b_end - s[0].beta_rad) / turn).ceil() * turn;
             let target = if target - b_end < 1.0 {
                 target + turn
             } else {
                 target
             };
-            let (w0, w1) = (runs[i - 1].omega_rad_s.abs(), r.omega_rad_s.abs());
-            let sweep = target - b_end;
-            let duration = 2.0 * sweep / (w0 + w1).max(1e-6);
-            let steps = (duration / period).ceil().max(1.0) as usize;
-            let dt = duration / steps as f64;
-            for k in 1..steps {
-                let t = k as f64 * dt;
-                t_s.push(t_end + t);
-                beta.push(b_end + w0 * t + (w1 - w0) * t * t / (2.0 * duration));
-                force.push([0.0, 0.0]);
-            }
-            let shift_t = t_end + duration - s[0].t_s;
-            let shift_b = target - s[0].beta_rad;
+            let w = (runs[i - 1].omega_rad_s.abs(), r.omega_rad_s.abs());
+            let t_next = swing(&mut t_s, &mut beta, &mut force, target, w, period);
+            let (shift_t, shift_b) = (t_next - s[0].t_s, target - s[0].beta_rad);
             for x in s {
                 t_s.push(x.t_s + shift_t);
                 beta.push(x.beta_rad + shift_b);
                 force.push([x.drag_n, x.lift_n]);
             }
+            stroke_start = target;
         } else {
             for x in s {
                 t_s.push(x.t_s);
                 beta.push(x.beta_rad);
                 force.push([x.drag_n, x.lift_n]);
             }
+            stroke_start = s[0].beta_rad;
         }
     }
+    // The last stroke whole as well: through the air on to where a next run would start, so
+    // that the last strokes (those a held-out check predicts) hold their share of the air as
+    // every other stroke does.
+    let last = runs[runs.len() - 1].omega_rad_s.abs();
+    swing(
+        &mut t_s,
+        &mut beta,
+        &mut force,
+        stroke_start + turn,
+        (last, last),
+        period,
+    );
     let peak = force
         .iter()
         .flat_map(|f| [f[0].abs(), f[1].abs()])
@@ -384,6 +391,36 @@ pub fn compose(
         TerzaghiModel::conventional(plate, first.medium),
         sigma,
     ))
+}
+
+/// Swings the leg through the air (zero force) from the last sample on to `target` (rad), its
+/// speed changing linearly over the swing from `w.0` to `w.1` (rad/s), sampled every
+/// `period_s`; the samples stop one period short of `target`. Returns the time the leg reaches
+/// `target` (s).
+fn swing(
+    t_s: &mut Vec<f64>,
+    beta: &mut Vec<f64>,
+    force: &mut Vec<[f64; 2]>,
+    target: f64,
+    w: (f64, f64),
+    period_s: f64,
+) -> f64 {
+    let (t_end, b_end) = (
+        *t_s.last().expect("a run was added"),
+        *beta.last().expect("a run was added"),
+    );
+    let (w0, w1) = w;
+    let sweep = target - b_end;
+    let duration = 2.0 * sweep / (w0 + w1).max(1e-6);
+    let steps = (duration / period_s).ceil().max(1.0) as usize;
+    let dt = duration / steps as f64;
+    for k in 1..steps {
+        let t = k as f64 * dt;
+        t_s.push(t_end + t);
+        beta.push(b_end + w0 * t + (w1 - w0) * t * t / (2.0 * duration));
+        force.push([0.0, 0.0]);
+    }
+    t_end + duration
 }
 
 fn runs_of<'a>(
@@ -488,6 +525,7 @@ pub fn run_case(
         reported_pct,
         measured_pct,
         unexplained_pct: r.unexplained.as_ref().map_or(0.0, |u| u.share_of_gap_pct),
+        sensor_offset_n: case.sensor.bias_frac * sigma / NOISE_FRAC,
         baseline_psi: [r.baseline.psi_drag, r.baseline.psi_lift],
         report: d.report.clone(),
     })
@@ -542,8 +580,15 @@ mod tests {
         assert!((sigma - 0.1).abs() < 1e-12, "2 % of the 5 N peak");
         assert!(s.windows(2).all(|w| w[1].t_s > w[0].t_s));
         assert!(s.windows(2).all(|w| w[1].beta_rad > w[0].beta_rad));
-        let last = s.last().unwrap();
-        assert!((last.beta_rad - (0.3 + 2.0 * 199.0 * 0.002 + std::f64::consts::TAU)).abs() < 1e-9);
+        // Two whole strokes: b starts a turn after a, and the session ends through the air
+        // one sample short of a turn after b's start.
+        let tau = std::f64::consts::TAU;
+        let last = s.last().unwrap().beta_rad;
+        assert!(
+            last < 0.3 + 2.0 * tau && last > 0.3 + 2.0 * tau - 2.0 * 0.002 * 1.01,
+            "{last}"
+        );
+        assert_eq!(terzaghi::diagnose::kinematics(&s, 5).strokes(), 2);
         // An offset of 10 % of the peak on every sample; a delay moves the force later.
         let biased = Sensor {
             bias_frac: 0.1,

@@ -327,6 +327,19 @@ impl Context {
             !p.in_medium() && (p.beta_rad < lo || p.beta_rad > hi)
         })
     }
+
+    /// Points in the middle half of the leg's swing through the air, farthest from the medium
+    /// (the swing runs from `pi - entry` to `2 pi + entry`, its middle at `3 pi / 2`). Only a
+    /// sensor offset puts force on the sensor there; near the surface, a leg whose real shape
+    /// reaches the grains before the model's plate does (a C-leg), or grains thrown up by a
+    /// fast stroke, can put force on it too.
+    pub fn far_from_medium(&self) -> impl Iterator<Item = &Point> {
+        use std::f64::consts::PI;
+        self.points.iter().filter(move |p| {
+            let entry = p.entry_beta_rad.clamp(0.0, PI / 2.0);
+            !p.in_medium() && (p.beta_rad - 1.5 * PI).abs() <= (PI + 2.0 * entry) / 4.0
+        })
+    }
 }
 
 /// The upper median (0 for none).

@@ -2,7 +2,8 @@
 //! candidate term improves the fit: each is evidence that does not depend on the model's own
 //! misfit being small.
 //!
-//! - A sensor offset shows where the leg is out of the medium: the force there should be zero.
+//! - A sensor offset shows where the leg is far out of the medium: the force there should be
+//!   zero.
 //! - A delay of the F/T signal shows in the time shift that best aligns the measured force with
 //!   the predicted one.
 //! - A surface at another level than configured shows in the angle at which force first
@@ -25,7 +26,8 @@ pub struct Signatures {
     pub onset: Onset,
 }
 
-/// The mean force where the leg is well out of the medium.
+/// The mean force where the leg is far out of the medium: the middle half of its swing through
+/// the air.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Offset {
     /// Mean drag out of the medium (N).
@@ -114,7 +116,7 @@ pub fn read(ctx: &Context, fitted_n: &[[f64; 2]], noise_n: [f64; 2]) -> Signatur
 fn offset(ctx: &Context, noise_n: [f64; 2]) -> Offset {
     let mut per_stroke: Vec<([f64; 2], usize)> = vec![([0.0; 2], 0); ctx.strokes.max(1)];
     let (mut sum, mut n) = ([0.0; 2], 0usize);
-    for p in ctx.out_of_medium(0.35) {
+    for p in ctx.far_from_medium() {
         let s = &mut per_stroke[p.stroke.min(ctx.strokes.max(1) - 1)];
         for (c, y) in p.y_n.iter().enumerate() {
             s.0[c] += y;
