@@ -191,6 +191,12 @@ fn render(leg: &str, r: &Report, dir: &Path) -> String {
             r.corrected_model_left_out.join("; ")
         );
     }
+    if let Some(why) = &r.corrected_model_refit_refused {
+        s += &format!(
+            "  corrected model: its fit on every sample was refused ({why}); the values fitted on the {} samples analysed are written\n",
+            r.corrected_model_fit_samples
+        );
+    }
     s
 }
 

@@ -30,11 +30,18 @@ pub fn html(leg: &str, d: &Diagnosis) -> Result<String> {
     s += &format!("<p>{}</p>\n", escape(&r.summary));
     if !r.corrected_model.terms.is_empty() {
         s += &format!(
-            "<p>The corrected model (<code>corrected.yaml</code>) closes {:.0} % of the gap on held-out strokes{}.</p>\n",
+            "<p>The corrected model (<code>corrected.yaml</code>) closes {:.0} % of the gap on held-out strokes{}. Its values are fitted on {} samples{}.</p>\n",
             r.corrected_model_gap_closed_pct,
             r.corrected_model_forward_gap_closed_pct
                 .map_or(String::new(), |f| format!(
                     ", and {f:.0} % on the session's last third when fitted on the strokes before it (what carries forward to strokes it has not seen)"
+                )),
+            r.corrected_model_fit_samples,
+            r.corrected_model_refit_refused
+                .as_ref()
+                .map_or(String::new(), |why| format!(
+                    ", those the search analysed: their fit on every sample was refused ({})",
+                    escape(why)
                 ))
         );
     }

@@ -140,13 +140,13 @@ pub fn diagnose_placed(
     hips: &[Option<HipMotion>],
     opts: &DiagnoseOptions,
 ) -> Result<Diagnosis, DiagnoseError> {
-    let (ctx, skipped, stride, fit_ctx) = prepare(model, samples, hips, opts, true)?;
+    let (ctx, skipped, _, fit_ctx) = prepare(model, samples, hips, opts, true)?;
     Ok(report::analyse(
         &ctx,
         fit_ctx.as_ref(),
         opts,
         skipped,
-        stride,
+        samples.len(),
     ))
 }
 
@@ -362,6 +362,10 @@ mod tests {
             t.samples
         );
         assert_eq!(w.analysed, w.samples);
+        // The report says what the values were fitted on: every sample, both ways.
+        assert_eq!(t.corrected_model_fit_samples, t.samples);
+        assert_eq!(w.corrected_model_fit_samples, w.samples);
+        assert_eq!(t.corrected_model_refit_refused, None);
         let (ct, cw) = (&t.corrected_model, &w.corrected_model);
         assert_eq!(ct.terms.len(), 1);
         assert_eq!(ct.terms[0].effect, Effect::SensorBias);
@@ -387,6 +391,7 @@ mod tests {
         };
         let o = diagnose(&unit(), &s, &search_only).unwrap().report;
         assert!(o.corrected_model.b_k != cw.b_k);
+        assert_eq!(o.corrected_model_fit_samples, o.analysed);
     }
 
     #[test]

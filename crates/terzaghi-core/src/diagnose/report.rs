@@ -70,6 +70,14 @@ pub struct Report {
     /// Steps whose fit left the terms' physical bounds, with the value that did: the corrected
     /// model stops before the first of them, unless a later step's fit is within bounds again.
     pub corrected_model_left_out: Vec<String>,
+    /// Samples the corrected model's values were fitted on: every usable sample up to
+    /// `max_fit_points`, or the search's `analysed` where the search saw every one, kept no
+    /// term, or the fit on every sample left the terms' bounds (then the search's values stand,
+    /// and `corrected_model_refit_refused` says why).
+    pub corrected_model_fit_samples: usize,
+    /// Why the corrected model's fit on every sample was refused (a value out of its bounds),
+    /// and the search's values written instead; `None` where it was taken or not needed.
+    pub corrected_model_refit_refused: Option<String>,
     /// Analysed points whose hip the robot's state placed (a recording's `/tf` or body pose,
     /// for a leg with a `hip_frame`): modelled at that hip's height and attack angle, the
     /// others at the configured height. 0 for a leg at a fixed height.
@@ -385,7 +393,7 @@ pub(super) fn analyse(
     fit_ctx: Option<&Context>,
     opts: &DiagnoseOptions,
     skipped: usize,
-    stride: usize,
+    samples_given: usize,
 ) -> Diagnosis {
     let n = ctx.points.len();
     let residuals = 2 * n;
@@ -650,17 +658,23 @@ pub(super) fn analyse(
     // The chosen terms with the nonlinear values the search chose, fitted again on every
     // sample: `b_k`, `a` and the coefficients. Without terms the corrected model is the
     // report's baseline, as the search fitted it.
-    let corrected_model = fit_ctx
+    let refit = fit_ctx
         .filter(|_| !admissible.design.effects.is_empty())
         .map(|full| {
             let design = Design {
                 effects: admissible.design.effects.clone(),
                 fixed: admissible.nonlinear.clone(),
             };
-            corrected_model(full, &fit(full, &design, None))
-        })
-        .filter(|c| c.validate(length_m).is_ok())
-        .unwrap_or_else(|| corrected_model(ctx, &admissible));
+            let c = corrected_model(full, &fit(full, &design, None));
+            c.validate(length_m)
+                .map(|()| (c, full.points.len()))
+                .map_err(|e| e.to_string())
+        });
+    let corrected_model_refit_refused = refit.as_ref().and_then(|r| r.as_ref().err().cloned());
+    let (corrected_model, corrected_model_fit_samples) = match refit {
+        Some(Ok(taken)) => taken,
+        _ => (corrected_model(ctx, &admissible), ctx.points.len()),
+    };
 
     let where_ = where_bins(ctx, &base.heldout_n, var);
     let unexplained = real.then(|| {
@@ -707,7 +721,7 @@ pub(super) fn analyse(
     );
     Diagnosis {
         report: Report {
-            samples: n * stride + skipped,
+            samples: samples_given,
             analysed: n,
             skipped_non_finite: skipped,
             strokes: ctx.strokes,
@@ -726,6 +740,8 @@ pub(super) fn analyse(
             corrected_model_gap_closed_pct,
             corrected_model_forward_gap_closed_pct,
             corrected_model_left_out,
+            corrected_model_fit_samples,
+            corrected_model_refit_refused,
             hip_placed_points: ctx
                 .points
                 .iter()
