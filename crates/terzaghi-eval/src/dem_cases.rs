@@ -305,8 +305,7 @@ pub fn compose(
     let mut beta: Vec<f64> = Vec::new();
     let mut force: Vec<[f64; 2]> = Vec::new();
     let turn = std::f64::consts::TAU;
-    // Where the session's current stroke began (rad), and the last run's sample period (s).
-    let mut stroke_start = 0.0;
+    // The last run's sample period (s).
     let mut period = 0.0;
     for (i, r) in runs.iter().enumerate() {
         let s = &r.samples;
@@ -332,28 +331,24 @@ pub fn compose(
                 beta.push(x.beta_rad + shift_b);
                 force.push([x.drag_n, x.lift_n]);
             }
-            stroke_start = target;
         } else {
             for x in s {
                 t_s.push(x.t_s);
                 beta.push(x.beta_rad);
                 force.push([x.drag_n, x.lift_n]);
             }
-            stroke_start = s[0].beta_rad;
         }
     }
-    // The last stroke whole as well: through the air on to where a next run would start, so
-    // that the last strokes (those a held-out check predicts) hold their share of the air as
-    // every other stroke does.
-    let last = runs[runs.len() - 1].omega_rad_s.abs();
-    swing(
-        &mut t_s,
-        &mut beta,
-        &mut force,
-        stroke_start + turn,
-        (last, last),
-        period,
-    );
+    // The last stroke whole as well: through the air on to where the next stroke would begin
+    // (strokes are counted in whole turns from the session's first sample), so that the last
+    // strokes (those a held-out check predicts) hold their share of the air as every other
+    // stroke does. A run of several strokes ends inside its last one too.
+    let (start, b_end) = (beta[0], *beta.last().expect("a run was added"));
+    let end = start + ((b_end - start) / turn).ceil() * turn;
+    if end - b_end > 1e-9 {
+        let last = runs[runs.len() - 1].omega_rad_s.abs();
+        swing(&mut t_s, &mut beta, &mut force, end, (last, last), period);
+    }
     let peak = force
         .iter()
         .flat_map(|f| [f[0].abs(), f[1].abs()])
@@ -589,6 +584,14 @@ mod tests {
             "{last}"
         );
         assert_eq!(terzaghi::diagnose::kinematics(&s, 5).strokes(), 2);
+        // A run of several turns (3.2 at 50 rad/s) ends whole too: four strokes.
+        let (long, _, _) = compose(&[&run("c", 50.0)], &clean, 1).unwrap();
+        let last = long.last().unwrap().beta_rad;
+        assert!(
+            last < 0.3 + 4.0 * tau && last > 0.3 + 4.0 * tau - 0.11,
+            "{last}"
+        );
+        assert_eq!(terzaghi::diagnose::kinematics(&long, 5).strokes(), 4);
         // An offset of 10 % of the peak on every sample; a delay moves the force later.
         let biased = Sensor {
             bias_frac: 0.1,
