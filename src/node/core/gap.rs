@@ -70,6 +70,7 @@ impl GapJob {
         let opts = DiagnoseOptions {
             max_points: GAP_MAX_POINTS,
             max_fit_points: GAP_MAX_POINTS,
+            forward_share: false,
             ..Default::default()
         };
         let (samples, hips) = self.samples();

@@ -63,6 +63,10 @@ pub struct DiagnoseOptions {
     /// The medium is known to be cohesive (moist sand, clay): a cohesion term found by its form
     /// alone is then reported as cohesion, not as "cohesion, or the model's own misfit".
     pub cohesive_medium: bool,
+    /// Also fit the corrected model on the session's earlier strokes and score it on its last
+    /// third (`corrected_model_forward_gap_closed_pct`): two more fits. The node's gap watch,
+    /// which reports the effects and not that share, leaves them out.
+    pub forward_share: bool,
 }
 
 impl Default for DiagnoseOptions {
@@ -78,6 +82,7 @@ impl Default for DiagnoseOptions {
             max_steps: 4,
             penalty: 2.0,
             cohesive_medium: false,
+            forward_share: true,
         }
     }
 }
@@ -331,6 +336,17 @@ mod tests {
         assert!(
             (forward - r.corrected_model_gap_closed_pct).abs() < 3.0,
             "{forward} against {}",
+            r.corrected_model_gap_closed_pct
+        );
+        // Left out when not asked for (the node's gap watch), the rest of the report alike.
+        let without = DiagnoseOptions {
+            forward_share: false,
+            ..Default::default()
+        };
+        let w = diagnose(&unit(), &s, &without).unwrap().report;
+        assert_eq!(w.corrected_model_forward_gap_closed_pct, None);
+        assert_eq!(
+            w.corrected_model_gap_closed_pct,
             r.corrected_model_gap_closed_pct
         );
         // The gap sits in the air too: the out-of-medium bin holds much of it.

@@ -65,7 +65,8 @@ pub struct Report {
     /// chose them), %: what carries forward to strokes it has not seen. Below
     /// `corrected_model_gap_closed_pct` where the session drifts (a bed a leg digs its trough in,
     /// speeds that rise) and a term takes up misfit of the earlier strokes only. `None` with
-    /// fewer than three strokes, without a step, or without a gap on the last third.
+    /// fewer than three strokes, without a step, without a gap on the last third, or without
+    /// [`DiagnoseOptions::forward_share`](super::DiagnoseOptions::forward_share).
     pub corrected_model_forward_gap_closed_pct: Option<f64>,
     /// Steps whose fit left the terms' physical bounds, with the value that did: the corrected
     /// model stops before the first of them, unless a later step's fit is within bounds again.
@@ -649,7 +650,10 @@ pub(super) fn analyse(
     }
     let after = current.heldout_n.clone();
     let corrected_model_gap_closed_pct = closed(admissible.heldout_mse());
-    let corrected_model_forward_gap_closed_pct = forward_gap_closed_pct(ctx, &admissible, var);
+    let corrected_model_forward_gap_closed_pct = opts
+        .forward_share
+        .then(|| forward_gap_closed_pct(ctx, &admissible, var))
+        .flatten();
     let corrected_model_left_out = left_out
         .into_iter()
         .filter(|(e, _)| e.is_none_or(|e| !admissible.design.effects.contains(&e)))
