@@ -294,6 +294,13 @@ pub fn compose(
 ) -> Result<(Vec<Sample>, TerzaghiModel, f64), String> {
     let first = runs.first().ok_or("no run")?;
     for r in runs {
+        // The swings through the air between and after the runs take their speeds.
+        if !(r.omega_rad_s.is_finite() && r.omega_rad_s != 0.0) {
+            return Err(format!(
+                "{} turns at omega_rad_s = {}: a session's strokes need a speed",
+                r.name, r.omega_rad_s
+            ));
+        }
         if r.plate != first.plate || r.medium != first.medium || r.shape != first.shape {
             return Err(format!(
                 "{} and {} differ in geometry, medium or shape",
@@ -626,5 +633,13 @@ mod tests {
         let mut b = run("b", 1.0);
         b.plate = Plate::new(0.1, 0.04, 0.04).unwrap();
         assert!(compose(&[&run("a", 1.0), &b], &Sensor::default(), 1).is_err());
+    }
+
+    #[test]
+    fn a_run_without_a_speed_is_refused_not_swung_for_ever() {
+        let mut still = run("still", 1.0);
+        still.omega_rad_s = 0.0;
+        let e = compose(&[&still], &Sensor::default(), 1).unwrap_err();
+        assert!(e.contains("still") && e.contains("omega_rad_s = 0"), "{e}");
     }
 }

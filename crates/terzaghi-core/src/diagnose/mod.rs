@@ -145,7 +145,7 @@ pub fn diagnose_placed(
     hips: &[Option<HipMotion>],
     opts: &DiagnoseOptions,
 ) -> Result<Diagnosis, DiagnoseError> {
-    let (ctx, skipped, _, fit_ctx) = prepare(model, samples, hips, opts, true)?;
+    let (ctx, skipped, fit_ctx) = prepare(model, samples, hips, opts, true)?;
     Ok(report::analyse(
         &ctx,
         fit_ctx.as_ref(),
@@ -188,15 +188,14 @@ pub fn in_medium_frac(
 }
 
 /// Checks the log and builds the analysed points: returns them with the count of skipped
-/// samples, the thinning stride and, if `with_fit` and the search thins the log, the denser
-/// points the corrected model's values are fitted on (`max_fit_points`).
+/// samples and, if `with_fit` and the search thins the log, the denser points the corrected model's values are fitted on (`max_fit_points`).
 fn prepare(
     model: &TerzaghiModel,
     samples: &[Sample],
     hips: &[Option<HipMotion>],
     opts: &DiagnoseOptions,
     with_fit: bool,
-) -> Result<(Context, usize, usize, Option<Context>), DiagnoseError> {
+) -> Result<(Context, usize, Option<Context>), DiagnoseError> {
     let total = samples.len();
     let mut usable: Vec<(Sample, Option<HipMotion>)> = samples
         .iter()
@@ -256,7 +255,7 @@ fn prepare(
         c.set_typical_speed(ctx.typical_speed_rad_s());
         c
     });
-    Ok((ctx, total - usable.len(), stride, fit_ctx))
+    Ok((ctx, total - usable.len(), fit_ctx))
 }
 
 fn median_step(s: &[Sample]) -> f64 {

@@ -674,10 +674,14 @@ pub(super) fn analyse(
                 .map(|()| (c, full.points.len()))
                 .map_err(|e| e.to_string())
         });
-    let corrected_model_refit_refused = refit.as_ref().and_then(|r| r.as_ref().err().cloned());
-    let (corrected_model, corrected_model_fit_samples) = match refit {
-        Some(Ok(taken)) => taken,
-        _ => (corrected_model(ctx, &admissible), ctx.points.len()),
+    let (corrected_model, corrected_model_fit_samples, corrected_model_refit_refused) = match refit
+    {
+        Some(Ok((c, fitted_on))) => (c, fitted_on, None),
+        other => (
+            corrected_model(ctx, &admissible),
+            ctx.points.len(),
+            other.and_then(Result::err),
+        ),
     };
 
     let where_ = where_bins(ctx, &base.heldout_n, var);
