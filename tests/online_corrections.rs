@@ -30,7 +30,7 @@ fn table(c: &LearntOnline) -> String {
     s
 }
 
-/// Where the diagnosis keeps a stationary term, the online values reach its batch values within
+/// In every session, one hidden effect each, the online values reach the batch values within
 /// 10 % (every value the session determines, `b_k` and `a` always), converged at the end.
 #[test]
 fn corrections_learnt_online_reach_the_batch_diagnosis() {
@@ -61,27 +61,14 @@ fn corrections_learnt_online_reach_the_batch_diagnosis() {
         all.iter().map(|c| c.alarms_dismissed).sum::<u64>() >= 3,
         "the sessions raise no alarm to dismiss"
     );
-    // The expected miss on this run, stated rather than left out (README, "Learnt online"):
-    // compaction's change in the session is not something a stationary learner places.
-    let holding: Vec<&str> = all
+    // Compaction too: its change in the session is learnt over the session's strokes, none of
+    // them forgotten, and its nearly collinear coefficients converge on the force they predict.
+    let failing: Vec<&str> = all
         .iter()
-        .filter(|c| c.holds())
+        .filter(|c| !c.holds())
         .map(|c| c.truth.as_str())
         .collect();
-    assert_eq!(
-        holding,
-        [
-            "rate",
-            "inertia",
-            "surcharge",
-            "extraction",
-            "cohesion",
-            "hip_height",
-            "sensor_bias",
-            "sensor_lag"
-        ],
-        "update the expected misses here and in the README"
-    );
+    assert!(failing.is_empty(), "update the README: {failing:?}");
 }
 
 /// A medium 1.4 times as strong after the session: the change is detected within a stroke and
@@ -260,13 +247,14 @@ fn the_jackknife_table_is_what_diagnose_eval_online_jackknife_prints() {
             .is_some_and(|r| r.starts_with(|c: char| c.is_ascii_digit()))
     };
     let rows: Vec<&str> = jackknife.lines().filter(is_row).collect();
-    // The sessions that do not hold, in the first table (before its count).
+    // The sessions that do not hold, in the first table (before its count); where all hold,
+    // the one nearest the bound.
     let first_table = printed.split_once("\nholds: ").expect("the count").0;
     let misses = first_table
         .lines()
         .filter(|l| is_row(l) && l.ends_with("| no |"))
         .count();
-    assert!(misses > 0 && rows.len() == misses, "{printed}");
+    assert!(rows.len() == misses.max(1), "{printed}");
     let docs = common::docs_text();
     for row in rows {
         assert!(docs.contains(row), "the docs lack the row\n{row}");

@@ -326,6 +326,9 @@ pub struct CorrectedEstimator {
     col_max: Vec<f64>,
     /// Largest measured force since the last (re)start (N).
     force_max_n: f64,
+    /// The largest variance of a prediction (drag or lift, before its update) over about the
+    /// last stroke (N^2): each update keeps `exp(-dbeta / span)` of it.
+    pred_var_n2: f64,
     /// Innovations of the samples in the medium (they alone feed change detection) and out of
     /// it (the sensor's offset and lag tail, far smaller: one noise for both would make every
     /// in-medium innovation look like a change).
@@ -390,6 +393,7 @@ impl CorrectedEstimator {
             seen: vec![false; n],
             col_max: vec![0.0; n],
             force_max_n: 0.0,
+            pred_var_n2: 0.0,
             innov: Innovations::new(opts.initial_noise_n),
             innov_out: Innovations::new(opts.initial_noise_n),
             stuck: StuckDetector::default(),
@@ -442,6 +446,7 @@ impl CorrectedEstimator {
         self.seen.iter_mut().for_each(|v| *v = false);
         self.col_max = col_max;
         self.force_max_n = force_max_n;
+        self.pred_var_n2 = 0.0;
         self.updates_since_reset = startup.samples as u64;
         self.startup = Some(startup);
         self.innov.disarm();
@@ -561,7 +566,12 @@ impl CorrectedEstimator {
             self.swept_since_startup_rad += dbeta;
             // The columns are at the `a` before this update.
             let ln_a_row = self.theta[1];
-            let sq_err_n2 = self.step(s, dbeta, regime != Regime::OutOfMedium);
+            // `compaction` measures the medium against the session's first stroke: while its
+            // strokes last, forgetting them would leave its drift and change indistinguishable
+            // from `b_k`, so the estimate remembers the session whole until then.
+            let c = self.model.corrections();
+            let remember = c.has(Effect::Compaction) && motion.stroke + 1 < c.session_strokes;
+            let sq_err_n2 = self.step(s, dbeta, regime != Regime::OutOfMedium, remember);
             if let Some(sus) = &mut self.suspected {
                 sus.startup
                     .add(&self.row, &self.fixed, beta, ln_a_row, y, t_s, lag_s);
@@ -665,7 +675,8 @@ impl CorrectedEstimator {
     // Index loops over the state: the update reads as its formulas.
     #[allow(clippy::needless_range_loop)]
     /// One update; returns the squared prediction errors before it (drag and lift, N^2).
-    fn step(&mut self, s: &Sample, dbeta: f64, in_medium: bool) -> f64 {
+    /// `remember`: forget nothing at this update.
+    fn step(&mut self, s: &Sample, dbeta: f64, in_medium: bool, remember: bool) -> f64 {
         let o = self.opts;
         let n = self.theta.len();
         let y = [s.drag_n, s.lift_n];
@@ -704,6 +715,9 @@ impl CorrectedEstimator {
                 hph[a][b] = dot(&self.h[a], &self.u[b]);
             }
         }
+        self.pred_var_n2 = (self.pred_var_n2 * stroke_memory_keep(1.0, dbeta, self.span_rad))
+            .max(hph[0][0])
+            .max(hph[1][1]);
         let mut nis = 0.0;
         let mut r = [0.0; 2];
         let innov = if in_medium {
@@ -735,7 +749,11 @@ impl CorrectedEstimator {
         for i in 0..n {
             self.theta[i] += self.u[0][i] * g[0] + self.u[1][i] * g[1];
         }
-        let lambda = forgetting_factor(&o, dbeta, self.span_rad);
+        let lambda = if remember {
+            1.0
+        } else {
+            forgetting_factor(&o, dbeta, self.span_rad)
+        };
         for i in 0..n {
             let ki = [
                 self.u[0][i] * si[0][0] + self.u[1][i] * si[1][0],
@@ -864,6 +882,13 @@ impl CorrectedEstimator {
             _ => self.p[i * n + i].max(0.0).sqrt(),
         };
         let force = self.force_max_n.max(1e-9);
+        // The coefficients are known when each one's part of the force is, or when the force
+        // they predict together is, over the last turn: terms that nearly share a form (a
+        // change of the medium's scale and of its friction, say) leave each coefficient loose
+        // while their sum is held by every sample.
+        let prediction_known = !starting
+            && self.swept_since_startup_rad >= TAU
+            && self.pred_var_n2.sqrt() < o.converge_rel_std * force;
         let mut coefficients_known = true;
         for (j, c) in (2..n).zip(self.coefficients.iter_mut()) {
             c.value = self.theta[j];
@@ -888,7 +913,7 @@ impl CorrectedEstimator {
             && self.startup.is_none()
             && sd(0) < o.converge_rel_std * b_k
             && sd(1) < o.converge_rel_std
-            && coefficients_known
+            && (coefficients_known || prediction_known)
             && self.innov.cusum < 0.5 * o.cusum_alarm;
     }
 }
@@ -912,6 +937,7 @@ pub fn learn_samples(est: &mut CorrectedEstimator, samples: &[Sample]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::ident::online::Forgetting;
     use crate::model::corrections::{Corrections, Nonlinear, Term};
     use crate::model::{Medium, Plate};
 
@@ -1044,5 +1070,69 @@ mod tests {
         assert_eq!(est.alarms_dismissed(), 1, "{e:?}");
         assert_eq!(e.changes_detected, 0, "{e:?}");
         assert!(e.converged && (e.b_k / 2.5 - 1.0).abs() < 0.01, "{e:?}");
+    }
+
+    /// A medium that strengthens over the session, saturating (not the term's form, as on a
+    /// robot), learnt with `compaction`: while the session's strokes last the estimate forgets
+    /// none of them, whatever its memory, since the term is measured from the first; after them
+    /// the memory applies again. Its change's coefficients nearly share one form, so the
+    /// estimate converges on the force they predict together.
+    #[test]
+    fn compaction_is_learnt_over_the_whole_session_while_its_strokes_last() {
+        let strokes = 14;
+        let compacting = |b_k: f64, coefficients: [f64; 5]| {
+            let c = Corrections {
+                b_k,
+                a: 1.6,
+                terms: vec![Term {
+                    effect: Effect::Compaction,
+                    coefficients: coefficients.to_vec(),
+                }],
+                nonlinear: Nonlinear::default().with(Effect::Compaction, 0.3),
+                typical_speed_rad_s: 2.0,
+                session_strokes: strokes,
+            };
+            let plate = Plate::new(0.25, 0.06, 0.15).unwrap();
+            CorrectedModel::new(plate, Medium::new(16170.0, 32.0, 19.0).unwrap(), c).unwrap()
+        };
+        let bare = compacting(2.5, [0.0; 5]);
+        let mut samples = session(&bare, 20.0);
+        let per_turn = samples.len() / 20;
+        for (k, s) in samples.iter_mut().enumerate() {
+            let turn = (k / per_turn) as f64;
+            let gain = 1.0 + 0.4 * (1.0 - (-turn / 3.0).exp());
+            s.drag_n *= gain;
+            s.lift_n *= gain;
+        }
+        let learnt = |memory_strokes: f64, upto: usize| {
+            let opts = OnlineOptions {
+                forgetting: Forgetting::Strokes(memory_strokes),
+                ..Default::default()
+            };
+            let mut est = CorrectedEstimator::new(compacting(1.0, [0.0; 5]), opts).unwrap();
+            learn_samples(&mut est, &samples[..upto]);
+            let mut values = vec![est.estimate().b_k, est.estimate().a];
+            values.extend(est.coefficients().iter().map(|c| c.value));
+            (values, est.estimate().converged)
+        };
+        let within_session = (strokes - 1) * per_turn;
+        let (short, converged) = learnt(3.0, within_session);
+        let (long, _) = learnt(1e12, within_session);
+        for (x, y) in short.iter().zip(&long) {
+            assert!(
+                (x - y).abs() <= 1e-6 * y.abs().max(1.0),
+                "{short:?} {long:?}"
+            );
+        }
+        assert!(converged, "{short:?}");
+        let (short, _) = learnt(3.0, samples.len());
+        let (long, _) = learnt(1e12, samples.len());
+        assert!(
+            short
+                .iter()
+                .zip(&long)
+                .any(|(x, y)| (x - y).abs() > 1e-4 * y.abs()),
+            "{short:?} {long:?}"
+        );
     }
 }
