@@ -155,7 +155,8 @@ pub struct NodeConfig {
     pub legs: Vec<LegConfig>,
     pub estimator: OnlineOptions,
     /// Memory (strokes) of the online identification of a leg with corrections: it learns more
-    /// values than the bare model's two, from effects that show in some strokes only.
+    /// values than the bare model's two, from effects that show in some strokes only. A leg with
+    /// `compaction` forgets nothing until its fitted session's strokes have passed.
     pub corrections_memory_strokes: f64,
     /// Identify the surface's level online too (`estimator.fit_surface`), for flat legs of the
     /// Terzaghi models with F/T.
