@@ -53,7 +53,7 @@ pub struct DiagnoseEvalArgs {
     /// With --online: for each session that does not hold (where all hold, the one whose value
     /// comes nearest the 10 % bound), how precisely its strokes determine the value that misses
     /// most: the diagnosis run again with each stroke left out in turn (a stroke jackknife;
-    /// about a minute per session).
+    /// some ten seconds per session).
     #[arg(long, requires = "online")]
     pub jackknife: bool,
 }
