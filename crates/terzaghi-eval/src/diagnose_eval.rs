@@ -187,28 +187,23 @@ fn online(seed: u64, threads: usize, json: bool, with_jackknife: bool) -> Result
     // The value that misses most in each session that does not hold; where every session
     // holds, in the session whose value comes nearest the 10 % bound.
     let misses: Vec<(usize, String)> = if with_jackknife {
-        let worst: Vec<(
-            usize,
-            &crate::closed_loop::LearntOnline,
-            &crate::closed_loop::LearntValue,
-        )> = ONLINE_CASES
+        let (failing, holding): (Vec<_>, Vec<_>) = ONLINE_CASES
             .zip(&cases)
-            .filter_map(|(i, c)| worst_value(c).map(|v| (i, c, v)))
-            .collect();
-        let failing: Vec<(usize, String)> = worst
-            .iter()
-            .filter(|(_, c, _)| !c.holds())
-            .map(|(i, _, v)| (*i, v.name.clone()))
-            .collect();
-        if failing.is_empty() {
-            worst
-                .iter()
+            .filter_map(|(i, c)| worst_value(c).map(|v| (i, c.holds(), v)))
+            .partition(|(_, holds, _)| !holds);
+        let picked: Vec<_> = if failing.is_empty() {
+            holding
+                .into_iter()
                 .max_by(|a, b| a.2.diff_pct().abs().total_cmp(&b.2.diff_pct().abs()))
-                .map(|(i, _, v)| vec![(*i, v.name.clone())])
-                .unwrap_or_default()
+                .into_iter()
+                .collect()
         } else {
             failing
-        }
+        };
+        picked
+            .into_iter()
+            .map(|(i, _, v)| (i, v.name.clone()))
+            .collect()
     } else {
         Vec::new()
     };

@@ -188,7 +188,8 @@ pub fn in_medium_frac(
 }
 
 /// Checks the log and builds the analysed points: returns them with the count of skipped
-/// samples and, if `with_fit` and the search thins the log, the denser points the corrected model's values are fitted on (`max_fit_points`).
+/// samples and, if `with_fit` and the search thins the log, the denser points the corrected
+/// model's values are fitted on (`max_fit_points`).
 fn prepare(
     model: &TerzaghiModel,
     samples: &[Sample],
