@@ -291,8 +291,12 @@ def main():
             last = peer.params[-1] if peer.params else None
         check("model_params_converge",
               last is not None and last.converged and abs(last.b_k / 3.0 - 1) < 0.03 and abs(last.a / 1.8 - 1) < 0.03,
-              {"b_k": getattr(last, "b_k", None), "a": getattr(last, "a", None),
-               "converged": getattr(last, "converged", None), "messages": len(peer.params)})
+              # Why it did not converge, if it did not: the deviations, the samples taken and
+              # refused, and the changes detected (each re-opens the estimate).
+              {k: getattr(last, k, None) for k in ("b_k", "a", "converged", "std_b_k", "std_a",
+                                                   "samples_used", "samples_rejected",
+                                                   "changes_detected", "innovation_rms_n")}
+              | {"messages": len(peer.params)})
 
         # A subscriber that joins late, transient-local, gets the latest estimate at once.
         late = []

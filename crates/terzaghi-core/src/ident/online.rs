@@ -18,7 +18,8 @@
 //! - an excitation gate: only penetration samples whose unit-width force is above a threshold;
 //! - Huber weights on standardized innovations, and detection of a stuck sensor;
 //! - bounds on `b_k`, `a`, `delta` (projection), and non-finite samples skipped and counted;
-//! - change detection: a CUSUM of clipped squared standardized innovations; on an alarm the
+//! - change detection: a CUSUM of clipped squared standardized innovations, standardized by the
+//!   sensor noise measured from the start-up's residuals (and followed after); on an alarm the
 //!   covariance is re-opened and the event reported.
 //!
 //! Convergence rule: `converged` is true when at least `converge_min_updates` updates have been
@@ -35,6 +36,9 @@ use std::f64::consts::FRAC_PI_2;
 /// The share of a stroke's penetration span the start-up's samples must cover before `a` is
 /// fitted (and the Gauss–Newton step takes over).
 pub const STARTUP_SPAN_FRAC: f64 = 0.25;
+
+/// Start-up samples kept to measure the sensor noise from at the hand-over (the newest).
+const STARTUP_ROWS_KEPT: usize = 512;
 
 /// How old information fades.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -77,7 +81,9 @@ pub struct OnlineOptions {
     pub initial_std_delta_deg: f64,
     /// Upper bound on the standard deviation of `ln b_k`, `ln a` (no wind-up beyond this).
     pub max_std_ln: f64,
-    /// Initial sensor noise standard deviation (N); it is then estimated from the innovations.
+    /// Initial sensor noise standard deviation (N): it weighs the start-up's samples; at the
+    /// hand-over the noise is measured from the start-up's residuals, then followed from the
+    /// innovations.
     pub initial_noise_n: f64,
     /// Samples used by the log-linear start-up before the Gauss–Newton step takes over.
     pub startup_samples: usize,
@@ -291,6 +297,12 @@ pub struct OnlineEstimator {
     start_span: (f64, f64),
     /// `ln a` when the start-up began.
     start_ln_a: f64,
+    /// The start-up's samples (the last [`STARTUP_ROWS_KEPT`]): angle, the unit model's drag
+    /// and lift, the measured ones. At the hand-over the sensor noise is measured from their
+    /// residuals against the start-up's estimate, so that the change detection, armed once the
+    /// estimate converges, does not judge the innovations against the configured
+    /// `initial_noise_n` (a sensor noisier than that raised false changes in most sessions).
+    start_rows: std::collections::VecDeque<[f64; 5]>,
     est: Estimate,
     changes: Vec<ChangeEvent>,
     converged_at_s: Option<f64>,
@@ -318,6 +330,7 @@ impl OnlineEstimator {
             start_vec: Vector2::zeros(),
             start_span: (f64::INFINITY, f64::NEG_INFINITY),
             start_ln_a: 0.0,
+            start_rows: std::collections::VecDeque::new(),
             est: Estimate {
                 b_k: 0.0,
                 a: 0.0,
@@ -374,6 +387,27 @@ impl OnlineEstimator {
         self.start_vec = self.start_info * Vector2::new(self.theta[0], self.theta[1]);
         self.start_span = (f64::INFINITY, f64::NEG_INFINITY);
         self.start_ln_a = self.theta[1];
+        self.start_rows.clear();
+    }
+
+    /// The sensor noise from the start-up's residuals against its estimate (drag and lift
+    /// alike): their mean square, over the rows less the two values fitted. Run once, at the
+    /// hand-over to the Gauss–Newton step. A spike or a misfit of the model counts as noise here,
+    /// which errs on the side of fewer false changes.
+    fn noise_from_start_up(&mut self) {
+        let (mut sse, mut rows) = (0.0, 0usize);
+        for &[beta, unit_d, unit_l, meas_d, meas_l] in &self.start_rows {
+            let scale = (self.theta[0] - beta * self.theta[1]).exp();
+            let e = [meas_d - scale * unit_d, meas_l - scale * unit_l];
+            if e.iter().all(|x| x.is_finite()) {
+                sse += e[0] * e[0] + e[1] * e[1];
+                rows += 2;
+            }
+        }
+        self.start_rows.clear();
+        if rows >= 10 && sse > 0.0 {
+            self.innov.set_noise(sse / (rows - 2) as f64);
+        }
     }
 
     /// Whether the start-up's samples span enough attack angles to tell `b_k` from `a`.
@@ -463,7 +497,15 @@ impl OnlineEstimator {
         if self.startup_left > 0 || !self.start_spread() {
             self.startup_left = self.startup_left.saturating_sub(1);
             self.startup_update(f.beta_rad, f.drag_n, f.lift_n, s);
+            if self.start_rows.len() == STARTUP_ROWS_KEPT {
+                self.start_rows.pop_front();
+            }
+            self.start_rows
+                .push_back([f.beta_rad, f.drag_n, f.lift_n, s.drag_n, s.lift_n]);
         } else {
+            if !self.start_rows.is_empty() {
+                self.noise_from_start_up();
+            }
             self.gauss_newton_update(f.beta_rad, sin_b, cos_b, f.normal_n, s, dbeta);
         }
         self.updates_since_reset += 1;
