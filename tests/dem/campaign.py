@@ -1098,6 +1098,11 @@ def diagnosis_plan(cohesion):
         plan.append(("dx_fast_w%03d_s%d" % (round(w * 10), k), "base", k, {"omega": w}))
     # Four passes through the same trough, never levelled between them.
     plan.append(("dx_disturbed_s1", "base", 1, {"strokes": 4}))
+    # The C-leg at 1 rad/s on the independent beds, as `dx_base_s*` is the flat plate: a
+    # session of C-leg strokes needs strokes of its own, not `cleg` again (a stroke the
+    # diagnosis holds out must not have its twin among the strokes it fits).
+    for k in (1, 2, 3):
+        plan.append(("dx_cleg_s%d" % k, "base", k, {"shape": "c"}))
     # The C-leg speeding up the same way (the campaign's `cleg` is its stroke at 1 rad/s): a
     # large misfit of the flat-plate model at several speeds.
     for k, w in ((1, 2.5), (2, 5.0), (3, 7.5)):

@@ -39,6 +39,23 @@ impl HeldOutFit {
     }
 }
 
+/// One stroke of a session, predicted by both models: where along the session, and at what
+/// speed, the corrected model gains or loses.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct StrokeFit {
+    /// Index of the stroke in the session.
+    pub stroke: usize,
+    /// Median angular speed over the stroke (rad/s, its magnitude).
+    pub speed_rad_s: f64,
+    /// Whether the stroke is one of the held-out ones (else the diagnosis saw it).
+    pub held_out: bool,
+    /// Samples with a measurement.
+    pub samples: u64,
+    /// Mean squared residual per component of the bare and of the corrected model (N^2).
+    pub bare_mse_n2: f64,
+    pub corrected_mse_n2: f64,
+}
+
 /// One session: diagnosed on its first strokes, predicted on the rest.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct HeldOut {
@@ -71,6 +88,8 @@ pub struct HeldOut {
     /// The corrected model at least as good on the held-out strokes as the diagnosis reported,
     /// within 10 points (a session whose diagnosis kept nothing is predicted alike both ways).
     pub holds: bool,
+    /// Every stroke, the diagnosed ones too.
+    pub strokes: Vec<StrokeFit>,
 }
 
 /// Why a session could not be checked.
@@ -124,7 +143,6 @@ pub fn held_out(
         .iter()
         .position(|&k| k >= train)
         .unwrap_or(sorted.len());
-    let t_split = sorted[split].t_s.unwrap_or(f64::INFINITY);
     let opts = DiagnoseOptions {
         min_strokes: 3,
         ..Default::default()
@@ -137,27 +155,64 @@ pub fn held_out(
     let c = &r.corrected_model;
     let corrected_width =
         FittingWidth::new(c.b_k, c.a).map_err(|e| err(format!("the corrected model: {e}")))?;
-    let run = |width: FittingWidth, corrections| -> Result<RowErrors, HeldOutError> {
-        let mut leg = LegConfig::new("leg", "leg", plate, medium);
-        leg.width = width;
-        leg.corrections = corrections;
-        let mut cfg =
-            NodeConfig::with_legs(vec![leg], "joint_states").map_err(|e| err(e.to_string()))?;
-        // The node predicts with the model it is given, not with its online estimate.
-        cfg.use_identified = false;
-        let mut e = RowErrors::default();
-        reevaluate_samples(&sorted, cfg, 0, |row| {
-            if row.t_s >= t_split {
-                e.add(row);
-            }
-        })
-        .map_err(|e| err(e.to_string()))?;
-        Ok(e)
-    };
-    let bare_e = run(base, None)?;
+    let times: Vec<f64> = sorted.iter().map(|s| s.t_s.unwrap_or(0.0)).collect();
+    // The errors on the held-out strokes, and on each stroke.
+    let run =
+        |width: FittingWidth, corrections| -> Result<(RowErrors, Vec<RowErrors>), HeldOutError> {
+            let mut leg = LegConfig::new("leg", "leg", plate, medium);
+            leg.width = width;
+            leg.corrections = corrections;
+            let mut cfg =
+                NodeConfig::with_legs(vec![leg], "joint_states").map_err(|e| err(e.to_string()))?;
+            // The node predicts with the model it is given, not with its online estimate.
+            cfg.use_identified = false;
+            let mut e = RowErrors::default();
+            let mut per_stroke = vec![RowErrors::default(); strokes];
+            reevaluate_samples(&sorted, cfg, 0, |row| {
+                // A row answers the sample of its stamp (the node answers each F/T sample; the
+                // stamp is the sample's time to the nanosecond): its stroke is the nearest
+                // sample's.
+                let i = times.partition_point(|&t| t < row.t_s);
+                let i = match i.checked_sub(1) {
+                    Some(j) if i == times.len() || row.t_s - times[j] < times[i] - row.t_s => j,
+                    _ => i,
+                };
+                let Some(&k) = kin.stroke.get(i) else { return };
+                if k >= train {
+                    e.add(row);
+                }
+                if let Some(sums) = per_stroke.get_mut(k) {
+                    sums.add(row);
+                }
+            })
+            .map_err(|e| err(e.to_string()))?;
+            Ok((e, per_stroke))
+        };
+    let (bare_e, bare_strokes) = run(base, None)?;
     c.validate(plate.length_m())
         .map_err(|e| err(format!("the corrected model is refused: {e}")))?;
-    let corr_e = run(corrected_width, Some(c.clone()))?;
+    let (corr_e, corr_strokes) = run(corrected_width, Some(c.clone()))?;
+    let stroke_fits = (0..strokes)
+        .filter(|&k| bare_strokes[k].samples() > 0)
+        .map(|k| {
+            let mut speeds: Vec<f64> = kin
+                .stroke
+                .iter()
+                .zip(&kin.speed_rad_s)
+                .filter(|(s, _)| **s == k)
+                .map(|(_, w)| w.abs())
+                .collect();
+            speeds.sort_by(f64::total_cmp);
+            StrokeFit {
+                stroke: k,
+                speed_rad_s: speeds.get(speeds.len() / 2).copied().unwrap_or(0.0),
+                held_out: k >= train,
+                samples: bare_strokes[k].samples(),
+                bare_mse_n2: RowErrors::rmse_n(&bare_strokes[k].expected).powi(2),
+                corrected_mse_n2: RowErrors::rmse_n(&corr_strokes[k].expected).powi(2),
+            }
+        })
+        .collect();
     let (bare, corrected) = (HeldOutFit::of(&bare_e), HeldOutFit::of(&corr_e));
     let var = r.gap.noise_var_n2;
     let excess = bare.mse_n2 - var;
@@ -187,6 +242,7 @@ pub fn held_out(
         corrected,
         measured_pct,
         holds,
+        strokes: stroke_fits,
     })
 }
 
