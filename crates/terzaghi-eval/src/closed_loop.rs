@@ -8,7 +8,7 @@
 //! campaign's cases ([`crate::dem_cases`]).
 
 use terzaghi::config::{DEFAULT_CORRECTIONS_MEMORY_STROKES, LegConfig, NodeConfig};
-use terzaghi::diagnose::{DiagnoseOptions, Effect, diagnose, kinematics};
+use terzaghi::diagnose::{DiagnoseOptions, Effect, diagnose, kinematics, median};
 use terzaghi::ident::corrected::learn_samples;
 use terzaghi::ident::online::Forgetting;
 use terzaghi::ident::{CorrectedEstimator, OnlineOptions, Sample};
@@ -192,25 +192,21 @@ pub fn held_out(
     c.validate(plate.length_m())
         .map_err(|e| err(format!("the corrected model is refused: {e}")))?;
     let (corr_e, corr_strokes) = run(corrected_width, Some(c.clone()))?;
+    let mut speeds = vec![Vec::new(); strokes];
+    for (&k, w) in kin.stroke.iter().zip(&kin.speed_rad_s) {
+        if let Some(v) = speeds.get_mut(k) {
+            v.push(w.abs());
+        }
+    }
     let stroke_fits = (0..strokes)
         .filter(|&k| bare_strokes[k].samples() > 0)
-        .map(|k| {
-            let mut speeds: Vec<f64> = kin
-                .stroke
-                .iter()
-                .zip(&kin.speed_rad_s)
-                .filter(|(s, _)| **s == k)
-                .map(|(_, w)| w.abs())
-                .collect();
-            speeds.sort_by(f64::total_cmp);
-            StrokeFit {
-                stroke: k,
-                speed_rad_s: speeds.get(speeds.len() / 2).copied().unwrap_or(0.0),
-                held_out: k >= train,
-                samples: bare_strokes[k].samples(),
-                bare_mse_n2: RowErrors::rmse_n(&bare_strokes[k].expected).powi(2),
-                corrected_mse_n2: RowErrors::rmse_n(&corr_strokes[k].expected).powi(2),
-            }
+        .map(|k| StrokeFit {
+            stroke: k,
+            speed_rad_s: median(&speeds[k]),
+            held_out: k >= train,
+            samples: bare_strokes[k].samples(),
+            bare_mse_n2: RowErrors::rmse_n(&bare_strokes[k].expected).powi(2),
+            corrected_mse_n2: RowErrors::rmse_n(&corr_strokes[k].expected).powi(2),
         })
         .collect();
     let (bare, corrected) = (HeldOutFit::of(&bare_e), HeldOutFit::of(&corr_e));

@@ -27,6 +27,7 @@ pub mod report;
 pub mod signatures;
 
 pub(crate) use context::Context;
+pub use context::median;
 pub use effects::Effect;
 pub use kinematics::{Kinematics, Turns, kinematics};
 pub use report::{Diagnosis, Evidence, Report, VerdictEffect};
