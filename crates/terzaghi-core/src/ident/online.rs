@@ -37,8 +37,8 @@ use std::f64::consts::FRAC_PI_2;
 /// fitted (and the Gauss–Newton step takes over).
 pub const STARTUP_SPAN_FRAC: f64 = 0.25;
 
-/// Start-up samples kept to measure the sensor noise from at the hand-over (the newest).
-const STARTUP_ROWS_KEPT: usize = 512;
+/// Rows kept to measure the sensor noise from (the newest): see [`NoiseRows`].
+const NOISE_ROWS_KEPT: usize = 512;
 
 /// How old information fades.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -297,12 +297,10 @@ pub struct OnlineEstimator {
     start_span: (f64, f64),
     /// `ln a` when the start-up began.
     start_ln_a: f64,
-    /// The start-up's samples (the last [`STARTUP_ROWS_KEPT`]): angle, the unit model's drag
-    /// and lift, the measured ones. At the hand-over the sensor noise is measured from their
-    /// residuals against the start-up's estimate, so that the change detection, armed once the
-    /// estimate converges, does not judge the innovations against the configured
-    /// `initial_noise_n` (a sensor noisier than that raised false changes in most sessions).
-    start_rows: std::collections::VecDeque<[f64; 5]>,
+    /// The start-up's samples: angle, the unit model's drag and lift, the measured ones. At the
+    /// hand-over the sensor noise is measured from their residuals against the start-up's
+    /// estimate.
+    start_rows: NoiseRows<5>,
     est: Estimate,
     changes: Vec<ChangeEvent>,
     converged_at_s: Option<f64>,
@@ -330,7 +328,7 @@ impl OnlineEstimator {
             start_vec: Vector2::zeros(),
             start_span: (f64::INFINITY, f64::NEG_INFINITY),
             start_ln_a: 0.0,
-            start_rows: std::collections::VecDeque::new(),
+            start_rows: NoiseRows::default(),
             est: Estimate {
                 b_k: 0.0,
                 a: 0.0,
@@ -390,23 +388,18 @@ impl OnlineEstimator {
         self.start_rows.clear();
     }
 
-    /// The sensor noise from the start-up's residuals against its estimate (drag and lift
-    /// alike): their mean square, over the rows less the two values fitted. Run once, at the
-    /// hand-over to the Gauss–Newton step. A spike or a misfit of the model counts as noise here,
-    /// which errs on the side of fewer false changes.
+    /// The sensor noise from the start-up's residuals against its estimate. Run once, at the
+    /// hand-over to the Gauss–Newton step.
     fn noise_from_start_up(&mut self) {
-        let (mut sse, mut rows) = (0.0, 0usize);
-        for &[beta, unit_d, unit_l, meas_d, meas_l] in &self.start_rows {
-            let scale = (self.theta[0] - beta * self.theta[1]).exp();
-            let e = [meas_d - scale * unit_d, meas_l - scale * unit_l];
-            if e.iter().all(|x| x.is_finite()) {
-                sse += e[0] * e[0] + e[1] * e[1];
-                rows += 2;
-            }
-        }
-        self.start_rows.clear();
-        if rows >= 10 && sse > 0.0 {
-            self.innov.set_noise(sse / (rows - 2) as f64);
+        let (ln_b_k, ln_a) = (self.theta[0], self.theta[1]);
+        let var = self
+            .start_rows
+            .noise_var(2, |&[beta, unit_d, unit_l, meas_d, meas_l]| {
+                let scale = (ln_b_k - beta * ln_a).exp();
+                [meas_d - scale * unit_d, meas_l - scale * unit_l]
+            });
+        if let Some(var) = var {
+            self.innov.set_noise(var);
         }
     }
 
@@ -497,11 +490,8 @@ impl OnlineEstimator {
         if self.startup_left > 0 || !self.start_spread() {
             self.startup_left = self.startup_left.saturating_sub(1);
             self.startup_update(f.beta_rad, f.drag_n, f.lift_n, s);
-            if self.start_rows.len() == STARTUP_ROWS_KEPT {
-                self.start_rows.pop_front();
-            }
             self.start_rows
-                .push_back([f.beta_rad, f.drag_n, f.lift_n, s.drag_n, s.lift_n]);
+                .push([f.beta_rad, f.drag_n, f.lift_n, s.drag_n, s.lift_n]);
         } else {
             if !self.start_rows.is_empty() {
                 self.noise_from_start_up();
@@ -693,6 +683,10 @@ impl Innovations {
         self.armed = true;
     }
 
+    pub(crate) fn armed(&self) -> bool {
+        self.armed
+    }
+
     /// One row's innovation `e` with the prediction's variance `hph` there: its noise variance
     /// for the update (a large standardized innovation counts as noisier, Huber) and its clipped
     /// squared standardized innovation.
@@ -768,6 +762,68 @@ impl Innovations {
         }
         self.cusum = (self.cusum + nis - rows - o.cusum_drift).max(0.0);
         self.cusum > o.cusum_alarm
+    }
+}
+
+/// The newest rows an estimator saw before its change detection is armed (at most
+/// [`NOISE_ROWS_KEPT`]), to measure the sensor noise from their residuals against a least-squares
+/// fit of the same rows (not against the recursive estimate, which can lag them: a noise
+/// configured too low makes the Huber weights hold it back while its covariance shrinks). The change detection then judges innovations against the noise the sensor has,
+/// not against the configured `initial_noise_n`: a sensor noisier than that raised false changes
+/// in most sessions of a steady medium.
+#[derive(Debug, Clone)]
+pub(crate) struct NoiseRows<const N: usize> {
+    rows: std::collections::VecDeque<[f64; N]>,
+}
+
+impl<const N: usize> Default for NoiseRows<N> {
+    fn default() -> Self {
+        NoiseRows {
+            rows: std::collections::VecDeque::new(),
+        }
+    }
+}
+
+impl<const N: usize> NoiseRows<N> {
+    /// Keeps a row (finite values), dropping the oldest beyond [`NOISE_ROWS_KEPT`].
+    pub(crate) fn push(&mut self, row: [f64; N]) {
+        if self.rows.len() == NOISE_ROWS_KEPT {
+            self.rows.pop_front();
+        }
+        self.rows.push_back(row);
+    }
+
+    pub(crate) fn rows(&self) -> impl Iterator<Item = &[f64; N]> {
+        self.rows.iter()
+    }
+
+    pub(crate) fn is_empty(&self) -> bool {
+        self.rows.is_empty()
+    }
+
+    pub(crate) fn clear(&mut self) {
+        self.rows.clear();
+    }
+
+    /// The noise variance from the rows' residuals against an estimate fitted on them
+    /// (`residuals` gives a row's, in force units): their mean square over the residuals less
+    /// the `fitted` values of the estimate. `None` below ten residuals or with none but zeros. The rows are used up. A
+    /// spike or a misfit of the model counts as noise here, which errs on the side of fewer false
+    /// changes.
+    pub(crate) fn noise_var<const M: usize>(
+        &mut self,
+        fitted: usize,
+        residuals: impl Fn(&[f64; N]) -> [f64; M],
+    ) -> Option<f64> {
+        let (mut sse, mut count) = (0.0, 0usize);
+        for row in self.rows.drain(..) {
+            let e = residuals(&row);
+            if e.iter().all(|x| x.is_finite()) {
+                sse += e.iter().map(|x| x * x).sum::<f64>();
+                count += M;
+            }
+        }
+        (count >= 10 && count > fitted && sse > 0.0).then(|| sse / (count - fitted) as f64)
     }
 }
 
