@@ -144,39 +144,41 @@ impl ScaleEstimator {
             self.noise_rows
                 .push([unit_n[0], unit_n[1], s.drag_n, s.lift_n]);
             if self.est.converged {
-                // The scale the rows hold by least squares.
-                let (uy, uu) = self
-                    .noise_rows
-                    .rows()
-                    .fold((0.0, 0.0), |(uy, uu), &[ud, ul, d, l]| {
-                        (uy + ud * d + ul * l, uu + ud * ud + ul * ul)
-                    });
-                let scale = uy / uu;
-                let var = self
-                    .noise_rows
-                    .noise_var(1, |&[unit_d, unit_l, drag, lift]| {
-                        [drag - scale * unit_d, lift - scale * unit_l]
-                    });
-                if let Some(var) = var.filter(|_| scale > 0.0) {
-                    // The scale becomes the rows' (the Huber weights of a noise assumed too low
-                    // hold the recursive one back), the noise is raised to theirs, and the
-                    // covariance, learnt with the noise assumed so far, scales with it. Never
-                    // lowered here: less than a stroke of rows can miss a misfit that grows
-                    // later in the stroke. Converged still, the change detection is armed; if
-                    // not, rows are kept again until it is.
-                    let var = var.max(self.innov.noise_var);
-                    self.ln_s = scale.ln().clamp(SCALE_RANGE.0.ln(), SCALE_RANGE.1.ln());
-                    self.p =
-                        (self.p * var / self.innov.noise_var).clamp(1e-12, INITIAL_STD_LN.powi(2));
-                    self.innov.set_noise(var);
-                    self.refresh();
-                }
-                if self.est.converged {
-                    self.innov.arm();
-                }
+                self.measure_noise();
             }
         }
         Ok(())
+    }
+
+    /// At convergence, before the change detection is armed: the scale becomes the one the
+    /// kept rows hold by least squares (the Huber weights of a noise assumed too low hold the
+    /// recursive one back), the noise is raised to their residuals', and the covariance, learnt
+    /// with the noise assumed so far, scales with it. The noise is never lowered here: less
+    /// than a stroke of rows can miss a misfit that grows later in the stroke. Converged still,
+    /// the change detection is armed; if not, rows are kept again until it is.
+    fn measure_noise(&mut self) {
+        let (uy, uu) = self
+            .noise_rows
+            .rows()
+            .fold((0.0, 0.0), |(uy, uu), &[ud, ul, d, l]| {
+                (uy + ud * d + ul * l, uu + ud * ud + ul * ul)
+            });
+        let scale = uy / uu;
+        let var = self
+            .noise_rows
+            .noise_var(1, |&[unit_d, unit_l, drag, lift]| {
+                [drag - scale * unit_d, lift - scale * unit_l]
+            });
+        if let Some(var) = var.filter(|_| scale > 0.0) {
+            let var = var.max(self.innov.noise_var);
+            self.ln_s = scale.ln().clamp(SCALE_RANGE.0.ln(), SCALE_RANGE.1.ln());
+            self.p = (self.p * var / self.innov.noise_var).clamp(1e-12, INITIAL_STD_LN.powi(2));
+            self.innov.set_noise(var);
+            self.refresh();
+        }
+        if self.est.converged {
+            self.innov.arm();
+        }
     }
 
     fn refresh(&mut self) {
