@@ -748,6 +748,21 @@ impl Innovations {
         self.stroke_noise_var = var;
     }
 
+    /// Both noises raised to the variance `var` where that is more, never lowered: measured from
+    /// the rows of less than a stroke, a noise can miss a misfit that grows later in the stroke
+    /// (on a DEM stroke whose surface was where configured, a lowered noise raised a change).
+    /// Returns the factor the variance grew by (1 where it did not), by which a covariance
+    /// learnt with the noise assumed so far grows too.
+    pub(crate) fn raise_noise(&mut self, var: f64) -> f64 {
+        if var > self.noise_var {
+            let grew = var / self.noise_var;
+            self.set_noise(var);
+            grew
+        } else {
+            1.0
+        }
+    }
+
     pub(crate) fn floor_noise(&mut self) {
         self.noise_var = self.noise_var.max(1e-12);
         self.stroke_noise_var = self.stroke_noise_var.max(1e-12);
@@ -766,11 +781,12 @@ impl Innovations {
 }
 
 /// The newest rows an estimator saw before its change detection is armed (at most
-/// [`NOISE_ROWS_KEPT`]), to measure the sensor noise from their residuals against a least-squares
-/// fit of the same rows (not against the recursive estimate, which can lag them: a noise
-/// configured too low makes the Huber weights hold it back while its covariance shrinks). The change detection then judges innovations against the noise the sensor has,
-/// not against the configured `initial_noise_n`: a sensor noisier than that raised false changes
-/// in most sessions of a steady medium.
+/// [`NOISE_ROWS_KEPT`]), to measure the sensor noise from their residuals against a
+/// least-squares fit of the same rows (not against the recursive estimate, which can lag them: a
+/// noise configured too low makes the Huber weights hold it back while its covariance shrinks).
+/// The change detection then judges innovations against the noise the sensor has, not against
+/// the configured `initial_noise_n`: a sensor noisier than that raised false changes in most
+/// sessions of a steady medium.
 #[derive(Debug, Clone)]
 pub(crate) struct NoiseRows<const N: usize> {
     rows: std::collections::VecDeque<[f64; N]>,
@@ -807,9 +823,9 @@ impl<const N: usize> NoiseRows<N> {
 
     /// The noise variance from the rows' residuals against an estimate fitted on them
     /// (`residuals` gives a row's, in force units): their mean square over the residuals less
-    /// the `fitted` values of the estimate. `None` below ten residuals or with none but zeros. The rows are used up. A
-    /// spike or a misfit of the model counts as noise here, which errs on the side of fewer false
-    /// changes.
+    /// the `fitted` values of the estimate. `None` below ten finite residuals or with none but
+    /// zeros. The rows are used up. A spike or a misfit of the model counts as noise here, which
+    /// errs on the side of fewer false changes.
     pub(crate) fn noise_var<const M: usize>(
         &mut self,
         fitted: usize,

@@ -152,10 +152,9 @@ impl ScaleEstimator {
 
     /// At convergence, before the change detection is armed: the scale becomes the one the
     /// kept rows hold by least squares (the Huber weights of a noise assumed too low hold the
-    /// recursive one back), the noise is raised to their residuals', and the covariance, learnt
-    /// with the noise assumed so far, scales with it. The noise is never lowered here: less
-    /// than a stroke of rows can miss a misfit that grows later in the stroke. Converged still,
-    /// the change detection is armed; if not, rows are kept again until it is.
+    /// recursive one back), and the noise is raised to their residuals'
+    /// ([`Innovations::raise_noise`]), the covariance with it. Converged still, the change
+    /// detection is armed; if not, rows are kept again until it is.
     fn measure_noise(&mut self) {
         let (uy, uu) = self
             .noise_rows
@@ -170,10 +169,9 @@ impl ScaleEstimator {
                 [drag - scale * unit_d, lift - scale * unit_l]
             });
         if let Some(var) = var.filter(|_| scale > 0.0) {
-            let var = var.max(self.innov.noise_var);
             self.ln_s = scale.ln().clamp(SCALE_RANGE.0.ln(), SCALE_RANGE.1.ln());
-            self.p = (self.p * var / self.innov.noise_var).clamp(1e-12, INITIAL_STD_LN.powi(2));
-            self.innov.set_noise(var);
+            let grew = self.innov.raise_noise(var);
+            self.p = (self.p * grew).clamp(1e-12, INITIAL_STD_LN.powi(2));
             self.refresh();
         }
         if self.est.converged {

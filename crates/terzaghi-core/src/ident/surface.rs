@@ -197,13 +197,11 @@ impl SurfaceEstimator {
     }
 
     /// At convergence, before the change detection is armed: where the kept rows' residuals
-    /// against the line they hold by weighted least squares show more noise than assumed, that
-    /// line becomes the estimate (the Huber weights of a noise assumed too low hold the
-    /// recursive one back), the noise is raised to theirs, and the covariance, learnt with the
-    /// noise assumed so far, scales with it. The noise is never lowered here: the rows of less
-    /// than a stroke can miss a misfit that grows later in it (on a DEM stroke whose surface
-    /// was where configured, a lowered noise raised a change). Converged still, the change
-    /// detection is armed; if not, rows are kept again until it is.
+    /// against the line they hold by weighted least squares show more noise than assumed, the
+    /// noise is raised to theirs ([`Innovations::raise_noise`]), the covariance with it, and
+    /// that line becomes the estimate (the Huber weights of a noise assumed too low hold the
+    /// recursive one back). Converged still, the change detection is armed; if not, rows are
+    /// kept again until it is.
     fn measure_noise(&mut self, length: f64, h: f64) {
         let (mut info, mut vec) = (Matrix2::zeros(), Vector2::zeros());
         for &[x0, x1, z, scale] in self.noise_rows.rows() {
@@ -211,20 +209,23 @@ impl SurfaceEstimator {
             info += w * row * row.transpose();
             vec += w * z * row;
         }
-        let Some(theta) = info.try_inverse().map(|inv| inv * vec) else {
-            self.noise_rows.clear();
-            return;
-        };
-        let var = self.noise_rows.noise_var(2, |&[x0, x1, z, scale]| {
-            [(z - Vector2::new(x0, x1).dot(&theta)) / scale]
-        });
-        if let Some(var) = var.filter(|&v| theta[0] > 1e-9 && v > self.innov.noise_var) {
-            self.theta = theta;
-            self.theta[1] = theta[1].clamp(-theta[0] * (length - h).max(0.0), theta[0] * h);
-            self.p *= var / self.innov.noise_var;
-            self.innov.set_noise(var);
-            self.refresh();
+        // Rows that do not tell the line (too alike) measure nothing: the detection is armed
+        // with the noise as it is.
+        if let Some(theta) = info.try_inverse().map(|inv| inv * vec) {
+            let var = self.noise_rows.noise_var(2, |&[x0, x1, z, scale]| {
+                [(z - Vector2::new(x0, x1).dot(&theta)) / scale]
+            });
+            if let Some(var) = var.filter(|_| theta[0] > 1e-9) {
+                let grew = self.innov.raise_noise(var);
+                if grew > 1.0 {
+                    self.theta = theta;
+                    self.theta[1] = theta[1].clamp(-theta[0] * (length - h).max(0.0), theta[0] * h);
+                    self.p *= grew;
+                    self.refresh();
+                }
+            }
         }
+        self.noise_rows.clear();
         if self.est.converged {
             self.innov.arm();
         }
