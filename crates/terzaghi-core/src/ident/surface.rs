@@ -176,10 +176,7 @@ impl SurfaceEstimator {
         self.p -= k * hrow.transpose() * self.p;
         self.p /= forgetting_factor(&self.opts, dbeta, SPAN_RAD);
         self.p = 0.5 * (self.p + self.p.transpose());
-        // The surface within the leg's reach: not above the hip (dz <= h), not below the tip's
-        // lowest point (dz >= -(L - h)).
-        let s_hat = self.theta[0].max(1e-9);
-        self.theta[1] = self.theta[1].clamp(-s_hat * (length - h).max(0.0), s_hat * h);
+        self.keep_within_reach(length, h);
         self.since_reset += 1;
         if self.innov.change_alarm(nis, 1.0, &self.opts) {
             self.est.changes_detected += 1;
@@ -219,7 +216,7 @@ impl SurfaceEstimator {
                 let grew = self.innov.raise_noise(var);
                 if grew > 1.0 {
                     self.theta = theta;
-                    self.theta[1] = theta[1].clamp(-theta[0] * (length - h).max(0.0), theta[0] * h);
+                    self.keep_within_reach(length, h);
                     self.p *= grew;
                     self.refresh();
                 }
@@ -229,6 +226,14 @@ impl SurfaceEstimator {
         if self.est.converged {
             self.innov.arm();
         }
+    }
+
+    /// Keeps the surface within the leg's reach of length `length` from a hip `h` above the
+    /// configured surface: not above the hip (dz <= h), not below the tip's lowest point
+    /// (dz >= -(L - h)).
+    fn keep_within_reach(&mut self, length: f64, h: f64) {
+        let s_hat = self.theta[0].max(1e-9);
+        self.theta[1] = self.theta[1].clamp(-s_hat * (length - h).max(0.0), s_hat * h);
     }
 
     fn refresh(&mut self) {
