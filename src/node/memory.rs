@@ -61,7 +61,9 @@ pub fn run<P: Publish>(
     let recorder = match &cfg.record {
         Some(path) => {
             let opts = RecordOptions::with_node_params(params, &cfg.node_name, &cfg.namespace);
-            Some(Recorder::start(path, opts, 1 << 16)?)
+            // The inputs are simulated: they wait for the disk, and the session is whole
+            // whatever the machine's load.
+            Some(Recorder::start(path, opts, 1 << 16)?.lossless())
         }
         None => None,
     };

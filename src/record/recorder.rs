@@ -41,6 +41,8 @@ pub struct RecorderStatus {
 
 pub struct Recorder {
     tx: Option<SyncSender<Record>>,
+    /// Waits for room in the queue instead of dropping ([`Recorder::lossless`]).
+    lossless: bool,
     thread: Option<JoinHandle<()>>,
     pub status: Arc<RecorderStatus>,
     pub path: PathBuf,
@@ -71,18 +73,33 @@ impl Recorder {
             .spawn(move || run(writer, rx, &st))?;
         Ok(Recorder {
             tx: Some(tx),
+            lossless: false,
             thread: Some(thread),
             status,
             path: path.to_path_buf(),
         })
     }
 
-    /// Hands a message to the recorder; never blocks.
+    /// A recorder that waits for room in its queue rather than drop a message: for a simulated
+    /// robot in memory, which can wait for the disk, where a node on a robot cannot.
+    pub fn lossless(mut self) -> Recorder {
+        self.lossless = true;
+        self
+    }
+
+    /// Hands a message to the recorder. Never blocks, unless [`Recorder::lossless`]: a full
+    /// queue then waits for the recorder thread instead of counting a drop.
     pub fn record(&self, r: Record) {
         if self.status.failed.load(Ordering::Relaxed) {
             return;
         }
         if let Some(tx) = &self.tx {
+            if self.lossless {
+                if tx.send(r).is_err() {
+                    self.status.dropped.fetch_add(1, Ordering::Relaxed);
+                }
+                return;
+            }
             match tx.try_send(r) {
                 Ok(()) => {}
                 Err(TrySendError::Full(_)) | Err(TrySendError::Disconnected(_)) => {

@@ -8,42 +8,65 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+/// The repository's root (the workspace), from any of its packages' tests.
 pub fn repo() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+    let here = Path::new(env!("CARGO_MANIFEST_DIR"));
+    here.ancestors()
+        .find(|d| d.join("Cargo.lock").exists() && d.join("msgs").is_dir())
+        .unwrap_or(here)
+        .to_path_buf()
 }
 
+/// `terzaghi`, the product's binary: cargo's own path in the product's tests; beside the test's
+/// package binary in the other packages' tests, where `cargo test --workspace` (the README's
+/// command) builds it in the same run.
 pub fn terzaghi() -> PathBuf {
-    PathBuf::from(env!("CARGO_BIN_EXE_terzaghi"))
+    match option_env!("CARGO_BIN_EXE_terzaghi") {
+        Some(p) => PathBuf::from(p),
+        None => workspace_exe("terzaghi"),
+    }
 }
 
-/// The benchmarks' binary (the workspace's `terzaghi-bench` package), which `cargo test` at the
-/// top of the workspace builds beside `terzaghi`.
+/// The benchmarks' binary, for the tests of the `terzaghi-bench` package (cargo builds it for
+/// them).
 pub fn bench_exe() -> PathBuf {
-    workspace_exe("terzaghi-bench")
+    match option_env!("CARGO_BIN_EXE_terzaghi-bench") {
+        Some(p) => PathBuf::from(p),
+        None => panic!("a test that runs terzaghi-bench belongs to benches/terzaghi-bench/tests"),
+    }
 }
 
-/// The evaluation's binary (the workspace's `terzaghi-eval` package: `diagnose-eval`,
-/// `dem-report`), built beside `terzaghi` in the same way.
+/// The evaluation's binary (`diagnose-eval`, `dem-report`), for the tests of the
+/// `terzaghi-eval` package (cargo builds it for them).
 pub fn eval_exe() -> PathBuf {
-    workspace_exe("terzaghi-eval")
+    match option_env!("CARGO_BIN_EXE_terzaghi-eval") {
+        Some(p) => PathBuf::from(p),
+        None => panic!("a test that runs terzaghi-eval belongs to crates/terzaghi-eval/tests"),
+    }
 }
 
-/// The binary `name` of a package of the workspace, beside `terzaghi`.
+/// The binary `name` of another package of the workspace, in the target directory of this
+/// test's own executable (`target/<profile>/deps/<test>` -> `target/<profile>/<name>`).
 fn workspace_exe(name: &str) -> PathBuf {
-    let exe = terzaghi().with_file_name(name);
+    let me = std::env::current_exe().expect("the test's executable");
+    let dir = me
+        .parent()
+        .and_then(Path::parent)
+        .expect("target/<profile>");
+    let exe = dir.join(format!("{name}{}", std::env::consts::EXE_SUFFIX));
     assert!(
         exe.exists(),
-        "{} is missing: cargo build --release -p {name}",
+        "{} is missing: run the tests of the whole workspace (cargo test --release --workspace), which builds it, or cargo build --release --bin {name}",
         exe.display()
     );
     exe
 }
 
-/// `netns-run`: `$NETNS_RUN`, else `../shared/tools/netns-run` beside the repository.
+/// The project's `netns-run` (`tests/netns-run`), or `$NETNS_RUN` where it is set.
 pub fn netns_run() -> PathBuf {
     std::env::var_os("NETNS_RUN")
         .map(PathBuf::from)
-        .unwrap_or_else(|| repo().join("../shared/tools/netns-run"))
+        .unwrap_or_else(|| repo().join("tests/netns-run"))
 }
 
 /// True inside a namespace where only loopback exists.
@@ -66,16 +89,39 @@ pub fn isolated_command(program: &Path) -> Command {
     let wrapper = netns_run();
     assert!(
         wrapper.exists(),
-        "DDS tests must run in a private network namespace: {} not found (set NETNS_RUN, or run the tests inside one)",
+        "DDS tests must run in a private network namespace: {} not found",
         wrapper.display()
     );
+    isolation_works(&wrapper);
     let mut c = Command::new(wrapper);
     c.arg(program);
     c
 }
 
+/// Panics with the wrapper's own reason where no private network namespace can be made here
+/// (neither root nor unprivileged user namespaces): a DDS test then fails, never touching the
+/// network. Asked once per test binary.
+fn isolation_works(wrapper: &Path) {
+    static VERDICT: std::sync::OnceLock<Result<(), String>> = std::sync::OnceLock::new();
+    let verdict = VERDICT.get_or_init(|| {
+        let out = Command::new(wrapper)
+            .arg("true")
+            .output()
+            .map_err(|e| format!("cannot run {}: {e}", wrapper.display()))?;
+        if out.status.success() {
+            Ok(())
+        } else {
+            Err(String::from_utf8_lossy(&out.stderr).trim().to_string())
+        }
+    });
+    if let Err(why) = verdict {
+        panic!("DDS tests must run in a private network namespace, and none can be made: {why}");
+    }
+}
+
 /// The Python interpreter with the independent peers installed (`$TERZAGHI_PYTHON`, else the
-/// venv `.ci/run` makes in `target/venv`, made here if it is missing).
+/// venv `target/venv`, made here on first use from `tests/python/requirements.txt`, which needs
+/// PyPI).
 pub fn python() -> PathBuf {
     if let Some(p) = std::env::var_os("TERZAGHI_PYTHON") {
         return PathBuf::from(p);
@@ -89,7 +135,10 @@ pub fn python() -> PathBuf {
             .is_ok_and(|o| o.status.success())
     };
     if !ready() {
-        let _lock = std::fs::File::create(repo().join("target/venv.lock"));
+        // One install at a time among this binary's tests (cargo runs the binaries one after
+        // the other).
+        static INSTALL: std::sync::Mutex<()> = std::sync::Mutex::new(());
+        let _one = INSTALL.lock().unwrap_or_else(|p| p.into_inner());
         if !ready() {
             let ok = Command::new("python3")
                 .args(["-m", "venv"])
@@ -103,7 +152,7 @@ pub fn python() -> PathBuf {
                     .is_ok_and(|s| s.success());
             assert!(
                 ok && ready(),
-                "cannot set up the Python peers in {} (run .ci/run once, with network)",
+                "cannot set up the Python peers in {} (pip install -r tests/python/requirements.txt needs PyPI)",
                 venv.display()
             );
         }
@@ -112,8 +161,8 @@ pub fn python() -> PathBuf {
 }
 
 /// `node` and the JavaScript MCAP reader `tests/js/decode_all.mjs` with its packages installed
-/// (`$TERZAGHI_JS_READER`, else this checkout's, whose packages `.ci/run` installs with
-/// `npm ci --prefix tests/js`; installed here if missing, which needs the npm registry).
+/// (`$TERZAGHI_JS_READER`, else this checkout's, whose packages are installed here on first use
+/// with `npm ci --prefix tests/js`, which needs the npm registry).
 /// Returns the script's path.
 pub fn js_reader() -> PathBuf {
     if let Some(p) = std::env::var_os("TERZAGHI_JS_READER") {
@@ -122,7 +171,8 @@ pub fn js_reader() -> PathBuf {
     let dir = repo().join("tests/js");
     let ready = || dir.join("node_modules/@mcap/core/package.json").exists();
     if !ready() {
-        let _lock = std::fs::File::create(repo().join("target/npm.lock"));
+        static INSTALL: std::sync::Mutex<()> = std::sync::Mutex::new(());
+        let _one = INSTALL.lock().unwrap_or_else(|p| p.into_inner());
         if !ready() {
             let ok = Command::new("npm")
                 .args(["ci", "--no-audit", "--no-fund", "--prefix"])
@@ -219,8 +269,8 @@ pub fn leg_session_with(n: u64, spacing_ns: u64, flush_period_ns: u64, outputs: 
 /// The environment script that makes [`python`] a ROS 2 peer: rclpy over Fast DDS, the
 /// `terzaghi_msgs` classes built by colcon from `msgs/` and `tf2_msgs`'s TFMessage from
 /// `tests/python/tf2_msgs` (`$TERZAGHI_ROS_MSGS/env.sh`, else
-/// `target/ros_msgs/env.sh`, which `.ci/run` makes with `tests/python/build_msgs.sh`; made
-/// here if missing, which needs PyPI).
+/// `target/ros_msgs/env.sh`, made here on first use with `tests/python/build_msgs.sh`, which
+/// needs PyPI).
 pub fn ros_env() -> PathBuf {
     let dir = std::env::var_os("TERZAGHI_ROS_MSGS")
         .map(PathBuf::from)
@@ -247,7 +297,7 @@ pub fn ros_env() -> PathBuf {
                     .is_ok_and(|s| s.success());
             assert!(
                 ok && built(),
-                "cannot build terzaghi_msgs and tf2_msgs for the rclpy peer into {} (run .ci/run once, with network)",
+                "cannot build terzaghi_msgs and tf2_msgs for the rclpy peer into {} (the ROS 2 wheels come from PyPI)",
                 dir.display()
             );
         }
