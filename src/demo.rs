@@ -10,7 +10,6 @@ use crate::msgs::{LegForce, ModelParams, WrenchStamped};
 use crate::node::NodeCore;
 use crate::node::handle::Publish;
 use crate::node::memory::{self, Message};
-use crate::sim::generator::Hidden;
 use crate::sim::robot::{Session, Truth, joint_state, wrench};
 use anyhow::{Result, bail};
 use std::path::Path;
@@ -20,18 +19,6 @@ use std::time::{Duration, Instant};
 /// node has handled (its index in the session).
 pub trait Watch: Publish {
     fn after_joints(&self, k: usize);
-}
-
-/// What the simulation hides: the medium's true fitting width and two effects.
-pub fn truth() -> Truth {
-    Truth {
-        b_k: 24.0,
-        a: 1.9,
-        effects: vec![Hidden::Surcharge, Hidden::Extraction],
-        magnitude: 0.5,
-        noise_frac: 0.015,
-        rft_scale: 1.3,
-    }
 }
 
 /// The legs the demo's robot walks on.
@@ -44,8 +31,7 @@ pub enum Legs {
     C,
 }
 
-/// Joint states and F/T per second.
-pub const RATE_HZ: f64 = 500.0;
+pub use crate::sim::robot::{DEMO_RATE_HZ as RATE_HZ, demo_truth as truth};
 
 /// Waits until the robot's clock at `t_s` is due at `speed`.
 fn pace(start: Instant, t_s: f64, speed: f64) {
@@ -107,7 +93,9 @@ fn run_memory(
     })?;
     let _ = producer.join();
     if let Some(e) = &run.recording_error {
-        bail!("recording the session failed: {e}");
+        return Err(anyhow::Error::new(crate::session::Failure(format!(
+            "recording the session failed: {e}"
+        ))));
     }
     if run.recording_dropped > 0 {
         bail!(
@@ -544,8 +532,12 @@ impl Demo {
         if !(seconds.is_finite() && seconds > 0.0) {
             bail!("demo walk of {seconds} s: must be a positive number of seconds");
         }
-        std::fs::create_dir_all(out)
-            .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", out.display()))?;
+        std::fs::create_dir_all(out).map_err(|e| {
+            anyhow::Error::new(e).context(crate::session::Failure(format!(
+                "cannot create {}",
+                out.display()
+            )))
+        })?;
         let (params, mut cfg) = match legs {
             Legs::Plate => crate::sim::robot::rhex()?,
             Legs::C => crate::sim::robot::rhex_c_legs()?,

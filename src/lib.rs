@@ -6,6 +6,8 @@
 //! [`diagnose`] and (with the six-legged robot added) [`sim`]. This crate's modules, lowest
 //! first; each uses only the core and those above it in this list:
 //!
+//! - [`error`]: the failure of a run whose input was fine (an output not written, a DDS
+//!   participant not made), which the command line tells from bad input by its exit code.
 //! - [`msgs`]: the ROS 2 messages the node reads and writes, and their CDR encoding.
 //! - [`config`]: node parameters as ROS gives them (params files, `--ros-args`, environment)
 //!   validated into a node configuration, and the node's topic names.
@@ -19,8 +21,13 @@
 //!   diagnose its legs, identify a leg's medium, record and replay topics; with the writers of
 //!   their results.
 //! - [`dem`]: runs of the DEM testbed: reading, checking, writing as sessions.
-//! - [`demo`]: the six-legged robot walking through the node, for `terzaghi demo`.
-//! - [`cli`]: the `terzaghi` command line, over all of the above.
+//! - `demo`: the six-legged robot walking through the node, for `terzaghi demo`.
+//! - `cli`: the `terzaghi` command line, over all of the above.
+//!
+//! Cargo features: `node` (default) is the node over DDS, its recorder thread and live view
+//! (tokio, ros2-client, RustDDS, Foxglove) and recording and replaying over DDS; `cli`
+//! (default) the command line and the demo. Without them (`default-features = false`) the
+//! library is the model, identification, the diagnosis, synthetic sessions and session files.
 //!
 //! Re-evaluating and diagnosing a recording from Rust, without the command line: see
 //! [`session`].
@@ -28,15 +35,26 @@
 //! The checks of the diagnosis and the models (withheld effects, held-out strokes, the DEM
 //! campaign) are the crate `terzaghi-eval`, apart from the product.
 
-pub mod cli;
+#[cfg(feature = "cli")]
+mod cli;
 pub mod config;
 pub mod dataset;
 pub mod dem;
-pub mod demo;
+#[cfg(feature = "cli")]
+mod demo;
+pub mod error;
 pub mod msgs;
 pub mod node;
 pub mod record;
 pub mod session;
 pub mod sim;
+
+/// The `terzaghi` command line, for its binary and the workspace's own tools (`terzaghi-eval`,
+/// `terzaghi-bench`); not an API.
+#[cfg(feature = "cli")]
+#[doc(hidden)]
+pub mod command_line {
+    pub use crate::cli::{Cli, exit_code, print_out, run, worded};
+}
 
 pub use terzaghi_core::{diagnose, ident, model};

@@ -8,12 +8,12 @@ use std::process::ExitCode;
 static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 fn main() -> ExitCode {
-    let cli = terzaghi::cli::Cli::parse();
-    match terzaghi::cli::run(cli) {
+    let cli = terzaghi::command_line::Cli::parse();
+    match terzaghi::command_line::run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {}", terzaghi::cli::worded(&e));
-            ExitCode::from(2)
+            eprintln!("error: {}", terzaghi::command_line::worded(&e));
+            ExitCode::from(terzaghi::command_line::exit_code(&e))
         }
     }
 }

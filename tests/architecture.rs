@@ -63,17 +63,25 @@ fn uses(text: &str, modules: &[String]) -> BTreeSet<String> {
 /// uses only modules above it there (the crates below it are not on the map: any may be used).
 fn check_map(src: &Path) -> Vec<String> {
     let lib = std::fs::read_to_string(src.join("lib.rs")).unwrap();
-    // The map: "//! - [`name`]: ..." lines, in order.
+    // The map: "//! - [`name`]: ..." lines (a private module: "//! - `name`: ..."), in order.
     let map: Vec<String> = lib
         .lines()
-        .filter_map(|l| l.strip_prefix("//! - [`"))
+        .filter_map(|l| {
+            l.strip_prefix("//! - [`")
+                .or_else(|| l.strip_prefix("//! - `"))
+        })
         .filter_map(|l| l.split('`').next())
         .map(String::from)
         .collect();
+    // Modules in files of their own (`pub mod name;`), not an inline facade of re-exports.
     let declared: Vec<String> = lib
         .lines()
-        .filter_map(|l| l.strip_prefix("pub mod "))
-        .map(|l| l.trim_end_matches(';').to_string())
+        .filter_map(|l| {
+            l.strip_prefix("pub mod ")
+                .or_else(|| l.strip_prefix("mod "))
+        })
+        .filter_map(|l| l.strip_suffix(';'))
+        .map(String::from)
         .collect();
     assert!(declared.len() >= 4, "{}: no modules found", src.display());
     let on_map: BTreeSet<&String> = map.iter().collect();

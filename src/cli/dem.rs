@@ -21,6 +21,8 @@ pub struct ImportDemArgs {
 }
 
 pub fn import(a: ImportDemArgs) -> Result<()> {
+    let inputs: Vec<&std::path::Path> = a.runs.iter().map(|r| r.as_path()).collect();
+    crate::session::files::refuse_output_over_input(&a.output, &inputs)?;
     let run = import_runs(&a.runs, &a.output, a.overwrite)?;
     eprintln!(
         "{} samples of run {} written to {}",

@@ -125,7 +125,17 @@ fn options(a: &DiagnoseArgs) -> Result<DiagnoseFileOptions> {
 
 /// Diagnoses the log the flags name and writes its reports into `--out`.
 pub fn diagnose_to_dir(a: &DiagnoseArgs) -> Result<(Diagnosed, Written)> {
+    let inputs: Vec<&Path> = std::iter::once(a.log.as_path())
+        .chain(a.params_file.as_deref())
+        .collect();
+    crate::session::files::refuse_output_over_input(&a.out, &inputs)?;
+    if a.json {
+        crate::session::files::refuse_stdout_over_input(&inputs)?;
+    }
     let d = diagnose_file(&a.log, &options(a)?)?;
+    for path in crate::session::diagnose::report_paths(&d, &a.out) {
+        crate::session::files::refuse_output_over_input(&path, &inputs)?;
+    }
     let w = write_reports(&d, &a.out)?;
     Ok((d, w))
 }

@@ -23,6 +23,7 @@ pub struct FitArgs {
 }
 
 pub fn run(a: FitArgs) -> Result<()> {
+    crate::session::files::refuse_stdout_over_input(&a.log.inputs())?;
     let (model, samples) = a.log.load()?;
     let opts = BatchOptions {
         fit_delta: a.fit_delta,

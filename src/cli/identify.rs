@@ -62,6 +62,11 @@ pub fn run(a: IdentifyArgs) -> Result<()> {
             "--trace, --trace-plot, --forgetting, --memory-strokes and --min-unit-force-n need --online"
         );
     }
+    let inputs = a.log.inputs();
+    crate::session::files::refuse_stdout_over_input(&inputs)?;
+    for out in a.trace.iter().chain(&a.trace_plot) {
+        crate::session::files::refuse_output_over_input(out, &inputs)?;
+    }
     let (base, samples) = a.log.load()?;
     if !a.online {
         let opts = BatchOptions {

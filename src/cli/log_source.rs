@@ -29,6 +29,13 @@ pub struct LogArgs {
 }
 
 impl LogArgs {
+    /// The files this log is read from: the log, and the parameters file if given.
+    pub fn inputs(&self) -> Vec<&std::path::Path> {
+        std::iter::once(self.data.as_path())
+            .chain(self.params_file.as_deref())
+            .collect()
+    }
+
     /// The leg's model (conventional: `b_k = a = 1`) and its measured samples.
     pub fn load(&self) -> Result<(TerzaghiModel, Vec<Sample>)> {
         if is_mcap(&self.data)? {

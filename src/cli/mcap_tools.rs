@@ -78,7 +78,8 @@ pub fn info(a: InfoArgs) -> Result<()> {
             "topics": topics,
             "metadata": s.metadata.keys().collect::<Vec<_>>(),
         });
-        return print_out(&(serde_json::to_string_pretty(&v)? + "\n"));
+        print_out(&(serde_json::to_string_pretty(&v)? + "\n"))?;
+        return refuse_cut_off(&a.file, &s);
     }
     let mut out = format!(
         "file:      {}\nmessages:  {}\nduration:  {:.3} s\ncomplete:  {}\n",
@@ -106,13 +107,26 @@ pub fn info(a: InfoArgs) -> Result<()> {
     for t in &s.topics {
         out += &format!("{:<40} {:<36} {:>10}\n", t.topic, t.type_name, t.count);
     }
-    print_out(&out)
+    print_out(&out)?;
+    refuse_cut_off(&a.file, &s)
+}
+
+/// After its summary is printed, a cut-off file is an error (exit 2), so that a script sees
+/// that it needs `terzaghi recover` before any command that reads it whole.
+fn refuse_cut_off(file: &std::path::Path, s: &crate::record::read::Scan) -> Result<()> {
+    if !s.complete {
+        bail!(
+            "{} is cut off ({}): recover it with `terzaghi recover {} -o FIXED.mcap`",
+            file.display(),
+            s.stopped.as_deref().unwrap_or("no summary or end magic"),
+            file.display()
+        );
+    }
+    Ok(())
 }
 
 pub fn recover_cmd(a: RecoverArgs) -> Result<()> {
-    if a.input == a.output {
-        bail!("the output must be another file than the input");
-    }
+    crate::session::files::refuse_output_over_input(&a.output, &[&a.input])?;
     crate::session::files::refuse_existing_recording(&a.output, a.overwrite)?;
     let bytes = read_file(&a.input)?;
     let pb = progress(0, "recovering");

@@ -68,6 +68,93 @@ pub enum Command {
     /// Diagnose the sim-to-real gap of a session: where model and measurement part, which
     /// unmodelled effect causes it, how far the gap shrinks with it (report.json, report.html).
     Diagnose(diagnose::DiagnoseArgs),
+    /// Print every command's flags as the Markdown reference of docs/command-line.md.
+    #[command(hide = true)]
+    HelpMarkdown,
+}
+
+/// Every command and its flags, from clap's own definitions, as Markdown: the reference in
+/// `docs/command-line.md` (a test keeps the two the same).
+pub fn help_markdown() -> String {
+    use clap::CommandFactory;
+    fn cell(s: &str) -> String {
+        s.split_whitespace()
+            .collect::<Vec<_>>()
+            .join(" ")
+            .replace('|', "\\|")
+    }
+    fn one(cmd: &clap::Command, path: &str, out: &mut String) {
+        let subs: Vec<&clap::Command> = cmd
+            .get_subcommands()
+            .filter(|c| !c.is_hide_set() && c.get_name() != "help")
+            .collect();
+        if !subs.is_empty() {
+            for c in subs {
+                one(c, &format!("{path} {}", c.get_name()), out);
+            }
+            return;
+        }
+        out.push_str(&format!("### `{path}`\n\n"));
+        if let Some(about) = cmd.get_about() {
+            out.push_str(&format!("{}\n\n", cell(&about.to_string())));
+        }
+        out.push_str("| argument | meaning |\n|---|---|\n");
+        for a in cmd.get_arguments() {
+            let id = a.get_id().as_str();
+            if a.is_hide_set() || id == "help" || id == "version" {
+                continue;
+            }
+            let value = a
+                .get_value_names()
+                .map(|v| {
+                    v.iter()
+                        .map(|n| format!("<{n}>"))
+                        .collect::<Vec<_>>()
+                        .join(" ")
+                })
+                .unwrap_or_default();
+            let takes_value = a.get_num_args().is_some_and(|n| n.takes_values());
+            let name = match (a.get_long(), a.get_short()) {
+                (Some(l), Some(s)) => format!("-{s}, --{l}"),
+                (Some(l), None) => format!("--{l}"),
+                (None, Some(s)) => format!("-{s}"),
+                (None, None) => String::new(),
+            };
+            let shown = match (name.is_empty(), takes_value) {
+                (true, _) => value.clone(),
+                (false, true) => format!("{name} {value}"),
+                (false, false) => name,
+            };
+            let mut meaning = a
+                .get_help()
+                .map(|h| cell(&h.to_string()))
+                .unwrap_or_default();
+            let defaults: Vec<String> = a
+                .get_default_values()
+                .iter()
+                .map(|d| d.to_string_lossy().into_owned())
+                .collect();
+            let possible: Vec<String> = a
+                .get_possible_values()
+                .iter()
+                .filter(|p| !p.is_hide_set())
+                .map(|p| format!("`{}`", p.get_name()))
+                .collect();
+            if !possible.is_empty() && takes_value {
+                meaning.push_str(&format!(" (one of {})", possible.join(", ")));
+            }
+            if !defaults.is_empty() && takes_value {
+                meaning.push_str(&format!(" (default: {})", cell(&defaults.join(", "))));
+            }
+            out.push_str(&format!("| `{}` | {meaning} |\n", shown.trim()));
+        }
+        out.push('\n');
+    }
+    let mut out = String::new();
+    let mut cli = Cli::command();
+    cli.build();
+    one(&cli, "terzaghi", &mut out);
+    out
 }
 
 /// Runs a parsed command. Errors are for the user: `main` prints them on one line, exit code 2.
@@ -103,14 +190,38 @@ pub fn worded(e: &anyhow::Error) -> String {
                 "the session has several legs with F/T topics ({}): choose one with --leg",
                 legs.join(", ")
             ),
+            Some(r @ (Refusal::OutputIsInput { .. } | Refusal::StdoutIsInput { .. })) => {
+                r.to_string()
+            }
             None => c.to_string(),
         })
         .collect::<Vec<_>>()
         .join(": ")
 }
 
+/// The exit code of a command that ended with `e`: 1 when the run failed although its input was
+/// fine (a [`Failure`](crate::session::Failure): an output not written, a DDS participant not
+/// made, a full disk), 2 for bad input (usage, parameters, geometry, a log or recording that
+/// cannot be used, a refusal). 0 is success. `docs/command-line.md` states it.
+pub fn exit_code(e: &anyhow::Error) -> u8 {
+    let failed = e.downcast_ref::<crate::session::Failure>().is_some()
+        || e.chain().any(|c| {
+            c.downcast_ref::<crate::session::Failure>().is_some()
+                || c.downcast_ref::<std::io::Error>().is_some_and(|io| {
+                    matches!(
+                        io.kind(),
+                        std::io::ErrorKind::StorageFull
+                            | std::io::ErrorKind::WriteZero
+                            | std::io::ErrorKind::QuotaExceeded
+                    )
+                })
+        });
+    if failed { 1 } else { 2 }
+}
+
 pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
+        Command::HelpMarkdown => print_out(&help_markdown()),
         Command::Demo(a) => demo::run(a),
         Command::ImportDem(a) => dem::import(a),
         Command::Predict(a) => predict::run(a),
@@ -147,9 +258,10 @@ impl PlateArgs {
     pub fn plate(&self) -> Result<Plate> {
         let plate = Plate::new(self.length_m, self.width_m, self.hip_height_m)?;
         if plate.never_submerged() {
-            eprintln!(
-                "warning: hip height {} m >= plate length {} m: the plate never enters the medium, every force is 0",
-                self.hip_height_m, self.length_m
+            bail!(
+                "--hip-height-m {} >= --length-m {}: the plate never enters the medium (every force would be 0)",
+                self.hip_height_m,
+                self.length_m
             );
         }
         Ok(plate)
@@ -301,7 +413,9 @@ pub fn print_out(text: &str) -> Result<()> {
     let mut out = std::io::stdout().lock();
     match out.write_all(text.as_bytes()).and_then(|_| out.flush()) {
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
-        r => r.context("cannot write to standard output"),
+        r => r.context(crate::session::Failure(
+            "cannot write to standard output".into(),
+        )),
     }
 }
 

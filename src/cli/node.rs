@@ -93,6 +93,8 @@ pub fn setup(a: &NodeArgs) -> Result<NodeSetup> {
     }
     let config = NodeConfig::from_params(&params, &node_name, &namespace, &ros.remaps)?;
     if let Some(path) = &config.record {
+        let inputs: Vec<&std::path::Path> = ros.params_files.iter().map(|p| p.as_path()).collect();
+        crate::session::files::refuse_output_over_input(path, &inputs)?;
         crate::session::files::refuse_existing_recording(path, a.overwrite)?;
     }
     let params = config.effective_params(&params);
@@ -124,7 +126,9 @@ pub fn run(a: NodeArgs) -> Result<()> {
     let rt = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
-        .context("cannot start the async runtime")?;
+        .context(crate::session::Failure(
+            "cannot start the async runtime".into(),
+        ))?;
     // Before DDS starts its threads, so that they inherit both.
     if let Some(cpu) = a.cpu {
         crate::node::realtime::pin_to_cpus(&[cpu]).context("--cpu")?;

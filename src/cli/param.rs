@@ -22,11 +22,14 @@ pub enum ParamAction {
     Get {
         /// The node, e.g. /terzaghi or /robot/terzaghi.
         node: String,
+        /// The parameters to print, e.g. front_left.b_k use_identified.
         names: Vec<String>,
     },
     /// Set one parameter; the node validates it and says why if it refuses.
     Set {
+        /// The node, e.g. /terzaghi or /robot/terzaghi.
         node: String,
+        /// The parameter, e.g. front_left.b_k.
         name: String,
         /// The value, typed as on the command line of ROS: true, 3, 0.5, [a, b], text.
         #[arg(allow_hyphen_values = true)]

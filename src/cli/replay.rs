@@ -74,7 +74,24 @@ pub fn run(a: ReplayArgs) -> Result<()> {
     run_dds(&a)
 }
 
+/// A cut-off recording is refused before anything is replayed or written: `terzaghi recover`
+/// mends it first (exit 2, as diagnose).
+fn refuse_cut_off(file: &std::path::Path) -> Result<()> {
+    if let Some(opened) = crate::session::Opened::mcap(file)? {
+        opened.refuse_cut_off(file)?;
+    }
+    Ok(())
+}
+
 fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
+    refuse_cut_off(&a.file)?;
+    let inputs: Vec<&std::path::Path> = std::iter::once(a.file.as_path())
+        .chain(a.params_file.as_deref())
+        .collect();
+    match &a.output {
+        Some(out) => crate::session::files::refuse_output_over_input(out, &inputs)?,
+        None => crate::session::files::refuse_stdout_over_input(&inputs)?,
+    }
     let params = a
         .params
         .iter()
@@ -272,6 +289,7 @@ fn error_table(done: &Reevaluation, per_stroke: bool) -> String {
 }
 
 fn run_dds(a: &ReplayArgs) -> Result<()> {
+    refuse_cut_off(&a.file)?;
     let opts = ReplayOptions {
         rate: a.rate,
         as_fast_as_possible: a.as_fast_as_possible,

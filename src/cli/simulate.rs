@@ -61,6 +61,9 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     if !(a.rate_hz.is_finite() && a.rate_hz > 0.0) {
         bail!("--rate-hz must be a positive number, got {}", a.rate_hz);
     }
+    if a.strokes == 0 {
+        bail!("--strokes must be at least 1, got 0");
+    }
     if !(a.noise_frac.is_finite() && a.noise_frac >= 0.0) {
         bail!("--noise-frac must be >= 0, got {}", a.noise_frac);
     }

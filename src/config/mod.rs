@@ -121,6 +121,40 @@ other_node:
         )
     }
 
+    /// A misspelled key is refused at every level, naming the key and the nearest known one;
+    /// ROS's own use_sim_time and every default are known.
+    #[test]
+    fn misspelled_keys_are_refused_with_the_nearest_name() {
+        let refused = |extra: &str| load(extra).unwrap_err().to_string();
+        let e = refused("-p use_identifed:=false");
+        assert!(
+            e.contains("use_identifed") && e.contains("did you mean use_identified?"),
+            "{e}"
+        );
+        let e = refused("-p estimator.memory_strokez:=4.0");
+        assert!(
+            e.contains("estimator.memory_strokez")
+                && e.contains("did you mean estimator.memory_strokes?"),
+            "{e}"
+        );
+        let e = refused("-p left.lenght_m:=0.2");
+        assert!(
+            e.contains("left.lenght_m") && e.contains("did you mean length_m?"),
+            "{e}"
+        );
+        let e = refused("-p lefft.length_m:=0.2");
+        assert!(
+            e.contains("did you mean left.length_m?") && e.contains("not a leg"),
+            "{e}"
+        );
+        let e = refused("-p frobnicate:=1");
+        assert!(
+            e.contains("unknown parameter") && !e.contains("did you mean"),
+            "{e}"
+        );
+        load("-p use_sim_time:=true -p estimator.memory_strokes:=4.0").unwrap();
+    }
+
     #[test]
     fn params_file_and_overrides() {
         let c = load("-p left.b_k:=3 -p left.a:=1.2 -r __ns:=/robot -r left/ft:=/sensors/left")

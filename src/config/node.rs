@@ -264,6 +264,76 @@ pub const LEG_KEYS: [&str; 26] = [
     "trough_exit_depth_m",
 ];
 
+/// Node-wide parameters that have no default: the list of legs, and ROS's own simulated time.
+const GLOBAL_KEYS_WITHOUT_DEFAULT: [&str; 2] = ["legs", "use_sim_time"];
+
+/// Every key of `params` is one the node knows: a node-wide parameter (one of [`defaults`] or
+/// [`GLOBAL_KEYS_WITHOUT_DEFAULT`]), or `<leg>.<key>` for a leg of `legs` and a key of
+/// [`LEG_KEYS`] (its `corrections.*` are checked with the corrections). An unknown key, at any
+/// level, is refused with the nearest known name: a misspelled parameter never falls back to
+/// its default unseen. The node, `replay` and every reader of node parameters go through here.
+pub fn check_keys(params: &ParamMap, legs: &[String]) -> Result<(), ConfigError> {
+    let globals = defaults();
+    let known_global =
+        |k: &str| globals.contains_key(k) || GLOBAL_KEYS_WITHOUT_DEFAULT.contains(&k);
+    for key in params.keys() {
+        if known_global(key) {
+            continue;
+        }
+        if let Some((leg, k)) = key.split_once('.')
+            && legs.iter().any(|l| l == leg)
+        {
+            if LEG_KEYS.contains(&k) || k.starts_with("corrections.") {
+                continue;
+            }
+            return Err(invalid(
+                key,
+                &params[key],
+                format!(
+                    "unknown leg parameter{}; known: {}",
+                    did_you_mean(k, LEG_KEYS.iter().copied()),
+                    LEG_KEYS.join(", ")
+                ),
+            ));
+        }
+        let every = globals
+            .keys()
+            .cloned()
+            .chain(GLOBAL_KEYS_WITHOUT_DEFAULT.map(String::from))
+            .chain(
+                legs.iter()
+                    .flat_map(|l| LEG_KEYS.iter().map(move |k| format!("{l}.{k}"))),
+            )
+            .collect::<Vec<_>>();
+        let reason = match key.split_once('.') {
+            Some((group, _)) if !globals.keys().any(|g| g.starts_with(&format!("{group}."))) => {
+                format!(
+                    "unknown parameter{} ({group} is not a leg of legs [{}] nor a group of the node's)",
+                    did_you_mean(key, every.iter().map(String::as_str)),
+                    legs.join(", ")
+                )
+            }
+            _ => format!(
+                "unknown parameter{}",
+                did_you_mean(key, every.iter().map(String::as_str))
+            ),
+        };
+        return Err(invalid(key, &params[key], reason));
+    }
+    Ok(())
+}
+
+/// `: did you mean X?` for the known name nearest `name` (by edit distance, within a third of
+/// its length), else nothing.
+fn did_you_mean<'a>(name: &str, known: impl Iterator<Item = &'a str>) -> String {
+    known
+        .map(|k| (strsim::levenshtein(name, k), k))
+        .filter(|(d, _)| *d <= name.len().div_ceil(3).max(2))
+        .min()
+        .map(|(_, k)| format!(" (did you mean {k}?)"))
+        .unwrap_or_default()
+}
+
 /// Global parameters and their defaults.
 pub fn defaults() -> ParamMap {
     let d = OnlineOptions::default();
@@ -444,19 +514,8 @@ impl NodeConfig {
                     ),
                 ));
             }
-            if let Some((leg, k)) = key.split_once('.')
-                && leg != "estimator"
-                && leg_names.iter().any(|l| l == leg)
-                && !LEG_KEYS.contains(&k)
-                && !k.starts_with("corrections.")
-            {
-                return Err(invalid(
-                    key,
-                    &params[key],
-                    format!("unknown leg parameter; known: {}", LEG_KEYS.join(", ")),
-                ));
-            }
         }
+        check_keys(params, &leg_names)?;
         let rft_elements = g.count("rft_elements", 1, RftModel::MAX_ELEMENTS as i64)?;
         let mut legs = Vec::new();
         for name in &leg_names {

@@ -580,7 +580,7 @@ pub fn import_runs(
     let run = join_runs(runs)?;
     crate::session::files::write_atomically(output, |w| {
         run.write_session(w)
-            .with_context(|| format!("cannot write {}", output.display()))?;
+            .with_context(|| crate::session::files::cannot_write(output))?;
         Ok(())
     })?;
     Ok(run)

@@ -219,7 +219,7 @@ pub fn publisher_with_qos<M: RosMessage>(
 ) -> Result<Publisher<M>> {
     let t = node
         .create_topic(&topic_name(topic)?, message_type::<M>(), &qos)
-        .with_context(|| format!("cannot create topic {topic}"))?;
+        .with_context(|| crate::error::Failure(format!("cannot create topic {topic}")))?;
     node.create_publisher::<M>(&t, Some(qos))
         .with_context(|| format!("cannot publish {topic}"))
 }
@@ -239,7 +239,7 @@ pub fn subscription_with_depth<M: RosMessage>(
     });
     let t = node
         .create_topic(&topic_name(topic)?, message_type::<M>(), &qos)
-        .with_context(|| format!("cannot create topic {topic}"))?;
+        .with_context(|| crate::error::Failure(format!("cannot create topic {topic}")))?;
     node.create_subscription::<M>(&t, Some(qos))
         .with_context(|| format!("cannot subscribe to {topic}"))
 }
@@ -370,7 +370,7 @@ pub fn tool_node(name: &str) -> Result<Node> {
         .start_parameter_services(false);
     context
         .new_node(name, options)
-        .context("cannot create a ROS 2 node")
+        .context(crate::error::Failure("cannot create a ROS 2 node".into()))
 }
 
 /// The async runtime of the DDS tools: two worker threads, for a two-core robot computer.
@@ -408,7 +408,7 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
             node_name,
             node_options(&setup.params, Arc::new(live_tx), log.clone()),
         )
-        .context("cannot create the ROS 2 node")?;
+        .context(crate::error::Failure("cannot create the ROS 2 node".into()))?;
     log.attach(node.logging_handle());
     log.log(LogLevel::Info, &startup_line(&setup), log_site!());
     if let Some(l) = &live {
@@ -447,7 +447,7 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
                 message_type::<TfMessage>(),
                 &latched,
             )
-            .context("cannot create /tf_static")?;
+            .context(crate::error::Failure("cannot create /tf_static".into()))?;
         tf_subs.push((
             true,
             node.create_subscription::<TfMessage>(&t, Some(latched))

@@ -4,17 +4,26 @@
 //! statistics, `log` writes its log to stderr and `/rosout`, `clock` is its time (the
 //! wall clock, or `/clock` with `use_sim_time`), [`live`] serves its topics to Foxglove.
 
+#[cfg(feature = "node")]
 pub(crate) mod clock;
 pub mod core;
+#[cfg(feature = "node")]
 pub mod dds;
+#[cfg(feature = "node")]
 pub(crate) mod gap_worker;
+#[cfg(feature = "node")]
 pub mod handle;
 pub mod latency;
+#[cfg(feature = "node")]
 pub mod live;
+#[cfg(feature = "node")]
 pub(crate) mod log;
 pub(crate) mod matcher;
+#[cfg(feature = "node")]
 pub(crate) mod memory;
+#[cfg(feature = "node")]
 pub(crate) mod param_client;
+#[cfg(feature = "node")]
 pub mod realtime;
 
 pub use core::{Input, LegOutput, NodeCore, Outputs};

@@ -96,8 +96,9 @@ impl ParamClient {
     /// Starts the client node; every call waits at most `timeout` for an answer. Runs on the
     /// calling thread's tokio runtime.
     pub fn new(timeout: Duration) -> Result<ParamClient> {
-        let mut node = tool_node(&format!("terzaghi_param_{}", std::process::id()))
-            .context("cannot create the client node")?;
+        let mut node = tool_node(&format!("terzaghi_param_{}", std::process::id())).context(
+            crate::error::Failure("cannot create the client node".into()),
+        )?;
         let spinner = node.spinner()?;
         let spin = tokio::spawn(async move {
             let _ = spinner.spin().await;

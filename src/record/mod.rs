@@ -12,6 +12,7 @@
 //! written by any ROS 2 tool, cut off or not; [`recover`](fn@recover) rewrites a cut-off file whole.
 
 pub mod read;
+#[cfg(feature = "node")]
 pub(crate) mod recorder;
 pub mod recover;
 

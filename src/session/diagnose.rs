@@ -125,11 +125,28 @@ pub struct Written {
     pub corrected: Option<PathBuf>,
 }
 
+/// The files [`write_reports`] may write into `out`: each leg's `report.json`, `report.html`
+/// and `corrected.yaml`, and the index's.
+pub fn report_paths(d: &Diagnosed, out: &Path) -> Vec<PathBuf> {
+    std::iter::once(out.to_path_buf())
+        .chain(d.legs.iter().map(|l| out.join(&l.leg)))
+        .flat_map(|dir| ["report.json", "report.html", "corrected.yaml"].map(|n| dir.join(n)))
+        .collect()
+}
+
 /// Writes `report.json` and `report.html` of each diagnosed leg into `out` (into `out/<leg>/`
-/// when there are several legs, with an index of them in `out`).
+/// when there are several legs, with an index of them in `out`), and `corrected.yaml`. None of
+/// them may be the log diagnosed: that is refused before anything is written.
 pub fn write_reports(d: &Diagnosed, out: &Path) -> Result<Written> {
-    std::fs::create_dir_all(out)
-        .with_context(|| format!("cannot create the output directory {}", out.display()))?;
+    for path in report_paths(d, out) {
+        super::files::refuse_output_over_input(&path, &[&d.log])?;
+    }
+    std::fs::create_dir_all(out).with_context(|| {
+        super::Failure(format!(
+            "cannot create the output directory {}",
+            out.display()
+        ))
+    })?;
     let single = d.legs.len() == 1;
     let log = d.log.display().to_string();
     let mut written = Written {
@@ -148,7 +165,7 @@ pub fn write_reports(d: &Diagnosed, out: &Path) -> Result<Written> {
         match &leg.result {
             Ok(diag) => {
                 std::fs::create_dir_all(&dir)
-                    .with_context(|| format!("cannot create {}", dir.display()))?;
+                    .with_context(|| super::Failure(format!("cannot create {}", dir.display())))?;
                 let doc = LegReport {
                     leg: &leg.leg,
                     log: &log,

@@ -22,6 +22,68 @@ pub fn refuse_existing_recording(path: &Path, overwrite: bool) -> Result<()> {
     Ok(())
 }
 
+/// Refuses an output that is one of the command's inputs: the same file by any path (the same
+/// path, a relative one, a symbolic or hard link). Writing it would destroy the input, whether
+/// it is a recording or a log. An output that does not exist yet is no input.
+pub fn refuse_output_over_input(output: &Path, inputs: &[&Path]) -> Result<()> {
+    for input in inputs {
+        if same_file(output, input) {
+            bail!(super::Refusal::OutputIsInput {
+                output: output.to_path_buf(),
+                input: input.to_path_buf(),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Refuses to print to a standard output that is one of the inputs (`terzaghi fit log.csv >>
+/// log.csv`), as `cat` does: the input would grow while it is read, or is already emptied by
+/// the shell's `>`.
+pub fn refuse_stdout_over_input(inputs: &[&Path]) -> Result<()> {
+    for input in inputs {
+        if stdout_is(input) {
+            bail!(super::Refusal::StdoutIsInput {
+                input: input.to_path_buf(),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Whether `a` and `b` name one existing file.
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    match (std::fs::metadata(a), std::fs::metadata(b)) {
+        (Ok(x), Ok(y)) => same_metadata(&x, &y, a, b),
+        _ => false,
+    }
+}
+
+#[cfg(unix)]
+fn same_metadata(x: &std::fs::Metadata, y: &std::fs::Metadata, _: &Path, _: &Path) -> bool {
+    use std::os::unix::fs::MetadataExt;
+    x.dev() == y.dev() && x.ino() == y.ino()
+}
+
+#[cfg(not(unix))]
+fn same_metadata(_: &std::fs::Metadata, _: &std::fs::Metadata, a: &Path, b: &Path) -> bool {
+    matches!((a.canonicalize(), b.canonicalize()), (Ok(x), Ok(y)) if x == y)
+}
+
+#[cfg(unix)]
+fn stdout_is(path: &Path) -> bool {
+    use std::os::unix::fs::MetadataExt;
+    let (Ok(out), Ok(input)) = (std::fs::metadata("/dev/stdout"), std::fs::metadata(path)) else {
+        return false;
+    };
+    out.is_file() && out.dev() == input.dev() && out.ino() == input.ino()
+}
+
+#[cfg(not(unix))]
+fn stdout_is(_: &Path) -> bool {
+    false
+}
+
 /// A recording's name from its start time, as rosbag2 names one: `terzaghi_YYYY_MM_DD-HH_MM_SS.mcap`
 /// (UTC).
 pub fn recording_name(unix_s: u64) -> PathBuf {
@@ -57,12 +119,10 @@ pub fn write_atomically(
         let file = std::fs::OpenOptions::new()
             .write(true)
             .open(path)
-            .with_context(|| format!("cannot write {}", path.display()))?;
+            .with_context(|| cannot_write(path))?;
         let mut w = std::io::BufWriter::new(file);
         write(&mut w)?;
-        return w
-            .flush()
-            .with_context(|| format!("cannot write {}", path.display()));
+        return w.flush().with_context(|| cannot_write(path));
     }
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
@@ -77,18 +137,21 @@ pub fn write_atomically(
         std::process::id()
     ));
     let result = (|| {
-        let file = std::fs::File::create(&tmp)
-            .with_context(|| format!("cannot create {}", path.display()))?;
+        let file = std::fs::File::create(&tmp).with_context(|| cannot_write(path))?;
         let mut w = std::io::BufWriter::new(file);
         write(&mut w)?;
-        w.flush()
-            .with_context(|| format!("cannot write {}", path.display()))?;
-        std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))
+        w.flush().with_context(|| cannot_write(path))?;
+        std::fs::rename(&tmp, path).with_context(|| cannot_write(path))
     })();
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }
     result
+}
+
+/// The failure to write an output (`cannot write PATH`): the run failed, not its input.
+pub fn cannot_write(path: &Path) -> super::Failure {
+    super::Failure(format!("cannot write {}", path.display()))
 }
 
 /// Writes `text` to `path` whole or not at all.

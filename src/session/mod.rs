@@ -54,14 +54,17 @@
 
 pub mod csv_rows;
 mod refusal;
+pub use crate::error::Failure;
 pub use refusal::Refusal;
 pub mod diagnose;
 pub mod files;
 pub mod identify;
 pub mod inputs;
 pub mod legs;
+#[cfg(feature = "node")]
 pub mod record;
 pub mod reevaluate;
+#[cfg(feature = "node")]
 pub mod replay;
 pub(crate) mod report_html;
 

@@ -91,8 +91,9 @@ pub async fn record_topics(
         Recorder::start(output, RecordOptions::default(), 1 << 16)
             .with_context(|| format!("cannot record to {}", output.display()))?,
     );
-    let mut node = tool_node(&format!("terzaghi_record_{}", std::process::id()))
-        .context("cannot create the recorder node")?;
+    let mut node = tool_node(&format!("terzaghi_record_{}", std::process::id())).context(
+        crate::session::Failure("cannot create the recorder node".into()),
+    )?;
     let mut tasks = Vec::new();
     for (topic, kind) in topics {
         let r = recorder.clone();

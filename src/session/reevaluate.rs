@@ -720,7 +720,7 @@ pub fn reevaluate_to_mcap(
         )
         .with_context(|| file.display().to_string())?;
         if let Some(e) = err {
-            return Err(anyhow::Error::new(e).context(format!("cannot write {}", out.display())));
+            return Err(anyhow::Error::new(e).context(super::files::cannot_write(out)));
         }
         writer.finish()?;
         result = Some(s);

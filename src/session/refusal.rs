@@ -1,13 +1,19 @@
 //! What a session operation refuses until its user chooses: replacing a recording, the node's
 //! parameters for a log that carries none, the one leg of several. A typed value, so that a
 //! program using the library can match on it and the command line can word it in the flag that
-//! answers it (`terzaghi::cli::worded`).
+//! answers it (the command line's `worded`).
 
 use std::path::PathBuf;
 
 /// A refusal that a choice of the user's answers.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum Refusal {
+    /// The output is one of the inputs (the same file by any path): it is never written.
+    #[error("the output {} is the input {}: choose another output path", output.display(), input.display())]
+    OutputIsInput { output: PathBuf, input: PathBuf },
+    /// Standard output is one of the inputs (`>> log.csv`): nothing is printed.
+    #[error("standard output is the input {}: print elsewhere", input.display())]
+    StdoutIsInput { input: PathBuf },
     /// The output exists: a recording is never replaced unless asked to be.
     #[error("{} exists: a recording is not overwritten unless asked to be", path.display())]
     RecordingExists { path: PathBuf },

@@ -80,8 +80,9 @@ pub async fn replay(
     // their own, and other tools interleave too). Stable, so ties keep the file's order.
     session.messages.sort_by_key(|m| m.log_time_ns);
     let wanted = |t: &str| opts.topics.is_empty() || opts.topics.iter().any(|w| w == t);
-    let mut node = tool_node(&format!("terzaghi_replay_{}", std::process::id()))
-        .context("cannot create the replay node")?;
+    let mut node = tool_node(&format!("terzaghi_replay_{}", std::process::id())).context(
+        crate::session::Failure("cannot create the replay node".into()),
+    )?;
     let mut pubs: Vec<Option<AnyPub>> = Vec::new();
     let mut out = Replayed::default();
     for t in &session.topics {

@@ -120,7 +120,7 @@ fn candidates_table(r: &Report) -> String {
                 st.gap_closed_pct,
                 st.heldout_rmse_n,
                 st.heldout_psi,
-                escape(&format!("{}: {:?}", st.evidence, st.basis)),
+                escape(&format!("{}: {}", st.evidence, st.basis)),
                 escape(&st.claim)
             );
         }

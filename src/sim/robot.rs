@@ -556,3 +556,19 @@ pub fn write_recording<W: std::io::Write + std::io::Seek>(
     w.finish()?;
     Ok(messages)
 }
+
+/// The demo's robot (`terzaghi demo`): what its simulation hides, the medium's true fitting
+/// width and two effects.
+pub fn demo_truth() -> Truth {
+    Truth {
+        b_k: 24.0,
+        a: 1.9,
+        effects: vec![Hidden::Surcharge, Hidden::Extraction],
+        magnitude: 0.5,
+        noise_frac: 0.015,
+        rft_scale: 1.3,
+    }
+}
+
+/// The demo's robot: joint states and F/T per second.
+pub const DEMO_RATE_HZ: f64 = 500.0;

@@ -254,10 +254,10 @@ pub fn demo_sessions(seconds: f64, seed: u64) -> Vec<Result<HeldOut, HeldOutErro
             })];
         }
     };
-    let truth = terzaghi::demo::truth();
+    let truth = terzaghi::sim::robot::demo_truth();
     let gait = terzaghi::sim::robot::Gait {
         seconds,
-        rate_hz: terzaghi::demo::RATE_HZ,
+        rate_hz: terzaghi::sim::robot::DEMO_RATE_HZ,
         mean_speed_rad_s: 4.0,
         seed,
     };

@@ -4,7 +4,7 @@ use crate::fidelity::{CampaignReport, Change, campaign_report};
 use anyhow::{Context, Result};
 use clap::Args;
 use std::path::PathBuf;
-use terzaghi::cli::print_out;
+use terzaghi::command_line::print_out;
 use terzaghi::dem::{default_baseline, read_campaign};
 use terzaghi::ident::GoodnessOfFit;
 

@@ -6,7 +6,7 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
-use terzaghi::cli::print_out;
+use terzaghi::command_line::print_out;
 use terzaghi::diagnose::DiagnoseOptions;
 
 #[derive(Debug, Args)]

@@ -33,7 +33,7 @@ fn main() -> std::process::ExitCode {
     match r {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {}", terzaghi::cli::worded(&e));
+            eprintln!("error: {}", terzaghi::command_line::worded(&e));
             std::process::ExitCode::from(2)
         }
     }

@@ -336,6 +336,25 @@ pub enum Basis {
     FormOnly,
 }
 
+impl Basis {
+    /// Its name as `report.json` writes it (`form_only`, ...).
+    pub fn name(self) -> &'static str {
+        match self {
+            Basis::ForceOutOfMedium => "force_out_of_medium",
+            Basis::Alignment => "alignment",
+            Basis::OnsetAngle => "onset_angle",
+            Basis::Contrast => "contrast",
+            Basis::FormOnly => "form_only",
+        }
+    }
+}
+
+impl std::fmt::Display for Basis {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.pad(self.name())
+    }
+}
+
 /// The session's own counterpart of an effect that reaches only some strokes.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Contrast {
