@@ -7,7 +7,7 @@ The peer publishes JointState at 200 Hz on /joint_states and subscribes to
 the node starts first and the peer is created right after. The time is measured from the
 node's process start to the first predicted wrench taken by the peer. Prints JSON:
 {"peer", "order", "starts", "times_s", "p50_s", "p90_s", "failures"}. Run it inside a private
-network namespace (../shared/tools/netns-run).
+network namespace (tests/netns-run).
 """
 import argparse
 import json
