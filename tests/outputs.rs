@@ -366,3 +366,45 @@ fn exit_codes_per_command() {
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
+
+/// A misspelled parameter, at the top level or nested, is refused with the nearest known name
+/// wherever node parameters are read: `replay`'s `-p` and its parameters file (the node reads
+/// them through the same check, `config::check_keys`).
+#[test]
+fn a_misspelled_parameter_is_refused_with_the_nearest_name() {
+    let s = Scratch::new();
+    let out = s.run(&[
+        "replay",
+        "walk.mcap",
+        "--reevaluate",
+        "-p",
+        "use_identifed:=false",
+        "-o",
+        "rows.csv",
+    ]);
+    let err = stderr(&out);
+    assert_eq!(code(&out), 2, "{err}");
+    assert!(
+        err.contains("use_identifed") && err.contains("did you mean use_identified?"),
+        "{err}"
+    );
+    let nested = common::LEG_PARAMS.to_string() + "    estimator:\n      memory_strokez: 4.0\n";
+    std::fs::write(s.path("typo.yaml"), nested).unwrap();
+    let out = s.run(&[
+        "replay",
+        "log.csv",
+        "--reevaluate",
+        "--params-file",
+        "typo.yaml",
+        "-o",
+        "rows.csv",
+    ]);
+    let err = stderr(&out);
+    assert_eq!(code(&out), 2, "{err}");
+    assert!(
+        err.contains("estimator.memory_strokez")
+            && err.contains("did you mean estimator.memory_strokes?"),
+        "{err}"
+    );
+    assert!(!s.path("rows.csv").exists(), "nothing written");
+}
