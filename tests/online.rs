@@ -72,37 +72,62 @@ fn converges_in_3_strokes_and_stays_for_200() {
     }
 }
 
+/// A real sensor's glitches: 1 % of the F/T samples ten times what they should be, with and
+/// without a 2 s stretch of NaN samples, and with spikes among the first stroke's readings too
+/// (the start-up's log fit, which weighs a reading by its size squared, took one such spike for
+/// a medium nine times as strong, and the noise it measured let every later spike through). Over
+/// 40 sessions, `b_k` and `a` stay within 3 % of the truth from the third stroke on.
 #[test]
 fn spikes_and_a_nan_stretch_do_not_throw_it() {
-    for seed in 10..13 {
-        let mut samples = session(seed, 203, |_| (2.0, 1.5));
-        let mut rng = StdRng::seed_from_u64(seed + 100);
-        let t_nan = samples[samples.len() / 2].t_s.unwrap();
-        let mut spikes = 0;
-        for s in samples.iter_mut() {
-            if rng.random::<f64>() < 0.01 {
-                s.drag_n *= 10.0;
-                s.lift_n *= 10.0;
-                spikes += 1;
+    let mut worst = (0.0f64, 0.0f64);
+    for seed in 10..30 {
+        for nan_stretch in [false, true] {
+            let mut samples = session(seed, 60, |_| (2.0, 1.5));
+            let mut rng = StdRng::seed_from_u64(seed + 100);
+            let t_nan = samples[samples.len() / 2].t_s.unwrap();
+            let mut spikes = 0;
+            // In the first stroke's penetration, where the start-up takes its readings.
+            let first: Vec<usize> = (0..samples.len())
+                .filter(|&i| stroke_of(&samples[i]) == 0)
+                .filter(|&i| {
+                    let b = samples[i].beta_rad;
+                    b > 0.8 && b < 1.5
+                })
+                .collect();
+            let forced = [first[first.len() / 4], first[first.len() / 2]];
+            for (i, s) in samples.iter_mut().enumerate() {
+                if rng.random::<f64>() < 0.01 || forced.contains(&i) {
+                    s.drag_n *= 10.0;
+                    s.lift_n *= 10.0;
+                    spikes += 1;
+                }
+                let t = s.t_s.unwrap();
+                if nan_stretch && t >= t_nan && t < t_nan + 2.0 {
+                    s.drag_n = f64::NAN;
+                    s.lift_n = f64::NAN;
+                }
             }
-            let t = s.t_s.unwrap();
-            if t >= t_nan && t < t_nan + 2.0 {
-                s.drag_n = f64::NAN;
-                s.lift_n = f64::NAN;
+            let mut est = OnlineEstimator::new(&model(1.0, 1.0), OnlineOptions::default()).unwrap();
+            let (wb, wa) = worst_error(&mut est, &samples, |_| (2.0, 1.5), |k| k >= 3);
+            let e = est.estimate();
+            assert!(
+                wb < 0.03 && wa < 0.03,
+                "seed {seed}, NaN stretch {nan_stretch}, {spikes} spikes: worst b_k {:.2} %, a {:.2} %; {e:?}",
+                wb * 100.0,
+                wa * 100.0
+            );
+            if nan_stretch {
+                assert_eq!(e.samples_non_finite, 500, "2 s at 250 Hz");
             }
+            assert!(e.converged && e.b_k.is_finite());
+            worst = (worst.0.max(wb), worst.1.max(wa));
         }
-        let mut est = OnlineEstimator::new(&model(1.0, 1.0), OnlineOptions::default()).unwrap();
-        let (wb, wa) = worst_error(&mut est, &samples, |_| (2.0, 1.5), |k| k >= 3);
-        let e = est.estimate();
-        eprintln!(
-            "seed {seed}: {spikes} spikes; worst b_k {:.2}% a {:.2}%; {e:?}",
-            wb * 100.0,
-            wa * 100.0
-        );
-        assert!(wb < 0.03 && wa < 0.03, "seed {seed}: {wb} {wa}");
-        assert_eq!(e.samples_non_finite, 500, "2 s at 250 Hz");
-        assert!(e.converged && e.b_k.is_finite());
     }
+    eprintln!(
+        "40 sessions: worst b_k {:.2} %, a {:.2} %",
+        worst.0 * 100.0,
+        worst.1 * 100.0
+    );
 }
 
 /// The change detection judges the innovations against the sensor noise it measures, not the

@@ -37,6 +37,11 @@ use std::f64::consts::FRAC_PI_2;
 /// fitted (and the Gauss–Newton step takes over).
 pub const STARTUP_SPAN_FRAC: f64 = 0.25;
 
+/// How far a start-up reading's log residual must lie from a robust fit of all of them, in
+/// median absolute deviations (scaled to a standard deviation), to be left out as a spike: a
+/// reading ten times the force lies some hundred away, a noisy or misfitted one a few.
+const START_OUTLIER_MADS: f64 = 8.0;
+
 /// Rows kept to measure the sensor noise from (the newest): see [`NoiseRows`].
 const NOISE_ROWS_KEPT: usize = 512;
 
@@ -295,7 +300,8 @@ pub struct OnlineEstimator {
     /// Attack angles the start-up's samples span (rad): until they span
     /// [`STARTUP_SPAN_FRAC`] of a stroke's penetration, `ln a` is held where it started.
     start_span: (f64, f64),
-    /// `ln a` when the start-up began.
+    /// `ln b_k` and `ln a` when the start-up began.
+    start_ln_b_k: f64,
     start_ln_a: f64,
     /// The start-up's samples: angle, the unit model's drag and lift, the measured ones. At the
     /// hand-over the sensor noise is measured from their residuals against the start-up's
@@ -327,6 +333,7 @@ impl OnlineEstimator {
             start_info: Matrix2::zeros(),
             start_vec: Vector2::zeros(),
             start_span: (f64::INFINITY, f64::NEG_INFINITY),
+            start_ln_b_k: 0.0,
             start_ln_a: 0.0,
             start_rows: NoiseRows::default(),
             est: Estimate {
@@ -384,8 +391,103 @@ impl OnlineEstimator {
         self.start_info = Matrix2::from_diagonal_element(1.0 / o.initial_std_ln.powi(2));
         self.start_vec = self.start_info * Vector2::new(self.theta[0], self.theta[1]);
         self.start_span = (f64::INFINITY, f64::NEG_INFINITY);
+        self.start_ln_b_k = self.theta[0];
         self.start_ln_a = self.theta[1];
         self.start_rows.clear();
+    }
+
+    /// At the hand-over: where some of the start-up's readings are far off every other (a
+    /// sensor's spike, ten times the force), the start-up's estimate is fitted again without
+    /// them, and they are left out of the noise measured next. The start-up's log fit weighs a
+    /// reading by its size squared, so one spike outweighs a hundred readings; the noise, a
+    /// mean square, would take the spike's square too and let every later spike through the
+    /// Huber weights. Readings are told off by their log residual against a robust fit of all of
+    /// them (Huber's, its scale the residuals' median absolute deviation), beyond
+    /// [`START_OUTLIER_MADS`] deviations. Where none is, nothing changes.
+    fn drop_start_up_outliers(&mut self) {
+        // (beta, ln(meas / unit)) of every component clear of zero, as the log fit takes them.
+        let sigma = self.innov.noise_var.sqrt();
+        let mut pts: Vec<(f64, f64, usize)> = Vec::new();
+        for (i, &[beta, unit_d, unit_l, meas_d, meas_l]) in self.start_rows.rows().enumerate() {
+            for (unit, meas) in [(unit_d, meas_d), (unit_l, meas_l)] {
+                if unit * meas > 0.0 && meas.abs() >= 3.0 * sigma {
+                    pts.push((beta, (meas / unit).ln(), i));
+                }
+            }
+        }
+        if pts.len() < 10 {
+            return;
+        }
+        let fit = |w: &[f64]| -> Option<Vector2<f64>> {
+            let mut info = Matrix2::from_diagonal_element(1e-9);
+            let mut vec = Vector2::zeros();
+            for (&(beta, z, _), &wi) in pts.iter().zip(w) {
+                let h = Vector2::new(1.0, -beta);
+                info += wi * h * h.transpose();
+                vec += wi * z * h;
+            }
+            info.try_inverse().map(|c| c * vec)
+        };
+        let residuals = |th: &Vector2<f64>| -> Vec<f64> {
+            pts.iter()
+                .map(|&(beta, z, _)| z - th[0] + beta * th[1])
+                .collect()
+        };
+        let mad = |r: &[f64]| -> f64 {
+            let mut a: Vec<f64> = r.iter().map(|x| x.abs()).collect();
+            a.sort_by(f64::total_cmp);
+            1.4826 * a[a.len() / 2]
+        };
+        let mut w = vec![1.0; pts.len()];
+        let Some(mut th) = fit(&w) else { return };
+        for _ in 0..10 {
+            let r = residuals(&th);
+            let scale = mad(&r).max(1e-6);
+            for (wi, ri) in w.iter_mut().zip(&r) {
+                let z = ri.abs() / scale;
+                *wi = if z <= 1.5 { 1.0 } else { 1.5 / z };
+            }
+            match fit(&w) {
+                Some(t) => th = t,
+                None => return,
+            }
+        }
+        let r = residuals(&th);
+        let scale = mad(&r).max(1e-6);
+        let outliers: Vec<usize> = pts
+            .iter()
+            .zip(&r)
+            .filter(|(_, ri)| ri.abs() > START_OUTLIER_MADS * scale)
+            .map(|(p, _)| p.2)
+            .collect();
+        if outliers.is_empty() {
+            return;
+        }
+        // The start-up's fit again, as it weighs its readings, without the outliers' rows.
+        let o = self.opts;
+        let kept: Vec<[f64; 5]> = self
+            .start_rows
+            .rows()
+            .enumerate()
+            .filter(|(i, _)| !outliers.contains(i))
+            .map(|(_, row)| *row)
+            .collect();
+        self.start_info = Matrix2::from_diagonal_element(1.0 / o.initial_std_ln.powi(2));
+        self.start_vec = self.start_info * Vector2::new(self.start_ln_b_k, self.start_ln_a);
+        self.theta[0] = self.start_ln_b_k;
+        self.theta[1] = self.start_ln_a;
+        self.start_rows.clear();
+        for row in kept {
+            let [beta, unit_d, unit_l, meas_d, meas_l] = row;
+            let s = Sample {
+                t_s: None,
+                beta_rad: beta,
+                drag_n: meas_d,
+                lift_n: meas_l,
+            };
+            self.startup_update(beta, unit_d, unit_l, &s);
+            self.start_rows.push(row);
+        }
     }
 
     /// The sensor noise from the start-up's residuals against its estimate. Run once, at the
@@ -494,6 +596,7 @@ impl OnlineEstimator {
                 .push([f.beta_rad, f.drag_n, f.lift_n, s.drag_n, s.lift_n]);
         } else {
             if !self.start_rows.is_empty() {
+                self.drop_start_up_outliers();
                 self.noise_from_start_up();
             }
             self.gauss_newton_update(f.beta_rad, sin_b, cos_b, f.normal_n, s, dbeta);
