@@ -267,8 +267,8 @@ pub const LEG_KEYS: [&str; 26] = [
 /// Node-wide parameters that have no default: the list of legs, and ROS's own simulated time.
 const GLOBAL_KEYS_WITHOUT_DEFAULT: [&str; 2] = ["legs", "use_sim_time"];
 
-/// Every key of `params` is one the node knows: a node-wide parameter (one of [`defaults`] or
-/// [`GLOBAL_KEYS_WITHOUT_DEFAULT`]), or `<leg>.<key>` for a leg of `legs` and a key of
+/// Every key of `params` is one the node knows: a node-wide parameter (one of [`defaults`],
+/// `legs` or ROS's `use_sim_time`), or `<leg>.<key>` for a leg of `legs` and a key of
 /// [`LEG_KEYS`] (its `corrections.*` are checked with the corrections). An unknown key, at any
 /// level, is refused with the nearest known name: a misspelled parameter never falls back to
 /// its default unseen. The node, `replay` and every reader of node parameters go through here.
