@@ -4,6 +4,8 @@
 
 mod common;
 
+use common::ok;
+
 use serde_json::Value;
 use std::path::Path;
 use std::process::{Command, Output};
@@ -13,17 +15,6 @@ fn terzaghi(args: &[&str]) -> Output {
         .args(args)
         .output()
         .expect("run terzaghi")
-}
-
-fn ok(out: &Output) -> String {
-    assert!(
-        out.status.success(),
-        "exit {:?}\nstdout: {}\nstderr: {}",
-        out.status.code(),
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stdout).into_owned()
 }
 
 /// Exit 2 with one clear stderr line holding every needle, and no panic.
@@ -205,23 +196,9 @@ fn a_csv_log_gives_a_report_that_names_the_hidden_effect() {
 /// Writes a short six-legged session (1.5 min at 250 Hz, hidden surcharge): the walk of the
 /// diagnosis benchmark (`terzaghi-bench diagnose`), through the library.
 fn six_legged_session(path: &Path) {
-    use terzaghi::sim::generator::Hidden;
-    use terzaghi::sim::robot::{Gait, Truth, rhex, simulate, write_recording};
+    use terzaghi::sim::robot::{rhex, simulate, surcharge_walk, write_recording};
     let (params, cfg) = rhex().unwrap();
-    let truth = Truth {
-        b_k: 30.0,
-        a: 2.2,
-        effects: vec![Hidden::Surcharge],
-        magnitude: 0.5,
-        noise_frac: 0.015,
-        rft_scale: 1.0,
-    };
-    let gait = Gait {
-        seconds: 90.0,
-        rate_hz: 250.0,
-        mean_speed_rad_s: 4.0,
-        seed: 7,
-    };
+    let (truth, gait) = surcharge_walk(90.0, 250.0);
     let session = simulate(&cfg, &truth, &gait);
     let file = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
     write_recording(file, &params, &cfg, &session, 1_700_000_000_000_000_000).unwrap();

@@ -10,8 +10,7 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use std::io::BufWriter;
 use std::time::Instant;
-use terzaghi::sim::generator::Hidden;
-use terzaghi::sim::robot::{Gait, Truth, simulate, write_recording};
+use terzaghi::sim::robot::{simulate, surcharge_walk, write_recording};
 
 #[derive(Debug, Args)]
 pub struct BenchDiagnoseArgs {
@@ -40,20 +39,7 @@ pub fn run(a: BenchDiagnoseArgs) -> Result<()> {
     let dir = std::env::temp_dir().join(format!("terzaghi-bench-diagnose-{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
     let path = a.keep.clone().unwrap_or_else(|| dir.join("session.mcap"));
-    let truth = Truth {
-        b_k: 30.0,
-        a: 2.2,
-        effects: vec![Hidden::Surcharge],
-        magnitude: 0.5,
-        noise_frac: 0.015,
-        rft_scale: 1.0,
-    };
-    let gait = Gait {
-        seconds: a.minutes * 60.0,
-        rate_hz: a.rate_hz,
-        mean_speed_rad_s: 4.0,
-        seed: 7,
-    };
+    let (truth, gait) = surcharge_walk(a.minutes * 60.0, a.rate_hz);
     let start = Instant::now();
     let session = simulate(&cfg, &truth, &gait);
     let simulate_s = start.elapsed().as_secs_f64();

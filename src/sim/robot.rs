@@ -572,3 +572,24 @@ pub fn demo_truth() -> Truth {
 
 /// The demo's robot: joint states and F/T per second.
 pub const DEMO_RATE_HZ: f64 = 500.0;
+
+/// The walk of the diagnosis's benchmark (`terzaghi-bench diagnose`) and its tests: `seconds`
+/// of the robot at `rate_hz` on a medium of `b_k` 30, `a` 2.2, with surcharge hidden at half
+/// strength and sensor noise of 1.5 % (times 2.5) of the RMS force; stride seed 7.
+pub fn surcharge_walk(seconds: f64, rate_hz: f64) -> (Truth, Gait) {
+    let truth = Truth {
+        b_k: 30.0,
+        a: 2.2,
+        effects: vec![Hidden::Surcharge],
+        magnitude: 0.5,
+        noise_frac: 0.015,
+        rft_scale: 1.0,
+    };
+    let gait = Gait {
+        seconds,
+        rate_hz,
+        mean_speed_rad_s: 4.0,
+        seed: 7,
+    };
+    (truth, gait)
+}

@@ -189,6 +189,19 @@ pub fn js_reader() -> PathBuf {
     dir.join("decode_all.mjs")
 }
 
+/// What a command printed on stdout, once it succeeded; else a failure that shows its exit code,
+/// stdout and stderr.
+pub fn ok(out: &std::process::Output) -> String {
+    assert!(
+        out.status.success(),
+        "exit {:?}\nstdout: {}\nstderr: {}",
+        out.status.code(),
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
 /// The paper's testbed plate (0.25 x 0.06 m, hip 0.15 m) in its sand, as CLI flags.
 pub const SAND_GEOM: [&str; 12] = [
     "--length-m",

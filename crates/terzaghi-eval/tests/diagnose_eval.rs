@@ -5,6 +5,8 @@
 #[path = "../../../tests/common/mod.rs"]
 mod common;
 
+use common::ok;
+
 use serde_json::Value;
 use std::process::{Command, Output};
 
@@ -15,17 +17,6 @@ fn diagnose_eval(args: &[&str]) -> Output {
         .args(args)
         .output()
         .expect("run terzaghi-eval")
-}
-
-fn ok(out: &Output) -> String {
-    assert!(
-        out.status.success(),
-        "exit {:?}\nstdout: {}\nstderr: {}",
-        out.status.code(),
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stdout).into_owned()
 }
 
 #[test]
