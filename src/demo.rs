@@ -10,7 +10,7 @@ use crate::msgs::{LegForce, ModelParams, WrenchStamped};
 use crate::node::NodeCore;
 use crate::node::handle::Publish;
 use crate::node::memory::{self, Message};
-use crate::sim::robot::{Session, Truth, joint_state, wrench};
+use crate::sim::robot::{DEMO_RATE_HZ, Session, Truth, demo_truth, joint_state, wrench};
 use anyhow::{Result, bail};
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -30,8 +30,6 @@ pub enum Legs {
     /// RHex's C-legs, half circles predicted by RFT whose scale the node learns online.
     C,
 }
-
-pub use crate::sim::robot::{DEMO_RATE_HZ as RATE_HZ, demo_truth as truth};
 
 /// Waits until the robot's clock at `t_s` is due at `speed`.
 fn pace(start: Instant, t_s: f64, speed: f64) {
@@ -543,10 +541,10 @@ impl Demo {
             Legs::C => crate::sim::robot::rhex_c_legs()?,
         };
         cfg.record = Some(out.join("session.mcap"));
-        let truth = truth();
+        let truth = demo_truth();
         let gait = crate::sim::robot::Gait {
             seconds,
-            rate_hz: RATE_HZ,
+            rate_hz: DEMO_RATE_HZ,
             mean_speed_rad_s: 4.0,
             seed,
         };

@@ -198,45 +198,21 @@ fn exit_codes_per_command() {
     let s = Scratch::new();
     let full = std::fs::read(s.path("walk.mcap")).unwrap();
     std::fs::write(s.path("cut.mcap"), &full[..full.len() / 2]).unwrap();
+    // A session of the testbed's plate at b_k 2, a 1.5, with `extra`.
+    let simulate = |extra: &[&'static str]| -> Vec<&'static str> {
+        [&["simulate", "--bk", "2", "--a", "1.5"], extra].concat()
+    };
     let cases: Vec<(&str, Vec<&str>, i32)> = vec![
         (
             "predict",
             vec!["predict", "--beta-deg", "60", "--bk", "2", "--a", "1.5"],
             0,
         ),
-        (
-            "simulate",
-            vec![
-                "simulate",
-                "--bk",
-                "2",
-                "--a",
-                "1.5",
-                "--strokes",
-                "2",
-                "-o",
-                "s.csv",
-            ],
-            0,
-        ),
-        (
-            "simulate bad",
-            vec!["simulate", "--bk", "2", "--a", "1.5", "--strokes", "0"],
-            2,
-        ),
+        ("simulate", simulate(&["--strokes", "2", "-o", "s.csv"]), 0),
+        ("simulate bad", simulate(&["--strokes", "0"]), 2),
         (
             "simulate unwritable",
-            vec![
-                "simulate",
-                "--bk",
-                "2",
-                "--a",
-                "1.5",
-                "--strokes",
-                "2",
-                "-o",
-                "log.csv/s.csv",
-            ],
+            simulate(&["--strokes", "2", "-o", "log.csv/s.csv"]),
             1,
         ),
         ("fit", vec!["fit", "log.csv"], 0),

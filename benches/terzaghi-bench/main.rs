@@ -15,6 +15,8 @@ mod record;
 use anyhow::{Context as _, Result};
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
+// Writes to stdout as `terzaghi` does: a closed pipe (`| head`) ends the command quietly.
+use terzaghi::command_line::print_out;
 
 #[global_allocator]
 static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
@@ -58,18 +60,8 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
-            ExitCode::from(2)
+            ExitCode::from(terzaghi::command_line::exit_code(&e))
         }
-    }
-}
-
-/// Writes `text` to stdout; a closed pipe (`| head`) ends the command quietly.
-fn print_out(text: &str) -> Result<()> {
-    use std::io::Write;
-    let mut out = std::io::stdout().lock();
-    match out.write_all(text.as_bytes()).and_then(|_| out.flush()) {
-        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
-        r => r.context("cannot write to standard output"),
     }
 }
 

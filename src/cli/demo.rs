@@ -6,9 +6,10 @@
 
 use super::print_out;
 use crate::config::NodeConfig;
-use crate::demo::{Demo, Legs, RATE_HZ, Watch};
+use crate::demo::{Demo, Legs, Watch};
 use crate::msgs::{DiagnosticArray, LegForce, ModelParams, WrenchStamped};
 use crate::node::handle::Publish;
+use crate::sim::robot::DEMO_RATE_HZ;
 use crate::sim::robot::{Session, Truth};
 use anyhow::{Result, bail};
 use clap::Args;
@@ -65,7 +66,7 @@ pub fn run(a: DemoArgs) -> Result<()> {
         "a six-legged robot walks {:.0} s on {} ({} Hz joint states and F/T, {} playback); the node {}:",
         a.seconds,
         demo.cfg.legs[0].preset.map_or("its medium", |p| p.name),
-        RATE_HZ,
+        DEMO_RATE_HZ,
         format_args!("{}x", a.speed),
         if a.dds {
             "runs over DDS"
@@ -142,7 +143,7 @@ impl LiveView {
                 v.n += 2.0;
             }
             // A window of two seconds of the walk (more than a stroke).
-            if v.n >= 4.0 * RATE_HZ {
+            if v.n >= 4.0 * DEMO_RATE_HZ {
                 v.rms = (v.sq_err / v.n).sqrt();
                 v.rms_first.get_or_insert(v.rms);
                 v.sq_err = 0.0;

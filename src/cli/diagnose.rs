@@ -133,8 +133,11 @@ pub fn diagnose_to_dir(a: &DiagnoseArgs) -> Result<(Diagnosed, Written)> {
         crate::session::files::refuse_stdout_over_input(&inputs)?;
     }
     let d = diagnose_file(&a.log, &options(a)?)?;
-    for path in crate::session::diagnose::report_paths(&d, &a.out) {
-        crate::session::files::refuse_output_over_input(&path, &inputs)?;
+    // The log is checked against the reports by write_reports; the parameters file here.
+    if let Some(params) = &a.params_file {
+        for path in crate::session::diagnose::report_paths(&d, &a.out) {
+            crate::session::files::refuse_output_over_input(&path, &[params])?;
+        }
     }
     let w = write_reports(&d, &a.out)?;
     Ok((d, w))

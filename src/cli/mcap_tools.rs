@@ -3,6 +3,7 @@
 use super::print_out;
 use crate::record::{read::scan, recover};
 use crate::session::files::read_file;
+use crate::session::refuse_cut_off;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -79,6 +80,7 @@ pub fn info(a: InfoArgs) -> Result<()> {
             "metadata": s.metadata.keys().collect::<Vec<_>>(),
         });
         print_out(&(serde_json::to_string_pretty(&v)? + "\n"))?;
+        // After its summary, a cut-off file is an error, so that a script sees it.
         return refuse_cut_off(&a.file, &s);
     }
     let mut out = format!(
@@ -109,20 +111,6 @@ pub fn info(a: InfoArgs) -> Result<()> {
     }
     print_out(&out)?;
     refuse_cut_off(&a.file, &s)
-}
-
-/// After its summary is printed, a cut-off file is an error (exit 2), so that a script sees
-/// that it needs `terzaghi recover` before any command that reads it whole.
-fn refuse_cut_off(file: &std::path::Path, s: &crate::record::read::Scan) -> Result<()> {
-    if !s.complete {
-        bail!(
-            "{} is cut off ({}): recover it with `terzaghi recover {} -o FIXED.mcap`",
-            file.display(),
-            s.stopped.as_deref().unwrap_or("no summary or end magic"),
-            file.display()
-        );
-    }
-    Ok(())
 }
 
 pub fn recover_cmd(a: RecoverArgs) -> Result<()> {

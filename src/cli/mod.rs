@@ -204,17 +204,17 @@ pub fn worded(e: &anyhow::Error) -> String {
 /// made, a full disk), 2 for bad input (usage, parameters, geometry, a log or recording that
 /// cannot be used, a refusal). 0 is success. `docs/command-line.md` states it.
 pub fn exit_code(e: &anyhow::Error) -> u8 {
+    // anyhow's downcast finds a Failure given as context at any depth, or as the error itself.
     let failed = e.downcast_ref::<crate::session::Failure>().is_some()
         || e.chain().any(|c| {
-            c.downcast_ref::<crate::session::Failure>().is_some()
-                || c.downcast_ref::<std::io::Error>().is_some_and(|io| {
-                    matches!(
-                        io.kind(),
-                        std::io::ErrorKind::StorageFull
-                            | std::io::ErrorKind::WriteZero
-                            | std::io::ErrorKind::QuotaExceeded
-                    )
-                })
+            c.downcast_ref::<std::io::Error>().is_some_and(|io| {
+                matches!(
+                    io.kind(),
+                    std::io::ErrorKind::StorageFull
+                        | std::io::ErrorKind::WriteZero
+                        | std::io::ErrorKind::QuotaExceeded
+                )
+            })
         });
     if failed { 1 } else { 2 }
 }

@@ -113,7 +113,7 @@ pub fn run(a: SimulateRobotArgs) -> Result<()> {
     };
     let gait = Gait {
         seconds: a.seconds,
-        rate_hz: crate::demo::RATE_HZ,
+        rate_hz: crate::sim::robot::DEMO_RATE_HZ,
         mean_speed_rad_s: a.speed_rad_s,
         seed: a.seed,
     };

@@ -80,6 +80,20 @@ pub struct Opened {
     head: Scan,
 }
 
+/// An error, with the command that mends it, when the scanned file is cut off (it has no
+/// summary): every command that reads a session whole refuses one (exit 2).
+pub fn refuse_cut_off(file: &Path, head: &Scan) -> Result<()> {
+    if !head.complete {
+        anyhow::bail!(
+            "{} is cut off ({}): recover it first with `terzaghi recover {} -o FIXED.mcap`",
+            file.display(),
+            head.stopped.as_deref().unwrap_or("no footer"),
+            file.display()
+        );
+    }
+    Ok(())
+}
+
 impl Opened {
     /// Opens `path`; `None` when it is not an MCAP file.
     pub fn mcap(path: &Path) -> Result<Option<Opened>> {
@@ -110,15 +124,7 @@ impl Opened {
     /// An error, with the command that mends it, when the file is cut off (it has no summary);
     /// what is read from a session is read from a complete one.
     pub fn refuse_cut_off(&self, file: &Path) -> Result<()> {
-        if !self.head.complete {
-            anyhow::bail!(
-                "{} is cut off ({}): recover it first with `terzaghi recover {} -o FIXED.mcap`",
-                file.display(),
-                self.head.stopped.as_deref().unwrap_or("no footer"),
-                file.display()
-            );
-        }
-        Ok(())
+        refuse_cut_off(file, &self.head)
     }
 
     /// Topics, counts, metadata and whether the file is complete.

@@ -34,7 +34,7 @@ fn main() -> std::process::ExitCode {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {}", terzaghi::command_line::worded(&e));
-            std::process::ExitCode::from(2)
+            std::process::ExitCode::from(terzaghi::command_line::exit_code(&e))
         }
     }
 }

@@ -454,13 +454,13 @@ impl OnlineEstimator {
         }
         let r = residuals(&th);
         let scale = mad(&r).max(1e-6);
-        let outliers: Vec<usize> = pts
-            .iter()
-            .zip(&r)
-            .filter(|(_, ri)| ri.abs() > START_OUTLIER_MADS * scale)
-            .map(|(p, _)| p.2)
-            .collect();
-        if outliers.is_empty() {
+        let mut outlier = vec![false; self.start_rows.rows().count()];
+        for (p, ri) in pts.iter().zip(&r) {
+            if ri.abs() > START_OUTLIER_MADS * scale {
+                outlier[p.2] = true;
+            }
+        }
+        if !outlier.contains(&true) {
             return;
         }
         // The start-up's fit again, as it weighs its readings, without the outliers' rows.
@@ -468,9 +468,9 @@ impl OnlineEstimator {
         let kept: Vec<[f64; 5]> = self
             .start_rows
             .rows()
-            .enumerate()
-            .filter(|(i, _)| !outliers.contains(i))
-            .map(|(_, row)| *row)
+            .zip(&outlier)
+            .filter(|(_, out)| !**out)
+            .map(|(row, _)| *row)
             .collect();
         self.start_info = Matrix2::from_diagonal_element(1.0 / o.initial_std_ln.powi(2));
         self.start_vec = self.start_info * Vector2::new(self.start_ln_b_k, self.start_ln_a);
