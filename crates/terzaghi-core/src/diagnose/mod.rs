@@ -25,6 +25,7 @@ pub(crate) mod fit;
 pub mod kinematics;
 pub mod report;
 pub mod signatures;
+pub mod sinkage;
 
 pub(crate) use context::Context;
 pub use context::median;

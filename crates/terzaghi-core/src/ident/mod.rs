@@ -12,6 +12,7 @@ pub mod corrected;
 pub mod metrics;
 pub mod online;
 pub mod scale;
+pub mod sinkage;
 pub mod surface;
 
 pub use batch::{BatchFit, BatchOptions, fit_batch};

@@ -7,6 +7,8 @@
 //!   a plate or over a leg's mid-line ([`RftModel::with_profile`], [`c_leg_profile`]).
 //! - [`medium`]: soil values and the paper's identified fitting widths, as named presets.
 //! - [`plate`]: the leg's geometry, the attack angle and the submerged length.
+//! - [`sinkage`]: a horizontal plate pushed straight down (the plate-sinkage test): Terzaghi's
+//!   footing, Bekker, Reece, RFT with a depth exponent, and a power law in depth and width.
 //! - [`corrections`]: the corrected model: the improved model plus terms for what it leaves out
 //!   (speed, added mass, surcharge, extraction, compaction, cohesion, surface level, and the F/T
 //!   sensor's offset and lag), fitted by the diagnosis and evaluated by the node.
@@ -21,6 +23,7 @@ pub mod corrections;
 pub mod medium;
 pub mod plate;
 pub mod rft;
+pub mod sinkage;
 pub mod terzaghi;
 
 pub use corrections::{CorrectedModel, CorrectedPrediction, Corrections, Effect};
