@@ -9,7 +9,7 @@ use crate::session::diagnose::{
     DiagnoseFileOptions, Diagnosed, Written, diagnose_file, write_reports,
 };
 use crate::session::legs::{JointLeg, LegsFrom};
-use anyhow::{Result, bail};
+use anyhow::{Context, Result, bail};
 use clap::Args;
 use std::path::{Path, PathBuf};
 
@@ -60,9 +60,30 @@ pub struct DiagnoseArgs {
     /// Print the report(s) as JSON instead of a text summary.
     #[arg(long)]
     pub json: bool,
+    /// For a plate-sinkage test (a CSV of `terzaghi calibrate`'s kinds): the medium file it is
+    /// judged against, calibrated on other tests.
+    #[arg(long, value_name = "FILE")]
+    pub medium_file: Option<PathBuf>,
+    /// For a plate-sinkage test that is a plain log: its plate, a disc of this diameter (m).
+    #[arg(
+        long,
+        value_name = "M",
+        allow_negative_numbers = true,
+        requires = "medium_file"
+    )]
+    pub plate_diameter_m: Option<f64>,
 }
 
 pub fn run(a: DiagnoseArgs) -> Result<()> {
+    if crate::session::plate_test::is_plate_test(&a.log) {
+        return plate_test(&a);
+    }
+    if a.medium_file.is_some() {
+        bail!(
+            "--medium-file is for a plate-sinkage test (a CSV of time_s, depth_m, fz_n or t_s, depth_m, force_n); {} is not one",
+            a.log.display()
+        );
+    }
     let (diagnosed, written) = diagnose_to_dir(&a)?;
     let reports: Vec<serde_json::Value> = written.reports.iter().map(|(_, r)| r.clone()).collect();
     if a.json {
@@ -220,5 +241,46 @@ fn plate_from_flags(a: &DiagnoseArgs) -> Result<Plate> {
         None => bail!(
             "give all of the leg's geometry: --length-m, --width-m and --hip-height-m (and the medium: --medium or --unit-weight-n-m3 --phi-deg --delta-deg), for a CSV log or a session's leg with --joint"
         ),
+    }
+}
+
+/// A plate-sinkage test judged against a calibrated medium; report.json in --out.
+fn plate_test(a: &DiagnoseArgs) -> Result<()> {
+    use crate::model::sinkage::{PlateShape, RegimeOptions};
+    use crate::session::plate_test::{
+        DepthColumn, MediumFile, diagnose_test, diagnosis_text, read_test,
+    };
+    let Some(medium_file) = &a.medium_file else {
+        bail!(
+            "{} is a plate-sinkage test: give the medium to judge it against with --medium-file (written by terzaghi calibrate on other tests)",
+            a.log.display()
+        );
+    };
+    let inputs = [a.log.as_path(), medium_file.as_path()];
+    crate::session::files::refuse_output_over_input(&a.out, &inputs)?;
+    let report = a.out.join("report.json");
+    crate::session::files::refuse_output_over_input(&report, &inputs)?;
+    if a.json {
+        crate::session::files::refuse_stdout_over_input(&inputs)?;
+    }
+    let medium = MediumFile::read(medium_file)?;
+    let plate = a.plate_diameter_m.map(PlateShape::disc).transpose()?;
+    let test = read_test(
+        &a.log,
+        plate,
+        DepthColumn::AsLogged,
+        &RegimeOptions::default(),
+    )?;
+    let d = diagnose_test(&test, &medium)?;
+    let json = serde_json::to_string_pretty(&d)? + "\n";
+    std::fs::create_dir_all(&a.out)
+        .map_err(anyhow::Error::from)
+        .context(crate::session::files::cannot_write(&a.out))?;
+    crate::session::files::write_text(&report, &json)
+        .context(crate::session::files::cannot_write(&report))?;
+    if a.json {
+        print_out(&json)
+    } else {
+        print_out(&(diagnosis_text(&d) + &format!("wrote {}\n", report.display())))
     }
 }

@@ -2,19 +2,30 @@
 
 use super::print_out;
 use crate::model::medium::presets;
+use crate::session::plate_test::MediumFile;
 use anyhow::Result;
 use clap::Args;
 
 #[derive(Debug, Args)]
 pub struct MediaArgs {
+    /// Medium files (written by `terzaghi calibrate`) to list after the presets, with where
+    /// each value came from.
+    #[arg(value_name = "MEDIUM_FILE")]
+    pub files: Vec<std::path::PathBuf>,
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
 }
 
 pub fn run(a: MediaArgs) -> Result<()> {
+    let files = a
+        .files
+        .iter()
+        .map(|f| MediumFile::read(f))
+        .collect::<Result<Vec<_>>>()?;
     if a.json {
-        return print_out(&(serde_json::to_string_pretty(presets())? + "\n"));
+        let v = serde_json::json!({ "presets": presets(), "files": files });
+        return print_out(&(serde_json::to_string_pretty(&v)? + "\n"));
     }
     let mut s = format!(
         "{:<17} {:>10} {:>7} {:>9} {:>14}  {:<15} {}\n",
@@ -43,6 +54,31 @@ pub fn run(a: MediaArgs) -> Result<()> {
         s += &format!("  {}: {}\n", p.name, p.note);
         for (w, b_k, a) in p.fits_by_width {
             s += &format!("      width {:.3} m: b_k {b_k}, a {a}\n", w);
+        }
+    }
+    for (f, m) in a.files.iter().zip(&files) {
+        s += &format!(
+            "\n{} ({}): plate-sinkage law {}, unit weight {:.0} N/m^3\n",
+            m.name,
+            f.display(),
+            m.law.name(),
+            m.unit_weight_n_m3
+        );
+        for (name, v) in &m.params {
+            let sd = m.std_dev.get(name).copied().unwrap_or(f64::NAN);
+            s += &format!("  {name:<12} {v:>14.6} +- {sd:.6}\n");
+        }
+        s += &format!("  fitted by:   {}\n", m.source.command);
+        s += &format!("  unit weight: {}\n", m.source.unit_weight);
+        s += &format!(
+            "  depth:       {}; R^2 over every test {:.3}\n",
+            m.source.depth_column, m.source.r2
+        );
+        for t in &m.source.tests {
+            s += &format!(
+                "  test {} ({}, {} loaded rows): R^2 {:.3}, RMSE {:.2} N\n",
+                t.file, t.plate, t.loaded_rows, t.r2, t.rmse_n
+            );
         }
     }
     print_out(&s)

@@ -1,6 +1,7 @@
 //! The `terzaghi` command line: each command parses its flags, calls the library (mostly
 //! [`crate::session`]), prints what it returns, and maps errors to the exit code 2.
 
+mod calibrate;
 mod dem;
 mod demo;
 mod diagnose;
@@ -58,8 +59,11 @@ pub enum Command {
     /// Republish a session over DDS with its recorded timing, or re-evaluate it offline
     /// (--reevaluate) through the model and the estimator.
     Replay(replay::ReplayArgs),
-    /// List the medium presets with their values and provenance.
+    /// List the medium presets with their values and provenance, and any medium files given.
     Media(media::MediaArgs),
+    /// Fit a medium's plate-sinkage laws (Terzaghi's footing, Bekker, Reece, RFT with a depth
+    /// exponent, a power law in depth and width) to plate-sinkage tests and write a medium file.
+    Calibrate(calibrate::CalibrateArgs),
     /// Write a synthetic session (one leg in continuous rotation, with sensor noise) as CSV.
     Simulate(simulate::SimulateArgs),
     /// Write a recording (MCAP) of the simulated six-legged robot walking with a heaving,
@@ -232,6 +236,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Record(a) => record::run(a),
         Command::Replay(a) => replay::run(a),
         Command::Media(a) => media::run(a),
+        Command::Calibrate(a) => calibrate::run(a),
         Command::Node(a) => node::run(a),
         Command::Param(a) => param::run(a),
         Command::Simulate(a) => simulate::run(a),

@@ -61,6 +61,7 @@ pub mod files;
 pub mod identify;
 pub mod inputs;
 pub mod legs;
+pub mod plate_test;
 #[cfg(feature = "node")]
 pub mod record;
 pub mod reevaluate;

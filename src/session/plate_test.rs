@@ -1,0 +1,889 @@
+//! Plate-sinkage tests on disk, and the calibration of a medium from them: reading a test (a
+//! plain `t_s, depth_m, force_n` log with its plate given, or a run in the layout of the
+//! shared real runs, a CSV with a JSON beside it), telling its loaded rows from its holds and
+//! unloading, fitting the sinkage laws ([`calibrate`]), checking one plate size against a
+//! medium calibrated on the others ([`cross_validate`]), and the medium file
+//! ([`MediumFile`]) that `terzaghi calibrate` writes and `terzaghi media` reads.
+
+use crate::ident::sinkage::{LoadedTest, SinkageFit, TestFit, fit_sinkage, judge};
+use crate::model::sinkage::{
+    G_M_S2, PlateShape, RegimeOptions, SinkageLaw, SinkageModel, SinkageRegime, sinkage_regimes,
+};
+use anyhow::{Context, Result, bail};
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// A depth that falls back by more than this before the test's deepest point is not one
+/// intrusion (m).
+pub const DEPTH_BACK_TOLERANCE_M: f64 = 2e-3;
+/// The offset against a zero file is read where the plate is at least this far above the
+/// surface (m): closer, an uneven surface may already touch it.
+pub const OUT_OF_MEDIUM_M: f64 = 5e-3;
+/// The depth at which [`cross_validate`] compares the stress of plate sizes (m).
+pub const STRESS_DEPTH_M: f64 = 0.01;
+
+/// One row of a test.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TestRow {
+    /// Time (s).
+    pub t_s: f64,
+    /// The plate's sinkage below the surface (m; negative above it).
+    pub depth_m: f64,
+    /// The medium's upward force on the plate, offsets removed (N).
+    pub force_n: f64,
+    /// The depth as the rig logged its position (m): the same as `depth_m` unless the test's
+    /// depth has the rig's compliance taken out. The regimes are told from it, since a
+    /// compensated depth moves when the load does (an unloading at a standing rig would read
+    /// as the plate going deeper).
+    pub rig_depth_m: f64,
+    /// The sensor's vertical reading as it came, offsets included, if the test has it (N).
+    pub raw_force_n: Option<f64>,
+}
+
+/// What a shared run's JSON says about the sensor and the sand.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RunSidecar {
+    /// The JSON file.
+    pub file: PathBuf,
+    /// The sand's bulk density (kg/m^3).
+    pub bulk_density_kg_m3: Option<f64>,
+    /// The vertical mean of the run's zero file (N, as the sensor reads).
+    pub zero_fz_n: Option<f64>,
+    /// The vertical mean in the air before the run (N, as the sensor reads).
+    pub in_air_fz_n: Option<f64>,
+    /// When the testbed starts to move (s).
+    pub t_motion_start_s: Option<f64>,
+}
+
+/// A plate-sinkage test read from disk.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlateTest {
+    /// The CSV file.
+    pub file: PathBuf,
+    /// The plate.
+    pub plate: PlateShape,
+    /// The depth column used (`depth_m`, or `depth_comp_m`: the testbed's compliance taken out).
+    pub depth_column: &'static str,
+    /// Its rows, in time order; rows with a non-finite value are counted in `skipped_rows`.
+    pub rows: Vec<TestRow>,
+    /// Rows skipped: a depth, force or time that is not a finite number.
+    pub skipped_rows: usize,
+    /// The regime of each row.
+    pub regimes: Vec<SinkageRegime>,
+    /// The JSON beside a shared run, if there is one.
+    pub sidecar: Option<RunSidecar>,
+}
+
+impl PlateTest {
+    /// The test's name in tables: its file's stem.
+    pub fn name(&self) -> String {
+        self.file
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default()
+    }
+
+    /// The loaded rows: the plate moving down into medium it had not pressed.
+    pub fn loaded(&self) -> LoadedTest {
+        LoadedTest {
+            name: self.name(),
+            plate: self.plate,
+            rows: self
+                .rows
+                .iter()
+                .zip(&self.regimes)
+                .filter(|(_, g)| **g == SinkageRegime::Loading)
+                .map(|(r, _)| (r.depth_m, r.force_n))
+                .collect(),
+        }
+    }
+
+    /// The deepest sinkage reached (m).
+    pub fn deepest_m(&self) -> f64 {
+        self.rows
+            .iter()
+            .map(|r| r.depth_m)
+            .fold(f64::NEG_INFINITY, f64::max)
+    }
+}
+
+/// Which depth column of a shared run to use.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum DepthColumn {
+    /// `depth_comp_m` where the run has it (the testbed's compliance taken out), else `depth_m`.
+    Compensated,
+    /// `depth_m`: the testbed's position as it logged it (the depth the source's own processing
+    /// used).
+    #[default]
+    AsLogged,
+}
+
+const PLAIN_COLUMNS: [&str; 3] = ["t_s", "depth_m", "force_n"];
+const SHARED_COLUMNS: [&str; 10] = [
+    "time_s",
+    "depth_m",
+    "fx_n",
+    "fz_n",
+    "fy_n",
+    "depth_comp_m",
+    "fx_raw_n",
+    "fy_raw_n",
+    "fz_raw_n",
+    "in_paper_window",
+];
+
+/// Reads a plate-sinkage test. A CSV with `time_s, depth_m, fz_n` is a run in the shared
+/// layout, with its plate and sensor values in the JSON of the same name beside it; a CSV with
+/// `t_s, depth_m, force_n` is a plain log, whose plate is `plate`. Any other column is refused
+/// by name. Time that goes back, a depth that goes back before the deepest point, and a test
+/// with no loaded row are refused with the values.
+pub fn read_test(
+    file: &Path,
+    plate: Option<PlateShape>,
+    depth: DepthColumn,
+    regimes: &RegimeOptions,
+) -> Result<PlateTest> {
+    let text =
+        std::fs::read_to_string(file).with_context(|| format!("cannot read {}", file.display()))?;
+    let name = file.display().to_string();
+    let mut rdr = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .comment(Some(b'#'))
+        .from_reader(text.as_bytes());
+    let headers: Vec<String> = rdr
+        .headers()
+        .with_context(|| format!("{name}: no CSV header"))?
+        .iter()
+        .map(str::to_string)
+        .collect();
+    if headers.iter().any(|h| h == "z_raw_mm") {
+        bail!(
+            "{name} is a run's kinematics log (time_s, z_raw_mm, depth_m), not a test: give the run's force CSV (its depth is already in it)"
+        );
+    }
+    let shared = headers.iter().any(|h| h == "time_s");
+    let known: &[&str] = if shared {
+        &SHARED_COLUMNS
+    } else {
+        &PLAIN_COLUMNS
+    };
+    for h in &headers {
+        if !known.contains(&h.as_str()) {
+            bail!(
+                "{name}: unknown column {h:?}; a plate-sinkage test has {} (a plain log) or the shared runs' {}",
+                PLAIN_COLUMNS.join(", "),
+                SHARED_COLUMNS.join(", ")
+            );
+        }
+    }
+    let col = |c: &str| headers.iter().position(|h| h == c);
+    let need = |c: &'static str| {
+        col(c).with_context(|| {
+            format!(
+                "{name}: header lacks column {c:?} (found: {})",
+                headers.join(",")
+            )
+        })
+    };
+    let (it, iz, iforce, iraw) = if shared {
+        let iz = match (depth, col("depth_comp_m")) {
+            (DepthColumn::Compensated, Some(i)) => i,
+            _ => need("depth_m")?,
+        };
+        (need("time_s")?, iz, need("fz_n")?, col("fz_raw_n"))
+    } else {
+        (need("t_s")?, need("depth_m")?, need("force_n")?, None)
+    };
+    let irig = need("depth_m")?;
+    let depth_column = if headers[iz] == "depth_comp_m" {
+        "depth_comp_m"
+    } else {
+        "depth_m"
+    };
+    let sidecar = if shared {
+        Some(read_sidecar(&file.with_extension("json"))?)
+    } else {
+        None
+    };
+    let plate = match (plate, &sidecar) {
+        (Some(p), _) => p,
+        (None, Some(s)) => {
+            let json = read_json(&s.file)?;
+            let d = json
+                .get("plate_diameter_m")
+                .and_then(|v| v.as_f64())
+                .with_context(|| format!("{} has no plate_diameter_m", s.file.display()))?;
+            PlateShape::disc(d).with_context(|| format!("{}", s.file.display()))?
+        }
+        (None, None) => bail!(
+            "{name} is a plain log: give its plate (--plate-diameter-m, or --plate-width-m and --plate-length-m)"
+        ),
+    };
+    let mut rows = Vec::new();
+    let mut skipped_rows = 0;
+    let mut last_t = f64::NEG_INFINITY;
+    for rec in rdr.records() {
+        let rec = rec.with_context(|| format!("{name}: malformed CSV"))?;
+        let line = rec.position().map(|p| p.line()).unwrap_or(0);
+        let cell = |i: usize| -> Result<f64> {
+            let v = rec.get(i).unwrap_or("");
+            v.parse::<f64>().with_context(|| {
+                format!(
+                    "{name} line {line}, column {}: {v:?} is not a number",
+                    headers[i]
+                )
+            })
+        };
+        let row = TestRow {
+            t_s: cell(it)?,
+            depth_m: cell(iz)?,
+            force_n: cell(iforce)?,
+            rig_depth_m: cell(irig)?,
+            raw_force_n: iraw.map(cell).transpose()?,
+        };
+        if !(row.t_s.is_finite()
+            && row.depth_m.is_finite()
+            && row.force_n.is_finite()
+            && row.rig_depth_m.is_finite())
+        {
+            skipped_rows += 1;
+            continue;
+        }
+        if row.t_s < last_t {
+            bail!(
+                "{name} line {line}: time goes back from {last_t} s to {} s",
+                row.t_s
+            );
+        }
+        last_t = row.t_s;
+        rows.push(row);
+    }
+    let deepest = rows
+        .iter()
+        .map(|r| r.depth_m)
+        .fold(f64::NEG_INFINITY, f64::max);
+    if rows.is_empty() || deepest <= 0.0 {
+        bail!(
+            "{name}: no loaded part: the plate never goes below the surface (deepest {}; {} rows)",
+            if rows.is_empty() {
+                "none".to_string()
+            } else {
+                format!("{:.2} mm", deepest * 1e3)
+            },
+            rows.len()
+        );
+    }
+    // One intrusion: before the deepest point the depth may wobble but not go back.
+    let i_deepest = rows.iter().position(|r| r.depth_m >= deepest).unwrap_or(0);
+    let mut max_so_far = f64::NEG_INFINITY;
+    for r in &rows[..i_deepest] {
+        if r.depth_m > 0.0 && r.depth_m < max_so_far - DEPTH_BACK_TOLERANCE_M {
+            bail!(
+                "{name}: the depth goes back from {:.2} mm to {:.2} mm at t = {} s, before the deepest point ({:.2} mm): a plate-sinkage test pushes down once (is the depth's sign flipped?)",
+                max_so_far * 1e3,
+                r.depth_m * 1e3,
+                r.t_s,
+                deepest * 1e3
+            );
+        }
+        max_so_far = max_so_far.max(r.depth_m);
+    }
+    let pairs: Vec<(f64, f64)> = rows.iter().map(|r| (r.t_s, r.rig_depth_m)).collect();
+    let regimes = sinkage_regimes(&pairs, regimes);
+    let loaded = regimes
+        .iter()
+        .filter(|g| **g == SinkageRegime::Loading)
+        .count();
+    if loaded == 0 {
+        bail!(
+            "{name}: no loaded part: the plate reaches {:.2} mm but never moves down faster than {} mm/s below the surface",
+            deepest * 1e3,
+            regimes_speed_mm_s(&RegimeOptions::default())
+        );
+    }
+    Ok(PlateTest {
+        file: file.to_path_buf(),
+        plate,
+        depth_column,
+        rows,
+        skipped_rows,
+        regimes,
+        sidecar,
+    })
+}
+
+fn regimes_speed_mm_s(o: &RegimeOptions) -> f64 {
+    o.min_speed_m_s * 1e3
+}
+
+fn read_json(file: &Path) -> Result<serde_json::Value> {
+    let text = std::fs::read_to_string(file).with_context(|| {
+        format!(
+            "cannot read {} (a run in the shared layout has its JSON beside its CSV)",
+            file.display()
+        )
+    })?;
+    serde_json::from_str(&text).with_context(|| format!("{} is not JSON", file.display()))
+}
+
+fn read_sidecar(file: &Path) -> Result<RunSidecar> {
+    let json = read_json(file)?;
+    let num = |ptr: &str| json.pointer(ptr).and_then(|v| v.as_f64());
+    Ok(RunSidecar {
+        file: file.to_path_buf(),
+        bulk_density_kg_m3: num("/medium/bulk_density_kg_m3"),
+        zero_fz_n: num("/offsets/zero_bag_mean_F_N/2"),
+        in_air_fz_n: num("/offsets/in_air_mean_F_N/2"),
+        t_motion_start_s: num("/offsets/t_motion_start_s"),
+    })
+}
+
+/// RFT's `alpha_z` for a horizontal plate moving straight down (N/cm^3), from the `poppy_lp`
+/// coefficients: what the RFT law scales.
+pub fn rft_alpha_z_down_n_cm3() -> f64 {
+    use crate::model::RftCoefficients;
+    let c = RftCoefficients::by_name("poppy_lp", None).expect("a built-in set");
+    // Moving straight down is an intrusion angle of pi/2 below the horizontal.
+    c.alpha(0.0, std::f64::consts::FRAC_PI_2)
+        .1
+        .abs()
+        .max(c.alpha(0.0, -std::f64::consts::FRAC_PI_2).1.abs())
+}
+
+/// The unit weight the tests give (N/m^3): their bulk density times g, the same in every test
+/// that gives one; `fallback` where none does.
+pub fn unit_weight_of(tests: &[PlateTest], fallback: Option<f64>) -> Result<(f64, String)> {
+    if let Some(w) = fallback {
+        return Ok((w, "given (--unit-weight-n-m3)".into()));
+    }
+    let densities: Vec<(f64, &Path)> = tests
+        .iter()
+        .filter_map(|t| {
+            t.sidecar
+                .as_ref()
+                .and_then(|s| s.bulk_density_kg_m3.map(|d| (d, s.file.as_path())))
+        })
+        .collect();
+    let Some(&(d, file)) = densities.first() else {
+        bail!("no test gives the sand's bulk density: pass --unit-weight-n-m3");
+    };
+    if let Some((other, f2)) = densities.iter().find(|(o, _)| (o - d).abs() > 1e-9) {
+        bail!(
+            "the tests give different bulk densities ({d} kg/m^3 in {}, {other} in {}): calibrate one sand at a time",
+            file.display(),
+            f2.display()
+        );
+    }
+    Ok((
+        d * G_M_S2,
+        format!("bulk density {d} kg/m^3 in {} times g", file.display()),
+    ))
+}
+
+/// Every law fitted to the tests' loaded rows, best R^2 first; a law that cannot be fitted is
+/// left out with its reason.
+pub fn calibrate(
+    tests: &[PlateTest],
+    unit_weight_n_m3: f64,
+) -> (Vec<SinkageFit>, Vec<(SinkageLaw, String)>) {
+    let loaded: Vec<LoadedTest> = tests.iter().map(PlateTest::loaded).collect();
+    let alpha = rft_alpha_z_down_n_cm3();
+    let mut fits = Vec::new();
+    let mut failed = Vec::new();
+    for law in SinkageLaw::ALL {
+        match fit_sinkage(law, &loaded, unit_weight_n_m3, alpha) {
+            Ok(f) => fits.push(f),
+            Err(e) => failed.push((law, e.to_string())),
+        }
+    }
+    fits.sort_by(|a, b| b.r2.total_cmp(&a.r2));
+    (fits, failed)
+}
+
+/// One test predicted by a law calibrated on the tests of the other plate sizes.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct HeldOut {
+    /// The law.
+    pub law: SinkageLaw,
+    /// The held-out test's fit, with nothing fitted to it.
+    pub fit: TestFit,
+    /// The depth exponent the test measures: slope of `ln F` on `ln z` over its loaded rows
+    /// deeper than 3 mm.
+    pub measured_exponent: f64,
+    /// The same slope of the law's predictions over the same rows.
+    pub predicted_exponent: f64,
+    /// The test's stress at [`STRESS_DEPTH_M`] over the mean of the calibration tests' (each
+    /// from its own log-log line), as measured.
+    pub measured_stress_ratio: f64,
+    /// The same ratio as the law predicts it.
+    pub predicted_stress_ratio: f64,
+}
+
+fn log_line(rows: &[(f64, f64)]) -> Option<(f64, f64)> {
+    let pts: Vec<(f64, f64)> = rows
+        .iter()
+        .filter(|&&(z, f)| z > 3e-3 && f > 0.0)
+        .map(|&(z, f)| (z.ln(), f.ln()))
+        .collect();
+    if pts.len() < 3 {
+        return None;
+    }
+    let n = pts.len() as f64;
+    let (mx, my) = (
+        pts.iter().map(|p| p.0).sum::<f64>() / n,
+        pts.iter().map(|p| p.1).sum::<f64>() / n,
+    );
+    let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    let slope = sxy / sxx;
+    Some((slope, my - slope * mx))
+}
+
+fn stress_at(test: &LoadedTest, depth_m: f64) -> Option<f64> {
+    log_line(&test.rows).map(|(n, c)| (c + n * depth_m.ln()).exp() / test.plate.area_m2())
+}
+
+/// Each test predicted by each law calibrated on the tests of the other plate sizes (needs
+/// three sizes or more for a law with a width term to see two).
+pub fn cross_validate(tests: &[PlateTest], unit_weight_n_m3: f64) -> Result<Vec<HeldOut>> {
+    let loaded: Vec<LoadedTest> = tests.iter().map(PlateTest::loaded).collect();
+    let mut sizes: Vec<String> = loaded.iter().map(|t| t.plate.label()).collect();
+    sizes.sort();
+    sizes.dedup();
+    if sizes.len() < 2 {
+        bail!(
+            "cross-validation by plate size needs tests of at least two plate sizes (got {})",
+            sizes.join(", ")
+        );
+    }
+    let alpha = rft_alpha_z_down_n_cm3();
+    let mut out = Vec::new();
+    for law in SinkageLaw::ALL {
+        for size in &sizes {
+            let train: Vec<LoadedTest> = loaded
+                .iter()
+                .filter(|t| &t.plate.label() != size)
+                .cloned()
+                .collect();
+            let fit = fit_sinkage(law, &train, unit_weight_n_m3, alpha)
+                .with_context(|| format!("{} calibrated without {size}", law.name()))?;
+            let train_stress: Vec<f64> = train
+                .iter()
+                .filter_map(|t| stress_at(t, STRESS_DEPTH_M))
+                .collect();
+            let train_mean = train_stress.iter().sum::<f64>() / train_stress.len().max(1) as f64;
+            let predicted_train = train
+                .iter()
+                .map(|t| fit.model.pressure_pa(&t.plate, STRESS_DEPTH_M))
+                .sum::<f64>()
+                / train.len().max(1) as f64;
+            for test in loaded.iter().filter(|t| &t.plate.label() == size) {
+                let judged = judge(&fit.model, std::slice::from_ref(test)).remove(0);
+                let predicted_rows: Vec<(f64, f64)> = test
+                    .rows
+                    .iter()
+                    .map(|&(z, _)| (z, fit.model.force_n(&test.plate, z)))
+                    .collect();
+                out.push(HeldOut {
+                    law,
+                    fit: judged,
+                    measured_exponent: log_line(&test.rows).map_or(f64::NAN, |l| l.0),
+                    predicted_exponent: log_line(&predicted_rows).map_or(f64::NAN, |l| l.0),
+                    measured_stress_ratio: stress_at(test, STRESS_DEPTH_M)
+                        .map_or(f64::NAN, |s| s / train_mean),
+                    predicted_stress_ratio: fit.model.pressure_pa(&test.plate, STRESS_DEPTH_M)
+                        / predicted_train,
+                });
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// A held-out plate size's figures: the means over its tests.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct HeldOutSize {
+    /// The law.
+    pub law: SinkageLaw,
+    /// The plate size.
+    pub plate: String,
+    /// Tests of that size.
+    pub tests: usize,
+    /// The lowest R^2 of its tests.
+    pub worst_r2: f64,
+    /// Mean measured depth exponent.
+    pub measured_exponent: f64,
+    /// Mean predicted depth exponent.
+    pub predicted_exponent: f64,
+    /// Mean measured stress ratio.
+    pub measured_stress_ratio: f64,
+    /// Mean predicted stress ratio.
+    pub predicted_stress_ratio: f64,
+}
+
+/// [`cross_validate`]'s rows summarised per law and plate size.
+pub fn by_size(held: &[HeldOut]) -> Vec<HeldOutSize> {
+    let mut out: Vec<HeldOutSize> = Vec::new();
+    for h in held {
+        let i = match out
+            .iter()
+            .position(|s| s.law == h.law && s.plate == h.fit.plate)
+        {
+            Some(i) => i,
+            None => {
+                out.push(HeldOutSize {
+                    law: h.law,
+                    plate: h.fit.plate.clone(),
+                    tests: 0,
+                    worst_r2: f64::INFINITY,
+                    measured_exponent: 0.0,
+                    predicted_exponent: 0.0,
+                    measured_stress_ratio: 0.0,
+                    predicted_stress_ratio: 0.0,
+                });
+                out.len() - 1
+            }
+        };
+        let s = &mut out[i];
+        s.tests += 1;
+        s.worst_r2 = s.worst_r2.min(h.fit.r2);
+        s.measured_exponent += h.measured_exponent;
+        s.predicted_exponent += h.predicted_exponent;
+        s.measured_stress_ratio += h.measured_stress_ratio;
+        s.predicted_stress_ratio += h.predicted_stress_ratio;
+    }
+    for s in &mut out {
+        let n = s.tests as f64;
+        s.measured_exponent /= n;
+        s.predicted_exponent /= n;
+        s.measured_stress_ratio /= n;
+        s.predicted_stress_ratio /= n;
+    }
+    out
+}
+
+/// A medium file: a sinkage law with its values, and where each came from.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MediumFile {
+    /// The medium's name.
+    pub name: String,
+    /// The law.
+    pub law: SinkageLaw,
+    /// Its parameters by name.
+    pub params: std::collections::BTreeMap<String, f64>,
+    /// Their standard deviations by name.
+    pub std_dev: std::collections::BTreeMap<String, f64>,
+    /// The unit weight (N/m^3).
+    pub unit_weight_n_m3: f64,
+    /// RFT's `alpha_z` for a plate moving down that the RFT law scales (N/cm^3).
+    pub rft_alpha_z_n_cm3: f64,
+    /// Where the values came from.
+    pub source: MediumSource,
+}
+
+/// Where a medium file's values came from.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MediumSource {
+    /// The command that wrote the file.
+    pub command: String,
+    /// Where the unit weight came from.
+    pub unit_weight: String,
+    /// The depth column of the tests.
+    pub depth_column: String,
+    /// R^2 of the force over every test's loaded rows together.
+    pub r2: f64,
+    /// Each test, with its own R^2 and RMSE under the fitted law.
+    pub tests: Vec<MediumSourceTest>,
+}
+
+/// A test a medium file was calibrated on.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MediumSourceTest {
+    /// Its file.
+    pub file: String,
+    /// Its plate.
+    pub plate: String,
+    /// Loaded rows used.
+    pub loaded_rows: usize,
+    /// R^2 of its force.
+    pub r2: f64,
+    /// RMSE of its force (N).
+    pub rmse_n: f64,
+}
+
+impl MediumFile {
+    /// The medium file of a fit.
+    pub fn of_fit(
+        name: &str,
+        fit: &SinkageFit,
+        tests: &[PlateTest],
+        command: &str,
+        unit_weight_source: &str,
+    ) -> MediumFile {
+        let names = fit.model.law.param_names();
+        MediumFile {
+            name: name.to_string(),
+            law: fit.model.law,
+            params: names
+                .iter()
+                .zip(&fit.model.params)
+                .map(|(n, v)| (n.to_string(), *v))
+                .collect(),
+            std_dev: names
+                .iter()
+                .zip(&fit.std_dev)
+                .map(|(n, v)| (n.to_string(), *v))
+                .collect(),
+            unit_weight_n_m3: fit.model.unit_weight_n_m3,
+            rft_alpha_z_n_cm3: fit.model.rft_alpha_z_n_cm3,
+            source: MediumSource {
+                command: command.to_string(),
+                unit_weight: unit_weight_source.to_string(),
+                depth_column: tests
+                    .first()
+                    .map(|t| t.depth_column.to_string())
+                    .unwrap_or_default(),
+                r2: fit.r2,
+                tests: tests
+                    .iter()
+                    .zip(&fit.tests)
+                    .map(|(t, f)| MediumSourceTest {
+                        file: t.file.display().to_string(),
+                        plate: f.plate.clone(),
+                        loaded_rows: f.rows,
+                        r2: f.r2,
+                        rmse_n: f.rmse_n,
+                    })
+                    .collect(),
+            },
+        }
+    }
+
+    /// The law with its values, checked (a NaN or negative value is an error naming it).
+    pub fn model(&self) -> Result<SinkageModel> {
+        let mut params = Vec::new();
+        for name in self.law.param_names() {
+            params.push(*self.params.get(*name).with_context(|| {
+                format!(
+                    "medium {:?}: law {} needs parameter {name} (has: {})",
+                    self.name,
+                    self.law.name(),
+                    self.params.keys().cloned().collect::<Vec<_>>().join(", ")
+                )
+            })?);
+        }
+        if let Some(extra) = self
+            .params
+            .keys()
+            .find(|k| !self.law.param_names().contains(&k.as_str()))
+        {
+            bail!(
+                "medium {:?}: law {} has no parameter {extra:?} (its parameters: {})",
+                self.name,
+                self.law.name(),
+                self.law.param_names().join(", ")
+            );
+        }
+        SinkageModel::new(
+            self.law,
+            params,
+            self.unit_weight_n_m3,
+            self.rft_alpha_z_n_cm3,
+        )
+        .with_context(|| format!("medium {:?}", self.name))
+    }
+
+    /// The file as YAML, with a header that says what it is.
+    pub fn to_yaml(&self) -> Result<String> {
+        Ok(format!(
+            "# A terzaghi medium file: a plate-sinkage law calibrated from measurements.\n# Written by: {}\n{}",
+            self.source.command,
+            serde_yaml_ng::to_string(self)?
+        ))
+    }
+
+    /// Reads a medium file, checked.
+    pub fn read(file: &Path) -> Result<MediumFile> {
+        let text = std::fs::read_to_string(file)
+            .with_context(|| format!("cannot read {}", file.display()))?;
+        let m: MediumFile = serde_yaml_ng::from_str(&text)
+            .with_context(|| format!("{} is not a medium file", file.display()))?;
+        m.model().with_context(|| format!("{}", file.display()))?;
+        Ok(m)
+    }
+}
+
+/// Whether a CSV file's header is a plate-sinkage test's (a shared run's `time_s, depth_m,
+/// fz_n`, or a plain log's `t_s, depth_m, force_n`).
+pub fn is_plate_test(file: &Path) -> bool {
+    let Ok(text) = std::fs::read_to_string(file) else {
+        return false;
+    };
+    let Some(header) = text.lines().find(|l| !l.starts_with('#')) else {
+        return false;
+    };
+    let cols: Vec<&str> = header.split(',').map(str::trim).collect();
+    let has = |c: &str| cols.contains(&c);
+    (has("time_s") && has("fz_n")) || (has("depth_m") && has("force_n"))
+}
+
+/// The sensor's offset against its zero file, read where the plate is out of the medium.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct OffsetReading {
+    /// The zero file's mean (N, as the sensor reads).
+    pub zero_n: f64,
+    /// Mean reading before the plate first loads, at least [`OUT_OF_MEDIUM_M`] above the
+    /// surface, minus the zero (N).
+    pub before_n: f64,
+    /// Rows it is the mean of.
+    pub before_rows: usize,
+    /// The same after the plate last leaves the medium, if it does (N).
+    pub after_n: Option<f64>,
+}
+
+/// A plate-sinkage test's diagnosis.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TestDiagnosis {
+    /// The test's file.
+    pub file: PathBuf,
+    /// The plate.
+    pub plate: String,
+    /// The medium file's name and law.
+    pub medium: String,
+    /// The fit of bias, surface and scale, the sensor's habits, the gap by depth and speed.
+    pub gap: crate::diagnose::sinkage::SinkageDiagnosis,
+    /// The sensor's offset against its zero file, where the test has the raw reading and a
+    /// zero file's mean.
+    pub offset: Option<OffsetReading>,
+}
+
+/// Diagnoses a test against a calibrated medium.
+pub fn diagnose_test(test: &PlateTest, medium: &MediumFile) -> Result<TestDiagnosis> {
+    use crate::diagnose::sinkage::{TestSample, diagnose_sinkage};
+    let model = medium.model()?;
+    let samples: Vec<TestSample> = test
+        .rows
+        .iter()
+        .zip(&test.regimes)
+        .map(|(r, g)| TestSample {
+            t_s: r.t_s,
+            depth_m: r.depth_m,
+            force_n: r.force_n,
+            regime: *g,
+        })
+        .collect();
+    let gap = diagnose_sinkage(&model, &test.plate, &samples)
+        .with_context(|| format!("{}", test.file.display()))?;
+    let first = test
+        .regimes
+        .iter()
+        .position(|g| *g == SinkageRegime::Loading);
+    let last = test
+        .regimes
+        .iter()
+        .rposition(|g| *g != SinkageRegime::Above);
+    let offset = test
+        .sidecar
+        .as_ref()
+        .and_then(|s| s.zero_fz_n)
+        .and_then(|zero| {
+            let mean_raw = |rows: &mut dyn Iterator<Item = &TestRow>| {
+                let v: Vec<f64> = rows.filter_map(|r| r.raw_force_n).collect();
+                (!v.is_empty()).then(|| (v.iter().sum::<f64>() / v.len() as f64, v.len()))
+            };
+            let before = mean_raw(
+                &mut test
+                    .rows
+                    .iter()
+                    .zip(&test.regimes)
+                    .take(first.unwrap_or(0))
+                    .filter(|(r, _)| r.depth_m < -OUT_OF_MEDIUM_M)
+                    .map(|(r, _)| r),
+            )?;
+            let after = last.and_then(|l| {
+                mean_raw(
+                    &mut test.rows[l + 1..]
+                        .iter()
+                        .filter(|r| r.depth_m < -OUT_OF_MEDIUM_M),
+                )
+            });
+            Some(OffsetReading {
+                zero_n: zero,
+                before_n: before.0 - zero,
+                before_rows: before.1,
+                after_n: after.map(|a| a.0 - zero),
+            })
+        });
+    Ok(TestDiagnosis {
+        file: test.file.clone(),
+        plate: test.plate.label(),
+        medium: format!("{} ({})", medium.name, medium.law.name()),
+        gap,
+        offset,
+    })
+}
+
+/// A test's diagnosis in words.
+pub fn diagnosis_text(d: &TestDiagnosis) -> String {
+    let g = &d.gap;
+    let mut s = format!(
+        "{} ({}) against medium {}: {} rows, {} used (loading, and above the surface before it)\n",
+        d.file.display(),
+        d.plate,
+        d.medium,
+        g.rows,
+        g.rows_used
+    );
+    match &g.sensor {
+        Some(h) => {
+            s += &format!(
+                "sensor: rows at {:.1} Hz, the value changes at {:.1} Hz (held {:.0} ms, {:.1} rows per value)\n",
+                h.stream_rate_hz,
+                h.update_rate_hz,
+                h.hold_s * 1e3,
+                h.rows_per_value
+            )
+        }
+        None => s += "sensor: too few changes of value to tell its rate\n",
+    }
+    if let Some(o) = &d.offset {
+        s += &format!(
+            "offset against the zero file ({:.3} N): {:+.3} N before the test ({} rows){}\n",
+            o.zero_n,
+            o.before_n,
+            o.before_rows,
+            match o.after_n {
+                Some(a) => format!(", {a:+.3} N after (drift {:+.3} N)", a - o.before_n),
+                None => ", none after (the test ends in the medium)".to_string(),
+            }
+        );
+    }
+    s += &format!(
+        "bias on the force: {:+.3} +- {:.3} N\nsurface: {:+.2} +- {:.2} mm to add to the depth\nmedium scale: {:.3} +- {:.3} of the calibrated law\n",
+        g.bias_n.value,
+        g.bias_n.std_dev,
+        g.depth_shift_m.value * 1e3,
+        g.depth_shift_m.std_dev * 1e3,
+        g.scale.value,
+        g.scale.std_dev
+    );
+    s += &format!(
+        "loaded rows: R^2 {:.3} (RMSE {:.2} N) as calibrated, {:.3} (RMSE {:.2} N) with bias, surface and scale\n",
+        g.r2_as_calibrated, g.rmse_as_calibrated_n, g.r2_corrected, g.rmse_corrected_n
+    );
+    s += "gap as calibrated (measured - predicted), by depth:\n";
+    for b in &g.gap_by_depth {
+        s += &format!(
+            "  {:>6.1} - {:>6.1} mm   {:>4} rows  {:>+8.2} N\n",
+            b.from, b.to, b.rows, b.mean_gap_n
+        );
+    }
+    s += "by downward speed:\n";
+    for b in &g.gap_by_speed {
+        s += &format!(
+            "  {:>6.1} - {:>6.1} mm/s {:>4} rows  {:>+8.2} N\n",
+            b.from, b.to, b.rows, b.mean_gap_n
+        );
+    }
+    s
+}
