@@ -175,16 +175,21 @@ pub enum Regime {
     ExtractionTriangle,
     /// `beta > pi/2` for a model without a failure surface (RFT).
     Extraction,
+    /// A plate pushed straight down that holds still, is unloaded at constant depth, or rises
+    /// ([`sinkage`]): the rig, not the medium's law, sets the force; the prediction is the
+    /// law's at that depth, the most the medium bears there.
+    Unloading,
 }
 
 impl Regime {
     /// Every regime, in the order of [`Regime::code`].
-    pub const ALL: [Regime; 5] = [
+    pub const ALL: [Regime; 6] = [
         Regime::OutOfMedium,
         Regime::Penetration,
         Regime::ExtractionSpiral,
         Regime::ExtractionTriangle,
         Regime::Extraction,
+        Regime::Unloading,
     ];
 
     /// The regime's name, as logs and CSV files write it.
@@ -195,10 +200,12 @@ impl Regime {
             Regime::ExtractionSpiral => "extraction_spiral",
             Regime::ExtractionTriangle => "extraction_triangle",
             Regime::Extraction => "extraction",
+            Regime::Unloading => "unloading",
         }
     }
 
-    /// Small integer code, as carried in ROS messages (`0` out of medium ... `4` extraction).
+    /// Small integer code, as carried in ROS messages (`0` out of medium ... `4` extraction, `5`
+    /// unloading).
     pub fn code(self) -> u8 {
         self as u8
     }
@@ -249,6 +256,8 @@ pub enum ForceModel {
     Terzaghi(TerzaghiModel),
     /// Resistive force theory over a leg's mid-line.
     Rft(RftModel),
+    /// A horizontal plate pushed straight down, by a calibrated plate-sinkage law.
+    Sinkage(sinkage::SinkageLeg),
 }
 
 /// Where a leg's hip is and how it moves at one sample, as the robot's state tells it (the
@@ -293,6 +302,9 @@ impl ForceModel {
         match self {
             ForceModel::Terzaghi(m) => m.evaluate(beta_rad).map(|f| f.prediction()),
             ForceModel::Rft(m) => m.evaluate(beta_rad),
+            ForceModel::Sinkage(m) => {
+                m.predict(beta_rad, &HipMotion::still(m.plate().hip_height_m()))
+            }
         }
     }
 
@@ -308,13 +320,14 @@ impl ForceModel {
                 )
                 .map(|f| f.prediction()),
             ForceModel::Rft(m) => m.evaluate_moving(beta_rad, hip),
+            ForceModel::Sinkage(m) => m.predict(beta_rad, hip),
         }
     }
 
     /// RFT's speed law, where the model is RFT with one.
     pub fn rft_speed_law(&self) -> Option<&RftSpeedLaw> {
         match self {
-            ForceModel::Terzaghi(_) => None,
+            ForceModel::Terzaghi(_) | ForceModel::Sinkage(_) => None,
             ForceModel::Rft(m) => m.speed_law(),
         }
     }
@@ -324,6 +337,7 @@ impl ForceModel {
         match self {
             ForceModel::Terzaghi(m) => m.plate(),
             ForceModel::Rft(m) => m.plate(),
+            ForceModel::Sinkage(m) => m.plate(),
         }
     }
 }

@@ -23,11 +23,13 @@
 //! rig applies, not on the medium's law, and none of the laws predicts it. [`sinkage_regimes`]
 //! tells the regimes of a test's rows apart.
 
-use super::ModelError;
+use super::{HipMotion, ModelError, Plate, Prediction, Regime};
 use serde::{Deserialize, Serialize};
 
 /// Standard gravity (m/s^2), to turn a bulk density into a unit weight.
 pub const G_M_S2: f64 = 9.80665;
+/// The deepest a [`SinkageLeg`] is predicted at (m); deeper is a bad hip height, refused.
+pub const MAX_DEPTH_M: f64 = 1.0;
 /// The reference depth and width of the power laws (m).
 pub const REF_LENGTH_M: f64 = 0.01;
 
@@ -326,6 +328,91 @@ fn param_label(name: &str) -> &'static str {
         "k_pa" => "k (Pa)",
         "m" => "width exponent m",
         _ => "sinkage parameter",
+    }
+}
+
+/// A leg that is a horizontal plate pushed straight down (a test's plate, a foot that does not
+/// turn): its depth is the hip's height below the surface, its joint angle plays no part.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SinkageLeg {
+    model: SinkageModel,
+    shape: PlateShape,
+    plate: Plate,
+    min_speed_m_s: f64,
+}
+
+impl SinkageLeg {
+    /// The leg of `shape`, pressing by `model`; `plate` is its configured geometry and hip
+    /// height (where a leg without a robot's state stands). It loads while its hip moves down at
+    /// `RegimeOptions::default().min_speed_m_s` or faster.
+    pub fn new(model: SinkageModel, shape: PlateShape, plate: Plate) -> SinkageLeg {
+        SinkageLeg {
+            model,
+            shape,
+            plate,
+            min_speed_m_s: RegimeOptions::default().min_speed_m_s,
+        }
+    }
+
+    /// The law.
+    pub fn model(&self) -> &SinkageModel {
+        &self.model
+    }
+
+    /// The plate's shape.
+    pub fn shape(&self) -> &PlateShape {
+        &self.shape
+    }
+
+    /// The configured geometry.
+    pub fn plate(&self) -> &Plate {
+        &self.plate
+    }
+
+    /// The prediction with the hip at `hip` (its height negative below the surface): the law's
+    /// upward force at the plate's depth, in the regime its vertical velocity gives (loading as
+    /// [`Regime::Penetration`], otherwise [`Regime::Unloading`]). The joint angle is only
+    /// passed through. A non-finite height or velocity is an error naming it.
+    pub fn predict(&self, beta_rad: f64, hip: &HipMotion) -> Result<Prediction, ModelError> {
+        for (name, v) in [
+            ("hip height (m)", hip.height_m),
+            ("hip vertical velocity (m/s)", hip.up_m_s),
+        ] {
+            if !v.is_finite() {
+                return Err(ModelError::NotFinite { name, value: v });
+            }
+        }
+        let depth_m = -hip.height_m;
+        if depth_m > MAX_DEPTH_M {
+            return Err(ModelError::OutOfRange {
+                what: "plate depth below the surface (m)",
+                value: depth_m,
+                range: format!(
+                    "up to {MAX_DEPTH_M} m (a plate sinks centimetres: a bad hip height?)"
+                ),
+            });
+        }
+        let regime = if depth_m <= 0.0 {
+            Regime::OutOfMedium
+        } else if -hip.up_m_s >= self.min_speed_m_s {
+            Regime::Penetration
+        } else {
+            Regime::Unloading
+        };
+        let lift_n = self.model.force_n(&self.shape, depth_m);
+        Ok(Prediction {
+            beta_rad: if beta_rad.is_finite() { beta_rad } else { 0.0 },
+            submerged_m: if depth_m > 0.0 {
+                self.shape.footing_b_m().0
+            } else {
+                0.0
+            },
+            depth_m: depth_m.max(0.0),
+            drag_n: 0.0,
+            lift_n,
+            hip_torque_nm: 0.0,
+            regime,
+        })
     }
 }
 
