@@ -1,6 +1,9 @@
 //! Reading force logs: CSV with a header that names at least `beta_rad,drag_n,lift_n`
-//! (optionally `t_s`; other columns are ignored). A `beta_deg` column stands in for `beta_rad`,
-//! so that the output of `terzaghi predict` reads back. Cells `nan`/`inf` are kept as samples for the
+//! (optionally `t_s`). A `beta_deg` column stands in for `beta_rad`, so that the output of
+//! `terzaghi predict` reads back (its other columns, and a DEM log's `hip_torque_nm`, are
+//! read past). A leg's hip may move: `hip_height_m` (negative below the surface), and
+//! optionally `hip_vx_m_s`, `hip_vz_m_s` and `pitch_rad` ([`read_log`]). Any other column is
+//! refused by name, never ignored. Cells `nan`/`inf` are kept as samples for the
 //! identification to count and skip; a cell that is not a number is an error naming its line.
 
 use crate::ident::Sample;
@@ -26,6 +29,20 @@ pub enum DatasetError {
         column: &'static str,
         value: String,
     },
+    #[error(
+        "{path}: unknown column {column:?} (a force log has t_s, beta_rad or beta_deg, drag_n, lift_n, and for a moving hip hip_height_m, hip_vx_m_s, hip_vz_m_s, pitch_rad){hint}"
+    )]
+    UnknownColumn {
+        path: String,
+        column: String,
+        hint: String,
+    },
+    #[error(
+        "{path}: {column} gives the hip's motion, which only replay --reevaluate reads (with a params file); this command takes a leg turning at its configured hip height"
+    )]
+    HipNotTaken { path: String, column: &'static str },
+    #[error("{path}: {column} needs hip_height_m beside it")]
+    HipWithoutHeight { path: String, column: &'static str },
     #[error("{path} line {line}: {message}")]
     Malformed {
         path: String,
@@ -34,18 +51,66 @@ pub enum DatasetError {
     },
 }
 
-/// Reads the samples of a CSV file.
+/// Columns a force log may have besides the samples' own and the hip's: what `terzaghi
+/// predict` writes, and a DEM log's torque; they are read past.
+const READ_PAST: [&str; 4] = ["submerged_m", "depth_m", "hip_torque_nm", "regime"];
+/// The hip's columns.
+const HIP_COLUMNS: [&str; 4] = ["hip_height_m", "hip_vx_m_s", "hip_vz_m_s", "pitch_rad"];
+
+/// The hip of one row of a log: its height above the surface (m, negative below it) and, where
+/// the log gives them, its horizontal and vertical velocity (m/s) and the body's pitch (rad).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HipRow {
+    pub height_m: f64,
+    pub vx_m_s: Option<f64>,
+    pub vz_m_s: Option<f64>,
+    pub pitch_rad: Option<f64>,
+}
+
+/// A force log: its samples, and its hip's rows where it has `hip_height_m`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ForceLog {
+    pub samples: Vec<Sample>,
+    pub hips: Option<Vec<HipRow>>,
+}
+
+/// Reads the samples of a CSV file; a log with hip columns is refused (see [`read_log`]).
 pub fn read_samples_csv(path: &Path) -> Result<Vec<Sample>, DatasetError> {
+    let log = read_log(path)?;
+    if log.hips.is_some() {
+        return Err(DatasetError::HipNotTaken {
+            path: path.display().to_string(),
+            column: "hip_height_m",
+        });
+    }
+    Ok(log.samples)
+}
+
+/// Reads a force log from a CSV file, with its hip's columns if it has them.
+pub fn read_log(path: &Path) -> Result<ForceLog, DatasetError> {
     let name = path.display().to_string();
     let file = std::fs::File::open(path).map_err(|error| DatasetError::Io {
         path: name.clone(),
         error,
     })?;
-    read_samples(file, &name)
+    read_log_from(file, &name)
 }
 
-/// Reads samples from any CSV reader; `name` is used in messages.
+/// Reads samples from any CSV reader; `name` is used in messages. A log with hip columns is
+/// refused.
 pub fn read_samples<R: Read>(input: R, name: &str) -> Result<Vec<Sample>, DatasetError> {
+    let log = read_log_from(input, name)?;
+    if log.hips.is_some() {
+        return Err(DatasetError::HipNotTaken {
+            path: name.to_string(),
+            column: "hip_height_m",
+        });
+    }
+    Ok(log.samples)
+}
+
+/// [`read_log`] from any CSV reader; `name` is used in messages.
+pub fn read_log_from<R: Read>(input: R, name: &str) -> Result<ForceLog, DatasetError> {
     let mut rdr = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
         .comment(Some(b'#'))
@@ -88,6 +153,42 @@ pub fn read_samples<R: Read>(input: R, name: &str) -> Result<Vec<Sample>, Datase
     };
     let (id, il) = (col("drag_n")?, col("lift_n")?);
     let it = headers.iter().position(|h| h == "t_s");
+    let own = ["t_s", "beta_rad", "beta_deg", "drag_n", "lift_n"];
+    for h in headers.iter() {
+        if !(own.contains(&h) || HIP_COLUMNS.contains(&h) || READ_PAST.contains(&h)) {
+            let near = own
+                .iter()
+                .chain(&HIP_COLUMNS)
+                .map(|k| (strsim::levenshtein(h, k), *k))
+                .min()
+                .filter(|(d, _)| *d <= 3)
+                .map(|(_, k)| format!("; did you mean {k}?"))
+                .unwrap_or_default();
+            return Err(DatasetError::UnknownColumn {
+                path: name.to_string(),
+                column: h.to_string(),
+                hint: near,
+            });
+        }
+    }
+    let hip_col = |c: &str| headers.iter().position(|h| h == c);
+    let ih = hip_col("hip_height_m");
+    let (ivx, ivz, ip) = (
+        hip_col("hip_vx_m_s"),
+        hip_col("hip_vz_m_s"),
+        hip_col("pitch_rad"),
+    );
+    if ih.is_none() {
+        for (i, c) in [(ivx, "hip_vx_m_s"), (ivz, "hip_vz_m_s"), (ip, "pitch_rad")] {
+            if i.is_some() {
+                return Err(DatasetError::HipWithoutHeight {
+                    path: name.to_string(),
+                    column: c,
+                });
+            }
+        }
+    }
+    let mut hips = ih.map(|_| Vec::new());
     let mut out = Vec::new();
     for rec in rdr.records() {
         let rec = rec.map_err(malformed)?;
@@ -107,8 +208,16 @@ pub fn read_samples<R: Read>(input: R, name: &str) -> Result<Vec<Sample>, Datase
             drag_n: cell(id, "drag_n")?,
             lift_n: cell(il, "lift_n")?,
         });
+        if let (Some(hips), Some(ih)) = (hips.as_mut(), ih) {
+            hips.push(HipRow {
+                height_m: cell(ih, "hip_height_m")?,
+                vx_m_s: ivx.map(|i| cell(i, "hip_vx_m_s")).transpose()?,
+                vz_m_s: ivz.map(|i| cell(i, "hip_vz_m_s")).transpose()?,
+                pitch_rad: ip.map(|i| cell(i, "pitch_rad")).transpose()?,
+            });
+        }
     }
-    Ok(out)
+    Ok(ForceLog { samples: out, hips })
 }
 
 #[cfg(test)]
@@ -118,7 +227,7 @@ mod tests {
     #[test]
     fn reads_columns_in_any_order_and_keeps_nan_for_counting() {
         let s = read_samples(
-            "lift_n,x,beta_rad,drag_n\n1,a,0.5,2\nnan,b,0.6,3\n".as_bytes(),
+            "lift_n,regime,beta_rad,drag_n\n1,a,0.5,2\nnan,b,0.6,3\n".as_bytes(),
             "t",
         )
         .unwrap();
@@ -128,6 +237,46 @@ mod tests {
             (0.5, 2.0, 1.0, None)
         );
         assert!(s[1].lift_n.is_nan());
+    }
+
+    #[test]
+    fn an_unknown_column_is_refused_and_hip_columns_are_read() {
+        let e = read_samples(
+            "t_s,beta_rad,drag_n,lift_n,hip_heigth_m\n0,0,0,0,0\n".as_bytes(),
+            "d.csv",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("unknown column \"hip_heigth_m\"")
+                && e.contains("did you mean hip_height_m?"),
+            "{e}"
+        );
+        let log = read_log_from(
+            "t_s,beta_rad,drag_n,lift_n,hip_height_m,hip_vz_m_s\n0,0,0,1,-0.01,-0.005\n".as_bytes(),
+            "d.csv",
+        )
+        .unwrap();
+        let h = log.hips.unwrap()[0];
+        assert_eq!(
+            (h.height_m, h.vz_m_s, h.vx_m_s),
+            (-0.01, Some(-0.005), None)
+        );
+        // A command that takes no hip says so rather than ignoring it.
+        let e = read_samples(
+            "t_s,beta_rad,drag_n,lift_n,hip_height_m\n0,0,0,1,-0.01\n".as_bytes(),
+            "d.csv",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("only replay --reevaluate"), "{e}");
+        let e = read_log_from(
+            "beta_rad,drag_n,lift_n,pitch_rad\n0,0,0,0\n".as_bytes(),
+            "d.csv",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("pitch_rad needs hip_height_m"), "{e}");
     }
 
     #[test]

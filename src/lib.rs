@@ -9,6 +9,8 @@
 //! - [`error`]: the failure of a run whose input was fine (an output not written, a DDS
 //!   participant not made), which the command line tells from bad input by its exit code.
 //! - [`msgs`]: the ROS 2 messages the node reads and writes, and their CDR encoding.
+//! - [`medium_file`]: medium files, a plate-sinkage law calibrated from measurements with where
+//!   each value came from.
 //! - [`config`]: node parameters as ROS gives them (params files, `--ros-args`, environment)
 //!   validated into a node configuration, and the node's topic names.
 //! - [`dataset`]: force logs (CSV) read into samples.
@@ -43,6 +45,7 @@ pub mod dem;
 #[cfg(feature = "cli")]
 mod demo;
 pub mod error;
+pub mod medium_file;
 pub mod msgs;
 pub mod node;
 pub mod record;

@@ -134,7 +134,16 @@ pub fn run(a: CalibrateArgs) -> Result<()> {
         .chain(std::env::args().skip(1))
         .collect::<Vec<_>>()
         .join(" ");
-    let medium = MediumFile::of_fit(&a.name, chosen, &tests, &command, &unit_weight_source);
+    let files: Vec<PathBuf> = tests.iter().map(|t| t.file.clone()).collect();
+    let depth_column = tests.first().map_or("depth_m", |t| t.depth_column);
+    let medium = MediumFile::of_fit(
+        &a.name,
+        chosen,
+        &files,
+        depth_column,
+        &command,
+        &unit_weight_source,
+    );
     if let Some(out) = &a.out {
         crate::session::files::write_text(out, &medium.to_yaml()?)
             .context(crate::session::files::cannot_write(out))?;

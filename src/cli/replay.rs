@@ -193,8 +193,13 @@ fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
                     )
                 });
             e.map(|e| {
-                // An RFT leg learns RFT's scale (its estimate's b_k).
-                if done.config.model == crate::config::ModelKind::Rft && l.rft.is_some() {
+                // An RFT leg learns RFT's scale (its estimate's b_k), a sinkage leg its law's.
+                if done.config.model == crate::config::ModelKind::Sinkage {
+                    format!(
+                        "{}: scale {:.4} +- {:.4} of the medium file's law (converged: {}, changes detected: {})",
+                        l.name, e.b_k, e.std_b_k, e.converged, e.changes_detected
+                    )
+                } else if done.config.model == crate::config::ModelKind::Rft && l.rft.is_some() {
                     format!(
                         "{}: rft_scale {:.4} +- {:.4} (converged: {})",
                         l.name, e.b_k, e.std_b_k, e.converged
@@ -255,6 +260,12 @@ fn error_table(done: &Reevaluation, per_stroke: bool) -> String {
             li.r2,
             e.samples()
         );
+        if e.unloading_rows > 0 {
+            out += &format!(
+                " ({} rows held or unloading left out: the rig sets their force)",
+                e.unloading_rows
+            );
+        }
         if let Some(c) = l.corrections.as_ref().filter(|c| !c.terms.is_empty()) {
             out += &format!(
                 " with the corrections {}; bare model {:.3} N (R^2 drag {:.3}, lift {:.3})",

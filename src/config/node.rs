@@ -19,6 +19,8 @@ pub enum ModelKind {
     Improved,
     Conventional,
     Rft,
+    /// A horizontal plate pushed straight down, by the plate-sinkage law of a medium file.
+    Sinkage,
 }
 
 impl ModelKind {
@@ -27,6 +29,7 @@ impl ModelKind {
             ModelKind::Improved => "improved",
             ModelKind::Conventional => "conventional",
             ModelKind::Rft => "rft",
+            ModelKind::Sinkage => "sinkage",
         }
     }
 }
@@ -100,6 +103,9 @@ pub struct LegConfig {
     /// gives the body's pose only: the node adds it as a fixed transform from
     /// `robot_state.body_frame` to the hip's frame (`<leg>_hip` unless `hip_frame` names one).
     pub hip_offset_m: Option<[f64; 3]>,
+    /// For model `sinkage`: the plate (a disc of diameter `width_m`, or a `width_m` by
+    /// `length_m` rectangle) and the law of its medium file (`<leg>.medium`).
+    pub sinkage: Option<crate::model::sinkage::SinkageLeg>,
 }
 
 impl LegConfig {
@@ -127,6 +133,7 @@ impl LegConfig {
             trough_exit_depth_m: 0.0,
             profile: None,
             corrections: None,
+            sinkage: None,
         }
     }
 }
@@ -465,11 +472,12 @@ impl NodeConfig {
             "improved" => ModelKind::Improved,
             "conventional" => ModelKind::Conventional,
             "rft" => ModelKind::Rft,
+            "sinkage" => ModelKind::Sinkage,
             other => {
                 return Err(invalid(
                     "model",
                     &other,
-                    "expected improved, conventional or rft",
+                    "expected improved, conventional, rft or sinkage",
                 ));
             }
         };
@@ -732,6 +740,17 @@ impl NodeConfig {
                 ),
                 (None, _) => ForceModel::Terzaghi(TerzaghiModel::new(leg.plate, medium, width)),
             },
+            ModelKind::Sinkage => {
+                match &leg.sinkage {
+                    Some(s) => ForceModel::Sinkage(s.clone()),
+                    None => {
+                        return Err(ModelError::UnknownMedium {
+                        name: format!("(none, for leg {})", leg.name),
+                        known: "model sinkage needs <leg>.medium: a medium file of terzaghi calibrate".into(),
+                    });
+                    }
+                }
+            }
         })
     }
 }
@@ -746,8 +765,12 @@ fn leg_config(
 ) -> Result<LegConfig, ConfigError> {
     let k = |s: &str| format!("{leg}.{s}");
     let geom_hint = "each leg needs length_m, width_m and hip_height_m";
-    let length = g.need_f64(&k("length_m"), geom_hint)?;
     let width = g.need_f64(&k("width_m"), geom_hint)?;
+    // A sinkage leg is a disc of diameter width_m unless a length makes it a rectangle.
+    let length = match model {
+        ModelKind::Sinkage => g.f64(&k("length_m"))?.unwrap_or(width),
+        _ => g.need_f64(&k("length_m"), geom_hint)?,
+    };
     let height = g.need_f64(&k("hip_height_m"), geom_hint)?;
     let plate = Plate::new(length, width, height).map_err(|e| {
         let which = match &e {
@@ -767,8 +790,23 @@ fn leg_config(
     if direction != 1.0 && direction != -1.0 {
         return Err(invalid(&k("direction"), &direction, "expected 1 or -1"));
     }
-    let (medium, preset) = match g.str(&k("medium"))? {
-        Some(name) if !name.is_empty() => {
+    let sinkage_file = match model {
+        ModelKind::Sinkage => Some(sinkage_medium(g, leg, width, length, &plate)?),
+        _ => None,
+    };
+    let (medium, preset) = match (g.str(&k("medium"))?, &sinkage_file) {
+        (_, Some((file, _))) => {
+            // The Terzaghi medium of a sinkage leg is the file's unit weight; its friction
+            // angles play no part in the law.
+            let m = Medium::new(
+                file.unit_weight_n_m3,
+                g.f64(&k("phi_deg"))?.unwrap_or(30.0),
+                g.f64(&k("delta_deg"))?.unwrap_or(0.0),
+            )
+            .map_err(model_err(&k("medium")))?;
+            (m, None)
+        }
+        (Some(name), None) if !name.is_empty() => {
             let p = medium::preset(&name).map_err(model_err(&k("medium")))?;
             // Explicit soil values override the preset's.
             let m = Medium::new(
@@ -779,7 +817,7 @@ fn leg_config(
             .map_err(model_err(&k("medium")))?;
             (m, Some(p))
         }
-        _ => {
+        (_, None) => {
             let hint = "give <leg>.medium (a preset) or unit_weight_n_m3, phi_deg and delta_deg";
             let m = Medium::new(
                 g.need_f64(&k("unit_weight_n_m3"), hint)?,
@@ -966,7 +1004,44 @@ fn leg_config(
         corrections,
         hip_frame,
         hip_offset_m,
+        sinkage: sinkage_file.map(|(_, s)| s),
     })
+}
+
+/// The medium file and plate of a leg of model `sinkage` (`<leg>.medium` names the file).
+fn sinkage_medium(
+    g: &Get,
+    leg: &str,
+    width_m: f64,
+    length_m: f64,
+    plate: &Plate,
+) -> Result<
+    (
+        crate::medium_file::MediumFile,
+        crate::model::sinkage::SinkageLeg,
+    ),
+    ConfigError,
+> {
+    use crate::model::sinkage::{PlateShape, SinkageLeg};
+    let name = format!("{leg}.medium");
+    let Some(path) = g.str(&name)?.filter(|p| !p.is_empty()) else {
+        return Err(ConfigError::Missing {
+            name,
+            hint: "model sinkage needs a medium file (written by terzaghi calibrate)".into(),
+        });
+    };
+    let file = crate::medium_file::MediumFile::read(std::path::Path::new(&path))
+        .map_err(|e| invalid(&name, &path, format!("{e:#}")))?;
+    let law = file
+        .model()
+        .map_err(|e| invalid(&name, &path, format!("{e:#}")))?;
+    let shape = if (length_m - width_m).abs() <= 1e-12 {
+        PlateShape::disc(width_m)
+    } else {
+        PlateShape::rectangle(width_m, length_m)
+    }
+    .map_err(model_err(&format!("{leg}.width_m")))?;
+    Ok((file, SinkageLeg::new(law, shape, *plate)))
 }
 
 /// RFT coefficients fitted to a calibration grid: a CSV of `beta_rad,gamma_rad,alpha_x,alpha_z`

@@ -274,6 +274,8 @@ pub fn measured_samples_placed<'a>(
         }
         Input::Tf(msg, fixed) => tree.insert(msg, fixed),
         Input::Pose(msg) => tree.insert_pose(msg, &rs),
+        // A recording's inputs carry no log's hip columns.
+        Input::Hip(..) => {}
     })?;
     sum.matched = out.iter().map(|s| s.len() as u64).sum();
     Ok((Placed { samples: out, hips }, sum))

@@ -9,7 +9,7 @@ use super::inputs::{Read, input_count, scan_inputs, session_config_with};
 use crate::config::{NodeConfig, ParamMap, RosArgs, load_params};
 use crate::diagnose::Turns;
 use crate::ident::{Estimate, FitSums, Sample};
-use crate::model::Regime;
+use crate::model::{HipMotion, Regime};
 use crate::msgs::{Gap, JointState, LegForce, ModelParams, Time, WrenchStamped};
 use crate::node::core::{GapJob, Input, LegOutput, NodeCore, Outputs};
 use crate::record::read::{MessageView, Scan, Source};
@@ -48,6 +48,9 @@ pub struct Row {
 pub struct RowErrors {
     pub bare: [FitSums; 2],
     pub expected: [FitSums; 2],
+    /// Rows of a sinkage leg held, unloaded or rising ([`Regime::Unloading`]), left out of the
+    /// sums: the rig, not the medium, sets their force.
+    pub unloading_rows: u64,
 }
 
 impl RowErrors {
@@ -253,6 +256,13 @@ impl Driver {
                 expected_reading_drag_n: r.sensor_n[0],
                 expected_reading_lift_n: r.sensor_n[1],
             };
+            // A plate held or unloaded bears what the rig gives it: its rows are not the law's
+            // to answer for, and are counted apart.
+            if row.regime == Regime::Unloading {
+                self.errors[leg].unloading_rows += 1;
+                on_row(&row);
+                continue;
+            }
             self.errors[leg].add(&row);
             let (_, k) = self.turns[leg].push(row.beta_rad);
             let per = &mut self.stroke_errors[leg];
@@ -314,6 +324,19 @@ pub fn reevaluate_samples(
 /// own diagnoses of the leg's gap are not run).
 pub fn reevaluate_samples_with(
     samples: &[Sample],
+    cfg: NodeConfig,
+    leg: usize,
+    on_row: impl FnMut(&Row),
+    on_output: impl FnMut(Output),
+) -> Result<Summary, RecordError> {
+    reevaluate_log(samples, None, cfg, leg, on_row, on_output)
+}
+
+/// [`reevaluate_samples_with`] for a log whose hip moves: `hips[i]` is the hip at `samples[i]`
+/// (its height negative below the surface), handed to the node before that sample's angle.
+pub fn reevaluate_log(
+    samples: &[Sample],
+    hips: Option<&[HipMotion]>,
     mut cfg: NodeConfig,
     leg: usize,
     mut on_row: impl FnMut(&Row),
@@ -342,7 +365,7 @@ pub fn reevaluate_samples_with(
         complete: true,
         ..Default::default()
     };
-    for s in samples {
+    for (k, s) in samples.iter().enumerate() {
         let stamp = s
             .t_s
             .filter(|t| t.is_finite() && *t >= 0.0)
@@ -352,6 +375,14 @@ pub fn reevaluate_samples_with(
             continue;
         };
         let log_ns = stamp.to_nanos().max(0) as u64;
+        if let Some(h) = hips.and_then(|h| h.get(k)) {
+            driver.input(
+                Input::Hip(leg, stamp.to_nanos(), *h),
+                log_ns,
+                &mut on_row,
+                &mut on_output,
+            );
+        }
         js.header.stamp = stamp;
         js.position[0] = direction * s.beta_rad + offset;
         sum.joint_states += 1;
@@ -363,6 +394,35 @@ pub fn reevaluate_samples_with(
         driver.input(Input::Wrench(leg, &w), log_ns, &mut on_row, &mut on_output);
     }
     Ok(driver.finish(sum))
+}
+
+/// The hip of each row of a log: its columns, with the vertical velocity (where the log does
+/// not give it) from the height's own timeline, a central difference over the rows' times.
+/// Rows without a finite time or height keep a NaN the node counts and skips.
+pub fn hip_motions(samples: &[Sample], rows: &[crate::dataset::HipRow]) -> Vec<HipMotion> {
+    let t = |i: usize| samples.get(i).and_then(|s| s.t_s).unwrap_or(f64::NAN);
+    let n = rows.len().min(samples.len());
+    (0..n)
+        .map(|i| {
+            let r = rows[i];
+            let up_m_s = r.vz_m_s.unwrap_or_else(|| {
+                let (a, b) = (i.saturating_sub(1), (i + 1).min(n - 1));
+                let dt = t(b) - t(a);
+                if dt > 0.0 {
+                    (rows[b].height_m - rows[a].height_m) / dt
+                } else {
+                    0.0
+                }
+            });
+            HipMotion {
+                height_m: r.height_m,
+                pitch_rad: r.pitch_rad.unwrap_or(0.0),
+                forward_m_s: r.vx_m_s.unwrap_or(0.0),
+                up_m_s,
+                ..HipMotion::default()
+            }
+        })
+        .collect()
 }
 
 /// The regime of a leg force message (an unknown code as extraction, the last regime).
@@ -418,9 +478,9 @@ struct Prepared {
 /// What a re-evaluated log is.
 enum Log {
     Mcap(Box<Opened>),
-    /// A CSV log of one leg (`t_s,beta_rad,drag_n,lift_n`), the leg of the configuration it
-    /// belongs to.
-    Csv(Vec<Sample>, usize),
+    /// A CSV log of one leg (`t_s,beta_rad,drag_n,lift_n`, and its hip where the log gives
+    /// it), the leg of the configuration it belongs to.
+    Csv(Vec<Sample>, Option<Vec<HipMotion>>, usize),
 }
 
 fn prepare(file: &Path, opts: &ReevaluateOptions) -> Result<Prepared> {
@@ -451,7 +511,9 @@ fn prepare_csv(file: &Path, opts: &ReevaluateOptions) -> Result<Prepared> {
             file: file.to_path_buf()
         });
     };
-    let samples = crate::dataset::read_samples_csv(file)?;
+    let log = crate::dataset::read_log(file)?;
+    let hips = log.hips.as_ref().map(|h| hip_motions(&log.samples, h));
+    let samples = log.samples;
     let ros = RosArgs {
         params_files: vec![params_file.to_path_buf()],
         params: opts.params.clone(),
@@ -480,7 +542,7 @@ fn prepare_csv(file: &Path, opts: &ReevaluateOptions) -> Result<Prepared> {
     };
     Ok(Prepared {
         inputs: 2 * samples.len() as u64,
-        log: Log::Csv(samples, leg),
+        log: Log::Csv(samples, hips, leg),
         cfg,
         params,
     })
@@ -515,8 +577,15 @@ impl Prepared {
                     input();
                 }
             }),
-            Log::Csv(samples, leg) => {
-                let s = reevaluate_samples(samples, self.cfg.clone(), *leg, on_row);
+            Log::Csv(samples, hips, leg) => {
+                let s = reevaluate_log(
+                    samples,
+                    hips.as_deref(),
+                    self.cfg.clone(),
+                    *leg,
+                    on_row,
+                    |_| {},
+                );
                 (0..2 * samples.len()).for_each(|_| input());
                 s
             }

@@ -22,7 +22,7 @@ use crate::model::corrections::{
     SensorLagFilter,
 };
 use crate::model::{
-    FittingWidth, ForceModel, HipMotion, Plate, Prediction, TerzaghiModel, wrap_beta_rad,
+    FittingWidth, ForceModel, HipMotion, Plate, Prediction, Regime, TerzaghiModel, wrap_beta_rad,
 };
 use crate::msgs::{
     Header, JointState, LegForce, ModelParams, PoseStamped, TfMessage, Time, Vector3, Wrench,
@@ -89,7 +89,28 @@ struct Leg {
     surface: Option<SurfaceEstimator>,
     /// Where its own strokes dug the ground (`<leg>.trough_depth_m`).
     troughs: trough::Troughs,
+    /// The hips a log gave it ([`Input::Hip`]), by stamp, oldest first.
+    given_hips: std::collections::VecDeque<(i64, HipMotion)>,
 }
+
+/// Updates before a sinkage leg's learnt scale may converge (a turning leg's estimator waits
+/// for `OnlineOptions::default().converge_min_updates`, over strokes).
+const SINKAGE_CONVERGE_MIN_UPDATES: u64 = 6;
+/// A sinkage leg's estimator forgets per row, not over strokes (its joint does not turn): a
+/// memory of about 20 rows, under 2 s of a 12 Hz sensor, follows the law's slow drift with depth,
+/// which a sinkage leg never raises as a change of medium.
+const SINKAGE_FORGETTING_PER_ROW: f64 = 0.95;
+/// The relative standard deviation below which a sinkage leg's scale converges (at least
+/// `estimator.converge_rel_std`): tests of one sand scatter by 10 % and more from run to run,
+/// so a scale known to 5 % is known better than the medium's calibration.
+const SINKAGE_CONVERGE_REL_STD: f64 = 0.05;
+
+/// A sinkage leg's rows are relative to the law's force, their noise first taken as this share
+/// of it (then measured from the rows at convergence, as a turning leg's in newtons).
+const SINKAGE_INITIAL_REL_NOISE: f64 = 0.05;
+
+/// Hips kept per leg from a log's columns, for the F/T samples matched to their angles.
+const GIVEN_HIPS: usize = 256;
 
 impl Leg {
     /// The scale RFT's prediction is multiplied by: the learnt one while it is converged (and
@@ -287,6 +308,10 @@ pub enum Input<'m> {
     Tf(&'m TfMessage, bool),
     /// The body's pose (`robot_state.pose_topic`).
     Pose(&'m PoseStamped),
+    /// The hip of the leg with this index at a stamp (ns), as a log's columns give it (a CSV
+    /// log's `hip_height_m`): for a leg without a `hip_frame`, it places the hip at that
+    /// stamp's angle instead of the configured height.
+    Hip(usize, i64, HipMotion),
 }
 
 /// What the core made of the inputs handed to it since the transport last emptied this:
@@ -391,6 +416,7 @@ impl NodeCore {
             Input::Wrench(leg, w) => self.on_wrench(leg, w),
             Input::Tf(tf, fixed) => self.on_tf(tf, fixed),
             Input::Pose(p) => self.on_pose(p),
+            Input::Hip(leg, stamp_ns, hip) => self.on_hip(leg, stamp_ns, hip),
         }
         out.params.append(&mut self.params_out);
         out.matches.append(&mut self.matches);
@@ -402,15 +428,80 @@ impl NodeCore {
         self.tf.insert_pose(msg, &self.cfg.robot_state);
     }
 
+    /// Keeps a hip a log gives for `leg` at `stamp_ns` (the newest [`GIVEN_HIPS`]); a
+    /// non-finite height or velocity is counted and skipped.
+    fn on_hip(&mut self, leg: usize, stamp_ns: i64, hip: HipMotion) {
+        let Some(l) = self.legs.get_mut(leg) else {
+            return;
+        };
+        let values = [hip.height_m, hip.pitch_rad, hip.forward_m_s, hip.up_m_s];
+        if values.iter().any(|v| !v.is_finite()) {
+            l.counters.state_missing += 1;
+            return;
+        }
+        if l.given_hips.back().is_some_and(|(t, _)| *t >= stamp_ns) {
+            l.given_hips.retain(|(t, _)| *t < stamp_ns);
+        }
+        l.given_hips.push_back((stamp_ns, hip));
+        if l.given_hips.len() > GIVEN_HIPS {
+            l.given_hips.pop_front();
+        }
+    }
+
+    /// The hip a log gave leg `i` nearest `stamp_ns` (within `robot_state.max_age_s`), turning
+    /// at `omega_rad_s`; `None` if the log gives the leg no hip.
+    fn given_hip(
+        &self,
+        i: usize,
+        stamp_ns: i64,
+        omega_rad_s: f64,
+    ) -> Option<Result<HipMotion, NoState>> {
+        let hips = &self.legs.get(i)?.given_hips;
+        if hips.is_empty() {
+            return None;
+        }
+        let max_age_ns = (self.cfg.robot_state.max_age_s * 1e9) as i64;
+        let nearest = hips
+            .iter()
+            .min_by_key(|(t, _)| (t - stamp_ns).abs())
+            .filter(|(t, _)| (t - stamp_ns).abs() <= max_age_ns);
+        Some(match nearest {
+            Some((_, h)) => Ok(HipMotion { omega_rad_s, ..*h }),
+            None => Err(NoState::Stale),
+        })
+    }
+
     fn new_leg(&self, i: usize) -> Leg {
         let lc = &self.cfg.legs[i];
         let corrected = self.corrected_model(i);
-        // A leg predicted by RFT (a plate or another shape) learns RFT's scale.
+        // A leg predicted by RFT (a plate or another shape) learns RFT's scale; a sinkage leg
+        // its law's.
         let estimator = lc.ft_topic.as_ref().and_then(|_| {
-            if self.cfg.model == ModelKind::Rft && lc.rft.is_some() {
-                return Some(Learner::RftScale(Box::new(ScaleEstimator::new(
-                    self.cfg.estimator,
-                ))));
+            if (self.cfg.model == ModelKind::Rft && lc.rft.is_some())
+                || self.cfg.model == ModelKind::Sinkage
+            {
+                let opts = match self.cfg.model {
+                    // A plate-sinkage test loads for a hundred rows, not for strokes: its scale
+                    // is used once it is known to converge_rel_std.
+                    ModelKind::Sinkage => crate::ident::OnlineOptions {
+                        converge_min_updates: SINKAGE_CONVERGE_MIN_UPDATES,
+                        forgetting: crate::ident::online::Forgetting::PerSample(
+                            SINKAGE_FORGETTING_PER_ROW,
+                        ),
+                        // Within an intrusion the law's ratio to the measured force drifts
+                        // with depth (the law's shape, not a new medium): the memory follows
+                        // it, and no change is raised.
+                        cusum_alarm: f64::MAX,
+                        converge_rel_std: self
+                            .cfg
+                            .estimator
+                            .converge_rel_std
+                            .max(SINKAGE_CONVERGE_REL_STD),
+                        ..self.cfg.estimator
+                    },
+                    _ => self.cfg.estimator,
+                };
+                return Some(Learner::RftScale(Box::new(ScaleEstimator::new(opts))));
             }
             if lc.profile.is_some() {
                 return None;
@@ -458,6 +549,7 @@ impl NodeCore {
             omega_rad_s: 0.0,
             surface: self.surface_estimator(i),
             troughs: trough::Troughs::default(),
+            given_hips: std::collections::VecDeque::new(),
         }
     }
 
@@ -465,7 +557,8 @@ impl NodeCore {
     /// corrections (whose `hip_height` term is the surface's), when `estimator.fit_surface`.
     fn surface_estimator(&self, i: usize) -> Option<SurfaceEstimator> {
         let lc = &self.cfg.legs[i];
-        let flat_terzaghi = self.cfg.model != ModelKind::Rft && lc.profile.is_none();
+        let flat_terzaghi =
+            !matches!(self.cfg.model, ModelKind::Rft | ModelKind::Sinkage) && lc.profile.is_none();
         (self.cfg.fit_surface && flat_terzaghi && lc.ft_topic.is_some() && lc.corrections.is_none())
             .then(|| {
                 SurfaceEstimator::new(
@@ -625,7 +718,9 @@ impl NodeCore {
         stamp_ns: i64,
         omega_rad_s: f64,
     ) -> Option<Result<HipMotion, NoState>> {
-        let hip = (*self.hip_frames.get(i)?)?;
+        let Some(hip) = self.hip_frames.get(i).copied().flatten() else {
+            return self.given_hip(i, stamp_ns, omega_rad_s);
+        };
         Some(self.tf.hip_motion_of(
             &self.cfg.robot_state,
             self.world_frame,
@@ -888,7 +983,7 @@ impl NodeCore {
         // The diagnosis is of a flat plate's gap: a leg of another shape is not watched. A leg
         // the robot's state places is diagnosed at its hips.
         let lc = &self.cfg.legs[leg];
-        if lc.profile.is_some() {
+        if lc.profile.is_some() || self.cfg.model == ModelKind::Sinkage {
             return;
         }
         let Some(l) = self.legs.get_mut(leg) else {
@@ -977,8 +1072,36 @@ impl NodeCore {
                     Some(h) => l.model.predict_moving(mt.beta_rad, h),
                     None => l.model.predict(mt.beta_rad),
                 };
-                if let Ok(u) = unit {
-                    let _ = e.update(&sample, [u.drag_n, u.lift_n]);
+                // A plate held, unloaded or rising bears what the rig gives it, not the law's
+                // force: it teaches nothing of the medium's scale.
+                let sinkage = matches!(l.model, ForceModel::Sinkage(_));
+                match unit {
+                    Ok(u) if u.regime == Regime::Unloading => {}
+                    // Nor do the top millimetres, where the surface's roughness and level, not
+                    // the law, set the force (the calibration leaves them out too).
+                    Ok(u) if sinkage && u.depth_m < crate::ident::sinkage::FIT_MIN_DEPTH_M => {}
+                    // A sinkage leg's rows are relative to the law's force: a granular force
+                    // scatters in proportion to its size (a few newtons at 100 N, tens at
+                    // 300 N), which one noise in newtons would read as a change of medium.
+                    Ok(u)
+                        if sinkage
+                            && u.drag_n.hypot(u.lift_n) >= self.cfg.estimator.min_unit_force_n =>
+                    {
+                        // In units where the estimator's initial noise is
+                        // SINKAGE_INITIAL_REL_NOISE of the law's force.
+                        let k = self.cfg.estimator.initial_noise_n
+                            / (SINKAGE_INITIAL_REL_NOISE * u.drag_n.hypot(u.lift_n));
+                        let relative = Sample {
+                            drag_n: sample.drag_n * k,
+                            lift_n: sample.lift_n * k,
+                            ..sample
+                        };
+                        let _ = e.update(&relative, [u.drag_n * k, u.lift_n * k]);
+                    }
+                    Ok(u) => {
+                        let _ = e.update(&sample, [u.drag_n, u.lift_n]);
+                    }
+                    Err(_) => {}
                 }
             }
         }
@@ -1097,15 +1220,19 @@ impl NodeCore {
         }
     }
 
-    /// The fitting width `leg` predicts with now, and whether it is identified.
+    /// The fitting width `leg` predicts with now (an RFT or sinkage leg's scale as `b_k`, with
+    /// `a` 1), and whether it is identified.
     pub fn width_in_use(&self, leg: usize) -> Option<(f64, f64, bool)> {
         let l = self.legs.get(leg)?;
         if let Some(c) = &l.corrected {
             let c = c.model.corrections();
             return Some((c.b_k, c.a, false));
         }
+        // An RFT or sinkage leg's estimate is its scale: 1 until learnt, never a Terzaghi b_k.
+        let scale_only = matches!(l.model, ForceModel::Rft(_) | ForceModel::Sinkage(_));
         Some(match (&l.identified, self.cfg.use_identified) {
             (Some(e), true) => (e.b_k, e.a, true),
+            _ if scale_only => (1.0, 1.0, false),
             _ => (
                 self.cfg.legs[leg].width.b_k(),
                 self.cfg.legs[leg].width.a(),
