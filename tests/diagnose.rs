@@ -487,3 +487,100 @@ fn the_node_reports_an_offset_that_appears_and_nothing_without_one() {
         assert!(strokes <= 10.0, "leg {leg}: {strokes:.1} strokes");
     }
 }
+
+/// A session whose legs ran RFT C-legs gets no verdict about the flat plate it did not use,
+/// and no `corrected.yaml` that would rewrite its model (exit 2, each leg named).
+#[test]
+fn a_session_of_rft_c_legs_gets_no_verdict_on_a_flat_plate() {
+    use terzaghi::sim::robot::{Gait, Truth, rhex_c_legs, simulate, write_recording};
+    let tmp = tempfile::tempdir().unwrap();
+    let mcap = tmp.path().join("c_legs.mcap");
+    let (params, cfg) = rhex_c_legs().unwrap();
+    let truth = Truth {
+        b_k: 30.0,
+        a: 2.2,
+        effects: vec![],
+        magnitude: 0.0,
+        noise_frac: 0.015,
+        rft_scale: 1.0,
+    };
+    let gait = Gait {
+        seconds: 8.0,
+        rate_hz: 200.0,
+        mean_speed_rad_s: 4.0,
+        seed: 3,
+    };
+    let walk = simulate(&cfg, &truth, &gait);
+    let file = std::io::BufWriter::new(std::fs::File::create(&mcap).unwrap());
+    write_recording(file, &params, &cfg, &walk, 1_700_000_000_000_000_000).unwrap();
+    let out_dir = tmp.path().join("diagnosis");
+    let out = terzaghi(&[
+        "diagnose",
+        mcap.to_str().unwrap(),
+        "--out",
+        out_dir.to_str().unwrap(),
+    ]);
+    refused(
+        &out,
+        &[
+            "front_left ran with model rft and shape c_leg",
+            "gives no verdict on a model the session did not use",
+        ],
+    );
+    assert!(!out_dir.join("corrected.yaml").exists());
+    assert!(!out_dir.join("front_left/report.json").exists());
+}
+
+/// The report says how the F/T sensor delivers its values: every row new in a generated log,
+/// one value held for 8 rows once the log is made to hold them, as a 12 Hz sensor on a 100 Hz
+/// stream does.
+#[test]
+fn the_report_gives_the_sensors_rate_and_hold() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("case0");
+    let (flags, _) = exported(0, &dir);
+    let text = std::fs::read_to_string(dir.join("session.csv")).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap();
+    let cols: Vec<&str> = header.split(',').collect();
+    let (id, il) = (
+        cols.iter().position(|c| *c == "drag_n").unwrap(),
+        cols.iter().position(|c| *c == "lift_n").unwrap(),
+    );
+    let mut held = format!("{header}\n");
+    let mut kept: Vec<String> = Vec::new();
+    for (k, line) in lines.enumerate() {
+        let mut cells: Vec<String> = line.split(',').map(str::to_string).collect();
+        if k % 8 == 0 {
+            kept = vec![cells[id].clone(), cells[il].clone()];
+        }
+        cells[id] = kept[0].clone();
+        cells[il] = kept[1].clone();
+        held += &(cells.join(",") + "\n");
+    }
+    std::fs::write(dir.join("held.csv"), held).unwrap();
+    for (file, rows_per_value) in [("session.csv", 1.0), ("held.csv", 8.0)] {
+        let out_dir = dir.join(format!("report_{file}"));
+        let mut args = vec![
+            "diagnose".to_string(),
+            dir.join(file).display().to_string(),
+            "--out".into(),
+            out_dir.display().to_string(),
+        ];
+        args.extend(flags.clone());
+        ok(&terzaghi(
+            &args.iter().map(String::as_str).collect::<Vec<_>>(),
+        ));
+        let s = &json(&out_dir.join("report.json"))["sensor"];
+        let got = s["rows_per_value"].as_f64().unwrap();
+        assert!((got / rows_per_value - 1.0).abs() < 0.05, "{file}: {s}");
+        let (stream, update) = (
+            s["stream_rate_hz"].as_f64().unwrap(),
+            s["update_rate_hz"].as_f64().unwrap(),
+        );
+        assert!(
+            (stream / update / rows_per_value - 1.0).abs() < 0.05,
+            "{file}: {s}"
+        );
+    }
+}

@@ -33,6 +33,18 @@ pub struct DiagnoseFileOptions {
 pub struct LegDiagnosis {
     pub leg: String,
     pub result: Result<Diagnosis, String>,
+    /// How the leg's F/T sensor delivers its values (its effective rate and hold, from the
+    /// spacing of changes of the lift it measured), if it changes often enough to tell.
+    pub sensor: Option<crate::diagnose::sinkage::SensorHabits>,
+}
+
+/// The habits of the sensor of `samples` (their times and measured lift).
+fn sensor_of(samples: &[crate::ident::Sample]) -> Option<crate::diagnose::sinkage::SensorHabits> {
+    let (t, lift): (Vec<f64>, Vec<f64>) = samples
+        .iter()
+        .filter_map(|s| s.t_s.map(|t| (t, s.lift_n)))
+        .unzip();
+    crate::diagnose::sinkage::sensor_habits(&t, &lift)
 }
 
 /// The diagnosis of a log, leg by leg.
@@ -84,11 +96,37 @@ pub fn diagnose_file(log: &Path, opts: &DiagnoseFileOptions) -> Result<Diagnosed
             (vec![leg], cfg)
         }
     };
+    // A leg the session ran with another model or shape than the flat Terzaghi plate gets no
+    // verdict: the analysis judges that plate, and would judge a model the leg never used.
+    let (judged, not_judged): (Vec<LegLog>, Vec<LegLog>) = legs
+        .into_iter()
+        .partition(|l| not_a_flat_terzaghi_leg(&config, &l.name).is_none());
+    let mut diagnosed = diagnose_legs(&judged, &opts.analysis);
+    diagnosed.extend(not_judged.iter().map(|l| LegDiagnosis {
+        leg: l.name.clone(),
+        result: Err(not_a_flat_terzaghi_leg(&config, &l.name).unwrap_or_default()),
+        sensor: sensor_of(&l.samples),
+    }));
     Ok(Diagnosed {
         log: log.to_path_buf(),
-        legs: diagnose_legs(&legs, &opts.analysis),
+        legs: diagnosed,
         config,
     })
+}
+
+/// Why leg `name` of `config` is not the flat Terzaghi plate the diagnosis judges, if it is not.
+fn not_a_flat_terzaghi_leg(config: &NodeConfig, name: &str) -> Option<String> {
+    use crate::config::ModelKind;
+    let lc = config.legs.iter().find(|l| l.name == name)?;
+    let shape = lc.profile.as_ref().map(|p| p.shape);
+    match (config.model, shape) {
+        (ModelKind::Improved | ModelKind::Conventional, None) => None,
+        (model, shape) => Some(format!(
+            "leg {name} ran with model {}{}: the diagnosis judges the Terzaghi model of a flat plate, and gives no verdict on a model the session did not use",
+            model.as_str(),
+            shape.map(|s| format!(" and shape {s}")).unwrap_or_default()
+        )),
+    }
 }
 
 /// Diagnoses every leg, in parallel.
@@ -98,6 +136,7 @@ pub fn diagnose_legs(legs: &[LegLog], opts: &DiagnoseOptions) -> Vec<LegDiagnosi
             leg: leg.name.clone(),
             result: diagnose_placed(&leg.model, &leg.samples, &leg.hips, opts)
                 .map_err(|e| e.to_string()),
+            sensor: sensor_of(&leg.samples),
         })
         .collect()
 }
@@ -107,6 +146,8 @@ pub fn diagnose_legs(legs: &[LegLog], opts: &DiagnoseOptions) -> Vec<LegDiagnosi
 pub struct LegReport<'a> {
     pub leg: &'a str,
     pub log: &'a str,
+    /// The sensor's habits: its effective rate and hold.
+    pub sensor: Option<&'a crate::diagnose::sinkage::SensorHabits>,
     #[serde(flatten)]
     pub report: &'a Report,
 }
@@ -169,6 +210,7 @@ pub fn write_reports(d: &Diagnosed, out: &Path) -> Result<Written> {
                 let doc = LegReport {
                     leg: &leg.leg,
                     log: &log,
+                    sensor: leg.sensor.as_ref(),
                     report: &diag.report,
                 };
                 write_text(

@@ -321,8 +321,29 @@ impl TfTree {
                 let t = (stamp - s0) as f64 / (s1 - s0) as f64;
                 Ok(interpolate(&p0, &p1, t))
             }
-            (Some((s, p)), None) | (None, Some((s, p))) => {
-                if (stamp - s).abs() <= max_age_ns {
+            (Some((s, p)), None) => {
+                if stamp - s > max_age_ns {
+                    return Err(NoState::Stale);
+                }
+                // Past the newest transform (a JointState that came before the /tf of its
+                // stamp, as robot_state_publisher sends them): the translation goes on at the
+                // velocity of the last two transforms, on their own timeline, so that the
+                // message order does not change the hip's place or velocity; the rotation is
+                // held.
+                match at.checked_sub(2).map(|i| link.poses[i]) {
+                    Some((s0, p0)) if s > s0 && stamp > s => {
+                        let k = (stamp - s) as f64 / (s - s0) as f64;
+                        let moved = (p.translation.vector - p0.translation.vector) * k;
+                        Ok(Isometry3::from_parts(
+                            (p.translation.vector + moved).into(),
+                            p.rotation,
+                        ))
+                    }
+                    _ => Ok(p),
+                }
+            }
+            (None, Some((s, p))) => {
+                if (s - stamp).abs() <= max_age_ns {
                     Ok(p)
                 } else {
                     Err(NoState::Stale)

@@ -117,12 +117,26 @@ pub fn wrap_beta_rad(beta_rad: f64) -> f64 {
 
 /// `true` while the plate is on its way down (`beta <= pi/2`).
 pub(crate) fn is_penetration(beta_rad: f64) -> bool {
-    beta_rad <= FRAC_PI_2
+    beta_rad <= FRAC_PI_2 + VERTICAL_TOLERANCE_RAD
 }
+
+/// An attack angle this close above pi/2 is the vertical leg, still penetrating: a log that
+/// writes pi/2 with six decimals (1.570796 or 1.570797) labels each row alike.
+pub const VERTICAL_TOLERANCE_RAD: f64 = 1e-6;
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    // The values are a log's roundings of pi/2, which this test is about.
+    #[allow(clippy::approx_constant)]
+    fn pi_over_2_as_a_log_rounds_it_is_one_regime() {
+        for beta in [1.570796, 1.570797, FRAC_PI_2] {
+            assert!(is_penetration(beta), "{beta}");
+        }
+        assert!(!is_penetration(1.5708));
+    }
 
     #[test]
     fn rejects_each_bad_dimension_with_its_value() {
