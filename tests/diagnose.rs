@@ -584,3 +584,82 @@ fn the_report_gives_the_sensors_rate_and_hold() {
         );
     }
 }
+
+/// A 12 Hz sensor whose readings come three of its samples (250 ms) late: the lag is searched
+/// out to four sample periods, and found (it lay beyond the 0.1 s the search stopped at).
+#[test]
+fn a_slow_sensors_lag_of_a_few_periods_is_found() {
+    let tmp = tempfile::tempdir().unwrap();
+    let log = tmp.path().join("s12.csv");
+    let geometry = [
+        "--length-m",
+        "0.1",
+        "--width-m",
+        "0.03",
+        "--hip-height-m",
+        "0.05",
+        "--medium",
+        "poppy_lp",
+    ];
+    let mut args = vec!["simulate"];
+    args.extend(geometry);
+    args.extend([
+        "--rate-hz",
+        "12",
+        "--strokes",
+        "30",
+        "--speed-rad-s",
+        "0.8:1.2",
+        "--noise-frac",
+        "0.01",
+        "-o",
+        log.to_str().unwrap(),
+    ]);
+    ok(&terzaghi(&args));
+    let text = std::fs::read_to_string(&log).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap();
+    let cols: Vec<&str> = header.split(',').collect();
+    let (id, il) = (
+        cols.iter().position(|c| *c == "drag_n").unwrap(),
+        cols.iter().position(|c| *c == "lift_n").unwrap(),
+    );
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    let mut late = format!("{header}\n");
+    for k in 3..rows.len() {
+        let mut r = rows[k].clone();
+        r[id] = rows[k - 3][id];
+        r[il] = rows[k - 3][il];
+        late += &(r.join(",") + "\n");
+    }
+    let late_log = tmp.path().join("late.csv");
+    std::fs::write(&late_log, late).unwrap();
+    let out_dir = tmp.path().join("report");
+    let mut args = vec![
+        "diagnose",
+        late_log.to_str().unwrap(),
+        "--out",
+        out_dir.to_str().unwrap(),
+    ];
+    args.extend(geometry);
+    ok(&terzaghi(&args));
+    let r = json(&out_dir.join("report.json"));
+    assert_eq!(r["verdict"]["effect"], "sensor_lag", "{}", r["verdict"]);
+    let tau = r["corrected_model"]["nonlinear"]["time_constant_s"]
+        .as_f64()
+        .or_else(|| {
+            r["candidates"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .find(|c| c["effect"] == "sensor_lag")
+                .and_then(|c| c["params"]["time_constant_s"].as_f64())
+        })
+        .unwrap();
+    assert!(tau > 0.1, "time constant {tau} s");
+    let s = &r["sensor"];
+    assert!(
+        (s["update_rate_hz"].as_f64().unwrap() - 12.0).abs() < 0.5,
+        "{s}"
+    );
+}

@@ -160,6 +160,22 @@ const LAGS_S: [f64; 19] = [
     0.03, 0.04, 0.06, 0.08, 0.1,
 ];
 
+/// The shifts tried for samples `dt_s` apart: [`LAGS_S`], and on past its end in steps of half a
+/// sample period out to four periods, so that a slow sensor's delay (a few of its periods: 12 Hz
+/// and a hold put it beyond 0.1 s) lies inside the range, where it can be found.
+fn lags_s(dt_s: f64) -> Vec<f64> {
+    let mut v = LAGS_S.to_vec();
+    let last = LAGS_S[LAGS_S.len() - 1];
+    if dt_s.is_finite() && dt_s > 0.0 {
+        let mut l = last + 0.5 * dt_s;
+        while l <= 4.0 * dt_s + 1e-12 && v.len() < 64 {
+            v.push(l);
+            l += 0.5 * dt_s;
+        }
+    }
+    v
+}
+
 fn delay(ctx: &Context, fitted_n: &[[f64; 2]], noise_n: [f64; 2]) -> Delay {
     let (onset_slope_s, onset_slope_t) = onset_slope(&onset_shifts(ctx, fitted_n, noise_n));
     let by_onset = onset_slope_s >= 0.002 && onset_slope_t > 4.0;
@@ -201,10 +217,12 @@ fn delay(ctx: &Context, fitted_n: &[[f64; 2]], noise_n: [f64; 2]) -> Delay {
         }
         sse
     };
-    let all: Vec<Vec<f64>> = LAGS_S.iter().map(|&l| per_stroke(l)).collect();
+    let dt = median_step(&times);
+    let lags = lags_s(dt);
+    let all: Vec<Vec<f64>> = lags.iter().map(|&l| per_stroke(l)).collect();
     let totals: Vec<f64> = all.iter().map(|s| s.iter().sum()).collect();
-    let zero = LAGS_S.iter().position(|l| *l == 0.0).unwrap_or(0);
-    let best = (0..LAGS_S.len())
+    let zero = lags.iter().position(|l| *l == 0.0).unwrap_or(0);
+    let best = (0..lags.len())
         .min_by(|&a, &b| totals[a].total_cmp(&totals[b]))
         .unwrap_or(zero);
     let diffs: Vec<f64> = all[zero]
@@ -218,11 +236,10 @@ fn delay(ctx: &Context, fitted_n: &[[f64; 2]], noise_n: [f64; 2]) -> Delay {
     } else {
         0.0
     };
-    let dt = median_step(&times);
-    let lag = LAGS_S[best];
+    let lag = lags[best];
     // An interior minimum (not the edge of the range), the measurement late by more than two
     // sample periods, in every stroke's favour, and removing a real part of the residual.
-    let interior = best > 0 && best + 1 < LAGS_S.len();
+    let interior = best > 0 && best + 1 < lags.len();
     let by_alignment = interior && lag >= 2.0 * dt && t > 4.0 && reduction > 2.0;
     Delay {
         lag_s: if by_alignment || !by_onset {
@@ -234,27 +251,27 @@ fn delay(ctx: &Context, fitted_n: &[[f64; 2]], noise_n: [f64; 2]) -> Delay {
         t_strokes: t,
         onset_slope_s,
         onset_slope_t,
-        timing_split: timing_split(ctx, &all),
+        timing_split: timing_split(ctx, &lags, &all),
         significant: by_alignment || by_onset,
     }
 }
 
 /// [`TimingSplit`] from the per-shift, per-stroke squared residuals `sse[l][k]` of
-/// [`LAGS_S`]: each stroke's best shift refined by a parabola through its neighbours, then
+/// `lags`: each stroke's best shift refined by a parabola through its neighbours, then
 /// `lag = time + angle / omega` by least squares over the strokes. `None` unless four strokes
 /// or more have their best shift inside the range and their speeds span a factor two.
-fn timing_split(ctx: &Context, sse: &[Vec<f64>]) -> Option<TimingSplit> {
+fn timing_split(ctx: &Context, lags: &[f64], sse: &[Vec<f64>]) -> Option<TimingSplit> {
     let mut found: Vec<(f64, f64)> = Vec::new();
     for (k, omega) in ctx.stroke_speeds_rad_s(10).into_iter().enumerate() {
         let Some(omega) = omega else { continue };
-        let best = (0..LAGS_S.len()).min_by(|&a, &b| sse[a][k].total_cmp(&sse[b][k]))?;
-        if best == 0 || best + 1 == LAGS_S.len() || omega <= 0.0 {
+        let best = (0..lags.len()).min_by(|&a, &b| sse[a][k].total_cmp(&sse[b][k]))?;
+        if best == 0 || best + 1 == lags.len() || omega <= 0.0 {
             continue;
         }
         found.push((
             omega,
             parabola_min(
-                &LAGS_S[best - 1..=best + 1],
+                &lags[best - 1..=best + 1],
                 [sse[best - 1][k], sse[best][k], sse[best + 1][k]],
             ),
         ));
