@@ -340,6 +340,15 @@ fn as_force_log(run: &Path, out: &Path) {
     w.flush().unwrap();
 }
 
+/// R^2 and RMSE (N) of `(measured, predicted)` pairs.
+fn r2_rmse(pairs: &[(f64, f64)]) -> (f64, f64) {
+    let n = pairs.len() as f64;
+    let mean = pairs.iter().map(|p| p.0).sum::<f64>() / n;
+    let ss_tot: f64 = pairs.iter().map(|p| (p.0 - mean).powi(2)).sum();
+    let ss_res: f64 = pairs.iter().map(|p| (p.0 - p.1).powi(2)).sum();
+    (1.0 - ss_res / ss_tot, (ss_res / n).sqrt())
+}
+
 /// R^2 of the lift over the loaded rows of a re-evaluation's CSV.
 fn loaded_r2(rows_csv: &Path) -> f64 {
     let mut rdr = csv::Reader::from_path(rows_csv).unwrap();
@@ -356,10 +365,7 @@ fn loaded_r2(rows_csv: &Path) -> f64 {
         .filter(|r| &r[ir] == "penetration" && !r[im].is_empty())
         .map(|r| (r[im].parse().unwrap(), r[ip].parse().unwrap()))
         .collect();
-    let mean = pairs.iter().map(|p| p.0).sum::<f64>() / pairs.len() as f64;
-    let ss_tot: f64 = pairs.iter().map(|p| (p.0 - mean).powi(2)).sum();
-    let ss_res: f64 = pairs.iter().map(|p| (p.0 - p.1).powi(2)).sum();
-    1.0 - ss_res / ss_tot
+    r2_rmse(&pairs).0
 }
 
 /// The node's parameters of a plate leg of `diameter_m` in `medium`, with F/T.
@@ -457,14 +463,8 @@ fn each_run_replayed_through_the_node() {
                 }
             }
             let n = measured.len() as f64;
-            let mean = measured.iter().sum::<f64>() / n;
-            let ss_tot: f64 = measured.iter().map(|m| (m - mean).powi(2)).sum();
-            let ss_res: f64 = measured
-                .iter()
-                .zip(&predicted)
-                .map(|(m, p)| (m - p).powi(2))
-                .sum();
-            let r2 = 1.0 - ss_res / ss_tot;
+            let pairs: Vec<(f64, f64)> = measured.iter().copied().zip(predicted).collect();
+            let (r2, rmse_n) = r2_rmse(&pairs);
             let used = f64::from(identified) / n;
             eprintln!("{name}: as calibrated, loaded rows' R^2 {r2_calibrated:.3}");
             assert!(
@@ -475,7 +475,7 @@ fn each_run_replayed_through_the_node() {
             eprintln!(
                 "{name}: {} loaded rows, R^2 {r2:.3}, RMSE {:.2} N, scale in use on {:.1} % ({:.1} % of those deeper than 3 mm), {unloading} unloading rows\n{summary}",
                 measured.len(),
-                (ss_res / n).sqrt(),
+                rmse_n,
                 100.0 * used,
                 100.0 * used_deep
             );

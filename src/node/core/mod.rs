@@ -461,8 +461,13 @@ impl NodeCore {
             return None;
         }
         let max_age_ns = (self.cfg.robot_state.max_age_s * 1e9) as i64;
-        let nearest = hips
-            .iter()
+        // Kept in stamp order: the nearest is at the first stamp not before `stamp_ns`, or
+        // the one before it.
+        let i = hips.partition_point(|(t, _)| *t < stamp_ns);
+        let nearest = [i.checked_sub(1), Some(i)]
+            .into_iter()
+            .flatten()
+            .filter_map(|k| hips.get(k))
             .min_by_key(|(t, _)| (t - stamp_ns).abs())
             .filter(|(t, _)| (t - stamp_ns).abs() <= max_age_ns);
         Some(match nearest {

@@ -29,14 +29,8 @@ pub fn nonlinear_grid(effect: Effect, ctx: &Context) -> Option<(&'static str, Ve
             let mut grid = vec![0.002, 0.005, 0.01, 0.02, 0.035, 0.06, 0.1];
             // A slow sensor's lag is a few of its sample periods (a 12 Hz sensor's are 83 ms):
             // the grid goes on by factors of 1.5 to cover four of them.
-            let mut steps: Vec<f64> = ctx
-                .points
-                .windows(2)
-                .map(|w| w[1].t_s - w[0].t_s)
-                .filter(|d| *d > 0.0)
-                .collect();
-            steps.sort_by(f64::total_cmp);
-            let dt = steps.get(steps.len() / 2).copied().unwrap_or(0.0);
+            let times: Vec<f64> = ctx.points.iter().map(|p| p.t_s).collect();
+            let dt = super::signatures::median_step(&times);
             let mut lag = 0.15;
             while lag <= 4.8 * dt && grid.len() < 16 {
                 grid.push(lag);

@@ -447,7 +447,8 @@ pub(super) fn interpolate(times: &[f64], y: &[[f64; 2]], t: f64) -> [f64; 2] {
     ]
 }
 
-fn median_step(times: &[f64]) -> f64 {
+/// The median positive step between `times` (1 ms for none).
+pub(crate) fn median_step(times: &[f64]) -> f64 {
     let mut d: Vec<f64> = times
         .windows(2)
         .map(|w| w[1] - w[0])

@@ -4,9 +4,12 @@
 //! fitted together over the rows where the law holds (the plate loading, and above the surface
 //! before it); and where the gap lies in the terms of the motion: depth and speed.
 
-use crate::ident::sinkage::{least_squares, r2_rmse};
+use super::context::median;
+use super::signatures::median_step;
+use crate::ident::metrics::component_fit;
+use crate::ident::sinkage::least_squares;
 use crate::model::sinkage::{PlateShape, SinkageModel, SinkageRegime};
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DVector;
 use serde::Serialize;
 
 /// A row of a test, with its regime (from the rig's motion).
@@ -40,19 +43,6 @@ pub struct SensorHabits {
     pub rows_per_value: f64,
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
-
 /// The sensor's habits from a log's times and values; `None` with fewer than three changes.
 pub fn sensor_habits(t_s: &[f64], value: &[f64]) -> Option<SensorHabits> {
     let n = t_s.len().min(value.len());
@@ -65,16 +55,11 @@ pub fn sensor_habits(t_s: &[f64], value: &[f64]) -> Option<SensorHabits> {
     if change_t.len() < 3 {
         return None;
     }
-    let stream = median(
-        (1..n)
-            .map(|i| t_s[i] - t_s[i - 1])
-            .filter(|d| *d > 0.0)
-            .collect(),
-    );
+    let stream = median_step(&t_s[..n]);
     // The mean spacing of changes, leaving out gaps (three times the median or more, where the
     // value truly stood still): a stream's rows quantise each spacing, their mean does not.
     let spacings: Vec<f64> = change_t.windows(2).map(|w| w[1] - w[0]).collect();
-    let typical = median(spacings.clone());
+    let typical = median(&spacings);
     let kept: Vec<f64> = spacings
         .into_iter()
         .filter(|d| *d < 3.0 * typical)
@@ -232,19 +217,6 @@ pub fn diagnose_sinkage(
             used.iter().map(|s| s.force_n - predict(p, s.depth_m)),
         )
     };
-    let jacobian = |p: &[f64]| {
-        let mut j = DMatrix::zeros(used.len(), 3);
-        for k in 0..3 {
-            let h = 1e-6 * p[k].abs().max(1e-3);
-            let (mut up, mut down) = (p.to_vec(), p.to_vec());
-            up[k] += h;
-            down[k] -= h;
-            for (i, s) in used.iter().enumerate() {
-                j[(i, k)] = (predict(&up, s.depth_m) - predict(&down, s.depth_m)) / (2.0 * h);
-            }
-        }
-        j
-    };
     // Start from the calibrated medium, the bias from the rows above.
     let bias0 = used
         .iter()
@@ -253,29 +225,16 @@ pub fn diagnose_sinkage(
         .sum::<f64>()
         / above as f64;
     // The surface's level is not convex in the residuals: start from a few shifts.
-    let mut best: Option<(Vec<f64>, f64)> = None;
-    for shift_mm in [-10.0, -5.0, 0.0, 5.0, 10.0] {
-        let (p, cost) = least_squares(
-            vec![1.0, shift_mm, bias0],
-            &[0, 1, 2],
-            &residuals,
-            &jacobian,
-        );
-        if cost.is_finite() && best.as_ref().is_none_or(|b| cost < b.1) {
-            best = Some((p, cost));
-        }
-    }
-    let (p, cost) = best.unwrap_or((vec![1.0, 0.0, bias0], f64::NAN));
-    let s2 = cost / (used.len() as f64 - 3.0).max(1.0);
-    let cov = {
-        let j = jacobian(&p);
-        (j.transpose() * j).try_inverse()
+    let best = [-10.0, -5.0, 0.0, 5.0, 10.0]
+        .map(|shift_mm| least_squares(vec![1.0, shift_mm, bias0], &[0, 1, 2], 1e-3, &residuals))
+        .into_iter()
+        .filter(|f| f.cost.is_finite())
+        .min_by(|a, b| a.cost.total_cmp(&b.cost));
+    let (p, sd) = match best {
+        Some(f) => (f.params, f.std_dev),
+        None => (vec![1.0, 0.0, bias0], vec![f64::NAN; 3]),
     };
-    let sd = |k: usize| {
-        cov.as_ref()
-            .map(|c| (c[(k, k)] * s2).max(0.0).sqrt())
-            .unwrap_or(f64::NAN)
-    };
+    let sd = |k: usize| sd[k];
     let loaded_rows: Vec<&TestSample> = samples
         .iter()
         .filter(|s| s.regime == SinkageRegime::Loading && s.force_n.is_finite())
@@ -286,8 +245,10 @@ pub fn diagnose_sinkage(
         .map(|s| model.force_n(plate, s.depth_m))
         .collect();
     let corrected: Vec<f64> = loaded_rows.iter().map(|s| predict(&p, s.depth_m)).collect();
-    let (r2_as_calibrated, rmse_as_calibrated_n) = r2_rmse(&measured, &as_calibrated);
-    let (r2_corrected, rmse_corrected_n) = r2_rmse(&measured, &corrected);
+    let (before, after) = (
+        component_fit(&as_calibrated, &measured),
+        component_fit(&corrected, &measured),
+    );
     // Speeds on the rows' own timeline.
     let mut by_depth = Vec::new();
     let mut by_speed = Vec::new();
@@ -322,10 +283,10 @@ pub fn diagnose_sinkage(
             value: p[0],
             std_dev: sd(0),
         },
-        r2_as_calibrated,
-        rmse_as_calibrated_n,
-        r2_corrected,
-        rmse_corrected_n,
+        r2_as_calibrated: before.r2,
+        rmse_as_calibrated_n: before.rmse,
+        r2_corrected: after.r2,
+        rmse_corrected_n: after.rmse,
         gap_by_depth: bands(&by_depth, 4),
         gap_by_speed: bands(&by_speed, 3),
     })
@@ -362,15 +323,20 @@ mod tests {
             .collect()
     }
 
-    #[test]
-    fn a_bias_a_wrong_surface_and_the_hold_are_found() {
-        let model = SinkageModel::new(
+    /// The power law of the shared runs' sand, about.
+    fn medium() -> SinkageModel {
+        SinkageModel::new(
             SinkageLaw::DepthWidthPower,
             vec![2800.0, 1.29, 1.0],
             13e3,
             0.25,
         )
-        .unwrap();
+        .unwrap()
+    }
+
+    #[test]
+    fn a_bias_a_wrong_surface_and_the_hold_are_found() {
+        let model = medium();
         let plate = PlateShape::disc(0.08).unwrap();
         let d = diagnose_sinkage(&model, &plate, &test(&model, &plate, 1.5, 0.008)).unwrap();
         assert!((d.bias_n.value - 1.5).abs() < 0.15, "{:?}", d.bias_n);
@@ -394,13 +360,7 @@ mod tests {
 
     #[test]
     fn too_little_is_said() {
-        let model = SinkageModel::new(
-            SinkageLaw::DepthWidthPower,
-            vec![2800.0, 1.29, 1.0],
-            13e3,
-            0.25,
-        )
-        .unwrap();
+        let model = medium();
         let plate = PlateShape::disc(0.08).unwrap();
         let rows = test(&model, &plate, 0.0, 0.0);
         let e = diagnose_sinkage(&model, &plate, &rows[..205]).unwrap_err();

@@ -11,6 +11,7 @@
 //! term needs at least two plate sizes: with one, it is held at its neutral value and the fit
 //! says so ([`SinkageFit::width_held`]).
 
+use super::metrics::component_fit;
 use crate::model::sinkage::{PlateShape, REF_LENGTH_M, SinkageLaw, SinkageModel};
 use nalgebra::{DMatrix, DVector};
 
@@ -87,24 +88,6 @@ pub enum SinkageFitError {
     },
 }
 
-/// The R^2 and RMSE of `predicted` against `measured`.
-pub fn r2_rmse(measured: &[f64], predicted: &[f64]) -> (f64, f64) {
-    let n = measured.len().max(1) as f64;
-    let mean = measured.iter().sum::<f64>() / n;
-    let ss_tot: f64 = measured.iter().map(|m| (m - mean).powi(2)).sum();
-    let ss_res: f64 = measured
-        .iter()
-        .zip(predicted)
-        .map(|(m, p)| (m - p).powi(2))
-        .sum();
-    let r2 = if ss_tot > 0.0 {
-        1.0 - ss_res / ss_tot
-    } else {
-        f64::NAN
-    };
-    (r2, (ss_res / n).sqrt())
-}
-
 /// How `model` fits each test, with nothing fitted.
 pub fn judge(model: &SinkageModel, tests: &[LoadedTest]) -> Vec<TestFit> {
     tests
@@ -116,13 +99,13 @@ pub fn judge(model: &SinkageModel, tests: &[LoadedTest]) -> Vec<TestFit> {
                 .iter()
                 .map(|r| model.force_n(&t.plate, r.0))
                 .collect();
-            let (r2, rmse_n) = r2_rmse(&measured, &predicted);
+            let fit = component_fit(&predicted, &measured);
             TestFit {
                 name: t.name.clone(),
                 plate: t.plate.label(),
                 rows: t.rows.len(),
-                r2,
-                rmse_n,
+                r2: fit.r2,
+                rmse_n: fit.rmse,
                 peak_force_n: measured.iter().cloned().fold(0.0, f64::max),
             }
         })
@@ -241,33 +224,13 @@ pub fn fit_sinkage(
                 .map(|&(p, z, f)| ln(f) - ln(predict(params, &p, z))),
         )
     };
-    let jacobian = |params: &[f64]| -> DMatrix<f64> {
-        let mut j = DMatrix::zeros(rows.len(), free.len());
-        for (col, &k) in free.iter().enumerate() {
-            let h = 1e-6 * params[k].abs().max(1e-6);
-            let (mut up, mut down) = (params.to_vec(), params.to_vec());
-            up[k] += h;
-            down[k] -= h;
-            for (i, &(p, z, _)) in rows.iter().enumerate() {
-                j[(i, col)] = (ln(predict(&up, &p, z)) - ln(predict(&down, &p, z))) / (2.0 * h);
-            }
-        }
-        j
-    };
-    let (params, cost) = least_squares(start, &free, &residuals, &jacobian);
+    let LeastSquares {
+        params,
+        cost,
+        std_dev,
+    } = least_squares(start, &free, 1e-6, &residuals);
     if !params.iter().all(|v| v.is_finite()) || !cost.is_finite() {
         return Err(SinkageFitError::NotConverged { law: law.name() });
-    }
-    let dof = (rows.len() as f64 - free.len() as f64).max(1.0);
-    let s2 = cost / dof;
-    let j = jacobian(&params);
-    let cov = (j.transpose() * j).try_inverse();
-    let mut std_dev = vec![0.0; params.len()];
-    for (col, &k) in free.iter().enumerate() {
-        std_dev[k] = cov
-            .as_ref()
-            .map(|c| (c[(col, col)] * s2).max(0.0).sqrt())
-            .unwrap_or(f64::NAN);
     }
     let model = SinkageModel {
         law,
@@ -282,31 +245,56 @@ pub fn fit_sinkage(
         .collect();
     let measured: Vec<f64> = all.iter().map(|r| r.2).collect();
     let predicted: Vec<f64> = all.iter().map(|r| model.force_n(&r.0, r.1)).collect();
-    let (r2, rmse_n) = r2_rmse(&measured, &predicted);
+    let fit = component_fit(&predicted, &measured);
     Ok(SinkageFit {
         tests: judge(&model, tests),
         model,
         std_dev,
         width_held: held.is_some(),
-        r2,
-        rmse_n,
+        r2: fit.r2,
+        rmse_n: fit.rmse,
     })
 }
 
+/// What [`least_squares`] ends with.
+pub(crate) struct LeastSquares {
+    /// The parameters.
+    pub params: Vec<f64>,
+    /// The sum of squared residuals there.
+    pub cost: f64,
+    /// Each parameter's standard deviation (0 for one held; NaN where the fit does not tell it).
+    pub std_dev: Vec<f64>,
+}
+
 /// Levenberg-Marquardt on `residuals` over the parameters `free` (the others held), from
-/// `start`: the parameters and the sum of squared residuals at the end.
+/// `start`, with the Jacobian by central differences (steps of 1e-6 of a parameter, at least
+/// `1e-6 step_floor`), and the standard deviations from it and the residuals' variance.
 pub(crate) fn least_squares(
     start: Vec<f64>,
     free: &[usize],
+    step_floor: f64,
     residuals: &dyn Fn(&[f64]) -> DVector<f64>,
-    jacobian: &dyn Fn(&[f64]) -> DMatrix<f64>,
-) -> (Vec<f64>, f64) {
+) -> LeastSquares {
+    // The predictions' Jacobian: the residuals' with the sign turned.
+    let jacobian = |params: &[f64], rows: usize| -> DMatrix<f64> {
+        let mut j = DMatrix::zeros(rows, free.len());
+        for (col, &k) in free.iter().enumerate() {
+            let h = 1e-6 * params[k].abs().max(step_floor);
+            let (mut up, mut down) = (params.to_vec(), params.to_vec());
+            up[k] += h;
+            down[k] -= h;
+            j.set_column(col, &((residuals(&down) - residuals(&up)) / (2.0 * h)));
+        }
+        j
+    };
     let mut params = start;
-    let mut cost = residuals(&params).norm_squared();
+    let r0 = residuals(&params);
+    let rows = r0.len();
+    let mut cost = r0.norm_squared();
     let mut lambda = 1e-3;
     for _ in 0..200 {
         let r = residuals(&params);
-        let j = jacobian(&params);
+        let j = jacobian(&params, rows);
         let jtj = j.transpose() * &j;
         let jtr = j.transpose() * r;
         let mut improved = false;
@@ -338,7 +326,21 @@ pub(crate) fn least_squares(
             break;
         }
     }
-    (params, cost)
+    let s2 = cost / (rows as f64 - free.len() as f64).max(1.0);
+    let j = jacobian(&params, rows);
+    let cov = (j.transpose() * j).try_inverse();
+    let mut std_dev = vec![0.0; params.len()];
+    for (col, &k) in free.iter().enumerate() {
+        std_dev[k] = cov
+            .as_ref()
+            .map(|c| (c[(col, col)] * s2).max(0.0).sqrt())
+            .unwrap_or(f64::NAN);
+    }
+    LeastSquares {
+        params,
+        cost,
+        std_dev,
+    }
 }
 
 #[cfg(test)]
