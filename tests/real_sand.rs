@@ -205,7 +205,8 @@ fn each_run_is_diagnosed_against_the_other_sizes() {
             let want = sidecar["offsets"]["in_air_minus_zero_bag_N"][2]
                 .as_f64()
                 .unwrap();
-            let got = base["offset"]["before_n"].as_f64().unwrap();
+            let got = base["offsets"]["readings"][0]["offset_n"].as_f64().unwrap();
+            assert_eq!(base["intrusions"], 1, "{name}");
             assert!((got - want).abs() <= 0.2, "{name}: offset {got} vs {want}");
             // A bias of 1.5 N added to the force.
             let biased = altered(&run, dir.path(), &format!("{name}_bias"), "fz_n", 1.5);
@@ -220,6 +221,114 @@ fn each_run_is_diagnosed_against_the_other_sizes() {
                 - base["gap"]["depth_shift_m"]["value"].as_f64().unwrap();
             assert!((shift + 0.008).abs() <= 0.002, "{name}: surface {shift} m");
         }
+    }
+}
+
+/// The runs of one plate joined into one log, one after another (each run's bed prepared
+/// again; the runs that share the first's zero file): three intrusions diagnosed together. The
+/// offset before each intrusion is that run's, within 0.2 N of its JSON; an added bias of
+/// 1.5 N and the depth told 8 mm wrong are found as on one run; the sensor's rate is reported.
+#[test]
+fn the_runs_of_one_plate_joined_are_diagnosed_together() {
+    let dir = tempfile::tempdir().unwrap();
+    let sidecar = |run: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(run.with_extension("json")).unwrap()).unwrap()
+    };
+    for size in [60, 80, 100] {
+        let medium = calibrate_without(size, dir.path());
+        let all: Vec<PathBuf> = runs()
+            .into_iter()
+            .filter(|r| diameter_mm(r) == size)
+            .collect();
+        let zero = sidecar(&all[0])["offsets"]["zero_bag_mean_F_N"][2].clone();
+        let joined_runs: Vec<PathBuf> = all
+            .into_iter()
+            .filter(|r| sidecar(r)["offsets"]["zero_bag_mean_F_N"][2] == zero)
+            .collect();
+        assert!(joined_runs.len() >= 2, "{size} mm: {joined_runs:?}");
+        // One log: each run's times moved to start 1 s after the one before ends.
+        let joined = dir.path().join(format!("joined_{size}.csv"));
+        let mut w = csv::Writer::from_path(&joined).unwrap();
+        let mut t0 = 0.0;
+        for (k, run) in joined_runs.iter().enumerate() {
+            let mut rdr = csv::Reader::from_path(run).unwrap();
+            if k == 0 {
+                w.write_record(rdr.headers().unwrap()).unwrap();
+            }
+            let rows: Vec<csv::StringRecord> = rdr.records().map(|r| r.unwrap()).collect();
+            let start: f64 = rows[0][0].parse().unwrap();
+            let mut end = start;
+            for r in &rows {
+                let t: f64 = r[0].parse().unwrap();
+                end = t;
+                let mut cells: Vec<String> = r.iter().map(str::to_string).collect();
+                cells[0] = format!("{:.4}", t - start + t0);
+                w.write_record(&cells).unwrap();
+            }
+            t0 += end - start + 1.0;
+        }
+        w.flush().unwrap();
+        std::fs::copy(
+            joined_runs[0].with_extension("json"),
+            joined.with_extension("json"),
+        )
+        .unwrap();
+        let base = diagnose(&joined, &medium, &dir.path().join(format!("joined_{size}")));
+        assert_eq!(base["intrusions"], joined_runs.len(), "{size} mm");
+        let rate = base["gap"]["sensor"]["update_rate_hz"].as_f64().unwrap();
+        assert!((10.0..14.0).contains(&rate), "{size} mm: {rate} Hz");
+        let readings = base["offsets"]["readings"].as_array().unwrap();
+        assert_eq!(readings.len(), joined_runs.len(), "{size} mm: {readings:?}");
+        for (k, (reading, run)) in readings.iter().zip(&joined_runs).enumerate() {
+            assert_eq!(reading["before_intrusion"], k + 1);
+            let want = sidecar(run)["offsets"]["in_air_minus_zero_bag_N"][2]
+                .as_f64()
+                .unwrap();
+            let got = reading["offset_n"].as_f64().unwrap();
+            assert!(
+                (got - want).abs() <= 0.2,
+                "{size} mm, intrusion {}: offset {got} vs {want}",
+                k + 1
+            );
+        }
+        let biased = altered(
+            &joined,
+            dir.path(),
+            &format!("joined_{size}_bias"),
+            "fz_n",
+            1.5,
+        );
+        let b = diagnose(
+            &biased,
+            &medium,
+            &dir.path().join(format!("joined_{size}_b")),
+        );
+        let found = b["gap"]["bias_n"]["value"].as_f64().unwrap()
+            - base["gap"]["bias_n"]["value"].as_f64().unwrap();
+        assert!((found - 1.5).abs() <= 0.15, "{size} mm: bias {found}");
+        let deep = altered(
+            &joined,
+            dir.path(),
+            &format!("joined_{size}_deep"),
+            "depth_m",
+            0.008,
+        );
+        let d = diagnose(&deep, &medium, &dir.path().join(format!("joined_{size}_d")));
+        let shift = d["gap"]["depth_shift_m"]["value"].as_f64().unwrap()
+            - base["gap"]["depth_shift_m"]["value"].as_f64().unwrap();
+        assert!(
+            (shift + 0.008).abs() <= 0.002,
+            "{size} mm: surface {shift} m"
+        );
+        eprintln!(
+            "{size} mm, {} runs joined: offsets {:?} N, bias found {found:.3} N, surface {:.2} mm, {rate:.1} Hz",
+            joined_runs.len(),
+            readings
+                .iter()
+                .map(|r| (r["offset_n"].as_f64().unwrap() * 1e3).round() / 1e3)
+                .collect::<Vec<_>>(),
+            shift * 1e3
+        );
     }
 }
 

@@ -99,6 +99,12 @@ impl PlateTest {
         }
     }
 
+    /// Intrusions in the test: stretches below the surface, each left (at least
+    /// [`OUT_OF_MEDIUM_M`] above it) before the next.
+    pub fn intrusions(&self) -> usize {
+        intrusions(&self.rows).len()
+    }
+
     /// The deepest sinkage reached (m).
     pub fn deepest_m(&self) -> f64 {
         self.rows
@@ -274,20 +280,29 @@ pub fn read_test(
             rows.len()
         );
     }
-    // One intrusion: before the deepest point the depth may wobble but not go back.
-    let i_deepest = rows.iter().position(|r| r.depth_m >= deepest).unwrap_or(0);
-    let mut max_so_far = f64::NEG_INFINITY;
-    for r in &rows[..i_deepest] {
-        if r.depth_m > 0.0 && r.depth_m < max_so_far - DEPTH_BACK_TOLERANCE_M {
-            bail!(
-                "{name}: the depth goes back from {:.2} mm to {:.2} mm at t = {} s, before the deepest point ({:.2} mm): a plate-sinkage test pushes down once (is the depth's sign flipped?)",
-                max_so_far * 1e3,
-                r.depth_m * 1e3,
-                r.t_s,
-                deepest * 1e3
-            );
+    // Each intrusion pushes down once: before its deepest point the depth may wobble but not
+    // go back. A log may hold several, each leaving the medium before the next.
+    for range in intrusions(&rows) {
+        let part = &rows[range];
+        let deepest = part
+            .iter()
+            .map(|r| r.depth_m)
+            .fold(f64::NEG_INFINITY, f64::max);
+        let i_deepest = part.iter().position(|r| r.depth_m >= deepest).unwrap_or(0);
+        let mut max_so_far = f64::NEG_INFINITY;
+        for r in &part[..i_deepest] {
+            if r.depth_m > 0.0 && r.depth_m < max_so_far - DEPTH_BACK_TOLERANCE_M {
+                bail!(
+                    "{name}: the depth goes back from {:.2} mm to {:.2} mm at t = {} s, before the intrusion's deepest point ({:.2} mm): a plate-sinkage test pushes down once per intrusion, and leaves the medium (at least {} mm above the surface) before the next (is the depth's sign flipped?)",
+                    max_so_far * 1e3,
+                    r.depth_m * 1e3,
+                    r.t_s,
+                    deepest * 1e3,
+                    OUT_OF_MEDIUM_M * 1e3
+                );
+            }
+            max_so_far = max_so_far.max(r.depth_m);
         }
-        max_so_far = max_so_far.max(r.depth_m);
     }
     let pairs: Vec<(f64, f64)> = rows.iter().map(|r| (r.t_s, r.rig_depth_m)).collect();
     let regimes = sinkage_regimes(&pairs, regimes);
@@ -311,6 +326,50 @@ pub fn read_test(
         regimes,
         sidecar,
     })
+}
+
+/// The rows of each intrusion: the maximal stretches between rows at least
+/// [`OUT_OF_MEDIUM_M`] above the surface that go below it.
+fn intrusions(rows: &[TestRow]) -> Vec<std::ops::Range<usize>> {
+    let mut out = Vec::new();
+    let mut start = None;
+    for (i, r) in rows.iter().enumerate() {
+        if r.rig_depth_m < -OUT_OF_MEDIUM_M {
+            if let Some(s) = start.take() {
+                out.push(s..i);
+            }
+        } else if start.is_none() {
+            start = Some(i);
+        }
+    }
+    if let Some(s) = start {
+        out.push(s..rows.len());
+    }
+    out.retain(|r| rows[r.clone()].iter().any(|row| row.depth_m > 0.0));
+    out
+}
+
+/// The stretches of rows at least [`OUT_OF_MEDIUM_M`] above the surface, each with the
+/// intrusion it comes before (0-based; the number of intrusions for one after the last).
+fn out_of_medium(rows: &[TestRow]) -> Vec<(std::ops::Range<usize>, usize)> {
+    let parts = intrusions(rows);
+    let mut out = Vec::new();
+    let mut start = None;
+    for i in 0..=rows.len() {
+        let out_here = rows
+            .get(i)
+            .is_some_and(|r| r.rig_depth_m < -OUT_OF_MEDIUM_M);
+        match (out_here, start) {
+            (true, None) => start = Some(i),
+            (false, Some(s)) => {
+                let next = parts.iter().filter(|p| p.start < s).count();
+                out.push((s..i, next));
+                start = None;
+            }
+            _ => {}
+        }
+    }
+    out
 }
 
 fn regimes_speed_mm_s(o: &RegimeOptions) -> f64 {
@@ -583,18 +642,33 @@ pub fn is_plate_test(file: &Path) -> bool {
     (has("time_s") && has("fz_n")) || (has("depth_m") && has("force_n"))
 }
 
-/// The sensor's offset against its zero file, read where the plate is out of the medium.
+/// The sensor's offset against its zero file, read where the plate is out of the medium: at
+/// least [`OUT_OF_MEDIUM_M`] above the surface before each intrusion, and after the last if the
+/// log leaves the medium.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct OffsetReading {
+    /// The intrusion it is read before (1 for the first), or `None` after the last.
+    pub before_intrusion: Option<usize>,
+    /// The first and last time of its rows (s).
+    pub from_s: f64,
+    /// The last time (s).
+    pub to_s: f64,
+    /// Mean reading minus the zero file's mean (N).
+    pub offset_n: f64,
+    /// Rows it is the mean of.
+    pub rows: usize,
+}
+
+/// The offsets of a test against its zero file.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Offsets {
     /// The zero file's mean (N, as the sensor reads).
     pub zero_n: f64,
-    /// Mean reading before the plate first loads, at least [`OUT_OF_MEDIUM_M`] above the
-    /// surface, minus the zero (N).
-    pub before_n: f64,
-    /// Rows it is the mean of.
-    pub before_rows: usize,
-    /// The same after the plate last leaves the medium, if it does (N).
-    pub after_n: Option<f64>,
+    /// Each stretch out of the medium, in time order.
+    pub readings: Vec<OffsetReading>,
+    /// The last reading minus the first (N), with two readings or more: how far the offset
+    /// drifted over the log.
+    pub drift_n: Option<f64>,
 }
 
 /// A plate-sinkage test's diagnosis.
@@ -606,11 +680,13 @@ pub struct TestDiagnosis {
     pub plate: String,
     /// The medium file's name and law.
     pub medium: String,
+    /// Intrusions in the log (each leaves the medium before the next).
+    pub intrusions: usize,
     /// The fit of bias, surface and scale, the sensor's habits, the gap by depth and speed.
     pub gap: crate::diagnose::sinkage::SinkageDiagnosis,
     /// The sensor's offset against its zero file, where the test has the raw reading and a
     /// zero file's mean.
-    pub offset: Option<OffsetReading>,
+    pub offsets: Option<Offsets>,
 }
 
 /// Diagnoses a test against a calibrated medium.
@@ -630,52 +706,55 @@ pub fn diagnose_test(test: &PlateTest, medium: &MediumFile) -> Result<TestDiagno
         .collect();
     let gap = diagnose_sinkage(&model, &test.plate, &samples)
         .with_context(|| format!("{}", test.file.display()))?;
-    let first = test
-        .regimes
-        .iter()
-        .position(|g| *g == SinkageRegime::Loading);
-    let last = test
-        .regimes
-        .iter()
-        .rposition(|g| *g != SinkageRegime::Above);
-    let offset = test
+    let offsets = test
         .sidecar
         .as_ref()
-        .and_then(|s| s.zero_fz_n)
-        .and_then(|zero| {
-            let mean_raw = |rows: &mut dyn Iterator<Item = &TestRow>| {
-                let v: Vec<f64> = rows.filter_map(|r| r.raw_force_n).collect();
-                (!v.is_empty()).then(|| (v.iter().sum::<f64>() / v.len() as f64, v.len()))
-            };
-            let before = mean_raw(
-                &mut test
-                    .rows
-                    .iter()
-                    .zip(&test.regimes)
-                    .take(first.unwrap_or(0))
-                    .filter(|(r, _)| r.depth_m < -OUT_OF_MEDIUM_M)
-                    .map(|(r, _)| r),
-            )?;
-            let after = last.and_then(|l| {
-                mean_raw(
-                    &mut test.rows[l + 1..]
-                        .iter()
-                        .filter(|r| r.depth_m < -OUT_OF_MEDIUM_M),
-                )
-            });
-            Some(OffsetReading {
+        .and_then(|sc| sc.zero_fz_n)
+        .map(|zero| {
+            let intrusions = intrusions(&test.rows).len();
+            let mut readings: Vec<OffsetReading> = Vec::new();
+            for (range, next) in out_of_medium(&test.rows) {
+                let rows = &test.rows[range];
+                let raw: Vec<f64> = rows.iter().filter_map(|r| r.raw_force_n).collect();
+                if raw.is_empty() {
+                    continue;
+                }
+                let before_intrusion = (next < intrusions).then_some(next + 1);
+                let (from_s, to_s) = (rows[0].t_s, rows[rows.len() - 1].t_s);
+                let sum: f64 = raw.iter().sum();
+                match readings.last_mut() {
+                    // Stretches with no intrusion between them are one reading.
+                    Some(last) if last.before_intrusion == before_intrusion => {
+                        let n = last.rows + raw.len();
+                        last.offset_n =
+                            ((last.offset_n + zero) * last.rows as f64 + sum) / n as f64 - zero;
+                        last.rows = n;
+                        last.to_s = to_s;
+                    }
+                    _ => readings.push(OffsetReading {
+                        before_intrusion,
+                        from_s,
+                        to_s,
+                        offset_n: sum / raw.len() as f64 - zero,
+                        rows: raw.len(),
+                    }),
+                }
+            }
+            let drift_n = (readings.len() >= 2)
+                .then(|| readings[readings.len() - 1].offset_n - readings[0].offset_n);
+            Offsets {
                 zero_n: zero,
-                before_n: before.0 - zero,
-                before_rows: before.1,
-                after_n: after.map(|a| a.0 - zero),
-            })
+                readings,
+                drift_n,
+            }
         });
     Ok(TestDiagnosis {
         file: test.file.clone(),
         plate: test.plate.label(),
         medium: format!("{} ({})", medium.name, medium.law.name()),
+        intrusions: test.intrusions(),
         gap,
-        offset,
+        offsets,
     })
 }
 
@@ -683,10 +762,12 @@ pub fn diagnose_test(test: &PlateTest, medium: &MediumFile) -> Result<TestDiagno
 pub fn diagnosis_text(d: &TestDiagnosis) -> String {
     let g = &d.gap;
     let mut s = format!(
-        "{} ({}) against medium {}: {} rows, {} used (loading, and above the surface before it)\n",
+        "{} ({}) against medium {}: {} intrusion{}, {} rows, {} used (loading, and above the surface before it)\n",
         d.file.display(),
         d.plate,
         d.medium,
+        d.intrusions,
+        if d.intrusions == 1 { "" } else { "s" },
         g.rows,
         g.rows_used
     );
@@ -702,17 +783,35 @@ pub fn diagnosis_text(d: &TestDiagnosis) -> String {
         }
         None => s += "sensor: too few changes of value to tell its rate\n",
     }
-    if let Some(o) = &d.offset {
+    if let Some(o) = &d.offsets {
         s += &format!(
-            "offset against the zero file ({:.3} N): {:+.3} N before the test ({} rows){}\n",
+            "offset against the zero file ({:.3} N), read at least {:.0} mm above the surface:\n",
             o.zero_n,
-            o.before_n,
-            o.before_rows,
-            match o.after_n {
-                Some(a) => format!(", {a:+.3} N after (drift {:+.3} N)", a - o.before_n),
-                None => ", none after (the test ends in the medium)".to_string(),
-            }
+            OUT_OF_MEDIUM_M * 1e3
         );
+        for r in &o.readings {
+            s += &format!(
+                "  {:<22} {:>+8.3} N  ({} rows, t {:.1} s to {:.1} s)\n",
+                match r.before_intrusion {
+                    Some(k) => format!("before intrusion {k}"),
+                    None => "after the last".to_string(),
+                },
+                r.offset_n,
+                r.rows,
+                // No "-0.0" for a stretch that starts a millisecond before zero.
+                (r.from_s * 10.0).round() / 10.0 + 0.0,
+                r.to_s
+            );
+        }
+        if let Some(d) = o.drift_n {
+            s += &format!("  drift over the log      {d:>+8.3} N\n");
+        }
+        if o.readings
+            .last()
+            .is_some_and(|r| r.before_intrusion.is_some())
+        {
+            s += "  none after (the log ends in the medium)\n";
+        }
     }
     s += &format!(
         "bias on the force: {:+.3} +- {:.3} N\nsurface: {:+.2} +- {:.2} mm to add to the depth\nmedium scale: {:.3} +- {:.3} of the calibrated law\n",

@@ -175,17 +175,20 @@ fn bands(values: &[(f64, f64)], count: usize) -> Vec<GapBand> {
 }
 
 /// Diagnoses a test of `plate` against `model`: fits `F = scale law(z + shift) + bias` over
-/// the loading rows and the rows above the surface before the first loading row, and bands the
+/// the loading rows and the rows above the surface before an intrusion's loading (a log may
+/// hold any number of intrusions), and bands the
 /// calibrated model's gap by depth and speed.
 pub fn diagnose_sinkage(
     model: &SinkageModel,
     plate: &PlateShape,
     samples: &[TestSample],
 ) -> Result<SinkageDiagnosis, SinkageDiagnosisError> {
-    let first_loading = samples
+    // Above the surface before an intrusion's loading (not on the way out of the last, where
+    // sand the plate lifts may weigh on it).
+    let last_loading = samples
         .iter()
-        .position(|s| s.regime == SinkageRegime::Loading)
-        .unwrap_or(samples.len());
+        .rposition(|s| s.regime == SinkageRegime::Loading)
+        .unwrap_or(0);
     let used: Vec<TestSample> = samples
         .iter()
         .enumerate()
@@ -193,7 +196,7 @@ pub fn diagnose_sinkage(
             s.depth_m.is_finite()
                 && s.force_n.is_finite()
                 && (s.regime == SinkageRegime::Loading
-                    || (s.regime == SinkageRegime::Above && *i < first_loading))
+                    || (s.regime == SinkageRegime::Above && *i < last_loading))
         })
         .map(|(_, s)| *s)
         .collect();

@@ -449,7 +449,8 @@ impl Default for RegimeOptions {
 
 /// The regime of every row of `(t_s, depth_m)`, in order. The speed is the depth's own central
 /// difference on its own timeline; a row with a non-finite time or depth is `Unloading` (never
-/// `Loading`), and is not used for its neighbours' speeds.
+/// `Loading`), and is not used for its neighbours' speeds. A log may hold several intrusions:
+/// once the plate is above the surface again, the deepest point pressed is forgotten.
 pub fn sinkage_regimes(rows: &[(f64, f64)], opts: &RegimeOptions) -> Vec<SinkageRegime> {
     let finite: Vec<usize> = (0..rows.len())
         .filter(|&i| rows[i].0.is_finite() && rows[i].1.is_finite())
@@ -473,7 +474,13 @@ pub fn sinkage_regimes(rows: &[(f64, f64)], opts: &RegimeOptions) -> Vec<Sinkage
         } else {
             SinkageRegime::Unloading
         };
-        deepest = deepest.max(z);
+        // Out of the medium, the next intrusion meets ground it has not pressed (a foot's next
+        // step, a rig's bed prepared again).
+        deepest = if z <= 0.0 {
+            f64::NEG_INFINITY
+        } else {
+            deepest.max(z)
+        };
     }
     out
 }
@@ -576,5 +583,43 @@ mod tests {
                 .zip(&r)
                 .all(|(&(t, _), &g)| t < 8.2 || g != SinkageRegime::Loading)
         );
+    }
+
+    #[test]
+    fn a_second_intrusion_after_leaving_the_medium_loads_again() {
+        // Down to 20 mm, up to 10 mm above the surface and down again: the second descent loads
+        // (fresh ground); up to 12 mm only and down again, it presses its own hole and does not.
+        let path = |t: f64, leave: bool| {
+            if t < 4.0 {
+                -0.005 + 0.00625 * t
+            } else if t < 8.0 {
+                0.02 - if leave { 0.0075 } else { 0.002 } * (t - 4.0)
+            } else {
+                0.02 - if leave { 0.03 } else { 0.008 } + 0.005 * (t - 8.0)
+            }
+        };
+        for leave in [true, false] {
+            let rows: Vec<(f64, f64)> = (0..200)
+                .map(|k| k as f64 * 0.08)
+                .map(|t| (t, path(t, leave)))
+                .collect();
+            let r = sinkage_regimes(&rows, &RegimeOptions::default());
+            let second = rows
+                .iter()
+                .zip(&r)
+                .filter(|((t, z), _)| *t > 8.3 && *z > 0.001 && *z < 0.019)
+                .map(|(_, g)| *g)
+                .collect::<Vec<_>>();
+            assert!(!second.is_empty());
+            let want = if leave {
+                SinkageRegime::Loading
+            } else {
+                SinkageRegime::Unloading
+            };
+            assert!(
+                second.iter().all(|g| *g == want),
+                "leave {leave}: {second:?}"
+            );
+        }
     }
 }
