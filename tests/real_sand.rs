@@ -199,10 +199,7 @@ fn each_run_is_diagnosed_against_the_other_sizes() {
             let rate = base["gap"]["sensor"]["update_rate_hz"].as_f64().unwrap();
             assert!((10.0..14.0).contains(&rate), "{name}: {rate} Hz");
             // The offset the run's JSON gives (in the air against the zero file).
-            let sidecar: serde_json::Value =
-                serde_json::from_str(&std::fs::read_to_string(run.with_extension("json")).unwrap())
-                    .unwrap();
-            let want = sidecar["offsets"]["in_air_minus_zero_bag_N"][2]
+            let want = sidecar(&run)["offsets"]["in_air_minus_zero_bag_N"][2]
                 .as_f64()
                 .unwrap();
             let got = base["offsets"]["readings"][0]["offset_n"].as_f64().unwrap();
@@ -224,6 +221,56 @@ fn each_run_is_diagnosed_against_the_other_sizes() {
     }
 }
 
+/// The run's JSON.
+fn sidecar(run: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(run.with_extension("json")).unwrap()).unwrap()
+}
+
+/// The runs of one plate that share the first's zero file joined into one log in the shared
+/// layout (with the first's JSON), each run's times moved to start 1 s after the one before
+/// ends: the log, its runs, and the time each starts in it.
+fn join_runs(size_mm: u32, dir: &Path) -> (PathBuf, Vec<PathBuf>, Vec<f64>) {
+    let all: Vec<PathBuf> = runs()
+        .into_iter()
+        .filter(|r| diameter_mm(r) == size_mm)
+        .collect();
+    let zero = sidecar(&all[0])["offsets"]["zero_bag_mean_F_N"][2].clone();
+    let joined_runs: Vec<PathBuf> = all
+        .into_iter()
+        .filter(|r| sidecar(r)["offsets"]["zero_bag_mean_F_N"][2] == zero)
+        .collect();
+    assert!(joined_runs.len() >= 2, "{size_mm} mm: {joined_runs:?}");
+    let joined = dir.join(format!("joined_{size_mm}.csv"));
+    let mut w = csv::Writer::from_path(&joined).unwrap();
+    let mut t0 = 0.0;
+    let mut starts = Vec::new();
+    for (k, run) in joined_runs.iter().enumerate() {
+        let mut rdr = csv::Reader::from_path(run).unwrap();
+        if k == 0 {
+            w.write_record(rdr.headers().unwrap()).unwrap();
+        }
+        let rows: Vec<csv::StringRecord> = rdr.records().map(|r| r.unwrap()).collect();
+        let start: f64 = rows[0][0].parse().unwrap();
+        let mut end = start;
+        starts.push(t0);
+        for r in &rows {
+            let t: f64 = r[0].parse().unwrap();
+            end = t;
+            let mut cells: Vec<String> = r.iter().map(str::to_string).collect();
+            cells[0] = format!("{:.4}", t - start + t0);
+            w.write_record(&cells).unwrap();
+        }
+        t0 += end - start + 1.0;
+    }
+    w.flush().unwrap();
+    std::fs::copy(
+        joined_runs[0].with_extension("json"),
+        joined.with_extension("json"),
+    )
+    .unwrap();
+    (joined, joined_runs, starts)
+}
+
 /// The runs of one plate joined into one log, one after another (each run's bed prepared
 /// again; the runs that share the first's zero file): three intrusions diagnosed together. The
 /// offset before each intrusion is that run's, within 0.2 N of its JSON; an added bias of
@@ -236,43 +283,7 @@ fn the_runs_of_one_plate_joined_are_diagnosed_together() {
     };
     for size in [60, 80, 100] {
         let medium = calibrate_without(size, dir.path());
-        let all: Vec<PathBuf> = runs()
-            .into_iter()
-            .filter(|r| diameter_mm(r) == size)
-            .collect();
-        let zero = sidecar(&all[0])["offsets"]["zero_bag_mean_F_N"][2].clone();
-        let joined_runs: Vec<PathBuf> = all
-            .into_iter()
-            .filter(|r| sidecar(r)["offsets"]["zero_bag_mean_F_N"][2] == zero)
-            .collect();
-        assert!(joined_runs.len() >= 2, "{size} mm: {joined_runs:?}");
-        // One log: each run's times moved to start 1 s after the one before ends.
-        let joined = dir.path().join(format!("joined_{size}.csv"));
-        let mut w = csv::Writer::from_path(&joined).unwrap();
-        let mut t0 = 0.0;
-        for (k, run) in joined_runs.iter().enumerate() {
-            let mut rdr = csv::Reader::from_path(run).unwrap();
-            if k == 0 {
-                w.write_record(rdr.headers().unwrap()).unwrap();
-            }
-            let rows: Vec<csv::StringRecord> = rdr.records().map(|r| r.unwrap()).collect();
-            let start: f64 = rows[0][0].parse().unwrap();
-            let mut end = start;
-            for r in &rows {
-                let t: f64 = r[0].parse().unwrap();
-                end = t;
-                let mut cells: Vec<String> = r.iter().map(str::to_string).collect();
-                cells[0] = format!("{:.4}", t - start + t0);
-                w.write_record(&cells).unwrap();
-            }
-            t0 += end - start + 1.0;
-        }
-        w.flush().unwrap();
-        std::fs::copy(
-            joined_runs[0].with_extension("json"),
-            joined.with_extension("json"),
-        )
-        .unwrap();
+        let (joined, joined_runs, _) = join_runs(size, dir.path());
         let base = diagnose(&joined, &medium, &dir.path().join(format!("joined_{size}")));
         assert_eq!(base["intrusions"], joined_runs.len(), "{size} mm");
         let rate = base["gap"]["sensor"]["update_rate_hz"].as_f64().unwrap();
@@ -601,6 +612,75 @@ fn each_run_replayed_through_the_node() {
                 summary.contains("changes detected: 0") || !summary.contains("changes detected"),
                 "{name}: {summary}"
             );
+        }
+    }
+}
+
+/// The runs of one plate joined (as in the diagnosis's test) through the node as one CSV log:
+/// the scale learnt in the first intrusion survives leaving the medium, and is in use from the
+/// first loaded row of each later one; no change is raised.
+#[test]
+fn the_learnt_scale_survives_from_one_intrusion_to_the_next() {
+    let dir = tempfile::tempdir().unwrap();
+    for size in [60, 80, 100] {
+        let medium = calibrate_without(size, dir.path());
+        let params = plate_params(dir.path(), f64::from(size) * 1e-3, &medium);
+        let (joined, joined_runs, starts) = join_runs(size, dir.path());
+        let log = dir.path().join(format!("joined_{size}_log.csv"));
+        as_force_log(&joined, &log);
+        let rows_csv = dir.path().join(format!("joined_{size}_rows.csv"));
+        let out = Command::new(terzaghi())
+            .args(["replay", "--reevaluate"])
+            .arg(&log)
+            .arg("--params-file")
+            .arg(&params)
+            .arg("-p")
+            .arg("use_identified:=true")
+            .arg("-o")
+            .arg(&rows_csv)
+            .output()
+            .unwrap();
+        let summary = ok(&out) + &String::from_utf8_lossy(&out.stderr);
+        assert!(summary.contains("changes detected: 0"), "{summary}");
+        let mut rdr = csv::Reader::from_path(&rows_csv).unwrap();
+        let h = rdr.headers().unwrap().clone();
+        let col = |c: &str| h.iter().position(|x| x == c).unwrap();
+        let (ir, im, ip, iid, it) = (
+            col("regime"),
+            col("measured_lift_n"),
+            col("predicted_lift_n"),
+            col("identified"),
+            col("t_s"),
+        );
+        // Per intrusion: loaded rows, and those the learnt scale predicted.
+        let mut per = vec![(0u32, 0u32); joined_runs.len()];
+        let mut pairs = Vec::new();
+        for rec in rdr.records() {
+            let r = rec.unwrap();
+            if &r[ir] != "penetration" || r[im].is_empty() {
+                continue;
+            }
+            let t: f64 = r[it].parse().unwrap();
+            let k = starts.iter().rposition(|s| t >= *s).unwrap();
+            per[k].0 += 1;
+            per[k].1 += u32::from(&r[iid] == "true");
+            pairs.push((r[im].parse::<f64>().unwrap(), r[ip].parse::<f64>().unwrap()));
+        }
+        let (r2, rmse_n) = r2_rmse(&pairs);
+        let (all, used) = per.iter().fold((0, 0), |acc, p| (acc.0 + p.0, acc.1 + p.1));
+        let share = f64::from(used) / f64::from(all);
+        eprintln!(
+            "{size} mm, {} runs joined: {all} loaded rows, R^2 {r2:.3}, RMSE {rmse_n:.2} N, scale in use on {:.1} % (per intrusion: {})",
+            joined_runs.len(),
+            100.0 * share,
+            per.iter()
+                .map(|p| format!("{:.1} %", 100.0 * f64::from(p.1) / f64::from(p.0)))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+        assert!(r2 >= 0.9, "{size} mm: R^2 {r2}");
+        for (k, p) in per.iter().enumerate().skip(1) {
+            assert_eq!(p.0, p.1, "{size} mm, intrusion {}: {p:?}", k + 1);
         }
     }
 }
