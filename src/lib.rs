@@ -11,6 +11,8 @@
 //! - [`msgs`]: the ROS 2 messages the node reads and writes, and their CDR encoding.
 //! - [`medium_file`]: medium files, a plate-sinkage law calibrated from measurements with where
 //!   each value came from.
+//! - [`model_spec`]: a leg's force model from plain values (kind, plate, medium, fitting width,
+//!   RFT coefficients), as the command line and the Python package name it.
 //! - [`config`]: node parameters as ROS gives them (params files, `--ros-args`, environment)
 //!   validated into a node configuration, and the node's topic names.
 //! - [`dataset`]: force logs (CSV) read into samples.
@@ -46,6 +48,7 @@ pub mod dem;
 mod demo;
 pub mod error;
 pub mod medium_file;
+pub mod model_spec;
 pub mod msgs;
 pub mod node;
 pub mod record;

@@ -139,7 +139,14 @@ fn never_submerged_is_refused() {
         "--beta-deg",
         "90",
     ]);
-    assert_clean_error(&out, &["--hip-height-m 0.2", "never enters the medium"]);
+    assert_clean_error(
+        &out,
+        &[
+            "hip height 0.2 m",
+            "--hip-height-m",
+            "never enters the medium",
+        ],
+    );
 }
 
 #[test]

@@ -18,8 +18,8 @@ mod replay;
 mod simulate;
 mod simulate_robot;
 
-use crate::model::{FittingWidth, Medium, Plate, TerzaghiModel, medium as presets};
-use anyhow::{Context, Result, bail};
+use crate::model::{FittingWidth, Plate};
+use anyhow::{Context, Result};
 use clap::{Args, Parser, Subcommand};
 
 /// Forces on flat legs rotating through sand and other granular media.
@@ -261,15 +261,7 @@ pub struct PlateArgs {
 
 impl PlateArgs {
     pub fn plate(&self) -> Result<Plate> {
-        let plate = Plate::new(self.length_m, self.width_m, self.hip_height_m)?;
-        if plate.never_submerged() {
-            bail!(
-                "--hip-height-m {} >= --length-m {}: the plate never enters the medium (every force would be 0)",
-                self.hip_height_m,
-                self.length_m
-            );
-        }
-        Ok(plate)
+        crate::model_spec::plate(self.length_m, self.width_m, self.hip_height_m)
     }
 }
 
@@ -322,36 +314,21 @@ pub struct MediumArgs {
     pub delta_deg: Option<f64>,
 }
 
-/// A medium and, when its preset has one for this plate, its identified fitting width.
-pub struct ChosenMedium {
-    pub medium: Medium,
-    pub preset: Option<&'static presets::MediumPreset>,
-}
+pub use crate::model_spec::ChosenMedium;
 
 impl MediumArgs {
-    pub fn medium(&self) -> Result<ChosenMedium> {
-        match (
-            &self.medium,
-            self.unit_weight_n_m3,
-            self.phi_deg,
-            self.delta_deg,
-        ) {
-            (Some(name), ..) => {
-                let preset = presets::preset(name)?;
-                Ok(ChosenMedium {
-                    medium: preset.medium()?,
-                    preset: Some(preset),
-                })
-            }
-            (None, Some(w), Some(phi), Some(delta)) => Ok(ChosenMedium {
-                medium: Medium::new(w, phi, delta)?,
-                preset: None,
-            }),
-            _ => bail!(
-                "no medium given: pass --medium NAME (one of {}) or --unit-weight-n-m3, --phi-deg and --delta-deg",
-                presets::preset_names().join(", ")
-            ),
+    /// The medium spec the flags name (clap has checked that they go together).
+    pub fn spec(&self) -> crate::model_spec::MediumSpec {
+        crate::model_spec::MediumSpec {
+            preset: self.medium.clone(),
+            unit_weight_n_m3: self.unit_weight_n_m3,
+            phi_deg: self.phi_deg,
+            delta_deg: self.delta_deg,
         }
+    }
+
+    pub fn medium(&self) -> Result<ChosenMedium> {
+        self.spec().medium()
     }
 }
 
@@ -379,20 +356,7 @@ pub struct WidthArgs {
 impl WidthArgs {
     /// The fitting width from the flags, else from the preset for this plate width.
     pub fn fitting_width(&self, chosen: &ChosenMedium, plate: &Plate) -> Result<FittingWidth> {
-        if let (Some(b_k), Some(a)) = (self.b_k, self.a) {
-            return Ok(FittingWidth::new(b_k, a)?);
-        }
-        let Some(preset) = chosen.preset else {
-            bail!("the improved model needs --bk and --a for a custom medium");
-        };
-        preset.fitting_width_for(plate.width_m()).with_context(|| {
-            format!(
-                "medium {} has identified b_k, a only for plate widths {} m, not {} m; pass --bk and --a",
-                preset.name,
-                preset.fitted_widths_m(),
-                plate.width_m()
-            )
-        })
+        crate::model_spec::fitting_width(self.b_k, self.a, chosen, plate)
     }
 
     pub fn given(&self) -> bool {
@@ -400,17 +364,7 @@ impl WidthArgs {
     }
 }
 
-/// A Terzaghi model with the fitting width the flags ask for.
-pub fn terzaghi_model(
-    plate: Plate,
-    chosen: &ChosenMedium,
-    width: Option<FittingWidth>,
-) -> TerzaghiModel {
-    match width {
-        Some(w) => TerzaghiModel::new(plate, chosen.medium, w),
-        None => TerzaghiModel::conventional(plate, chosen.medium),
-    }
-}
+pub use crate::model_spec::terzaghi_model;
 
 /// Writes `text` to stdout; a closed pipe (`| head`) ends the command quietly.
 pub fn print_out(text: &str) -> Result<()> {

@@ -1,7 +1,7 @@
 //! `terzaghi predict`: one row per attack angle.
 
-use super::{MediumArgs, PlateArgs, WidthArgs, print_out, terzaghi_model};
-use crate::model::{ForceModel, Prediction, RftCoefficients, RftModel, rft::RFT_SET_NAMES};
+use super::{MediumArgs, PlateArgs, WidthArgs, print_out};
+use crate::model::{ForceModel, Prediction};
 use anyhow::{Result, bail};
 use clap::{Args, ValueEnum};
 use serde::Serialize;
@@ -95,46 +95,23 @@ struct Row {
 }
 
 pub fn build_model(a: &PredictArgs) -> Result<ForceModel> {
-    let plate = a.plate.plate()?;
-    if a.model != ModelKind::Improved && a.width.given() {
-        bail!("--bk and --a apply to the improved model only");
+    crate::model_spec::ModelSpec {
+        kind: match a.model {
+            ModelKind::Improved => crate::model_spec::ModelKind::Improved,
+            ModelKind::Conventional => crate::model_spec::ModelKind::Conventional,
+            ModelKind::Rft => crate::model_spec::ModelKind::Rft,
+        },
+        length_m: a.plate.length_m,
+        width_m: a.plate.width_m,
+        hip_height_m: a.plate.hip_height_m,
+        medium: a.medium.spec(),
+        b_k: a.width.b_k,
+        a: a.width.a,
+        rft_coeffs: a.rft_coeffs.clone(),
+        rft_zeta: a.rft_zeta,
+        rft_elements: a.rft_elements,
     }
-    match a.model {
-        ModelKind::Improved | ModelKind::Conventional => {
-            let chosen = a.medium.medium()?;
-            let width = match a.model {
-                ModelKind::Improved => Some(a.width.fitting_width(&chosen, &plate)?),
-                _ => None,
-            };
-            Ok(ForceModel::Terzaghi(terzaghi_model(plate, &chosen, width)))
-        }
-        ModelKind::Rft => {
-            let set = match (&a.rft_coeffs, &a.medium.medium) {
-                (Some(s), _) => s.clone(),
-                (None, Some(name)) => match crate::model::medium::preset(name)?.rft {
-                    Some(crate::model::medium::RftSet::PoppyLp) => "poppy_lp".into(),
-                    Some(crate::model::medium::RftSet::PoppyCp) => "poppy_cp".into(),
-                    None => bail!(
-                        "medium {name} has no RFT coefficients; pass --rft-coeffs ({})",
-                        RFT_SET_NAMES.join(", ")
-                    ),
-                },
-                (None, None) => bail!(
-                    "RFT needs --rft-coeffs ({}) or a --medium that has them",
-                    RFT_SET_NAMES.join(", ")
-                ),
-            };
-            if set == "generic" && a.rft_zeta.is_none() {
-                bail!("--rft-coeffs generic needs --rft-zeta (the medium's scale, N/cm^3)");
-            }
-            let coeffs = RftCoefficients::by_name(&set, a.rft_zeta)?;
-            Ok(ForceModel::Rft(RftModel::new(
-                plate,
-                coeffs,
-                a.rft_elements,
-            )?))
-        }
-    }
+    .build()
 }
 
 pub fn run(a: PredictArgs) -> Result<()> {

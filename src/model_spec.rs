@@ -1,0 +1,267 @@
+//! A leg's force model from plain values, as a user names it: its kind, plate, medium (a preset
+//! or custom soil values), fitting width and RFT coefficients. `terzaghi predict` and
+//! `simulate`, and the Python package, build their models here, so that the same values give
+//! the same model whichever face they come through.
+
+use crate::model::medium as presets;
+use crate::model::rft::RFT_SET_NAMES;
+use crate::model::{
+    FittingWidth, ForceModel, Medium, Plate, RftCoefficients, RftModel, TerzaghiModel,
+};
+use anyhow::{Context, Result, bail};
+
+/// Which model to evaluate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ModelKind {
+    /// The improved Terzaghi model, with the fitting width `b_e = b_k b a^(-beta)`.
+    #[default]
+    Improved,
+    /// The conventional Terzaghi model (`b_e = b`).
+    Conventional,
+    /// Resistive force theory (Li, Zhang & Goldman 2013).
+    Rft,
+}
+
+impl ModelKind {
+    /// The kind of that name: `improved`, `conventional` or `rft`.
+    pub fn by_name(name: &str) -> Result<ModelKind> {
+        Ok(match name {
+            "improved" => ModelKind::Improved,
+            "conventional" => ModelKind::Conventional,
+            "rft" => ModelKind::Rft,
+            other => bail!("model {other:?}: expected improved, conventional or rft"),
+        })
+    }
+}
+
+/// The medium: a preset by name, or the three soil values.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct MediumSpec {
+    /// A preset's name (see `terzaghi media`).
+    pub preset: Option<String>,
+    /// Custom medium: unit weight (N/m^3).
+    pub unit_weight_n_m3: Option<f64>,
+    /// Custom medium: internal friction angle (deg).
+    pub phi_deg: Option<f64>,
+    /// Custom medium: plate-medium friction angle (deg).
+    pub delta_deg: Option<f64>,
+}
+
+/// A medium and the preset it came from, if any (whose identified fitting widths the improved
+/// model may use).
+#[derive(Debug, Clone, Copy)]
+pub struct ChosenMedium {
+    /// The soil values.
+    pub medium: Medium,
+    /// The preset, if the medium is one.
+    pub preset: Option<&'static presets::MediumPreset>,
+}
+
+impl MediumSpec {
+    /// The medium: the preset, or the three custom values (all of them, and no preset).
+    pub fn medium(&self) -> Result<ChosenMedium> {
+        let custom = [self.unit_weight_n_m3, self.phi_deg, self.delta_deg];
+        match (&self.preset, custom) {
+            (Some(name), [None, None, None]) => {
+                let preset = presets::preset(name)?;
+                Ok(ChosenMedium {
+                    medium: preset.medium()?,
+                    preset: Some(preset),
+                })
+            }
+            (Some(name), _) => bail!(
+                "medium {name:?} is a preset: give it or unit_weight_n_m3, phi_deg and delta_deg, not both"
+            ),
+            (None, [Some(w), Some(phi), Some(delta)]) => Ok(ChosenMedium {
+                medium: Medium::new(w, phi, delta)?,
+                preset: None,
+            }),
+            (None, [None, None, None]) => bail!(
+                "no medium given: name a preset (one of {}) or give unit_weight_n_m3, phi_deg and delta_deg",
+                presets::preset_names().join(", ")
+            ),
+            (None, _) => bail!(
+                "a custom medium needs all of unit_weight_n_m3, phi_deg and delta_deg (got {:?}, {:?}, {:?})",
+                self.unit_weight_n_m3,
+                self.phi_deg,
+                self.delta_deg
+            ),
+        }
+    }
+}
+
+/// A plate that enters the medium somewhere in its turn.
+pub fn plate(length_m: f64, width_m: f64, hip_height_m: f64) -> Result<Plate> {
+    let plate = Plate::new(length_m, width_m, hip_height_m)?;
+    if plate.never_submerged() {
+        bail!(
+            "hip height {hip_height_m} m >= length {length_m} m (--hip-height-m, --length-m): the plate never enters the medium (every force would be 0)"
+        );
+    }
+    Ok(plate)
+}
+
+/// The improved model's fitting width: `b_k` and `a` given together, else the preset's
+/// identified one for this plate's width.
+pub fn fitting_width(
+    b_k: Option<f64>,
+    a: Option<f64>,
+    chosen: &ChosenMedium,
+    plate: &Plate,
+) -> Result<FittingWidth> {
+    match (b_k, a) {
+        (Some(b_k), Some(a)) => return Ok(FittingWidth::new(b_k, a)?),
+        (None, None) => {}
+        _ => bail!("b_k and a (--bk, --a) go together: got b_k {b_k:?}, a {a:?}"),
+    }
+    let Some(preset) = chosen.preset else {
+        bail!("the improved model needs b_k and a (--bk, --a) for a custom medium");
+    };
+    preset.fitting_width_for(plate.width_m()).with_context(|| {
+        format!(
+            "medium {} has identified b_k, a only for plate widths {} m, not {} m; give b_k and a (--bk, --a)",
+            preset.name,
+            preset.fitted_widths_m(),
+            plate.width_m()
+        )
+    })
+}
+
+/// A Terzaghi model with a fitting width, or the conventional one without.
+pub fn terzaghi_model(
+    plate: Plate,
+    chosen: &ChosenMedium,
+    width: Option<FittingWidth>,
+) -> TerzaghiModel {
+    match width {
+        Some(w) => TerzaghiModel::new(plate, chosen.medium, w),
+        None => TerzaghiModel::conventional(plate, chosen.medium),
+    }
+}
+
+/// A flat leg's force model, as a user names it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModelSpec {
+    /// Which model.
+    pub kind: ModelKind,
+    /// Plate length from the hip axis to the tip (m).
+    pub length_m: f64,
+    /// Plate width (m).
+    pub width_m: f64,
+    /// Height of the hip axis above the free surface (m).
+    pub hip_height_m: f64,
+    /// The medium.
+    pub medium: MediumSpec,
+    /// The improved model's `b_k` (with `a`; default: the preset's).
+    pub b_k: Option<f64>,
+    /// The improved model's `a` (with `b_k`).
+    pub a: Option<f64>,
+    /// RFT's coefficient set (`poppy_lp`, `poppy_cp`, `poppy_lp_grid`, `generic`; default: the
+    /// medium preset's).
+    pub rft_coeffs: Option<String>,
+    /// RFT's scale factor for the generic coefficients (N/cm^3).
+    pub rft_zeta: Option<f64>,
+    /// RFT's elements over the submerged length.
+    pub rft_elements: usize,
+}
+
+impl ModelSpec {
+    /// The model; every value that does not make one is refused by name.
+    pub fn build(&self) -> Result<ForceModel> {
+        let plate = plate(self.length_m, self.width_m, self.hip_height_m)?;
+        if self.kind != ModelKind::Improved && (self.b_k.is_some() || self.a.is_some()) {
+            bail!("b_k and a (--bk, --a) apply to the improved model only");
+        }
+        match self.kind {
+            ModelKind::Improved | ModelKind::Conventional => {
+                let chosen = self.medium.medium()?;
+                let width = match self.kind {
+                    ModelKind::Improved => Some(fitting_width(self.b_k, self.a, &chosen, &plate)?),
+                    _ => None,
+                };
+                Ok(ForceModel::Terzaghi(terzaghi_model(plate, &chosen, width)))
+            }
+            ModelKind::Rft => {
+                let set = match (&self.rft_coeffs, &self.medium.preset) {
+                    (Some(s), _) => s.clone(),
+                    (None, Some(name)) => match presets::preset(name)?.rft {
+                        Some(presets::RftSet::PoppyLp) => "poppy_lp".into(),
+                        Some(presets::RftSet::PoppyCp) => "poppy_cp".into(),
+                        None => bail!(
+                            "medium {name} has no RFT coefficients; name a set (rft_coeffs, --rft-coeffs: {})",
+                            RFT_SET_NAMES.join(", ")
+                        ),
+                    },
+                    (None, None) => bail!(
+                        "RFT needs a coefficient set (rft_coeffs, --rft-coeffs: {}) or a medium preset that has one",
+                        RFT_SET_NAMES.join(", ")
+                    ),
+                };
+                if set == "generic" && self.rft_zeta.is_none() {
+                    bail!(
+                        "the generic RFT coefficients need the medium's scale (rft_zeta, --rft-zeta, N/cm^3)"
+                    );
+                }
+                let coeffs = RftCoefficients::by_name(&set, self.rft_zeta)?;
+                Ok(ForceModel::Rft(RftModel::new(
+                    plate,
+                    coeffs,
+                    self.rft_elements,
+                )?))
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn spec() -> ModelSpec {
+        ModelSpec {
+            kind: ModelKind::Improved,
+            length_m: 0.1,
+            width_m: 0.025,
+            hip_height_m: 0.0,
+            medium: MediumSpec {
+                preset: Some("poppy_lp".into()),
+                ..Default::default()
+            },
+            b_k: None,
+            a: None,
+            rft_coeffs: None,
+            rft_zeta: None,
+            rft_elements: 100,
+        }
+    }
+
+    #[test]
+    fn bad_values_are_refused_by_name() {
+        let mut s = spec();
+        s.hip_height_m = 0.2;
+        let e = s.build().unwrap_err().to_string();
+        assert!(
+            e.contains("hip height 0.2 m") && e.contains("never enters"),
+            "{e}"
+        );
+        let mut s = spec();
+        s.b_k = Some(1.0);
+        let e = s.build().unwrap_err().to_string();
+        assert!(e.contains("go together"), "{e}");
+        let mut s = spec();
+        s.medium.phi_deg = Some(30.0);
+        let e = s.build().unwrap_err().to_string();
+        assert!(e.contains("is a preset"), "{e}");
+        let mut s = spec();
+        s.kind = ModelKind::Conventional;
+        s.b_k = Some(1.0);
+        s.a = Some(2.0);
+        assert!(
+            s.build()
+                .unwrap_err()
+                .to_string()
+                .contains("improved model only")
+        );
+        assert!(ModelKind::by_name("improvd").is_err());
+    }
+}
