@@ -1,0 +1,249 @@
+"""Forces on legs moving through sand, from Python.
+
+The models, the identification of a medium and the diagnosis of a recording are the
+``terzaghi`` library's own (Rust, through a native module): the answers equal those of the
+``terzaghi`` command line on the same inputs.
+
+>>> import numpy as np, terzaghi
+>>> f = terzaghi.predict(np.radians([30.0, 60.0]), length_m=0.1, width_m=0.025,
+...                      hip_height_m=0.0, medium="poppy_lp")
+>>> f["lift_n"].shape
+(2,)
+
+Every refused value raises :class:`TerzaghiError` (a ``ValueError``) with the words of its reason.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Any, Dict, List, Optional, Union
+
+import numpy as np
+
+from . import _terzaghi
+from ._terzaghi import TerzaghiError
+
+__all__ = [
+    "TerzaghiError",
+    "REGIMES",
+    "predict",
+    "fit",
+    "OnlineEstimator",
+    "diagnose",
+]
+
+#: The regimes' names, indexed by the codes :func:`predict` returns (``LegForce.msg``'s order).
+REGIMES: List[str] = list(_terzaghi.REGIMES)
+
+ArrayLike = Union[float, "np.typing.ArrayLike"]
+PathLike = Union[str, "os.PathLike[str]"]
+
+
+def _finite(name: str, value: Optional[float]) -> Optional[float]:
+    if value is None:
+        return None
+    v = float(value)
+    if not np.isfinite(v):
+        raise TerzaghiError(f"{name} = {value!r}: must be a finite number")
+    return v
+
+
+def predict(
+    beta_rad: ArrayLike,
+    *,
+    length_m: float,
+    width_m: float,
+    hip_height_m: float,
+    medium: Optional[str] = None,
+    unit_weight_n_m3: Optional[float] = None,
+    phi_deg: Optional[float] = None,
+    delta_deg: Optional[float] = None,
+    model: str = "improved",
+    b_k: Optional[float] = None,
+    a: Optional[float] = None,
+    rft_coeffs: Optional[str] = None,
+    rft_zeta: Optional[float] = None,
+    rft_elements: int = 100,
+) -> Dict[str, np.ndarray]:
+    """The forces on a flat leg at each attack angle, as ``terzaghi predict`` gives them.
+
+    Args:
+        beta_rad: attack angles (rad), an array of any shape (or a number).
+        length_m, width_m: the plate, from the hip axis to the tip (m).
+        hip_height_m: height of the hip axis above the free surface (m).
+        medium: a preset's name (see ``terzaghi media``), or else give
+            ``unit_weight_n_m3``, ``phi_deg`` and ``delta_deg``.
+        model: ``"improved"`` (default), ``"conventional"`` or ``"rft"``.
+        b_k, a: the improved model's fitting width (default: the preset's for this width).
+        rft_coeffs, rft_zeta, rft_elements: RFT's coefficient set, its generic scale
+            (N/cm^3) and its elements over the submerged length.
+
+    Returns:
+        A dict of arrays shaped like ``beta_rad``: ``drag_n``, ``lift_n``,
+        ``hip_torque_nm``, ``submerged_m``, ``depth_m`` (float64) and ``regime``
+        (uint8 codes; their names are :data:`REGIMES`).
+
+    Raises:
+        TerzaghiError: a value the model refuses (a NaN angle, a plate that never enters the
+            medium, an unknown preset, ...), named.
+    """
+    if isinstance(rft_elements, bool) or int(rft_elements) != rft_elements or rft_elements < 1:
+        raise TerzaghiError(f"rft_elements = {rft_elements!r}: must be a positive whole number")
+    drag, lift, torque, submerged, depth, regime = _terzaghi.predict(
+        beta_rad,
+        model,
+        float(length_m),
+        float(width_m),
+        float(hip_height_m),
+        medium,
+        _finite("unit_weight_n_m3", unit_weight_n_m3),
+        _finite("phi_deg", phi_deg),
+        _finite("delta_deg", delta_deg),
+        _finite("b_k", b_k),
+        _finite("a", a),
+        rft_coeffs,
+        _finite("rft_zeta", rft_zeta),
+        int(rft_elements),
+    )
+    return {
+        "drag_n": drag,
+        "lift_n": lift,
+        "hip_torque_nm": torque,
+        "submerged_m": submerged,
+        "depth_m": depth,
+        "regime": regime,
+    }
+
+
+def fit(
+    beta_rad: ArrayLike,
+    drag_n: ArrayLike,
+    lift_n: ArrayLike,
+    *,
+    length_m: float,
+    width_m: float,
+    hip_height_m: float,
+    medium: Optional[str] = None,
+    unit_weight_n_m3: Optional[float] = None,
+    phi_deg: Optional[float] = None,
+    delta_deg: Optional[float] = None,
+    fit_delta: bool = False,
+    all_regimes: bool = False,
+) -> Dict[str, Any]:
+    """The batch fit of ``b_k`` and ``a`` (and ``delta``) to measured forces.
+
+    The same fit as ``terzaghi fit --json``, and the same fields: ``b_k``, ``a``,
+    ``delta_deg``, the samples used and skipped, and the goodness of fit of the
+    conventional and improved models.
+
+    Args:
+        beta_rad, drag_n, lift_n: arrays of one shape: attack angle (rad) and the measured
+            drag and lift in the hip frame (N). Non-finite samples are skipped and counted.
+        length_m, width_m, hip_height_m, medium, unit_weight_n_m3, phi_deg, delta_deg: the
+            plate and medium, as for :func:`predict`.
+        fit_delta: fit the plate-medium friction angle as well.
+        all_regimes: use every submerged sample, not only penetration.
+    """
+    text = _terzaghi.fit_json(
+        beta_rad,
+        drag_n,
+        lift_n,
+        float(length_m),
+        float(width_m),
+        float(hip_height_m),
+        medium,
+        _finite("unit_weight_n_m3", unit_weight_n_m3),
+        _finite("phi_deg", phi_deg),
+        _finite("delta_deg", delta_deg),
+        bool(fit_delta),
+        bool(all_regimes),
+    )
+    return json.loads(text)
+
+
+class OnlineEstimator:
+    """The node's online estimator of ``b_k`` and ``a`` (recursive least squares).
+
+    Feed it samples in time order with :meth:`update`; :attr:`estimate` is then what
+    ``terzaghi identify --online --json`` reports after the same samples: ``b_k``, ``a``,
+    ``delta_deg`` with their standard deviations (``std_b_k``, ``std_a``), the samples used
+    and skipped, and whether it has ``converged``.
+
+    Args:
+        length_m, width_m, hip_height_m, medium, unit_weight_n_m3, phi_deg, delta_deg: the
+            plate and medium, as for :func:`predict`.
+        fit_delta: estimate the plate-medium friction angle as well.
+        forgetting: a forgetting factor per sample (0 < f <= 1) instead of the default
+            memory of strokes.
+        min_unit_force_n: the excitation gate (least unit-width model force, N).
+    """
+
+    def __init__(
+        self,
+        *,
+        length_m: float,
+        width_m: float,
+        hip_height_m: float,
+        medium: Optional[str] = None,
+        unit_weight_n_m3: Optional[float] = None,
+        phi_deg: Optional[float] = None,
+        delta_deg: Optional[float] = None,
+        fit_delta: bool = False,
+        forgetting: Optional[float] = None,
+        min_unit_force_n: Optional[float] = None,
+    ) -> None:
+        self._inner = _terzaghi.OnlineEstimator(
+            float(length_m),
+            float(width_m),
+            float(hip_height_m),
+            medium,
+            _finite("unit_weight_n_m3", unit_weight_n_m3),
+            _finite("phi_deg", phi_deg),
+            _finite("delta_deg", delta_deg),
+            bool(fit_delta),
+            _finite("forgetting", forgetting),
+            _finite("min_unit_force_n", min_unit_force_n),
+        )
+
+    def update(
+        self,
+        beta_rad: ArrayLike,
+        drag_n: ArrayLike,
+        lift_n: ArrayLike,
+        t_s: Optional[ArrayLike] = None,
+    ) -> int:
+        """Feeds one sample, or arrays of one shape in order; returns how many updated the
+        estimate (the rest are counted in :attr:`estimate` as skipped)."""
+        return self._inner.update(beta_rad, drag_n, lift_n, t_s)
+
+    @property
+    def estimate(self) -> Dict[str, Any]:
+        """The current estimate (a dict; see the class's description)."""
+        return json.loads(self._inner.estimate_json())
+
+
+def diagnose(
+    path: PathLike,
+    out: PathLike,
+    *,
+    medium_file: Optional[PathLike] = None,
+) -> List[Dict[str, Any]]:
+    """Diagnoses a recording as ``terzaghi diagnose --out OUT --json`` does.
+
+    Args:
+        path: an MCAP session (each leg with an F/T topic), or a plate-sinkage test (then
+            ``medium_file`` names the medium, written by ``terzaghi calibrate``).
+        out: the directory the reports go to (``report.json``, ``report.html``,
+            ``corrected.yaml``; one directory per leg when there are several).
+
+    Returns:
+        One report per leg, as ``report.json`` holds it.
+    """
+    text = _terzaghi.diagnose_json(
+        os.fspath(path),
+        os.fspath(out),
+        None if medium_file is None else os.fspath(medium_file),
+    )
+    return json.loads(text)

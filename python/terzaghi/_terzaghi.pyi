@@ -1,0 +1,73 @@
+"""Type stubs of the native module; the documented API is in ``terzaghi/__init__.py``."""
+
+from typing import List, Optional, Tuple
+
+import numpy as np
+import numpy.typing as npt
+
+REGIMES: List[str]
+
+class TerzaghiError(ValueError):
+    """A value terzaghi refuses, with the words of its reason."""
+
+def predict(
+    beta_rad: npt.ArrayLike,
+    model: str,
+    length_m: float,
+    width_m: float,
+    hip_height_m: float,
+    medium: Optional[str],
+    unit_weight_n_m3: Optional[float],
+    phi_deg: Optional[float],
+    delta_deg: Optional[float],
+    b_k: Optional[float],
+    a: Optional[float],
+    rft_coeffs: Optional[str],
+    rft_zeta: Optional[float],
+    rft_elements: int,
+) -> Tuple[
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.uint8],
+]: ...
+def fit_json(
+    beta_rad: npt.ArrayLike,
+    drag_n: npt.ArrayLike,
+    lift_n: npt.ArrayLike,
+    length_m: float,
+    width_m: float,
+    hip_height_m: float,
+    medium: Optional[str],
+    unit_weight_n_m3: Optional[float],
+    phi_deg: Optional[float],
+    delta_deg: Optional[float],
+    fit_delta: bool,
+    all_regimes: bool,
+) -> str: ...
+def diagnose_json(path: str, out: str, medium_file: Optional[str]) -> str: ...
+
+class OnlineEstimator:
+    def __init__(
+        self,
+        length_m: float,
+        width_m: float,
+        hip_height_m: float,
+        medium: Optional[str],
+        unit_weight_n_m3: Optional[float],
+        phi_deg: Optional[float],
+        delta_deg: Optional[float],
+        fit_delta: bool,
+        forgetting: Optional[float],
+        min_unit_force_n: Optional[float],
+    ) -> None: ...
+    def update(
+        self,
+        beta_rad: npt.ArrayLike,
+        drag_n: npt.ArrayLike,
+        lift_n: npt.ArrayLike,
+        t_s: Optional[npt.ArrayLike] = None,
+    ) -> int: ...
+    def estimate_json(self) -> str: ...

@@ -1,0 +1,144 @@
+"""The Python API against the `terzaghi` binary on the same inputs.
+
+The binary is $TERZAGHI_BIN (tests/python.rs sets it), else target/release/terzaghi.
+"""
+
+import json
+import os
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import terzaghi
+
+REPO = Path(__file__).resolve().parents[2]
+BIN = os.environ.get("TERZAGHI_BIN", str(REPO / "target" / "release" / "terzaghi"))
+PLATE = dict(length_m=0.1, width_m=0.025, hip_height_m=0.0)
+PLATE_FLAGS = ["--length-m", "0.1", "--width-m", "0.025", "--hip-height-m", "0"]
+
+
+def run(*args):
+    out = subprocess.run([BIN, *map(str, args)], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    return out.stdout
+
+
+@pytest.fixture(scope="module")
+def session_csv(tmp_path_factory):
+    path = tmp_path_factory.mktemp("sim") / "session.csv"
+    run("simulate", *PLATE_FLAGS, "--medium", "poppy_lp", "--strokes", "6", "--seed", "3", "-o", path)
+    return path
+
+
+def load(path):
+    d = np.genfromtxt(path, delimiter=",", names=True)
+    return d["t_s"], d["beta_rad"], d["drag_n"], d["lift_n"]
+
+
+@pytest.mark.parametrize(
+    "model, extra, flags",
+    [
+        ("improved", {}, []),
+        ("conventional", {}, []),
+        ("improved", dict(b_k=1.3, a=2.5), ["--bk", "1.3", "--a", "2.5"]),
+        ("rft", dict(rft_elements=50), ["--rft-elements", "50"]),
+    ],
+)
+def test_predict_equals_the_binary(model, extra, flags):
+    deg = np.arange(-10.0, 181.0, 7.5)
+    rows = json.loads(
+        run("predict", "--model", model, *PLATE_FLAGS, "--medium", "poppy_lp", *flags,
+            "--beta-deg", "-10:180:7.5", "--format", "json")
+    )
+    f = terzaghi.predict(np.radians(deg), model=model, medium="poppy_lp", **PLATE, **extra)
+    for key in ["drag_n", "lift_n", "hip_torque_nm", "submerged_m", "depth_m"]:
+        np.testing.assert_allclose(f[key], [r[key] for r in rows], rtol=1e-12, atol=1e-12)
+    assert [terzaghi.REGIMES[c] for c in f["regime"]] == [r["regime"] for r in rows]
+
+
+def test_predict_keeps_the_shape_and_takes_numbers_and_lists():
+    beta = np.radians(np.linspace(0, 150, 24)).reshape(2, 3, 4)
+    f = terzaghi.predict(beta, medium="poppy_lp", **PLATE)
+    assert all(v.shape == (2, 3, 4) for v in f.values())
+    flat = terzaghi.predict(beta.ravel().tolist(), medium="poppy_lp", **PLATE)
+    np.testing.assert_array_equal(f["lift_n"].ravel(), flat["lift_n"])
+    one = terzaghi.predict(0.5, medium="poppy_lp", **PLATE)
+    assert one["drag_n"].shape == ()
+
+
+def test_bad_values_raise_with_their_words():
+    cases = [
+        (dict(beta_rad=[0.1, np.nan], medium="poppy_lp", **PLATE), "beta_rad[1]"),
+        (dict(beta_rad=0.1, medium="poppy_lq", **PLATE), "poppy_lq"),
+        (dict(beta_rad=0.1, medium="poppy_lp", length_m=0.1, width_m=0.025, hip_height_m=0.2),
+         "never enters the medium"),
+        (dict(beta_rad=0.1, medium="poppy_lp", b_k=1.0, **PLATE), "go together"),
+        (dict(beta_rad=0.1, medium="poppy_lp", model="improvd", **PLATE), "improvd"),
+        (dict(beta_rad=0.1, unit_weight_n_m3=1e4, phi_deg=30.0, **PLATE), "unit_weight_n_m3"),
+        (dict(beta_rad=0.1, medium="poppy_lp", b_k=float("inf"), a=1.0, **PLATE), "b_k"),
+        (dict(beta_rad=0.1, medium="poppy_lp", model="rft", rft_elements=0, **PLATE),
+         "rft_elements"),
+    ]
+    for kwargs, words in cases:
+        with pytest.raises(terzaghi.TerzaghiError, match=words.replace("[", r"\[")):
+            terzaghi.predict(**kwargs)
+    with pytest.raises(ValueError):
+        terzaghi.predict("not an angle", medium="poppy_lp", **PLATE)
+
+
+def test_fit_equals_the_binary(session_csv):
+    want = json.loads(run("fit", session_csv, *PLATE_FLAGS, "--medium", "poppy_lp", "--json"))
+    _, beta, drag, lift = load(session_csv)
+    got = terzaghi.fit(beta, drag, lift, medium="poppy_lp", **PLATE)
+    assert got.keys() == want.keys()
+    for k in ["b_k", "a", "delta_deg", "samples"]:
+        assert got[k] == pytest.approx(want[k], rel=1e-12), k
+    with pytest.raises(terzaghi.TerzaghiError, match="one shape"):
+        terzaghi.fit(beta, drag[:-1], lift, medium="poppy_lp", **PLATE)
+
+
+def test_the_online_estimate_equals_the_binary(session_csv):
+    want = json.loads(
+        run("identify", "--online", session_csv, *PLATE_FLAGS, "--medium", "poppy_lp", "--json")
+    )
+    t, beta, drag, lift = load(session_csv)
+    est = terzaghi.OnlineEstimator(medium="poppy_lp", **PLATE)
+    # Fed in two parts: the estimator is an object that keeps its state.
+    half = len(t) // 2
+    used = est.update(beta[:half], drag[:half], lift[:half], t[:half])
+    used += est.update(beta[half:], drag[half:], lift[half:], t[half:])
+    got = est.estimate
+    assert used == want["samples_used"] == got["samples_used"]
+    for k in ["b_k", "a", "std_b_k", "std_a", "converged"]:
+        assert got[k] == pytest.approx(want[k], rel=1e-12), k
+    # A NaN sample is skipped and counted, never passed on.
+    est.update(np.nan, 1.0, 1.0, t[-1] + 0.01)
+    assert est.estimate["samples_non_finite"] == got["samples_non_finite"] + 1
+    assert np.isfinite(est.estimate["b_k"])
+
+
+def test_diagnose_equals_the_binary(tmp_path):
+    rec = tmp_path / "walk.mcap"
+    run("simulate-robot", "--seconds", "20", "--hidden", "sensor_bias", "-o", rec)
+    want = json.loads(run("diagnose", rec, "--out", tmp_path / "cli", "--json"))
+    got = terzaghi.diagnose(rec, tmp_path / "py")
+    assert isinstance(want, list) and len(got) == len(want) == 6
+    assert got == want
+    assert (tmp_path / "py" / got[0]["leg"] / "report.html").exists()
+    with pytest.raises(terzaghi.TerzaghiError, match="nothing.mcap"):
+        terzaghi.diagnose(tmp_path / "nothing.mcap", tmp_path / "none")
+
+
+def test_a_plate_sinkage_test_is_diagnosed_as_the_binary_does(tmp_path):
+    runs = REPO / "tests" / "data" / "real-plate-sinkage"
+    others = sorted(runs.glob("*D60mm.csv")) + sorted(runs.glob("*D100mm.csv"))
+    medium = tmp_path / "without_80.yaml"
+    run("calibrate", *others, "--law", "depth_width_power", "-o", medium)
+    test = runs / "plate_smallbox_run7_D80mm.csv"
+    want = json.loads(run("diagnose", test, "--medium-file", medium, "--out", tmp_path / "cli", "--json"))
+    (got,) = terzaghi.diagnose(test, tmp_path / "py", medium_file=medium)
+    assert got == want
+    with pytest.raises(terzaghi.TerzaghiError, match="medium_file"):
+        terzaghi.diagnose(test, tmp_path / "none")

@@ -1,0 +1,88 @@
+//! The Python package (`python/`, pyo3 and maturin) as a user installs it: `pip install
+//! ./python` into a venv of its own (`target/pyvenv`, made on first use; needs PyPI), then its
+//! pytest suite (`python/tests`: the API against this build's `terzaghi` on the same inputs)
+//! and the README's Python example as written.
+
+mod common;
+
+use common::{repo, terzaghi};
+use std::path::PathBuf;
+use std::process::Command;
+
+/// The venv with the package built from this checkout (reinstalled on every run: the crate may
+/// have changed since).
+fn python_with_package() -> PathBuf {
+    let venv = repo().join("target/pyvenv");
+    let py = venv.join("bin/python");
+    let pip = venv.join("bin/pip");
+    static INSTALL: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _one = INSTALL.lock().unwrap_or_else(|p| p.into_inner());
+    if !py.exists() {
+        let ok = Command::new("python3")
+            .args(["-m", "venv"])
+            .arg(&venv)
+            .status()
+            .is_ok_and(|s| s.success());
+        assert!(ok, "cannot make the venv {}", venv.display());
+    }
+    let ok = Command::new(&pip)
+        .args(["install", "-q", "-r"])
+        .arg(repo().join("python/tests/requirements.txt"))
+        .status()
+        .is_ok_and(|s| s.success());
+    assert!(
+        ok,
+        "pip install -r python/tests/requirements.txt failed (it needs PyPI)"
+    );
+    let out = Command::new(&pip)
+        .args(["install", "-q", "--force-reinstall", "--no-deps"])
+        .arg(repo().join("python"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "pip install ./python failed:\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    py
+}
+
+#[test]
+fn the_python_package_passes_its_tests_and_the_readme_example_runs() {
+    let py = python_with_package();
+    let tmp = tempfile::tempdir().unwrap();
+    let out = Command::new(&py)
+        .args(["-m", "pytest", "-q", "-p", "no:cacheprovider"])
+        .arg(repo().join("python/tests"))
+        .env("TERZAGHI_BIN", terzaghi())
+        .current_dir(tmp.path())
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    eprintln!("{text}");
+    assert!(
+        out.status.success(),
+        "pytest failed:\n{text}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // The README's Python example, as written (run where a user's shell would be: the clone).
+    let readme = std::fs::read_to_string(repo().join("README.md")).unwrap();
+    let start = readme
+        .find("```python\n")
+        .expect("README.md has a Python example");
+    let body = &readme[start + "```python\n".len()..];
+    let example = &body[..body.find("```").unwrap()];
+    let out = Command::new(&py)
+        .args(["-c", example])
+        .current_dir(repo())
+        .output()
+        .unwrap();
+    let printed = String::from_utf8_lossy(&out.stdout);
+    eprintln!("{printed}");
+    assert!(
+        out.status.success(),
+        "the README's example failed:\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(printed.contains("b_k"), "{printed}");
+}
