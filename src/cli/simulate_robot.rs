@@ -42,6 +42,13 @@ pub struct SimulateRobotArgs {
     /// Strength of the hidden effects, as the generated cases scale them.
     #[arg(long, default_value_t = 0.5)]
     pub magnitude: f64,
+    /// The medium is this many times as strong as the robot is told (its b_k scaled): a fleet's
+    /// robot on other ground.
+    #[arg(long, value_name = "X", default_value_t = 1.0)]
+    pub medium_scale: f64,
+    /// When the recording starts (Unix time, s): its messages' stamps and log times begin here.
+    #[arg(long, value_name = "S", default_value_t = 1_700_000_000.0)]
+    pub start_unix_s: f64,
     /// Publish the body's pose as geometry_msgs/PoseStamped on this topic (a robot without TF;
     /// the recorded parameters place each hip in the body, <leg>.hip_offset_m) instead of /tf.
     #[arg(long, value_name = "TOPIC")]
@@ -79,11 +86,21 @@ pub fn run(a: SimulateRobotArgs) -> Result<()> {
             a.magnitude,
             (0.0..=2.0).contains(&a.magnitude),
         ),
+        (
+            "--medium-scale",
+            a.medium_scale,
+            a.medium_scale > 0.0 && a.medium_scale <= 10.0,
+        ),
+        (
+            "--start-unix-s",
+            a.start_unix_s,
+            (0.0..=4e9).contains(&a.start_unix_s),
+        ),
     ];
     for (flag, v, ok) in checks {
         if !(v.is_finite() && ok) {
             bail!(
-                "{flag} {v}: out of range (seconds in (0, 3600], |heave| < 0.05 m, |pitch| <= 30 deg, |forward| <= 5 m/s, speed in (0, 50] rad/s, noise in [0, 1], magnitude in [0, 2])"
+                "{flag} {v}: out of range (seconds in (0, 3600], |heave| < 0.05 m, |pitch| <= 30 deg, |forward| <= 5 m/s, speed in (0, 50] rad/s, noise in [0, 1], magnitude in [0, 2], medium scale in (0, 10], start in [0, 4e9] s)"
             );
         }
     }
@@ -104,7 +121,7 @@ pub fn run(a: SimulateRobotArgs) -> Result<()> {
         }
     }
     let truth = Truth {
-        b_k: w.b_k(),
+        b_k: w.b_k() * a.medium_scale,
         a: w.a(),
         magnitude: if effects.is_empty() { 0.0 } else { a.magnitude },
         effects,
@@ -153,7 +170,8 @@ pub fn run(a: SimulateRobotArgs) -> Result<()> {
             );
         }
     }
-    let t0_ns = 1_700_000_000_000_000_000;
+    // Whole microseconds: a float's rounding does not reach the stamps.
+    let t0_ns = (a.start_unix_s * 1e6).round() as i64 * 1000;
     let mut messages = 0;
     write_atomically(&a.output, |f| {
         messages = write_recording(f, &params, &cfg, &walk, t0_ns)?;

@@ -359,6 +359,19 @@ fn diagnose_json(
     .map_err(err)
 }
 
+/// An MCAP recording's first and last message time (ns since the Unix epoch, `None` when it
+/// has no message) and its message count, from its summary (or a scan of a cut-off file).
+#[pyfunction]
+fn recording_info(path: std::path::PathBuf) -> PyResult<(Option<u64>, Option<u64>, u64)> {
+    let opened = terzaghi::session::Opened::mcap(&path)
+        .map_err(err)?
+        .ok_or_else(|| {
+            TerzaghiError::new_err(format!("{} is not an MCAP recording", path.display()))
+        })?;
+    let head = opened.head();
+    Ok((head.start_ns, head.end_ns, head.messages))
+}
+
 /// The native module.
 #[pymodule]
 fn _terzaghi(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -366,6 +379,7 @@ fn _terzaghi(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(predict, m)?)?;
     m.add_function(wrap_pyfunction!(fit_json, m)?)?;
     m.add_function(wrap_pyfunction!(diagnose_json, m)?)?;
+    m.add_function(wrap_pyfunction!(recording_info, m)?)?;
     m.add_class::<Online>()?;
     m.add(
         "REGIMES",
