@@ -139,7 +139,80 @@ pub fn terzaghi_model(
     }
 }
 
-/// A flat leg's force model, as a user names it.
+/// A leg's shape: a flat plate, or RHex's C-leg (an arc whose chord is the plate's length),
+/// which RFT integrates element by element.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum LegShape {
+    /// A flat plate.
+    #[default]
+    Plate,
+    /// An arc from the hip to the tip.
+    CLeg {
+        /// The arc's radius (m; default half the length: a half circle).
+        radius_m: Option<f64>,
+        /// The arc's span (deg; default 180).
+        span_deg: Option<f64>,
+    },
+}
+
+/// Segments of a C-leg's mid-line (the node's `<leg>.shape: c_leg`).
+pub const C_LEG_SEGMENTS: usize = 32;
+
+/// A C-leg's value that does not make an arc from the hip to the tip.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("C-leg {name} {value}: {why}")]
+pub struct BadCLeg {
+    /// The value's name: `radius_m` or `span_deg`.
+    pub name: &'static str,
+    /// The value.
+    pub value: f64,
+    /// Why it does not do.
+    pub why: String,
+}
+
+/// A C-leg's mid-line, `[(s, q)]` from the hip along the chord and toward the travel, for a
+/// chord of `length_m`: the arc of `radius_m` (default `length_m / 2`) over `span_deg`
+/// (default 180). The error names the value that does not make one (`radius_m` or `span_deg`),
+/// and why.
+pub fn c_leg_line(
+    length_m: f64,
+    radius_m: Option<f64>,
+    span_deg: Option<f64>,
+) -> Result<Vec<(f64, f64)>, BadCLeg> {
+    let radius = radius_m.unwrap_or(length_m / 2.0);
+    let span_deg = span_deg.unwrap_or(180.0);
+    if !(radius.is_finite() && radius > 0.0) {
+        return Err(BadCLeg {
+            name: "radius_m",
+            value: radius,
+            why: "must be > 0".into(),
+        });
+    }
+    if !(span_deg > 0.0 && span_deg < 360.0) {
+        return Err(BadCLeg {
+            name: "span_deg",
+            value: span_deg,
+            why: "must lie in (0, 360)".into(),
+        });
+    }
+    let chord = 2.0 * radius * (span_deg.to_radians() / 2.0).sin();
+    if (chord - length_m).abs() > 0.01 * length_m {
+        return Err(BadCLeg {
+            name: "radius_m",
+            value: radius,
+            why: format!(
+                "the arc's chord, 2 radius sin(span / 2) = {chord:.4} m, must be length_m ({length_m} m), the hip-to-tip distance"
+            ),
+        });
+    }
+    Ok(crate::model::c_leg_profile(
+        radius,
+        span_deg.to_radians(),
+        C_LEG_SEGMENTS,
+    ))
+}
+
+/// A leg's force model, as a user names it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ModelSpec {
     /// Which model.
@@ -163,6 +236,8 @@ pub struct ModelSpec {
     pub rft_zeta: Option<f64>,
     /// RFT's elements over the submerged length.
     pub rft_elements: usize,
+    /// The leg's shape (a C-leg needs the RFT model).
+    pub shape: LegShape,
 }
 
 impl ModelSpec {
@@ -171,6 +246,12 @@ impl ModelSpec {
         let plate = plate(self.length_m, self.width_m, self.hip_height_m)?;
         if self.kind != ModelKind::Improved && (self.b_k.is_some() || self.a.is_some()) {
             bail!("b_k and a (--bk, --a) apply to the improved model only");
+        }
+        if self.kind != ModelKind::Rft && self.shape != LegShape::Plate {
+            bail!(
+                "a C-leg is predicted by RFT only (model rft), not the {:?} model",
+                self.kind
+            );
         }
         match self.kind {
             ModelKind::Improved | ModelKind::Conventional => {
@@ -203,11 +284,13 @@ impl ModelSpec {
                     );
                 }
                 let coeffs = RftCoefficients::by_name(&set, self.rft_zeta)?;
-                Ok(ForceModel::Rft(RftModel::new(
-                    plate,
-                    coeffs,
-                    self.rft_elements,
-                )?))
+                Ok(ForceModel::Rft(match self.shape {
+                    LegShape::Plate => RftModel::new(plate, coeffs, self.rft_elements)?,
+                    LegShape::CLeg { radius_m, span_deg } => {
+                        let line = c_leg_line(self.length_m, radius_m, span_deg)?;
+                        RftModel::with_profile(plate, coeffs, self.rft_elements, line)?
+                    }
+                }))
             }
         }
     }
@@ -232,6 +315,7 @@ mod tests {
             rft_coeffs: None,
             rft_zeta: None,
             rft_elements: 100,
+            shape: LegShape::Plate,
         }
     }
 
@@ -263,5 +347,13 @@ mod tests {
                 .contains("improved model only")
         );
         assert!(ModelKind::by_name("improvd").is_err());
+        let mut s = spec();
+        s.shape = LegShape::CLeg {
+            radius_m: Some(0.03),
+            span_deg: None,
+        };
+        s.kind = ModelKind::Rft;
+        let e = s.build().unwrap_err().to_string();
+        assert!(e.contains("radius_m 0.03") && e.contains("chord"), "{e}");
     }
 }

@@ -32,6 +32,7 @@ __all__ = [
     "fit",
     "OnlineEstimator",
     "diagnose",
+    "session_rows",
 ]
 
 #: The regimes' names, indexed by the codes :func:`predict` returns (``LegForce.msg``'s order).
@@ -66,6 +67,9 @@ def predict(
     rft_coeffs: Optional[str] = None,
     rft_zeta: Optional[float] = None,
     rft_elements: int = 100,
+    shape: str = "plate",
+    c_leg_radius_m: Optional[float] = None,
+    c_leg_span_deg: Optional[float] = None,
 ) -> Dict[str, np.ndarray]:
     """The forces on a flat leg at each attack angle, as ``terzaghi predict`` gives them.
 
@@ -79,6 +83,9 @@ def predict(
         b_k, a: the improved model's fitting width (default: the preset's for this width).
         rft_coeffs, rft_zeta, rft_elements: RFT's coefficient set, its generic scale
             (N/cm^3) and its elements over the submerged length.
+        shape: ``"plate"`` or ``"c_leg"`` (RHex's C-leg, an arc whose chord is ``length_m``,
+            of ``c_leg_radius_m`` (default half the length) over ``c_leg_span_deg`` (default
+            180); RFT only, as the node's ``<leg>.shape: c_leg``).
 
     Returns:
         A dict of arrays shaped like ``beta_rad``: ``drag_n``, ``lift_n``,
@@ -106,6 +113,9 @@ def predict(
         rft_coeffs,
         _finite("rft_zeta", rft_zeta),
         int(rft_elements),
+        shape,
+        _finite("c_leg_radius_m", c_leg_radius_m),
+        _finite("c_leg_span_deg", c_leg_span_deg),
     )
     return {
         "drag_n": drag,
@@ -247,3 +257,57 @@ def diagnose(
         None if medium_file is None else os.fspath(medium_file),
     )
     return json.loads(text)
+
+
+def _param_text(name: str, value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, float, str)):
+        return str(value)
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_param_text(name, v) for v in value) + "]"
+    raise TerzaghiError(f"parameter {name} = {value!r}: expected a bool, number, string or list of them")
+
+
+def session_rows(
+    path: PathLike,
+    *,
+    params_file: Optional[PathLike] = None,
+    params: Optional[Dict[str, Any]] = None,
+    pandas: bool = False,
+) -> Dict[str, Any]:
+    """A recording's rows per leg, re-evaluated through the node's own code.
+
+    The rows of ``terzaghi replay --reevaluate PATH -o rows.csv``: each prediction next to the
+    measurement it was matched with. ``path`` is an MCAP session (its recorded parameters) or a
+    CSV force log; ``params_file`` and ``params`` (``{"use_identified": False}``) set the
+    node's parameters as ``--params-file`` and ``-p`` do.
+
+    Returns:
+        ``{leg: {column: array}}`` (columns ``t_s``, ``beta_rad``, ``regime`` codes,
+        ``measured_drag_n`` and ``measured_lift_n`` (NaN where the row has none),
+        ``predicted_drag_n``, ``predicted_lift_n``, ``predicted_hip_torque_nm``, ``b_k``, ``a``,
+        ``identified``, ``bare_*``, ``expected_reading_*``), or ``{leg: DataFrame}`` with
+        ``pandas=True`` (its ``regime`` column by name).
+    """
+    pairs = [(str(k), _param_text(str(k), v)) for k, v in (params or {}).items()]
+    names, cols = _terzaghi.reevaluate(
+        os.fspath(path), None if params_file is None else os.fspath(params_file), pairs
+    )
+    columns = dict(zip(_terzaghi.REEVALUATE_COLUMNS, cols))
+    leg = columns.pop("leg").astype(np.int64)
+    columns["regime"] = columns["regime"].astype(np.uint8)
+    columns["identified"] = columns["identified"].astype(bool)
+    out: Dict[str, Any] = {}
+    for i, name in enumerate(names):
+        mine = leg == i
+        legs = {k: v[mine] for k, v in columns.items()}
+        if pandas:
+            import pandas as pd
+
+            df = pd.DataFrame(legs)
+            df["regime"] = [REGIMES[c] for c in df["regime"]]
+            out[name] = df
+        else:
+            out[name] = legs
+    return out

@@ -25,6 +25,9 @@ def predict(
     rft_coeffs: Optional[str],
     rft_zeta: Optional[float],
     rft_elements: int,
+    shape: str,
+    c_leg_radius_m: Optional[float],
+    c_leg_span_deg: Optional[float],
 ) -> Tuple[
     npt.NDArray[np.float64],
     npt.NDArray[np.float64],
@@ -50,6 +53,12 @@ def fit_json(
 def diagnose_json(path: str, out: str, medium_file: Optional[str]) -> str: ...
 def recording_info(path: str) -> Tuple[Optional[int], Optional[int], int]: ...
 
+REEVALUATE_COLUMNS: List[str]
+
+def reevaluate(
+    path: str, params_file: Optional[str], params: List[Tuple[str, str]]
+) -> Tuple[List[str], List[npt.NDArray[np.float64]]]: ...
+
 class OnlineEstimator:
     def __init__(
         self,
@@ -72,3 +81,35 @@ class OnlineEstimator:
         t_s: Optional[npt.ArrayLike] = None,
     ) -> int: ...
     def estimate_json(self) -> str: ...
+
+class Batch:
+    def __init__(
+        self,
+        model: str,
+        length_m: float,
+        width_m: float,
+        medium: Optional[str],
+        unit_weight_n_m3: Optional[float],
+        phi_deg: Optional[float],
+        delta_deg: Optional[float],
+        b_k: Optional[float],
+        a: Optional[float],
+        rft_coeffs: Optional[str],
+        rft_zeta: Optional[float],
+        rft_elements: int,
+        shape: str,
+        c_leg_radius_m: Optional[float],
+        c_leg_span_deg: Optional[float],
+    ) -> None: ...
+    def forces_into(
+        self,
+        beta_rad: npt.NDArray[np.float64],
+        hip_height_m: npt.NDArray[np.float64],
+        pitch_rad: Optional[npt.NDArray[np.float64]],
+        omega_rad_s: Optional[npt.NDArray[np.float64]],
+        forward_m_s: Optional[npt.NDArray[np.float64]],
+        up_m_s: Optional[npt.NDArray[np.float64]],
+        drag_n: npt.NDArray[np.float64],
+        lift_n: npt.NDArray[np.float64],
+        hip_torque_nm: npt.NDArray[np.float64],
+    ) -> None: ...

@@ -142,3 +142,32 @@ def test_a_plate_sinkage_test_is_diagnosed_as_the_binary_does(tmp_path):
     assert got == want
     with pytest.raises(terzaghi.TerzaghiError, match="medium_file"):
         terzaghi.diagnose(test, tmp_path / "none")
+
+
+def test_session_rows_equal_the_binarys_reevaluation(tmp_path):
+    rec = tmp_path / "walk.mcap"
+    run("simulate-robot", "--seconds", "5", "-o", rec)
+    rows_csv = tmp_path / "rows.csv"
+    run("replay", "--reevaluate", rec, "-p", "use_identified:=false", "-o", rows_csv)
+    import csv
+
+    want = {}
+    with open(rows_csv) as f:
+        for r in csv.DictReader(f):
+            want.setdefault(r["leg"], []).append(r)
+    got = terzaghi.session_rows(rec, params={"use_identified": False})
+    assert sorted(got) == sorted(want)
+    for leg, rows in want.items():
+        g = got[leg]
+        assert len(g["t_s"]) == len(rows)
+        for col in ["t_s", "beta_rad", "predicted_drag_n", "predicted_lift_n", "b_k", "a"]:
+            np.testing.assert_allclose(g[col], [float(r[col]) for r in rows], rtol=1e-9, atol=1e-9)
+        measured = [float(r["measured_lift_n"]) if r["measured_lift_n"] else np.nan for r in rows]
+        np.testing.assert_allclose(g["measured_lift_n"], measured, rtol=1e-9, atol=1e-9)
+        assert [terzaghi.REGIMES[c] for c in g["regime"]] == [r["regime"] for r in rows]
+    frames = terzaghi.session_rows(rec, pandas=True)
+    assert set(frames) == set(want) and "regime" in frames[leg].columns
+    with pytest.raises(terzaghi.TerzaghiError, match="nothing.mcap"):
+        terzaghi.session_rows(tmp_path / "nothing.mcap")
+    with pytest.raises(terzaghi.TerzaghiError, match="use_identified"):
+        terzaghi.session_rows(rec, params={"use_identified": {"no": 1}})

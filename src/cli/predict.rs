@@ -110,6 +110,7 @@ pub fn build_model(a: &PredictArgs) -> Result<ForceModel> {
         rft_coeffs: a.rft_coeffs.clone(),
         rft_zeta: a.rft_zeta,
         rft_elements: a.rft_elements,
+        shape: crate::model_spec::LegShape::Plate,
     }
     .build()
 }

@@ -1090,32 +1090,15 @@ fn leg_profile(g: &Get, leg: &str, plate: &Plate) -> Result<Option<LegProfile>, 
     match shape.as_str() {
         "plate" => Ok(None),
         "c_leg" => {
-            let length = plate.length_m();
-            let radius = g.f64(&k("c_leg.radius_m"))?.unwrap_or(length / 2.0);
-            let span_deg = g.f64(&k("c_leg.span_deg"))?.unwrap_or(180.0);
-            if radius <= 0.0 {
-                return Err(invalid(&k("c_leg.radius_m"), &radius, "must be > 0"));
-            }
-            if !(span_deg > 0.0 && span_deg < 360.0) {
-                return Err(invalid(
-                    &k("c_leg.span_deg"),
-                    &span_deg,
-                    "must lie in (0, 360)",
-                ));
-            }
-            let chord = 2.0 * radius * (span_deg.to_radians() / 2.0).sin();
-            if (chord - length).abs() > 0.01 * length {
-                return Err(invalid(
-                    &k("c_leg.radius_m"),
-                    &radius,
-                    format!(
-                        "the arc's chord, 2 radius sin(span / 2) = {chord:.4} m, must be length_m ({length} m), the hip-to-tip distance"
-                    ),
-                ));
-            }
+            let line = crate::model_spec::c_leg_line(
+                plate.length_m(),
+                g.f64(&k("c_leg.radius_m"))?,
+                g.f64(&k("c_leg.span_deg"))?,
+            )
+            .map_err(|e| invalid(&k(&format!("c_leg.{}", e.name)), &e.value, e.why))?;
             Ok(Some(LegProfile {
                 shape: "c_leg",
-                line: crate::model::c_leg_profile(radius, span_deg.to_radians(), 32),
+                line,
             }))
         }
         "polyline" => {

@@ -4,7 +4,9 @@
 //! calls the same functions as the `terzaghi` command line.
 
 use numpy::ndarray::{ArrayD, Zip};
-use numpy::{AllowTypeChange, IntoPyArray, PyArrayDyn, PyArrayLikeDyn};
+use numpy::{
+    AllowTypeChange, IntoPyArray, PyArray1, PyArrayDyn, PyArrayLikeDyn, PyUntypedArrayMethods,
+};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use terzaghi::ident::online::{OnlineEstimator as CoreOnline, OnlineOptions};
@@ -42,7 +44,29 @@ fn spec(
     rft_coeffs: Option<String>,
     rft_zeta: Option<f64>,
     rft_elements: usize,
+    shape: &str,
+    c_leg_radius_m: Option<f64>,
+    c_leg_span_deg: Option<f64>,
 ) -> PyResult<ModelSpec> {
+    let shape = match shape {
+        "plate" => terzaghi::model_spec::LegShape::Plate,
+        "c_leg" => terzaghi::model_spec::LegShape::CLeg {
+            radius_m: c_leg_radius_m,
+            span_deg: c_leg_span_deg,
+        },
+        other => {
+            return Err(TerzaghiError::new_err(format!(
+                "shape {other:?}: expected plate or c_leg"
+            )));
+        }
+    };
+    if matches!(shape, terzaghi::model_spec::LegShape::Plate)
+        && (c_leg_radius_m.is_some() || c_leg_span_deg.is_some())
+    {
+        return Err(TerzaghiError::new_err(
+            "c_leg_radius_m and c_leg_span_deg are for shape c_leg",
+        ));
+    }
     Ok(ModelSpec {
         kind: ModelKind::by_name(model).map_err(err)?,
         length_m,
@@ -59,6 +83,7 @@ fn spec(
         rft_coeffs,
         rft_zeta,
         rft_elements,
+        shape,
     })
 }
 
@@ -77,7 +102,7 @@ fn base_model(
 /// The model's forces at every angle of `beta_rad` (any shape): drag, lift, hip torque,
 /// submerged length, depth (each the shape of `beta_rad`) and the regime's code.
 #[pyfunction]
-#[pyo3(signature = (beta_rad, model, length_m, width_m, hip_height_m, medium, unit_weight_n_m3, phi_deg, delta_deg, b_k, a, rft_coeffs, rft_zeta, rft_elements))]
+#[pyo3(signature = (beta_rad, model, length_m, width_m, hip_height_m, medium, unit_weight_n_m3, phi_deg, delta_deg, b_k, a, rft_coeffs, rft_zeta, rft_elements, shape, c_leg_radius_m, c_leg_span_deg))]
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
 fn predict<'py>(
     py: Python<'py>,
@@ -95,6 +120,9 @@ fn predict<'py>(
     rft_coeffs: Option<String>,
     rft_zeta: Option<f64>,
     rft_elements: usize,
+    shape: &str,
+    c_leg_radius_m: Option<f64>,
+    c_leg_span_deg: Option<f64>,
 ) -> PyResult<(
     Bound<'py, PyArrayDyn<f64>>,
     Bound<'py, PyArrayDyn<f64>>,
@@ -117,6 +145,9 @@ fn predict<'py>(
         rft_coeffs,
         rft_zeta,
         rft_elements,
+        shape,
+        c_leg_radius_m,
+        c_leg_span_deg,
     )?
     .build()
     .map_err(err)?;
@@ -372,6 +403,275 @@ fn recording_info(path: std::path::PathBuf) -> PyResult<(Option<u64>, Option<u64
     Ok((head.start_ns, head.end_ns, head.messages))
 }
 
+/// A recording (MCAP session or CSV force log) re-evaluated through the node's code, as
+/// `terzaghi replay --reevaluate` does: the leg names, then every row's columns in
+/// [`COLUMNS`]'s order (a missing measurement is NaN; `leg` indexes the names).
+#[pyfunction]
+#[pyo3(signature = (path, params_file, params))]
+#[allow(clippy::type_complexity)]
+fn reevaluate<'py>(
+    py: Python<'py>,
+    path: std::path::PathBuf,
+    params_file: Option<std::path::PathBuf>,
+    params: Vec<(String, String)>,
+) -> PyResult<(Vec<String>, Vec<Bound<'py, PyArray1<f64>>>)> {
+    let (names, cols) = py
+        .detach(|| -> anyhow::Result<_> {
+            use terzaghi::session::reevaluate::{ReevaluateOptions, reevaluate_file};
+            let opts = ReevaluateOptions {
+                params_file,
+                params: params
+                    .into_iter()
+                    .map(|(k, v)| (k, terzaghi::config::parse_value(&v)))
+                    .collect(),
+                progress: None,
+            };
+            let mut cols: Vec<Vec<f64>> = vec![Vec::new(); COLUMNS.len()];
+            let done = reevaluate_file(&path, opts, |r| {
+                let v = [
+                    r.t_s,
+                    r.leg as f64,
+                    r.beta_rad,
+                    f64::from(r.regime.code()),
+                    r.measured_drag_n.unwrap_or(f64::NAN),
+                    r.measured_lift_n.unwrap_or(f64::NAN),
+                    r.predicted_drag_n,
+                    r.predicted_lift_n,
+                    r.predicted_hip_torque_nm,
+                    r.b_k,
+                    r.a,
+                    f64::from(u8::from(r.identified)),
+                    r.bare_drag_n,
+                    r.bare_lift_n,
+                    r.expected_reading_drag_n,
+                    r.expected_reading_lift_n,
+                ];
+                for (c, x) in cols.iter_mut().zip(v) {
+                    c.push(x);
+                }
+            })?;
+            done.check_inputs_found(&path)?;
+            let names = done.config.legs.iter().map(|l| l.name.clone()).collect();
+            Ok((names, cols))
+        })
+        .map_err(err)?;
+    Ok((
+        names,
+        cols.into_iter()
+            .map(|c| PyArray1::from_vec(py, c))
+            .collect(),
+    ))
+}
+
+/// The columns [`reevaluate`] returns, in order.
+const COLUMNS: [&str; 16] = [
+    "t_s",
+    "leg",
+    "beta_rad",
+    "regime",
+    "measured_drag_n",
+    "measured_lift_n",
+    "predicted_drag_n",
+    "predicted_lift_n",
+    "predicted_hip_torque_nm",
+    "b_k",
+    "a",
+    "identified",
+    "bare_drag_n",
+    "bare_lift_n",
+    "expected_reading_drag_n",
+    "expected_reading_lift_n",
+];
+
+/// One model evaluated for many legs at once (a simulator's environments times legs), from
+/// arrays, on every core, into arrays the caller owns: nothing is allocated per call.
+#[pyclass(module = "terzaghi._terzaghi", name = "Batch")]
+struct Batch {
+    model: ForceModel,
+}
+
+/// A C-contiguous array's values, or an error naming it.
+fn slice_of<'a>(name: &str, a: &'a numpy::PyReadonlyArrayDyn<'_, f64>) -> PyResult<&'a [f64]> {
+    // A Fortran-ordered array is contiguous too, but its slice is not in index order.
+    match a.as_slice() {
+        Ok(s) if a.is_c_contiguous() => Ok(s),
+        _ => Err(not_c_contiguous(name)),
+    }
+}
+
+fn not_c_contiguous(name: &str) -> PyErr {
+    TerzaghiError::new_err(format!(
+        "{name} must be a C-contiguous float64 array (np.ascontiguousarray(x, dtype=np.float64))"
+    ))
+}
+
+/// [`slice_of`] for an array that may be left out.
+fn optional_slice<'a>(
+    name: &str,
+    a: &'a Option<numpy::PyReadonlyArrayDyn<'_, f64>>,
+) -> PyResult<Option<&'a [f64]>> {
+    a.as_ref().map(|x| slice_of(name, x)).transpose()
+}
+
+#[pymethods]
+impl Batch {
+    #[new]
+    #[pyo3(signature = (model, length_m, width_m, medium, unit_weight_n_m3, phi_deg, delta_deg, b_k, a, rft_coeffs, rft_zeta, rft_elements, shape, c_leg_radius_m, c_leg_span_deg))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        model: &str,
+        length_m: f64,
+        width_m: f64,
+        medium: Option<String>,
+        unit_weight_n_m3: Option<f64>,
+        phi_deg: Option<f64>,
+        delta_deg: Option<f64>,
+        b_k: Option<f64>,
+        a: Option<f64>,
+        rft_coeffs: Option<String>,
+        rft_zeta: Option<f64>,
+        rft_elements: usize,
+        shape: &str,
+        c_leg_radius_m: Option<f64>,
+        c_leg_span_deg: Option<f64>,
+    ) -> PyResult<Self> {
+        // The hip height is given per leg and step; 0 to build.
+        let model = spec(
+            model,
+            length_m,
+            width_m,
+            0.0,
+            medium,
+            unit_weight_n_m3,
+            phi_deg,
+            delta_deg,
+            b_k,
+            a,
+            rft_coeffs,
+            rft_zeta,
+            rft_elements,
+            shape,
+            c_leg_radius_m,
+            c_leg_span_deg,
+        )?
+        .build()
+        .map_err(err)?;
+        Ok(Batch { model })
+    }
+
+    /// Writes the forces at every element of the inputs (one shape, C-contiguous float64)
+    /// into `drag_n`, `lift_n` and `hip_torque_nm` (the same shape). Motion arrays left out are
+    /// zero. A non-finite input is an error naming its flat index (the outputs are then partly
+    /// written).
+    #[pyo3(signature = (beta_rad, hip_height_m, pitch_rad, omega_rad_s, forward_m_s, up_m_s, drag_n, lift_n, hip_torque_nm))]
+    #[allow(clippy::too_many_arguments)]
+    fn forces_into(
+        &self,
+        py: Python<'_>,
+        beta_rad: numpy::PyReadonlyArrayDyn<'_, f64>,
+        hip_height_m: numpy::PyReadonlyArrayDyn<'_, f64>,
+        pitch_rad: Option<numpy::PyReadonlyArrayDyn<'_, f64>>,
+        omega_rad_s: Option<numpy::PyReadonlyArrayDyn<'_, f64>>,
+        forward_m_s: Option<numpy::PyReadonlyArrayDyn<'_, f64>>,
+        up_m_s: Option<numpy::PyReadonlyArrayDyn<'_, f64>>,
+        mut drag_n: numpy::PyReadwriteArrayDyn<'_, f64>,
+        mut lift_n: numpy::PyReadwriteArrayDyn<'_, f64>,
+        mut hip_torque_nm: numpy::PyReadwriteArrayDyn<'_, f64>,
+    ) -> PyResult<()> {
+        use rayon::prelude::*;
+        let shape = beta_rad.shape().to_vec();
+        let beta = slice_of("beta_rad", &beta_rad)?;
+        let h = slice_of("hip_height_m", &hip_height_m)?;
+        let (pitch, omega, fwd, up) = (
+            optional_slice("pitch_rad", &pitch_rad)?,
+            optional_slice("omega_rad_s", &omega_rad_s)?,
+            optional_slice("forward_m_s", &forward_m_s)?,
+            optional_slice("up_m_s", &up_m_s)?,
+        );
+        for (name, len) in [
+            ("hip_height_m", Some(h.len())),
+            ("pitch_rad", pitch.map(<[f64]>::len)),
+            ("omega_rad_s", omega.map(<[f64]>::len)),
+            ("forward_m_s", fwd.map(<[f64]>::len)),
+            ("up_m_s", up.map(<[f64]>::len)),
+        ] {
+            if len.is_some_and(|n| n != beta.len()) {
+                return Err(TerzaghiError::new_err(format!(
+                    "{name} has {} values, beta_rad {} (shape {shape:?}): give each input the shape of beta_rad",
+                    len.unwrap_or(0),
+                    beta.len()
+                )));
+            }
+        }
+        for (name, out) in [
+            ("drag_n", drag_n.shape()),
+            ("lift_n", lift_n.shape()),
+            ("hip_torque_nm", hip_torque_nm.shape()),
+        ] {
+            if out != shape.as_slice() {
+                return Err(TerzaghiError::new_err(format!(
+                    "{name} has shape {out:?}, beta_rad {shape:?}"
+                )));
+            }
+        }
+        for (name, c) in [
+            ("drag_n", drag_n.is_c_contiguous()),
+            ("lift_n", lift_n.is_c_contiguous()),
+            ("hip_torque_nm", hip_torque_nm.is_c_contiguous()),
+        ] {
+            if !c {
+                return Err(not_c_contiguous(name));
+            }
+        }
+        let d = drag_n
+            .as_slice_mut()
+            .map_err(|_| not_c_contiguous("drag_n"))?;
+        let l = lift_n
+            .as_slice_mut()
+            .map_err(|_| not_c_contiguous("lift_n"))?;
+        let t = hip_torque_nm
+            .as_slice_mut()
+            .map_err(|_| not_c_contiguous("hip_torque_nm"))?;
+        let model = &self.model;
+        let at = |o: Option<&[f64]>, i: usize| o.map_or(0.0, |v| v[i]);
+        let failed = py.detach(|| {
+            // Chunks of 1024: few enough tasks for rayon, enough to share two cores.
+            d.par_chunks_mut(1024)
+                .zip(l.par_chunks_mut(1024))
+                .zip(t.par_chunks_mut(1024))
+                .enumerate()
+                .map(|(c, ((d, l), t))| {
+                    for k in 0..d.len() {
+                        let i = c * 1024 + k;
+                        let hip = terzaghi::model::HipMotion {
+                            height_m: h[i],
+                            pitch_rad: at(pitch, i),
+                            omega_rad_s: at(omega, i),
+                            forward_m_s: at(fwd, i),
+                            up_m_s: at(up, i),
+                            forward_position_m: 0.0,
+                        };
+                        match model.predict_moving(beta[i], &hip) {
+                            Ok(p) => {
+                                d[k] = p.drag_n;
+                                l[k] = p.lift_n;
+                                t[k] = p.hip_torque_nm;
+                            }
+                            Err(e) => return Some(format!("element {i} (flat index): {e}")),
+                        }
+                    }
+                    None
+                })
+                .find_first(Option::is_some)
+                .flatten()
+        });
+        match failed {
+            Some(why) => Err(TerzaghiError::new_err(why)),
+            None => Ok(()),
+        }
+    }
+}
+
 /// The native module.
 #[pymodule]
 fn _terzaghi(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -380,7 +680,10 @@ fn _terzaghi(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fit_json, m)?)?;
     m.add_function(wrap_pyfunction!(diagnose_json, m)?)?;
     m.add_function(wrap_pyfunction!(recording_info, m)?)?;
+    m.add_function(wrap_pyfunction!(reevaluate, m)?)?;
+    m.add("REEVALUATE_COLUMNS", COLUMNS.to_vec())?;
     m.add_class::<Online>()?;
+    m.add_class::<Batch>()?;
     m.add(
         "REGIMES",
         terzaghi::model::Regime::ALL
