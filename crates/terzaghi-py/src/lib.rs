@@ -490,6 +490,9 @@ struct Batch {
     model: ForceModel,
 }
 
+/// Legs per task of [`Batch::forces_into`].
+const CHUNK: usize = 1024;
+
 /// A C-contiguous array's values, or an error naming it.
 fn slice_of<'a>(name: &str, a: &'a numpy::PyReadonlyArrayDyn<'_, f64>) -> PyResult<&'a [f64]> {
     // A Fortran-ordered array is contiguous too, but its slice is not in index order.
@@ -634,37 +637,43 @@ impl Batch {
             .map_err(|_| not_c_contiguous("hip_torque_nm"))?;
         let model = &self.model;
         let at = |o: Option<&[f64]>, i: usize| o.map_or(0.0, |v| v[i]);
-        let failed = py.detach(|| {
-            // Chunks of 1024: few enough tasks for rayon, enough to share two cores.
-            d.par_chunks_mut(1024)
-                .zip(l.par_chunks_mut(1024))
-                .zip(t.par_chunks_mut(1024))
-                .enumerate()
-                .map(|(c, ((d, l), t))| {
-                    for k in 0..d.len() {
-                        let i = c * 1024 + k;
-                        let hip = terzaghi::model::HipMotion {
-                            height_m: h[i],
-                            pitch_rad: at(pitch, i),
-                            omega_rad_s: at(omega, i),
-                            forward_m_s: at(fwd, i),
-                            up_m_s: at(up, i),
-                            forward_position_m: 0.0,
-                        };
-                        match model.predict_moving(beta[i], &hip) {
-                            Ok(p) => {
-                                d[k] = p.drag_n;
-                                l[k] = p.lift_n;
-                                t[k] = p.hip_torque_nm;
-                            }
-                            Err(e) => return Some(format!("element {i} (flat index): {e}")),
-                        }
+        // One chunk of up to 1024 legs: few enough tasks for rayon, enough to share the cores.
+        let chunk = |c: usize, d: &mut [f64], l: &mut [f64], t: &mut [f64]| -> Option<String> {
+            for k in 0..d.len() {
+                let i = c * CHUNK + k;
+                let hip = terzaghi::model::HipMotion {
+                    height_m: h[i],
+                    pitch_rad: at(pitch, i),
+                    omega_rad_s: at(omega, i),
+                    forward_m_s: at(fwd, i),
+                    up_m_s: at(up, i),
+                    forward_position_m: 0.0,
+                };
+                match model.predict_moving(beta[i], &hip) {
+                    Ok(p) => {
+                        d[k] = p.drag_n;
+                        l[k] = p.lift_n;
+                        t[k] = p.hip_torque_nm;
                     }
-                    None
-                })
-                .find_first(Option::is_some)
-                .flatten()
-        });
+                    Err(e) => return Some(format!("element {i} (flat index): {e}")),
+                }
+            }
+            None
+        };
+        // A robot's few legs are done here: waking the pool would cost more than they do.
+        let failed = if d.len() <= CHUNK {
+            chunk(0, d, l, t)
+        } else {
+            py.detach(|| {
+                d.par_chunks_mut(CHUNK)
+                    .zip(l.par_chunks_mut(CHUNK))
+                    .zip(t.par_chunks_mut(CHUNK))
+                    .enumerate()
+                    .map(|(c, ((d, l), t))| chunk(c, d, l, t))
+                    .find_first(Option::is_some)
+                    .flatten()
+            })
+        };
         match failed {
             Some(why) => Err(TerzaghiError::new_err(why)),
             None => Ok(()),

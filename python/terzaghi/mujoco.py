@@ -1,0 +1,226 @@
+"""The granular model inside MuJoCo: each leg in the sand feels terzaghi's forces.
+
+A map names, for each leg, its hinge joint and the body the hinge moves (the leg). Every step,
+:meth:`Coupling.apply` reads each leg's joint angle and rate and its hip's pose and velocity
+from ``MjData``, evaluates the leg model for all legs at once (:class:`terzaghi.batch.LegBatch`),
+and writes the force and torque through ``xfrc_applied`` of the leg's body, so that the wrench
+about the hip is the model's. The sand's free surface is the plane ``z = surface_z_m``; the
+legs' geoms should not collide with it (``contype="0" conaffinity="0"``): the model is their
+contact.
+
+The frames are the model's (docs/model.md): a leg is a plate along its body's +x axis from the
+hip, turning about the hip body's +y axis (MuJoCo's hinge ``axis="0 1 0"``); at joint angle 0 it
+points forward along the torso, at pi/2 straight down. The attack angle is the joint angle plus
+the torso's pitch (nose down positive), the hip's height its height above the surface, and the
+medium's drag pushes the hip forward, its lift up, its torque resists the leg's rotation.
+
+Needs the ``mujoco`` package (``pip install mujoco``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Dict, List, Optional, Sequence
+
+import numpy as np
+
+from .batch import LegBatch
+
+__all__ = ["LegMap", "Coupling", "HEXAPOD_XML"]
+
+
+@dataclass(frozen=True)
+class LegMap:
+    """One leg: its name (as the node names legs), the hinge joint that turns it and the body it
+    moves (whose origin is on the hinge's axis, the hip)."""
+
+    name: str
+    joint: str
+    body: str
+
+
+class Coupling:
+    """terzaghi's forces on the mapped legs of a MuJoCo model.
+
+    Args:
+        model: the ``mujoco.MjModel``.
+        legs: the legs (:class:`LegMap`), all of one shape and size.
+        leg_model: the leg model (:class:`terzaghi.batch.LegBatch`).
+        torso: the body whose pitch and forward direction the hips share (the robot's trunk).
+        surface_z_m: the height of the sand's free surface in the world (m).
+    """
+
+    def __init__(self, model, legs: Sequence[LegMap], leg_model: LegBatch, *, torso: str,
+                 surface_z_m: float = 0.0) -> None:
+        import mujoco
+
+        self.model = model
+        self.legs = list(legs)
+        self.leg_model = leg_model
+        self.surface_z_m = float(surface_z_m)
+        name = lambda kind, n: mujoco.mj_name2id(model, kind, n)
+        self._torso = name(mujoco.mjtObj.mjOBJ_BODY, torso)
+        if self._torso < 0:
+            raise ValueError(f"torso {torso!r}: no such body in the model")
+        self._body, self._qpos, self._dof = [], [], []
+        for leg in self.legs:
+            j = name(mujoco.mjtObj.mjOBJ_JOINT, leg.joint)
+            b = name(mujoco.mjtObj.mjOBJ_BODY, leg.body)
+            if j < 0:
+                raise ValueError(f"leg {leg.name}: no joint {leg.joint!r} in the model")
+            if b < 0:
+                raise ValueError(f"leg {leg.name}: no body {leg.body!r} in the model")
+            if model.jnt_type[j] != mujoco.mjtJoint.mjJNT_HINGE:
+                raise ValueError(f"leg {leg.name}: joint {leg.joint!r} is not a hinge")
+            if model.jnt_bodyid[j] != b:
+                raise ValueError(f"leg {leg.name}: joint {leg.joint!r} does not move body {leg.body!r}")
+            self._body.append(b)
+            self._qpos.append(model.jnt_qposadr[j])
+            self._dof.append(model.jnt_dofadr[j])
+        n = len(self.legs)
+        self._body = np.array(self._body, dtype=np.intp)
+        self._qpos = np.array(self._qpos, dtype=np.intp)
+        self._dof = np.array(self._dof, dtype=np.intp)
+        self._in = {k: np.zeros(n) for k in ["beta", "h", "pitch", "omega", "fwd", "up"]}
+        self.drag_n, self.lift_n, self.hip_torque_nm = (np.zeros(n) for _ in range(3))
+        self._vel = np.zeros((n, 6))
+        self._fwd = np.array([1.0, 0.0, 0.0])
+
+    def read(self, data) -> Dict[str, np.ndarray]:
+        """Each leg's joint angle, hip height, the torso's pitch, the leg's rate and the hip's
+        forward and up velocity, as the model takes them (arrays over the legs)."""
+        import mujoco
+
+        R = data.xmat[self._torso].reshape(3, 3)
+        fwd = R[:, 0].copy()
+        fwd[2] = 0.0
+        norm = math.hypot(fwd[0], fwd[1])
+        self._fwd = fwd / norm if norm > 0 else np.array([1.0, 0.0, 0.0])
+        # Nose down positive: the torso's x axis below the horizontal.
+        pitch = math.atan2(-R[2, 0], math.hypot(R[0, 0], R[1, 0]))
+        for i, b in enumerate(self._body):
+            mujoco.mj_objectVelocity(self.model, data, mujoco.mjtObj.mjOBJ_BODY, b, self._vel[i], 0)
+        x = self._in
+        x["beta"][:] = data.qpos[self._qpos]
+        x["h"][:] = data.xpos[self._body, 2] - self.surface_z_m
+        x["pitch"][:] = pitch
+        x["omega"][:] = data.qvel[self._dof]
+        x["fwd"][:] = self._vel[:, 3] * self._fwd[0] + self._vel[:, 4] * self._fwd[1]
+        x["up"][:] = self._vel[:, 5]
+        return x
+
+    def apply(self, data) -> None:
+        """Reads the legs from ``data``, evaluates the model and writes each leg's wrench into
+        ``data.xfrc_applied`` (call before ``mj_step``). The other bodies' entries are kept."""
+        x = self.read(data)
+        self.leg_model.forces(x["beta"], x["h"], pitch_rad=x["pitch"], omega_rad_s=x["omega"],
+                              forward_m_s=x["fwd"], up_m_s=x["up"],
+                              out=(self.drag_n, self.lift_n, self.hip_torque_nm))
+        axis = data.xmat[self._torso].reshape(3, 3)[:, 1]  # the hips' +y axis: the legs turn about it
+        f = self.drag_n[:, None] * self._fwd[None, :]
+        f[:, 2] += self.lift_n
+        # xfrc_applied acts at the body's centre of mass: move the hip's moment there,
+        # M_com = M_hip + (r_hip - r_com) x F.
+        r = data.xpos[self._body] - data.xipos[self._body]
+        m = -self.hip_torque_nm[:, None] * axis[None, :]
+        m[:, 0] += r[:, 1] * f[:, 2] - r[:, 2] * f[:, 1]
+        m[:, 1] += r[:, 2] * f[:, 0] - r[:, 0] * f[:, 2]
+        m[:, 2] += r[:, 0] * f[:, 1] - r[:, 1] * f[:, 0]
+        data.xfrc_applied[self._body, :3] = f
+        data.xfrc_applied[self._body, 3:] = m
+
+
+#: A RHex-like hexapod: a 0.5 x 0.2 m torso of 7 kg on a free joint, six flat legs 0.1 m long and
+#: 0.025 m wide on hinges about the torso's y axis, each turned by a velocity servo. The legs'
+#: geoms do not collide (terzaghi is their contact); the torso collides with the floor.
+HEXAPOD_XML = """
+<mujoco model="terzaghi_hexapod">
+  <option timestep="0.002" integrator="implicitfast"/>
+  <worldbody>
+    <geom name="sand_surface" type="plane" size="20 20 0.1" rgba="0.8 0.7 0.5 1"/>
+    <body name="torso" pos="0 0 0.09">
+      <freejoint name="root"/>
+      <geom type="box" size="0.25 0.1 0.025" mass="7"/>
+{legs}
+    </body>
+  </worldbody>
+  <actuator>
+{actuators}
+  </actuator>
+</mujoco>
+"""
+
+#: The hexapod's legs: name and hip position in the torso (m).
+HEXAPOD_HIPS = {
+    "front_left": (0.2, 0.13, 0.0),
+    "middle_left": (0.0, 0.13, 0.0),
+    "rear_left": (-0.2, 0.13, 0.0),
+    "front_right": (0.2, -0.13, 0.0),
+    "middle_right": (0.0, -0.13, 0.0),
+    "rear_right": (-0.2, -0.13, 0.0),
+}
+
+
+def hexapod_xml(length_m: float = 0.1, width_m: float = 0.025, servo_gain: float = 5.0) -> str:
+    """The MJCF of :data:`HEXAPOD_XML` with legs of that size."""
+    legs, acts = [], []
+    for name, (x, y, z) in HEXAPOD_HIPS.items():
+        legs.append(
+            f'      <body name="{name}" pos="{x} {y} {z}">\n'
+            f'        <joint name="{name}_joint" type="hinge" axis="0 1 0" damping="0.05"/>\n'
+            f'        <geom type="box" pos="{length_m / 2} 0 0" size="{length_m / 2} {width_m / 2} 0.004"'
+            f' mass="0.1" contype="0" conaffinity="0"/>\n'
+            f"      </body>"
+        )
+        acts.append(f'    <velocity name="{name}_servo" joint="{name}_joint" kv="{servo_gain}"/>')
+    return HEXAPOD_XML.format(legs="\n".join(legs), actuators="\n".join(acts))
+
+
+def hexapod_legs() -> List[LegMap]:
+    """The hexapod's legs as the coupling maps them."""
+    return [LegMap(name, f"{name}_joint", name) for name in HEXAPOD_HIPS]
+
+
+TRIPOD_A = ("front_left", "middle_right", "rear_left")
+
+
+def tripod_speeds(t_s: float, mean_rad_s: float = 4.0) -> Dict[str, float]:
+    """An alternating-tripod gait's leg speeds at time ``t_s``: each tripod turns fast through
+    its swing and slowly through its stance, half a turn apart."""
+    out = {}
+    for name in HEXAPOD_HIPS:
+        phase = 0.0 if name in TRIPOD_A else math.pi
+        out[name] = mean_rad_s * (1.0 + 0.5 * math.sin(mean_rad_s * t_s + phase))
+    return out
+
+
+def walk(seconds: float, *, coupling: bool = True, leg_model: Optional[LegBatch] = None,
+         mean_rad_s: float = 4.0, on_step=None):
+    """The hexapod walking for ``seconds`` of simulated time, with terzaghi's forces on its legs
+    (or, ``coupling=False``, with none: the legs turn in the air and the torso lies on the
+    floor). ``on_step(model, data, coupling)`` is called after each step. Returns the model and
+    data at the end."""
+    import mujoco
+
+    if leg_model is None:
+        leg_model = LegBatch(length_m=0.1, width_m=0.025, medium="poppy_lp")
+    model = mujoco.MjModel.from_xml_string(hexapod_xml())
+    data = mujoco.MjData(model)
+    # Start the tripods half a turn apart.
+    for leg in hexapod_legs():
+        j = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, leg.joint)
+        data.qpos[model.jnt_qposadr[j]] = 0.8 if leg.name in TRIPOD_A else 0.8 + math.pi
+    c = Coupling(model, hexapod_legs(), leg_model, torso="torso") if coupling else None
+    mujoco.mj_forward(model, data)
+    steps = int(round(seconds / model.opt.timestep))
+    act = {n: mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, f"{n}_servo") for n in HEXAPOD_HIPS}
+    for _ in range(steps):
+        for n, v in tripod_speeds(data.time, mean_rad_s).items():
+            data.ctrl[act[n]] = v
+        if c is not None:
+            c.apply(data)
+        mujoco.mj_step(model, data)
+        if on_step is not None:
+            on_step(model, data, c)
+    return model, data

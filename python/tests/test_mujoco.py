@@ -1,0 +1,104 @@
+"""terzaghi.mujoco in real MuJoCo: one leg through a stroke against terzaghi predict, the wrench's
+point of application, and the hexapod walking on the model's forces."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+mujoco = pytest.importorskip("mujoco")
+
+import terzaghi  # noqa: E402
+import terzaghi.mujoco as tm  # noqa: E402
+from terzaghi.batch import LegBatch  # noqa: E402
+
+from test_api import run  # noqa: E402
+
+LEG = dict(length_m=0.1, width_m=0.025, medium="poppy_lp")
+HIP_M = 0.03
+
+ONE_LEG = f"""
+<mujoco>
+  <option timestep="0.002"/>
+  <worldbody>
+    <body name="hip" pos="0 0 {HIP_M}">
+      <body name="leg">
+        <joint name="leg_joint" type="hinge" axis="0 1 0"/>
+        <geom type="box" pos="0.05 0 0" size="0.05 0.0125 0.004" mass="0.1" contype="0" conaffinity="0"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_one_leg_through_a_stroke_feels_what_terzaghi_predict_gives():
+    model = mujoco.MjModel.from_xml_string(ONE_LEG)
+    data = mujoco.MjData(model)
+    c = tm.Coupling(model, [tm.LegMap("leg", "leg_joint", "leg")], LegBatch(**LEG), torso="hip")
+    leg = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "leg")
+    beta, got, qfrc_hinge = [], [], []
+    qfrc = np.zeros(model.nv)
+    # Driven through the stroke at 2 rad/s: the joint's angle and rate set, the kinematics
+    # computed by MuJoCo, every 2 ms.
+    for k in range(int(math.pi / (2.0 * 0.002)) + 1):
+        data.qpos[0] = 2.0 * 0.002 * k
+        data.qvel[0] = 2.0
+        mujoco.mj_forward(model, data)
+        c.apply(data)
+        beta.append(data.qpos[0])
+        got.append((c.drag_n[0], c.lift_n[0], c.hip_torque_nm[0]))
+        # The wrench written at the body's centre of mass, as MuJoCo maps it onto the hinge.
+        qfrc[:] = 0
+        mujoco.mj_applyFT(model, data, data.xfrc_applied[leg, :3].copy(),
+                          data.xfrc_applied[leg, 3:].copy(), data.xipos[leg].copy(), leg, qfrc)
+        qfrc_hinge.append(qfrc[0])
+        # The force is the drag forward (+x here) and the lift up.
+        np.testing.assert_allclose(data.xfrc_applied[leg, :3], [c.drag_n[0], 0.0, c.lift_n[0]],
+                                   atol=1e-12)
+    beta = np.array(beta)
+    got = np.array(got)
+    assert len(beta) > 500 and np.count_nonzero(got[:, 1]) > 100
+    want = terzaghi.predict(beta, hip_height_m=HIP_M, **LEG)
+    np.testing.assert_allclose(got[:, 0], want["drag_n"], rtol=1e-6, atol=1e-6)
+    np.testing.assert_allclose(got[:, 1], want["lift_n"], rtol=1e-6, atol=1e-6)
+    np.testing.assert_allclose(got[:, 2], want["hip_torque_nm"], rtol=1e-6, atol=1e-6)
+    # About the hinge, the wrench is the model's torque, resisting the turn.
+    np.testing.assert_allclose(qfrc_hinge, -got[:, 2], rtol=1e-9, atol=1e-9)
+    # And the binary's own predict, at a few of the stroke's angles.
+    for i in np.linspace(0, len(beta) - 1, 7).astype(int):
+        deg = math.degrees(beta[i])
+        (row,) = json.loads(run("predict", "--length-m", "0.1", "--width-m", "0.025", "--hip-height-m",
+                                HIP_M, "--medium", "poppy_lp", "--beta-deg", repr(deg), "--format", "json"))
+        assert abs(row["drag_n"] - got[i, 0]) <= 1e-6 * max(1.0, abs(row["drag_n"]))
+        assert abs(row["lift_n"] - got[i, 1]) <= 1e-6 * max(1.0, abs(row["lift_n"]))
+
+
+def test_the_hexapod_walks_ten_seconds_on_the_models_forces():
+    lifts, heights = [], []
+
+    def watch(model, data, c):
+        assert np.all(np.isfinite(data.xfrc_applied)) and np.all(np.isfinite(data.qpos))
+        lifts.append(c.lift_n.sum())
+        heights.append(data.qpos[2])
+
+    model, data = tm.walk(10.0, on_step=watch)
+    assert data.time == pytest.approx(10.0, abs=1e-9)
+    assert len(lifts) == 5000
+    # It moves forward on the sand's drag, and the sand lifts it off the floor at times.
+    assert data.qpos[0] > 0.3, data.qpos[0]
+    assert max(lifts) > 50.0 and max(heights) > 0.04
+    # Without the coupling the legs turn in the air: it stays where it lies.
+    _, still = tm.walk(2.0, coupling=False)
+    assert abs(still.qpos[0]) < 0.01
+
+
+def test_a_bad_map_is_refused_by_name():
+    model = mujoco.MjModel.from_xml_string(ONE_LEG)
+    with pytest.raises(ValueError, match="no joint 'knee'"):
+        tm.Coupling(model, [tm.LegMap("leg", "knee", "leg")], LegBatch(**LEG), torso="hip")
+    with pytest.raises(ValueError, match="does not move body 'hip'"):
+        tm.Coupling(model, [tm.LegMap("leg", "leg_joint", "hip")], LegBatch(**LEG), torso="hip")
+    with pytest.raises(ValueError, match="torso 'body'"):
+        tm.Coupling(model, [tm.LegMap("leg", "leg_joint", "leg")], LegBatch(**LEG), torso="body")
