@@ -33,6 +33,7 @@ __all__ = [
     "OnlineEstimator",
     "diagnose",
     "session_rows",
+    "Recorder",
 ]
 
 #: The regimes' names, indexed by the codes :func:`predict` returns (``LegForce.msg``'s order).
@@ -311,3 +312,53 @@ def session_rows(
         else:
             out[name] = legs
     return out
+
+
+class Recorder:
+    """A session written to MCAP in the node's topics and message types, with node parameters
+    as its metadata, so that ``terzaghi diagnose`` and ``replay --reevaluate`` read it as they
+    read a robot's recording. Use as a context manager (the file is finished on exit); an
+    existing file is refused unless ``overwrite``.
+
+    Args:
+        path: the ``.mcap`` file to write.
+        params: the node's parameters, ``{name: value}`` (``legs``, each leg's ``joint``,
+            geometry, ``medium`` and ``ft_topic``, ...), as a parameter file would give them.
+    """
+
+    def __init__(self, path: PathLike, params: Dict[str, Any], *, overwrite: bool = False) -> None:
+        pairs = [(str(k), _param_text(str(k), v)) for k, v in params.items()]
+        self._inner = _terzaghi.Recorder(os.fspath(path), pairs, bool(overwrite))
+
+    def joint_state(self, t_ns: int, names: List[str], position, velocity=None,
+                    topic: str = "/joint_states") -> None:
+        """A ``sensor_msgs/JointState`` stamped ``t_ns`` (ns since the Unix epoch)."""
+        pos = [float(v) for v in np.ravel(position)]
+        vel = [] if velocity is None else [float(v) for v in np.ravel(velocity)]
+        self._inner.joint_state(topic, int(t_ns), list(names), pos, vel)
+
+    def wrench(self, topic: str, t_ns: int, force, torque=(0.0, 0.0, 0.0), frame_id: str = "") -> None:
+        """A ``geometry_msgs/WrenchStamped`` (N, N m)."""
+        self._inner.wrench(topic, int(t_ns), frame_id, [float(v) for v in force],
+                           [float(v) for v in torque])
+
+    def pose(self, topic: str, t_ns: int, position, orientation_xyzw, frame_id: str = "") -> None:
+        """A ``geometry_msgs/PoseStamped`` (m; a unit quaternion x, y, z, w)."""
+        self._inner.pose(topic, int(t_ns), frame_id, [float(v) for v in position],
+                         [float(v) for v in orientation_xyzw])
+
+    def close(self) -> int:
+        """Finishes the file; returns the messages written."""
+        return self._inner.close()
+
+    def __enter__(self) -> "Recorder":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def rhex_params() -> Dict[str, str]:
+    """The shipped six-legged robot's node parameters (``launch_configs/rhex.yaml``), each value
+    as the text a parameter file holds (a string quoted)."""
+    return dict(_terzaghi.rhex_params())

@@ -27,7 +27,7 @@ import numpy as np
 
 from .batch import LegBatch
 
-__all__ = ["LegMap", "Coupling", "HEXAPOD_XML"]
+__all__ = ["LegMap", "Coupling", "HEXAPOD_XML", "hexapod_xml", "hexapod_params", "WalkRecording", "walk"]
 
 
 @dataclass(frozen=True)
@@ -92,6 +92,7 @@ class Coupling:
         forward and up velocity, as the model takes them (arrays over the legs)."""
         import mujoco
 
+        self._torso_pose = (data.xpos[self._torso].copy(), data.xquat[self._torso].copy())
         R = data.xmat[self._torso].reshape(3, 3)
         fwd = R[:, 0].copy()
         fwd[2] = 0.0
@@ -193,6 +194,72 @@ def tripod_speeds(t_s: float, mean_rad_s: float = 4.0) -> Dict[str, float]:
         phase = 0.0 if name in TRIPOD_A else math.pi
         out[name] = mean_rad_s * (1.0 + 0.5 * math.sin(mean_rad_s * t_s + phase))
     return out
+
+
+def hexapod_params(length_m: float = 0.1, width_m: float = 0.025, medium: str = "poppy_lp") -> Dict[str, str]:
+    """The node's parameters for the hexapod of :func:`hexapod_xml`: the shipped robot's
+    (``launch_configs/rhex.yaml``) with this model's joints, leg size and medium, F/T in the
+    hip frame, and each hip placed in the torso whose pose ``/body_pose`` carries."""
+    from . import rhex_params
+
+    p = rhex_params()
+    p["robot_state.pose_topic"] = "/body_pose"
+    for name, (x, y, z) in HEXAPOD_HIPS.items():
+        p[f"{name}.joint"] = f"{name}_joint"
+        p[f"{name}.direction"] = "1"
+        p[f"{name}.angle_offset_rad"] = "0.0"
+        p[f"{name}.length_m"] = repr(float(length_m))
+        p[f"{name}.width_m"] = repr(float(width_m))
+        p[f"{name}.medium"] = medium
+        p[f"{name}.ft_frame"] = "hip"
+        p[f"{name}.hip_offset_m"] = f"[{x}, {y}, {z}]"
+    return p
+
+
+class WalkRecording:
+    """Records a walk as the robot's recording would hold it: ``/joint_states``, each leg's F/T
+    (the forces the coupling applied, in the hip frame: ``x`` along the submerged tip's travel,
+    so ``-drag``, and ``z`` up, the lift; with Gaussian sensor noise of ``noise_n``) and the
+    torso's pose on ``/body_pose``, every ``every`` steps, stamped from ``t0_ns``. Pass its
+    :meth:`on_step` to :func:`walk`."""
+
+    def __init__(self, path, params: Dict[str, str], *, t0_ns: int = 1_700_000_000 * 10**9,
+                 every: int = 1, noise_n: float = 0.0, seed: int = 1,
+                 overwrite: bool = False) -> None:
+        from . import Recorder
+
+        if not (math.isfinite(noise_n) and noise_n >= 0):
+            raise ValueError(f"noise_n = {noise_n!r}: must be a finite number >= 0")
+        self.rec = Recorder(path, params, overwrite=overwrite)
+        self.noise_n = float(noise_n)
+        self.rng = np.random.default_rng(seed)
+        self.t0_ns = int(t0_ns)
+        self.every = int(every)
+        self.steps = 0
+        # A string parameter's text may be quoted, as a parameter file writes it.
+        topic = lambda name: str(params[f"{name}.ft_topic"]).strip('"').lstrip("/")
+        self.ft_topics = {name: "/" + topic(name) for name in HEXAPOD_HIPS}
+
+    def on_step(self, model, data, c: "Coupling") -> None:
+        self.steps += 1
+        if self.steps % self.every:
+            return
+        # The state the coupling read and the forces it applied for the step just taken.
+        t = self.t0_ns + int(round((data.time - model.opt.timestep) * 1e9))
+        x = c._in
+        # The body's pose first: the node places the hips of a JointState from the poses it
+        # has at its stamp (the world frame is the node's default, odom).
+        p, q = c._torso_pose
+        self.rec.pose("/body_pose", t, p, (q[1], q[2], q[3], q[0]), frame_id="odom")
+        self.rec.joint_state(t, [leg.joint for leg in c.legs], x["beta"], x["omega"])
+        noise = self.rng.normal(0.0, self.noise_n, (len(c.legs), 2)) if self.noise_n else np.zeros((len(c.legs), 2))
+        for i, leg in enumerate(c.legs):
+            self.rec.wrench(self.ft_topics[leg.name], t,
+                            (-c.drag_n[i] + noise[i, 0], 0.0, c.lift_n[i] + noise[i, 1]),
+                            frame_id=f"{leg.name}_ft")
+
+    def close(self) -> int:
+        return self.rec.close()
 
 
 def walk(seconds: float, *, coupling: bool = True, leg_model: Optional[LegBatch] = None,

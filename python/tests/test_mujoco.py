@@ -102,3 +102,45 @@ def test_a_bad_map_is_refused_by_name():
         tm.Coupling(model, [tm.LegMap("leg", "leg_joint", "hip")], LegBatch(**LEG), torso="hip")
     with pytest.raises(ValueError, match="torso 'body'"):
         tm.Coupling(model, [tm.LegMap("leg", "leg_joint", "leg")], LegBatch(**LEG), torso="body")
+
+
+def test_the_walk_recorded_in_the_nodes_topics_is_read_by_the_binary(tmp_path):
+    path = tmp_path / "walk.mcap"
+    recording = tm.WalkRecording(path, tm.hexapod_params())
+    tm.walk(10.0, on_step=recording.on_step)
+    assert recording.close() == 5000 * (1 + 6 + 1)
+    info = run("info", path)
+    assert "complete:  yes" in info and "/body_pose" in info
+    # The node's own code, re-evaluating the recording, predicts what MuJoCo applied: the
+    # hips placed from /body_pose as the coupling placed them.
+    rows = terzaghi.session_rows(path, params={"use_identified": False})
+    assert sorted(rows) == sorted(tm.HEXAPOD_HIPS)
+    for leg, r in rows.items():
+        m = ~np.isnan(r["measured_lift_n"])
+        assert m.sum() > 4000
+        err = np.abs(r["predicted_lift_n"][m] - r["measured_lift_n"][m])
+        assert np.max(err) < 1e-6 * max(1.0, np.max(np.abs(r["measured_lift_n"][m]))), (leg, np.max(err))
+    # And terzaghi diagnose reads it with no conversion: six legs, the model as simulated (its
+    # F/T with a real sensor's noise, 0.1 N).
+    noisy = tmp_path / "noisy.mcap"
+    recording = tm.WalkRecording(noisy, tm.hexapod_params(), noise_n=0.1)
+    tm.walk(10.0, on_step=recording.on_step)
+    recording.close()
+    reports = json.loads(run("diagnose", noisy, "--out", tmp_path / "diagnosis", "--json"))
+    assert sorted(r["leg"] for r in reports) == sorted(tm.HEXAPOD_HIPS)
+    simulated = terzaghi.fit(*_stroke_forces(), **LEG, hip_height_m=0.0)
+    for r in reports:
+        # Every sample's hip placed from the recorded pose; the medium as simulated; the
+        # model's error on held-out strokes at the sensor's noise (0.1 N, within 15 %).
+        assert r["hip_placed_points"] == r["samples"] == 5000, r["leg"]
+        assert r["baseline"]["b_k"] == pytest.approx(simulated["b_k"], rel=0.02), r["leg"]
+        assert r["baseline"]["a"] == pytest.approx(simulated["a"], rel=0.02), r["leg"]
+        noise = max(r["noise"]["drag_n"], r["noise"]["lift_n"])
+        assert r["baseline"]["rmse_n"] < 1.15 * noise, (r["leg"], r["baseline"], r["noise"])
+
+
+def _stroke_forces():
+    """The leg model's own forces over a stroke: its b_k and a, as the batch fit finds them."""
+    beta = np.radians(np.arange(1.0, 90.0, 0.5))
+    f = terzaghi.predict(beta, hip_height_m=0.0, **LEG)
+    return beta, f["drag_n"], f["lift_n"]

@@ -681,6 +681,183 @@ impl Batch {
     }
 }
 
+/// A session written to MCAP in the node's topics and types, with the node's parameters as
+/// its metadata: what `terzaghi diagnose` and `replay --reevaluate` read.
+#[pyclass(module = "terzaghi._terzaghi", name = "Recorder", unsendable)]
+struct Recorder {
+    w: Option<terzaghi::record::SessionWriter<std::io::BufWriter<std::fs::File>>>,
+    path: std::path::PathBuf,
+    messages: u64,
+}
+
+fn header(t_ns: i64, frame_id: &str) -> PyResult<terzaghi::msgs::Header> {
+    Ok(terzaghi::msgs::Header {
+        stamp: terzaghi::msgs::Time::from_nanos(t_ns).ok_or_else(|| {
+            TerzaghiError::new_err(format!("t_ns = {t_ns}: not a time a ROS stamp can hold"))
+        })?,
+        frame_id: frame_id.to_string(),
+    })
+}
+
+impl Recorder {
+    fn writer(
+        &mut self,
+    ) -> PyResult<&mut terzaghi::record::SessionWriter<std::io::BufWriter<std::fs::File>>> {
+        self.w
+            .as_mut()
+            .ok_or_else(|| TerzaghiError::new_err(format!("{} is closed", self.path.display())))
+    }
+
+    fn put<M: terzaghi::msgs::RosMessage>(
+        &mut self,
+        topic: &str,
+        msg: &M,
+        t_ns: i64,
+    ) -> PyResult<()> {
+        let t = u64::try_from(t_ns)
+            .map_err(|_| TerzaghiError::new_err(format!("t_ns = {t_ns}: before 1970")))?;
+        self.writer()?
+            .write(topic, terzaghi::record::OfferedQos::BEST_EFFORT, msg, t, t)
+            .map_err(err)?;
+        self.messages += 1;
+        Ok(())
+    }
+}
+
+#[pymethods]
+impl Recorder {
+    #[new]
+    #[pyo3(signature = (path, params, overwrite))]
+    fn new(
+        path: std::path::PathBuf,
+        params: Vec<(String, String)>,
+        overwrite: bool,
+    ) -> PyResult<Self> {
+        terzaghi::session::files::refuse_existing_recording(&path, overwrite).map_err(err)?;
+        let file = std::fs::File::create(&path)
+            .map_err(|e| TerzaghiError::new_err(format!("cannot write {}: {e}", path.display())))?;
+        let w = terzaghi::record::SessionWriter::new(
+            std::io::BufWriter::new(file),
+            terzaghi::record::RecordOptions {
+                params: params.into_iter().collect(),
+                ..Default::default()
+            },
+        )
+        .map_err(err)?;
+        Ok(Recorder {
+            w: Some(w),
+            path,
+            messages: 0,
+        })
+    }
+
+    /// A sensor_msgs/JointState on `topic`.
+    #[pyo3(signature = (topic, t_ns, names, position, velocity))]
+    fn joint_state(
+        &mut self,
+        topic: &str,
+        t_ns: i64,
+        names: Vec<String>,
+        position: Vec<f64>,
+        velocity: Vec<f64>,
+    ) -> PyResult<()> {
+        if position.len() != names.len() || !(velocity.is_empty() || velocity.len() == names.len())
+        {
+            return Err(TerzaghiError::new_err(format!(
+                "{} names, {} positions, {} velocities: give one position (and velocity) per name",
+                names.len(),
+                position.len(),
+                velocity.len()
+            )));
+        }
+        let msg = terzaghi::msgs::JointState {
+            header: header(t_ns, "")?,
+            name: names,
+            position,
+            velocity,
+            effort: Vec::new(),
+        };
+        self.put(topic, &msg, t_ns)
+    }
+
+    /// A geometry_msgs/WrenchStamped on `topic`.
+    #[pyo3(signature = (topic, t_ns, frame_id, force, torque))]
+    fn wrench(
+        &mut self,
+        topic: &str,
+        t_ns: i64,
+        frame_id: &str,
+        force: [f64; 3],
+        torque: [f64; 3],
+    ) -> PyResult<()> {
+        let v = |a: [f64; 3]| terzaghi::msgs::Vector3 {
+            x: a[0],
+            y: a[1],
+            z: a[2],
+        };
+        let msg = terzaghi::msgs::WrenchStamped {
+            header: header(t_ns, frame_id)?,
+            wrench: terzaghi::msgs::Wrench {
+                force: v(force),
+                torque: v(torque),
+            },
+        };
+        self.put(topic, &msg, t_ns)
+    }
+
+    /// A geometry_msgs/PoseStamped on `topic` (orientation as x, y, z, w).
+    #[pyo3(signature = (topic, t_ns, frame_id, position, orientation))]
+    fn pose(
+        &mut self,
+        topic: &str,
+        t_ns: i64,
+        frame_id: &str,
+        position: [f64; 3],
+        orientation: [f64; 4],
+    ) -> PyResult<()> {
+        let msg = terzaghi::msgs::PoseStamped {
+            header: header(t_ns, frame_id)?,
+            pose: terzaghi::msgs::Pose {
+                position: terzaghi::msgs::Point {
+                    x: position[0],
+                    y: position[1],
+                    z: position[2],
+                },
+                orientation: terzaghi::msgs::Quaternion {
+                    x: orientation[0],
+                    y: orientation[1],
+                    z: orientation[2],
+                    w: orientation[3],
+                },
+            },
+        };
+        self.put(topic, &msg, t_ns)
+    }
+
+    /// Finishes the file (its summary and index); returns the messages written.
+    fn close(&mut self) -> PyResult<u64> {
+        if let Some(w) = self.w.take() {
+            use std::io::Write;
+            let mut f = w.finish().map_err(err)?;
+            f.flush().map_err(|e| {
+                TerzaghiError::new_err(format!("cannot write {}: {e}", self.path.display()))
+            })?;
+        }
+        Ok(self.messages)
+    }
+}
+
+/// The shipped six-legged robot's node parameters (`launch_configs/rhex.yaml` over the
+/// defaults), as `name`, value text pairs.
+#[pyfunction]
+fn rhex_params() -> PyResult<Vec<(String, String)>> {
+    let (params, _) = terzaghi::sim::robot::rhex().map_err(err)?;
+    Ok(params
+        .iter()
+        .map(|(k, v)| (k.clone(), v.to_string()))
+        .collect())
+}
+
 /// The native module.
 #[pymodule]
 fn _terzaghi(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -693,6 +870,8 @@ fn _terzaghi(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("REEVALUATE_COLUMNS", COLUMNS.to_vec())?;
     m.add_class::<Online>()?;
     m.add_class::<Batch>()?;
+    m.add_class::<Recorder>()?;
+    m.add_function(wrap_pyfunction!(rhex_params, m)?)?;
     m.add(
         "REGIMES",
         terzaghi::model::Regime::ALL
