@@ -471,21 +471,72 @@ fn r2_rmse(pairs: &[(f64, f64)]) -> (f64, f64) {
 
 /// R^2 of the lift over the loaded rows of a re-evaluation's CSV.
 fn loaded_r2(rows_csv: &Path) -> f64 {
+    let pairs: Vec<(f64, f64)> = replay_rows(rows_csv)
+        .iter()
+        .filter_map(ReplayRow::loaded)
+        .collect();
+    r2_rmse(&pairs).0
+}
+
+/// A row of `replay --reevaluate -o rows.csv`, the columns these tests read.
+struct ReplayRow {
+    t_s: f64,
+    regime: String,
+    measured_lift_n: Option<f64>,
+    predicted_lift_n: f64,
+    identified: bool,
+}
+
+impl ReplayRow {
+    /// `(measured, predicted)` lift of a loaded row with a measurement.
+    fn loaded(&self) -> Option<(f64, f64)> {
+        (self.regime == "penetration")
+            .then_some(self.measured_lift_n)
+            .flatten()
+            .map(|m| (m, self.predicted_lift_n))
+    }
+}
+
+fn replay_rows(rows_csv: &Path) -> Vec<ReplayRow> {
     let mut rdr = csv::Reader::from_path(rows_csv).unwrap();
     let h = rdr.headers().unwrap().clone();
     let col = |c: &str| h.iter().position(|x| x == c).unwrap();
-    let (ir, im, ip) = (
+    let (it, ir, im, ip, iid) = (
+        col("t_s"),
         col("regime"),
         col("measured_lift_n"),
         col("predicted_lift_n"),
+        col("identified"),
     );
-    let pairs: Vec<(f64, f64)> = rdr
-        .records()
-        .map(|r| r.unwrap())
-        .filter(|r| &r[ir] == "penetration" && !r[im].is_empty())
-        .map(|r| (r[im].parse().unwrap(), r[ip].parse().unwrap()))
-        .collect();
-    r2_rmse(&pairs).0
+    rdr.records()
+        .map(|r| {
+            let r = r.unwrap();
+            ReplayRow {
+                t_s: r[it].parse().unwrap(),
+                regime: r[ir].to_string(),
+                measured_lift_n: (!r[im].is_empty()).then(|| r[im].parse().unwrap()),
+                predicted_lift_n: r[ip].parse().unwrap(),
+                identified: &r[iid] == "true" || &r[iid] == "1",
+            }
+        })
+        .collect()
+}
+
+/// `replay --reevaluate` of a CSV log with the node's parameters, the learnt scale used or
+/// not, into `rows_csv`: what it printed (standard output and error).
+fn replay(log: &Path, params: &Path, learn: bool, rows_csv: &Path) -> String {
+    let out = Command::new(terzaghi())
+        .args(["replay", "--reevaluate"])
+        .arg(log)
+        .arg("--params-file")
+        .arg(params)
+        .arg("-p")
+        .arg(format!("use_identified:={learn}"))
+        .arg("-o")
+        .arg(rows_csv)
+        .output()
+        .unwrap();
+    ok(&out) + &String::from_utf8_lossy(&out.stderr)
 }
 
 /// The node's parameters of a plate leg of `diameter_m` in `medium`, with F/T.
@@ -519,32 +570,12 @@ fn each_run_replayed_through_the_node() {
             // As calibrated (nothing fitted to this run), then learning the scale online.
             let [calibrated, learnt] = [false, true].map(|learn| {
                 let rows_csv = dir.path().join(format!("{name}_rows_{learn}.csv"));
-                let out = Command::new(terzaghi())
-                    .args(["replay", "--reevaluate"])
-                    .arg(&log)
-                    .arg("--params-file")
-                    .arg(&params)
-                    .arg("-p")
-                    .arg(format!("use_identified:={learn}"))
-                    .arg("-o")
-                    .arg(&rows_csv)
-                    .output()
-                    .unwrap();
-                (rows_csv, ok(&out) + &String::from_utf8_lossy(&out.stderr))
+                let summary = replay(&log, &params, learn, &rows_csv);
+                (rows_csv, summary)
             });
             let summary = learnt.1.clone();
             let r2_calibrated = loaded_r2(&calibrated.0);
-            let rows_csv = learnt.0;
-            let mut rdr = csv::Reader::from_path(&rows_csv).unwrap();
-            let h = rdr.headers().unwrap().clone();
-            let col = |c: &str| h.iter().position(|x| x == c).unwrap();
-            let (ir, im, ip, iid, it) = (
-                col("regime"),
-                col("measured_lift_n"),
-                col("predicted_lift_n"),
-                col("identified"),
-                col("t_s"),
-            );
+            let rows = replay_rows(&learnt.0);
             // The run's depth by time, to tell the loaded rows deeper than 3 mm (the law's
             // domain in calibration, where the estimator learns).
             let depth_at: Vec<(f64, f64)> = csv::Reader::from_path(&run)
@@ -565,21 +596,17 @@ fn each_run_replayed_through_the_node() {
             let (mut measured, mut predicted, mut identified, mut unloading) =
                 (Vec::new(), Vec::new(), 0, 0);
             let (mut deep, mut deep_identified) = (0, 0);
-            for rec in rdr.records() {
-                let r = rec.unwrap();
-                match &r[ir] {
-                    "penetration" if !r[im].is_empty() => {
-                        measured.push(r[im].parse::<f64>().unwrap());
-                        predicted.push(r[ip].parse::<f64>().unwrap());
-                        let used = &r[iid] == "true" || &r[iid] == "1";
-                        identified += u32::from(used);
-                        if depth(r[it].parse().unwrap()) > 3e-3 {
-                            deep += 1;
-                            deep_identified += u32::from(used);
-                        }
+            for r in &rows {
+                if let Some((m, p)) = r.loaded() {
+                    measured.push(m);
+                    predicted.push(p);
+                    identified += u32::from(r.identified);
+                    if depth(r.t_s) > 3e-3 {
+                        deep += 1;
+                        deep_identified += u32::from(r.identified);
                     }
-                    "unloading" => unloading += 1,
-                    _ => {}
+                } else if r.regime == "unloading" {
+                    unloading += 1;
                 }
             }
             let n = measured.len() as f64;
@@ -629,42 +656,17 @@ fn the_learnt_scale_survives_from_one_intrusion_to_the_next() {
         let log = dir.path().join(format!("joined_{size}_log.csv"));
         as_force_log(&joined, &log);
         let rows_csv = dir.path().join(format!("joined_{size}_rows.csv"));
-        let out = Command::new(terzaghi())
-            .args(["replay", "--reevaluate"])
-            .arg(&log)
-            .arg("--params-file")
-            .arg(&params)
-            .arg("-p")
-            .arg("use_identified:=true")
-            .arg("-o")
-            .arg(&rows_csv)
-            .output()
-            .unwrap();
-        let summary = ok(&out) + &String::from_utf8_lossy(&out.stderr);
+        let summary = replay(&log, &params, true, &rows_csv);
         assert!(summary.contains("changes detected: 0"), "{summary}");
-        let mut rdr = csv::Reader::from_path(&rows_csv).unwrap();
-        let h = rdr.headers().unwrap().clone();
-        let col = |c: &str| h.iter().position(|x| x == c).unwrap();
-        let (ir, im, ip, iid, it) = (
-            col("regime"),
-            col("measured_lift_n"),
-            col("predicted_lift_n"),
-            col("identified"),
-            col("t_s"),
-        );
         // Per intrusion: loaded rows, and those the learnt scale predicted.
         let mut per = vec![(0u32, 0u32); joined_runs.len()];
         let mut pairs = Vec::new();
-        for rec in rdr.records() {
-            let r = rec.unwrap();
-            if &r[ir] != "penetration" || r[im].is_empty() {
-                continue;
-            }
-            let t: f64 = r[it].parse().unwrap();
-            let k = starts.iter().rposition(|s| t >= *s).unwrap();
+        for r in replay_rows(&rows_csv) {
+            let Some(pair) = r.loaded() else { continue };
+            let k = starts.iter().rposition(|s| r.t_s >= *s).unwrap();
             per[k].0 += 1;
-            per[k].1 += u32::from(&r[iid] == "true");
-            pairs.push((r[im].parse::<f64>().unwrap(), r[ip].parse::<f64>().unwrap()));
+            per[k].1 += u32::from(r.identified);
+            pairs.push(pair);
         }
         let (r2, rmse_n) = r2_rmse(&pairs);
         let (all, used) = per.iter().fold((0, 0), |acc, p| (acc.0 + p.0, acc.1 + p.1));

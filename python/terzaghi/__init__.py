@@ -52,6 +52,22 @@ def _finite(name: str, value: Optional[float]) -> Optional[float]:
     return v
 
 
+def _medium(medium, unit_weight_n_m3, phi_deg, delta_deg) -> tuple:
+    """The medium as the native calls take it: a preset's name, or the three soil values."""
+    return (medium, _finite("unit_weight_n_m3", unit_weight_n_m3), _finite("phi_deg", phi_deg),
+            _finite("delta_deg", delta_deg))
+
+
+def _model_tail(b_k, a, rft_coeffs, rft_zeta, rft_elements, shape, c_leg_radius_m,
+                c_leg_span_deg) -> tuple:
+    """The fitting width, RFT's values and the leg's shape as the native calls take them."""
+    if isinstance(rft_elements, bool) or int(rft_elements) != rft_elements or rft_elements < 1:
+        raise TerzaghiError(f"rft_elements = {rft_elements!r}: must be a positive whole number")
+    return (_finite("b_k", b_k), _finite("a", a), rft_coeffs, _finite("rft_zeta", rft_zeta),
+            int(rft_elements), shape, _finite("c_leg_radius_m", c_leg_radius_m),
+            _finite("c_leg_span_deg", c_leg_span_deg))
+
+
 def predict(
     beta_rad: ArrayLike,
     *,
@@ -97,26 +113,15 @@ def predict(
         TerzaghiError: a value the model refuses (a NaN angle, a plate that never enters the
             medium, an unknown preset, ...), named.
     """
-    if isinstance(rft_elements, bool) or int(rft_elements) != rft_elements or rft_elements < 1:
-        raise TerzaghiError(f"rft_elements = {rft_elements!r}: must be a positive whole number")
     drag, lift, torque, submerged, depth, regime = _terzaghi.predict(
         beta_rad,
         model,
         float(length_m),
         float(width_m),
         float(hip_height_m),
-        medium,
-        _finite("unit_weight_n_m3", unit_weight_n_m3),
-        _finite("phi_deg", phi_deg),
-        _finite("delta_deg", delta_deg),
-        _finite("b_k", b_k),
-        _finite("a", a),
-        rft_coeffs,
-        _finite("rft_zeta", rft_zeta),
-        int(rft_elements),
-        shape,
-        _finite("c_leg_radius_m", c_leg_radius_m),
-        _finite("c_leg_span_deg", c_leg_span_deg),
+        *_medium(medium, unit_weight_n_m3, phi_deg, delta_deg),
+        *_model_tail(b_k, a, rft_coeffs, rft_zeta, rft_elements, shape, c_leg_radius_m,
+                     c_leg_span_deg),
     )
     return {
         "drag_n": drag,
@@ -164,10 +169,7 @@ def fit(
         float(length_m),
         float(width_m),
         float(hip_height_m),
-        medium,
-        _finite("unit_weight_n_m3", unit_weight_n_m3),
-        _finite("phi_deg", phi_deg),
-        _finite("delta_deg", delta_deg),
+        *_medium(medium, unit_weight_n_m3, phi_deg, delta_deg),
         bool(fit_delta),
         bool(all_regimes),
     )
@@ -209,10 +211,7 @@ class OnlineEstimator:
             float(length_m),
             float(width_m),
             float(hip_height_m),
-            medium,
-            _finite("unit_weight_n_m3", unit_weight_n_m3),
-            _finite("phi_deg", phi_deg),
-            _finite("delta_deg", delta_deg),
+            *_medium(medium, unit_weight_n_m3, phi_deg, delta_deg),
             bool(fit_delta),
             _finite("forgetting", forgetting),
             _finite("min_unit_force_n", min_unit_force_n),

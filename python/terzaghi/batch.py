@@ -19,7 +19,7 @@ from typing import Optional, Tuple
 
 import numpy as np
 
-from . import _terzaghi, _finite, TerzaghiError
+from . import TerzaghiError, _medium, _model_tail, _terzaghi
 
 __all__ = ["LegBatch"]
 
@@ -63,24 +63,13 @@ class LegBatch:
         c_leg_radius_m: Optional[float] = None,
         c_leg_span_deg: Optional[float] = None,
     ) -> None:
-        if isinstance(rft_elements, bool) or int(rft_elements) != rft_elements or rft_elements < 1:
-            raise TerzaghiError(f"rft_elements = {rft_elements!r}: must be a positive whole number")
         self._inner = _terzaghi.Batch(
             model,
             float(length_m),
             float(width_m),
-            medium,
-            _finite("unit_weight_n_m3", unit_weight_n_m3),
-            _finite("phi_deg", phi_deg),
-            _finite("delta_deg", delta_deg),
-            _finite("b_k", b_k),
-            _finite("a", a),
-            rft_coeffs,
-            _finite("rft_zeta", rft_zeta),
-            int(rft_elements),
-            shape,
-            _finite("c_leg_radius_m", c_leg_radius_m),
-            _finite("c_leg_span_deg", c_leg_span_deg),
+            *_medium(medium, unit_weight_n_m3, phi_deg, delta_deg),
+            *_model_tail(b_k, a, rft_coeffs, rft_zeta, rft_elements, shape, c_leg_radius_m,
+                         c_leg_span_deg),
         )
 
     def forces(

@@ -201,12 +201,10 @@ def diagnose_fleet(
         raise ValueError(
             f"threads_per_recording = {threads_per_recording!r}: must be a positive whole number"
         )
-    own = None
-    if client is None:
-        client, own = _client(scheduler, int(workers), threads_per_recording)
-        owned_client = client
-    else:
-        owned_client = None
+    own = client is None
+    cluster = None
+    if own:
+        client, cluster = _client(scheduler, int(workers), threads_per_recording)
     try:
         futures = client.map(
             diagnose_recording,
@@ -217,10 +215,10 @@ def diagnose_fleet(
         )
         results = client.gather(futures)
     finally:
-        if owned_client is not None:
-            owned_client.close()
-        if own is not None:
-            own.close()
+        if own:
+            client.close()
+        if cluster is not None:
+            cluster.close()
     rows = [row for rs in results for row in rs]
     df = pd.DataFrame(rows, columns=COLUMNS)
     if table is not None:

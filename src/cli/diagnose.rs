@@ -9,7 +9,7 @@ use crate::session::diagnose::{
     DiagnoseFileOptions, Diagnosed, Written, diagnose_file, write_reports,
 };
 use crate::session::legs::{JointLeg, LegsFrom};
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use clap::Args;
 use std::path::{Path, PathBuf};
 
@@ -246,41 +246,24 @@ fn plate_from_flags(a: &DiagnoseArgs) -> Result<Plate> {
 
 /// A plate-sinkage test judged against a calibrated medium; report.json in --out.
 fn plate_test(a: &DiagnoseArgs) -> Result<()> {
-    use crate::model::sinkage::{PlateShape, RegimeOptions};
-    use crate::session::plate_test::{
-        DepthColumn, MediumFile, diagnose_test, diagnosis_text, read_test,
-    };
+    use crate::model::sinkage::PlateShape;
+    use crate::session::plate_test::{diagnose_test_to_dir, diagnosis_text};
     let Some(medium_file) = &a.medium_file else {
         bail!(
             "{} is a plate-sinkage test: give the medium to judge it against with --medium-file (written by terzaghi calibrate on other tests)",
             a.log.display()
         );
     };
-    let inputs = [a.log.as_path(), medium_file.as_path()];
-    crate::session::files::refuse_output_over_input(&a.out, &inputs)?;
-    let report = a.out.join("report.json");
-    crate::session::files::refuse_output_over_input(&report, &inputs)?;
     if a.json {
-        crate::session::files::refuse_stdout_over_input(&inputs)?;
+        crate::session::files::refuse_stdout_over_input(&[a.log.as_path(), medium_file.as_path()])?;
     }
-    let medium = MediumFile::read(medium_file)?;
     let plate = a.plate_diameter_m.map(PlateShape::disc).transpose()?;
-    let test = read_test(
-        &a.log,
-        plate,
-        DepthColumn::AsLogged,
-        &RegimeOptions::default(),
-    )?;
-    let d = diagnose_test(&test, &medium)?;
-    let json = serde_json::to_string_pretty(&d)? + "\n";
-    std::fs::create_dir_all(&a.out)
-        .map_err(anyhow::Error::from)
-        .context(crate::session::files::cannot_write(&a.out))?;
-    crate::session::files::write_text(&report, &json)
-        .context(crate::session::files::cannot_write(&report))?;
+    let (d, json) = diagnose_test_to_dir(&a.log, medium_file, plate, &a.out)?;
     if a.json {
         print_out(&json)
     } else {
-        print_out(&(diagnosis_text(&d) + &format!("wrote {}\n", report.display())))
+        print_out(
+            &(diagnosis_text(&d) + &format!("wrote {}\n", a.out.join("report.json").display())),
+        )
     }
 }

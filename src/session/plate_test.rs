@@ -350,9 +350,12 @@ fn intrusions(rows: &[TestRow]) -> Vec<std::ops::Range<usize>> {
 }
 
 /// The stretches of rows at least [`OUT_OF_MEDIUM_M`] above the surface, each with the
-/// intrusion it comes before (0-based; the number of intrusions for one after the last).
-fn out_of_medium(rows: &[TestRow]) -> Vec<(std::ops::Range<usize>, usize)> {
-    let parts = intrusions(rows);
+/// intrusion of `parts` ([`intrusions`]) it comes before (0-based; `parts.len()` for one after
+/// the last).
+fn out_of_medium(
+    rows: &[TestRow],
+    parts: &[std::ops::Range<usize>],
+) -> Vec<(std::ops::Range<usize>, usize)> {
     let mut out = Vec::new();
     let mut start = None;
     for i in 0..=rows.len() {
@@ -706,20 +709,20 @@ pub fn diagnose_test(test: &PlateTest, medium: &MediumFile) -> Result<TestDiagno
         .collect();
     let gap = diagnose_sinkage(&model, &test.plate, &samples)
         .with_context(|| format!("{}", test.file.display()))?;
+    let parts = intrusions(&test.rows);
     let offsets = test
         .sidecar
         .as_ref()
         .and_then(|sc| sc.zero_fz_n)
         .map(|zero| {
-            let intrusions = intrusions(&test.rows).len();
             let mut readings: Vec<OffsetReading> = Vec::new();
-            for (range, next) in out_of_medium(&test.rows) {
+            for (range, next) in out_of_medium(&test.rows, &parts) {
                 let rows = &test.rows[range];
                 let raw: Vec<f64> = rows.iter().filter_map(|r| r.raw_force_n).collect();
                 if raw.is_empty() {
                     continue;
                 }
-                let before_intrusion = (next < intrusions).then_some(next + 1);
+                let before_intrusion = (next < parts.len()).then_some(next + 1);
                 let (from_s, to_s) = (rows[0].t_s, rows[rows.len() - 1].t_s);
                 let sum: f64 = raw.iter().sum();
                 match readings.last_mut() {
@@ -752,10 +755,40 @@ pub fn diagnose_test(test: &PlateTest, medium: &MediumFile) -> Result<TestDiagno
         file: test.file.clone(),
         plate: test.plate.label(),
         medium: format!("{} ({})", medium.name, medium.law.name()),
-        intrusions: test.intrusions(),
+        intrusions: parts.len(),
         gap,
         offsets,
     })
+}
+
+/// Diagnoses the test `file` (its plate from its JSON, else `plate`) against the medium file
+/// `medium_file`, and writes the diagnosis as `report.json` into `out` (made if missing); an
+/// output that would overwrite either input is refused before anything is read. Returns the
+/// diagnosis and the JSON written.
+pub fn diagnose_test_to_dir(
+    file: &Path,
+    medium_file: &Path,
+    plate: Option<PlateShape>,
+    out: &Path,
+) -> Result<(TestDiagnosis, String)> {
+    let inputs = [file, medium_file];
+    super::files::refuse_output_over_input(out, &inputs)?;
+    let report = out.join("report.json");
+    super::files::refuse_output_over_input(&report, &inputs)?;
+    let medium = MediumFile::read(medium_file)?;
+    let test = read_test(
+        file,
+        plate,
+        DepthColumn::AsLogged,
+        &RegimeOptions::default(),
+    )?;
+    let d = diagnose_test(&test, &medium)?;
+    let json = serde_json::to_string_pretty(&d)? + "\n";
+    std::fs::create_dir_all(out)
+        .map_err(anyhow::Error::from)
+        .context(super::files::cannot_write(out))?;
+    super::files::write_text(&report, &json).context(super::files::cannot_write(&report))?;
+    Ok((d, json))
 }
 
 /// A test's diagnosis in words.

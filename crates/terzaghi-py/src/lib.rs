@@ -72,12 +72,7 @@ fn spec(
         length_m,
         width_m,
         hip_height_m,
-        medium: MediumSpec {
-            preset: medium,
-            unit_weight_n_m3,
-            phi_deg,
-            delta_deg,
-        },
+        medium: medium_spec(medium, unit_weight_n_m3, phi_deg, delta_deg),
         b_k,
         a,
         rft_coeffs,
@@ -85,6 +80,21 @@ fn spec(
         rft_elements,
         shape,
     })
+}
+
+/// The medium the Python arguments name: a preset, or the three soil values.
+fn medium_spec(
+    preset: Option<String>,
+    unit_weight_n_m3: Option<f64>,
+    phi_deg: Option<f64>,
+    delta_deg: Option<f64>,
+) -> MediumSpec {
+    MediumSpec {
+        preset,
+        unit_weight_n_m3,
+        phi_deg,
+        delta_deg,
+    }
 }
 
 /// The conventional model of a plate and medium: the base the fits scale.
@@ -253,12 +263,7 @@ fn fit_json(
         length_m,
         width_m,
         hip_height_m,
-        MediumSpec {
-            preset: medium,
-            unit_weight_n_m3,
-            phi_deg,
-            delta_deg,
-        },
+        medium_spec(medium, unit_weight_n_m3, phi_deg, delta_deg),
     )?;
     let samples = samples(&beta_rad, &drag_n, &lift_n, None)?;
     let opts = BatchOptions {
@@ -299,12 +304,7 @@ impl Online {
             length_m,
             width_m,
             hip_height_m,
-            MediumSpec {
-                preset: medium,
-                unit_weight_n_m3,
-                phi_deg,
-                delta_deg,
-            },
+            medium_spec(medium, unit_weight_n_m3, phi_deg, delta_deg),
         )?;
         let mut opts = OnlineOptions {
             fit_delta,
@@ -361,22 +361,18 @@ fn diagnose_json(
     py.detach(|| -> anyhow::Result<String> {
         use terzaghi::session::diagnose::{DiagnoseFileOptions, diagnose_file, write_reports};
         if terzaghi::session::plate_test::is_plate_test(&path) {
-            use terzaghi::model::sinkage::RegimeOptions;
-            use terzaghi::session::plate_test::{
-                DepthColumn, MediumFile, diagnose_test, read_test,
-            };
             let Some(medium_file) = medium_file else {
                 anyhow::bail!(
                     "{} is a plate-sinkage test: give the medium to judge it against (medium_file, written by terzaghi calibrate)",
                     path.display()
                 );
             };
-            let medium = MediumFile::read(&medium_file)?;
-            let test = read_test(&path, None, DepthColumn::AsLogged, &RegimeOptions::default())?;
-            let d = diagnose_test(&test, &medium)?;
-            let json = serde_json::to_string_pretty(&d)? + "\n";
-            std::fs::create_dir_all(&out)?;
-            terzaghi::session::files::write_text(&out.join("report.json"), &json)?;
+            let (_, json) = terzaghi::session::plate_test::diagnose_test_to_dir(
+                &path,
+                &medium_file,
+                None,
+                &out,
+            )?;
             return Ok(format!("[{json}]"));
         }
         let d = diagnose_file(&path, &DiagnoseFileOptions::default())?;
