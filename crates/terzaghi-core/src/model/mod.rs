@@ -144,6 +144,7 @@ pub enum ModelError {
     },
 }
 
+#[inline]
 pub(crate) fn finite(name: &'static str, value: f64) -> Result<f64, ModelError> {
     if value.is_finite() {
         Ok(value)
@@ -311,6 +312,7 @@ impl ForceModel {
     /// The prediction with the hip where the robot's state puts it: the flat-plate model at
     /// `hip.height_m` and the attack angle shifted by the body's pitch (it is quasi-static: the
     /// hip's velocity does not enter it); RFT with each element's own velocity as well.
+    #[inline]
     pub fn predict_moving(&self, beta_rad: f64, hip: &HipMotion) -> Result<Prediction, ModelError> {
         match self {
             ForceModel::Terzaghi(m) => m

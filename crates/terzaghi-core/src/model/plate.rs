@@ -43,6 +43,17 @@ impl Plate {
         })
     }
 
+    /// This plate with its hip at `hip_height_m`, which the caller has checked to be finite and
+    /// not negative: the per-sample path, which need not check the length and width again.
+    #[inline]
+    pub(crate) fn at_checked_hip_height(&self, hip_height_m: f64) -> Plate {
+        debug_assert!(hip_height_m.is_finite() && hip_height_m >= 0.0);
+        Plate {
+            hip_height_m,
+            ..*self
+        }
+    }
+
     /// The plate's length from the hip to its tip (m).
     pub fn length_m(&self) -> f64 {
         self.length_m
@@ -78,6 +89,7 @@ impl Plate {
     }
 
     /// [`Self::submerged_length_m`] from `sin(beta)`, for a caller that has it already.
+    #[inline]
     pub(crate) fn submerged_length_at_sin_m(&self, s: f64) -> f64 {
         if s <= 0.0 {
             return 0.0;
@@ -93,6 +105,7 @@ impl Plate {
 /// use terzaghi_core::model::wrap_beta_rad;
 /// assert!((wrap_beta_rad(std::f64::consts::TAU + 1.0) - 1.0).abs() < 1e-12);
 /// ```
+#[inline]
 pub fn wrap_beta_rad(beta_rad: f64) -> f64 {
     if (0.0..TAU).contains(&beta_rad) {
         return beta_rad; // the common case, without a division

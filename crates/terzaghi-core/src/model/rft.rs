@@ -788,6 +788,8 @@ pub struct RftModel {
     /// A leg that is not a flat plate: its mid-line `(s, q)` in the leg's frame (see
     /// [`rft_leg`]); `None` for the plate itself.
     profile: Option<Vec<(f64, f64)>>,
+    /// The profile cut into this model's elements, once.
+    profile_elements: Option<Box<LegElements>>,
     /// The dynamic stress of the element's speed; `None`: quasi-static.
     speed_law: Option<RftSpeedLaw>,
 }
@@ -813,6 +815,7 @@ impl RftModel {
             coefficients,
             elements,
             profile: None,
+            profile_elements: None,
             speed_law: None,
         })
     }
@@ -847,6 +850,8 @@ impl RftModel {
         }
         check_profile(&profile).map_err(|problem| ModelError::BadProfile { problem })?;
         let mut m = RftModel::new(plate, coefficients, elements)?;
+        let per_segment = (elements / (profile.len() - 1)).max(1);
+        m.profile_elements = Some(Box::new(LegElements::new(&profile, per_segment)));
         m.profile = Some(profile);
         Ok(m)
     }
@@ -862,15 +867,19 @@ impl RftModel {
     }
 
     /// [`Self::evaluate`] for a leg of another shape: RFT element by element over its mid-line.
-    fn evaluate_profile(&self, beta: f64, line: &[(f64, f64)], hip: &HipMotion) -> Prediction {
-        let per_segment = (self.elements / (line.len() - 1)).max(1);
-        let (drag, lift, torque) = rft_leg_moving(
+    fn evaluate_profile(
+        &self,
+        beta: f64,
+        line: &[(f64, f64)],
+        elements: &LegElements,
+        hip: &HipMotion,
+    ) -> Prediction {
+        let (drag, lift, torque) = rft_elements_moving(
             &self.coefficients,
-            line,
+            elements,
             self.plate.width_m(),
             hip.height_m,
             beta,
-            per_segment,
             (hip.omega_rad_s, hip.leg_frame_velocity_m_s()),
             self.speed_law.as_ref(),
         );
@@ -878,10 +887,11 @@ impl RftModel {
         let (sin_b, cos_b) = beta.sin_cos();
         let depth_at = |(s, q): (f64, f64)| s * sin_b + q * cos_b - hip.height_m;
         let depth = line.iter().map(|p| depth_at(*p)).fold(0.0f64, f64::max);
-        let submerged: f64 = line
-            .windows(2)
-            .filter(|w| depth_at(((w[0].0 + w[1].0) / 2.0, (w[0].1 + w[1].1) / 2.0)) > 0.0)
-            .map(|w| (w[1].0 - w[0].0).hypot(w[1].1 - w[0].1))
+        let submerged: f64 = elements
+            .segments
+            .iter()
+            .filter(|&&(s, q, _)| depth_at((s, q)) > 0.0)
+            .map(|&(_, _, len)| len)
             .sum();
         let regime = if depth <= 0.0 {
             Regime::OutOfMedium
@@ -925,8 +935,8 @@ impl RftModel {
     ) -> Result<Prediction, ModelError> {
         let beta = wrap_beta_rad(finite("attack angle beta (rad)", beta_rad)? + hip.pitch_rad);
         let h = finite("hip height (m)", hip.height_m)?;
-        if let Some(line) = &self.profile {
-            return Ok(self.evaluate_profile(beta, line, hip));
+        if let (Some(line), Some(elements)) = (&self.profile, &self.profile_elements) {
+            return Ok(self.evaluate_profile(beta, line, elements, hip));
         }
         let plate = Plate::new(self.plate.length_m(), self.plate.width_m(), h.max(0.0))?;
         let l_s = plate.submerged_length_m(beta);
@@ -1067,6 +1077,68 @@ pub fn rft_leg_moving(
     hip_height_m: f64,
     beta_rad: f64,
     per_segment: usize,
+    motion: (f64, [f64; 2]),
+    speed_law: Option<&RftSpeedLaw>,
+) -> (f64, f64, f64) {
+    rft_elements_moving(
+        coefficients,
+        &LegElements::new(line, per_segment),
+        width_m,
+        hip_height_m,
+        beta_rad,
+        motion,
+        speed_law,
+    )
+}
+
+/// A leg's mid-line cut into RFT elements: what each element needs of the line, in the leg's
+/// frame, computed once for the leg rather than for every element of every prediction.
+#[derive(Debug, Clone, PartialEq)]
+struct LegElements {
+    /// Per element: its middle `(s, q)`, its length (m), the cosine and sine of twice its
+    /// segment's direction (`(ds + i dq)^2 / |ds + i dq|^2`), and that direction as a unit
+    /// vector `(ds, dq)`.
+    elements: Vec<[f64; 7]>,
+    /// Per segment: its middle `(s, q)` and its length (m).
+    segments: Vec<(f64, f64, f64)>,
+}
+
+impl LegElements {
+    /// `line`'s segments, each cut into `per_segment` (at least 1) equal elements.
+    fn new(line: &[(f64, f64)], per_segment: usize) -> Self {
+        let per = per_segment.max(1);
+        let mut elements = Vec::with_capacity(per * line.len().saturating_sub(1));
+        let mut segments = Vec::with_capacity(line.len().saturating_sub(1));
+        for seg in line.windows(2) {
+            let (ds, dq) = (seg[1].0 - seg[0].0, seg[1].1 - seg[0].1);
+            let l2 = ds * ds + dq * dq;
+            let l = l2.sqrt();
+            let (c2, s2) = ((ds * ds - dq * dq) / l2, 2.0 * ds * dq / l2);
+            for k in 0..per {
+                let t = (k as f64 + 0.5) / per as f64;
+                elements.push([
+                    seg[0].0 + t * ds,
+                    seg[0].1 + t * dq,
+                    l / per as f64,
+                    c2,
+                    s2,
+                    ds / l,
+                    dq / l,
+                ]);
+            }
+            segments.push((seg[0].0 + 0.5 * ds, seg[0].1 + 0.5 * dq, l));
+        }
+        LegElements { elements, segments }
+    }
+}
+
+/// [`rft_leg_moving`] over a line already cut into `elements`.
+fn rft_elements_moving(
+    coefficients: &RftCoefficients,
+    elements: &LegElements,
+    width_m: f64,
+    hip_height_m: f64,
+    beta_rad: f64,
     (omega_rad_s, hip_velocity_m_s): (f64, [f64; 2]),
     speed_law: Option<&RftSpeedLaw>,
 ) -> (f64, f64, f64) {
@@ -1080,44 +1152,61 @@ pub fn rft_leg_moving(
     let speed_law = speed_law.filter(|_| !still && omega_rad_s.is_finite());
     let (sin_b, cos_b) = beta_rad.sin_cos();
     let (u, n) = ((-cos_b, -sin_b), (sin_b, -cos_b));
-    let world = |(s, q): (f64, f64)| (s * u.0 + q * n.0, s * u.1 + q * n.1);
+    // A point `s u + q n` is `-(s + i q) e^(i beta)` in the plane (x + i z), so a segment's
+    // direction turns with the chord, and twice its angle by `e^(2 i beta)`.
+    let (c2b, s2b) = (cos_b * cos_b - sin_b * sin_b, 2.0 * sin_b * cos_b);
     let (mut drag, mut lift, mut torque) = (0.0, 0.0, 0.0);
-    for seg in line.windows(2) {
-        let (a, b) = (world(seg[0]), world(seg[1]));
-        for k in 0..per_segment.max(1) {
-            let t = (k as f64 + 0.5) / per_segment.max(1) as f64;
-            let (s, q) = (
-                seg[0].0 + t * (seg[1].0 - seg[0].0),
-                seg[0].1 + t * (seg[1].1 - seg[0].1),
-            );
-            let p = world((s, q));
-            let depth = -(hip_height_m + p.1);
-            if depth <= 0.0 {
-                continue;
-            }
-            let len =
-                ((b.0 - a.0).powi(2) + (b.1 - a.1).powi(2)).sqrt() / per_segment.max(1) as f64;
-            let (tx, tz) = (b.0 - a.0, b.1 - a.1);
-            let (vx, vz) = (
-                omega * (s * n.0 - q * u.0) + v_hip[0],
-                omega * (s * n.1 - q * u.1) + v_hip[1],
-            );
-            if vx == 0.0 && vz == 0.0 {
-                continue;
-            }
-            // Mirror x when the element moves toward -x.
-            let m = if vx < 0.0 { -1.0 } else { 1.0 };
-            let (ax, az) = coefficients.alpha_along((m * tx, tz), (m * vx, vz));
-            let extra = speed_law.map_or(0.0, |law| law.extra_depth_of_velocity_m(vx, vz));
-            let k = N_CM3_TO_N_M3 * (depth + extra) * width_m * len;
-            // alpha_x resists the motion's horizontal part: F_x = -m ax k.
-            let (fx, fz) = (-m * ax * k, az * k);
-            drag -= fx;
-            lift += fz;
-            torque += p.1 * fx - p.0 * fz;
+    for &[s, q, len, c2, s2, ds, dq] in &elements.elements {
+        let p = (s * u.0 + q * n.0, s * u.1 + q * n.1);
+        let depth = -(hip_height_m + p.1);
+        if depth <= 0.0 {
+            continue;
         }
+        let (vx, vz) = (
+            omega * (s * n.0 - q * u.0) + v_hip[0],
+            omega * (s * n.1 - q * u.1) + v_hip[1],
+        );
+        if vx == 0.0 && vz == 0.0 {
+            continue;
+        }
+        let speed = speed_m_s(vx, vz);
+        // Mirror x when the element moves toward -x (the mirror flips the sine of twice the
+        // element's angle).
+        let m = if vx < 0.0 { -1.0 } else { 1.0 };
+        let (ax, az) = match coefficients {
+            RftCoefficients::Fit(f) => f.alpha_trig(
+                (c2 * c2b - s2 * s2b, m * (c2 * s2b + s2 * c2b)),
+                (m * vx / speed, -vz / speed),
+            ),
+            RftCoefficients::Grid(_) => coefficients.alpha_along(
+                (-m * (ds * cos_b - dq * sin_b), -(ds * sin_b + dq * cos_b)),
+                (m * vx, vz),
+            ),
+        };
+        let extra = speed_law.map_or(0.0, |law| {
+            law.extra_at_sine_m(speed, (-vz / speed).clamp(-1.0, 1.0))
+        });
+        let k = N_CM3_TO_N_M3 * (depth + extra) * width_m * len;
+        // alpha_x resists the motion's horizontal part: F_x = -m ax k.
+        let (fx, fz) = (-m * ax * k, az * k);
+        drag -= fx;
+        lift += fz;
+        torque += p.1 * fx - p.0 * fz;
     }
     (drag, lift, torque)
+}
+
+/// The speed of a velocity `(vx, vz)`, not both zero: the square root of the sum of squares,
+/// and `hypot` (several times slower, the most of an RFT element's cost) only where the squares
+/// would overflow or underflow.
+#[inline]
+fn speed_m_s(vx: f64, vz: f64) -> f64 {
+    let v2 = vx * vx + vz * vz;
+    if v2.is_finite() && v2 > 1e-290 {
+        v2.sqrt()
+    } else {
+        vx.hypot(vz)
+    }
 }
 
 /// The mid-line of a C-leg (an arc of `radius_m` spanning `span_rad`, from the hip to the tip,
@@ -1731,5 +1820,113 @@ mod tests {
             ratio(entry),
             ratio(FRAC_PI_2)
         );
+    }
+
+    /// The element sum with each element's segment and direction precomputed in the leg's frame
+    /// (the batch's path) gives what a plain sum gives, element by element, with the angles
+    /// taken by atan2 from the element's world direction and velocity: C-legs and random
+    /// polylines, fitted and gridded coefficients, turning, moving and still, with and without
+    /// a speed law.
+    #[test]
+    fn the_precomputed_element_sum_is_the_plain_one() {
+        use rand::{Rng, SeedableRng};
+        let plain = |c: &RftCoefficients,
+                     line: &[(f64, f64)],
+                     h: f64,
+                     beta: f64,
+                     per: usize,
+                     (omega, v_hip): (f64, [f64; 2]),
+                     law: Option<&RftSpeedLaw>| {
+            let still = omega == 0.0 && v_hip == [0.0, 0.0];
+            let (omega, v_hip) = if still {
+                (1.0, [0.0, 0.0])
+            } else {
+                (omega, v_hip)
+            };
+            let law = law.filter(|_| !still);
+            let world = |(s, q): (f64, f64)| {
+                (
+                    -s * beta.cos() + q * beta.sin(),
+                    -s * beta.sin() - q * beta.cos(),
+                )
+            };
+            let (mut drag, mut lift, mut torque) = (0.0, 0.0, 0.0);
+            for seg in line.windows(2) {
+                let (a, b) = (world(seg[0]), world(seg[1]));
+                for k in 0..per {
+                    let t = (k as f64 + 0.5) / per as f64;
+                    let sq = (
+                        seg[0].0 + t * (seg[1].0 - seg[0].0),
+                        seg[0].1 + t * (seg[1].1 - seg[0].1),
+                    );
+                    let p = world(sq);
+                    let depth = -(h + p.1);
+                    if depth <= 0.0 {
+                        continue;
+                    }
+                    // The velocity of a point: omega times the point turned a quarter ahead.
+                    let ahead = world((-sq.1, sq.0));
+                    let (vx, vz) = (omega * ahead.0 + v_hip[0], omega * ahead.1 + v_hip[1]);
+                    let m = if vx < 0.0 { -1.0 } else { 1.0 };
+                    let beta_r = wrap_half_pi((b.1 - a.1).atan2(m * (b.0 - a.0)));
+                    let (ax, az) = c.alpha(beta_r, (-vz).atan2(m * vx));
+                    let extra = law.map_or(0.0, |l| l.extra_depth_of_velocity_m(vx, vz));
+                    let len = (b.0 - a.0).hypot(b.1 - a.1) / per as f64;
+                    let f = N_CM3_TO_N_M3 * (depth + extra) * 0.03 * len;
+                    let (fx, fz) = (-m * ax * f, az * f);
+                    drag -= fx;
+                    lift += fz;
+                    torque += p.1 * fx - p.0 * fz;
+                }
+            }
+            (drag, lift, torque)
+        };
+        let mut rng = rand::rngs::StdRng::seed_from_u64(11);
+        let law = RftSpeedLaw::new(0.05, 0.03, 1.0).unwrap();
+        let mut compared = 0;
+        for c in [
+            RftCoefficients::Fit(RftFit::POPPY_LP),
+            RftCoefficients::Grid(RftGrid::poppy_lp()),
+        ] {
+            for trial in 0..300 {
+                let line = if trial % 2 == 0 {
+                    c_leg_profile(0.05, rng.random_range(1.0..PI), rng.random_range(1..40))
+                } else {
+                    // A random walk forward along the chord, bending either way.
+                    let mut pts = vec![(0.0, 0.0)];
+                    for _ in 0..rng.random_range(1..8) {
+                        let &(s, q) = pts.last().unwrap();
+                        pts.push((
+                            s + rng.random_range(0.005..0.03),
+                            q + rng.random_range(-0.02..0.02),
+                        ));
+                    }
+                    pts
+                };
+                let per = rng.random_range(1..6);
+                let h = rng.random_range(-0.02..0.08);
+                let beta = rng.random_range(0.0..std::f64::consts::TAU);
+                let motion = match trial % 3 {
+                    0 => (0.0, [0.0, 0.0]),
+                    1 => (rng.random_range(-8.0..8.0), [0.0, 0.0]),
+                    _ => (
+                        rng.random_range(-8.0..8.0),
+                        [rng.random_range(-0.3..0.3), rng.random_range(-0.1..0.1)],
+                    ),
+                };
+                let law = (trial % 4 == 0).then_some(&law);
+                let got = rft_leg_moving(&c, &line, 0.03, h, beta, per, motion, law);
+                let want = plain(&c, &line, h, beta, per, motion, law);
+                let scale = want.0.abs().max(want.1.abs()).max(1e-6);
+                for (g, w) in [(got.0, want.0), (got.1, want.1), (got.2, want.2)] {
+                    assert!(
+                        (g - w).abs() <= 1e-9 * scale,
+                        "{line:?} h {h} beta {beta} {motion:?}: {got:?} against {want:?}"
+                    );
+                }
+                compared += usize::from(want.1 != 0.0);
+            }
+        }
+        assert!(compared > 200, "only {compared} legs in the medium");
     }
 }

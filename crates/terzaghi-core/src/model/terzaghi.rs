@@ -66,6 +66,7 @@ pub struct TerzaghiForce {
 
 impl TerzaghiForce {
     /// The parts every model gives.
+    #[inline]
     pub fn prediction(&self) -> Prediction {
         Prediction {
             beta_rad: self.beta_rad,
@@ -92,8 +93,10 @@ struct MediumConstants {
     cos_alpha: f64,
     /// `K_p = tan^2(pi/4 + phi/2)`
     k_p: f64,
-    /// `3 (1 + 9 k^2)`
-    spiral_den: f64,
+    /// `1 / (3 (1 + 9 k^2))`
+    inv_spiral_den: f64,
+    /// `1 / (4 k)`
+    inv_4k: f64,
     tan_delta: f64,
 }
 
@@ -110,7 +113,8 @@ impl MediumConstants {
             sin_alpha: alpha.sin(),
             cos_alpha: alpha.cos(),
             k_p: (FRAC_PI_4 + phi / 2.0).tan().powi(2),
-            spiral_den: 3.0 * (1.0 + 9.0 * k * k),
+            inv_spiral_den: 1.0 / (3.0 * (1.0 + 9.0 * k * k)),
+            inv_4k: 1.0 / (4.0 * k),
             tan_delta: m.delta_rad().tan(),
         }
     }
@@ -186,7 +190,7 @@ impl TerzaghiModel {
     /// surface is clamped to it (the model's plate rotates above the medium).
     pub fn with_hip_height_m(&self, hip_height_m: f64) -> Result<Self, ModelError> {
         let h = finite("hip height (m)", hip_height_m)?.max(0.0);
-        let plate = Plate::new(self.plate.length_m(), self.plate.width_m(), h)?;
+        let plate = self.plate.at_checked_hip_height(h);
         Ok(TerzaghiModel {
             plate,
             submerged_rad: submerged_range_rad(&plate),
@@ -215,13 +219,14 @@ impl TerzaghiModel {
     /// Forces at attack angle `beta_rad` with the hip at `hip_height_m` above the surface: what
     /// `with_hip_height_m(hip_height_m)?.evaluate(beta_rad)` gives, without building that
     /// model (the node's path for a hip the robot's state places, every sample of every leg).
+    #[inline]
     pub fn evaluate_at_height(
         &self,
         beta_rad: f64,
         hip_height_m: f64,
     ) -> Result<TerzaghiForce, ModelError> {
         let h = finite("hip height (m)", hip_height_m)?.max(0.0);
-        let plate = Plate::new(self.plate.length_m(), self.plate.width_m(), h)?;
+        let plate = self.plate.at_checked_hip_height(h);
         let beta = wrap_beta_rad(finite("attack angle beta (rad)", beta_rad)?);
         // The trigonometry is skipped only where the plate points up; the submerged length
         // decides the rest, as the entry angle's range would (without its asin).
@@ -229,6 +234,7 @@ impl TerzaghiModel {
     }
 
     /// `f`, or the overflow error of its angle where a force is not finite.
+    #[inline]
     fn checked(&self, f: TerzaghiForce) -> Result<TerzaghiForce, ModelError> {
         if f.hip_torque_nm.is_finite() && f.drag_n.is_finite() && f.lift_n.is_finite() {
             Ok(f)
@@ -247,6 +253,7 @@ impl TerzaghiModel {
 
     /// The forces on `plate` (this model's, or its hip elsewhere) at a wrapped `beta`; the
     /// trigonometry skipped outside `submerged_rad`, where the plate is out of the medium.
+    #[inline]
     fn evaluate_wrapped_on(
         &self,
         plate: &Plate,
@@ -281,7 +288,8 @@ impl TerzaghiModel {
         let theta = c.theta_end - beta; // Eq. (13)
         let d_perp = 2.0 / 3.0 * l_s; // Eq. (21)
 
-        let (regime, terms) = if theta > 0.0 {
+        // The log spiral's moment is kept as computed: G_lg d_lg again would cost a division.
+        let (regime, terms, moment_lg) = if theta > 0.0 {
             let e1 = (theta * c.k).exp();
             let r_b = l_s * e1; // |OB|
             // Eq. (14): sector area l_s^2 (e^{2 theta k} - 1) / (4k); exp_m1 keeps it exact near
@@ -291,14 +299,14 @@ impl TerzaghiModel {
             } else {
                 e1 * e1 - 1.0
             };
-            let g_lg = w * l_s * l_s * e2_m1 / (4.0 * c.k);
+            let g_lg = w * l_s * l_s * e2_m1 * c.inv_4k;
             // Eqs. (15)-(16): G_lg d_lg = w l_s^3 f / (3 (1 + 9k^2)), with
             // f = sin b + 3k cos b + e^{3 theta k} [3k cos(pi + b + theta) - sin(b + theta)],
             // and b + theta = 3pi/4 + phi/2 = pi - alpha, so cos(pi+b+theta) = cos(alpha),
             // sin(b+theta) = sin(alpha).
             let f =
                 sin_b + 3.0 * c.k * cos_b + e1 * e1 * e1 * (3.0 * c.k * c.cos_alpha - c.sin_alpha);
-            let moment_lg = w * l_s * l_s * l_s * f / c.spiral_den;
+            let moment_lg = w * l_s * l_s * l_s * f * c.inv_spiral_den;
             let d_lg = if g_lg > 0.0 { moment_lg / g_lg } else { 0.0 };
             let terms = Terms {
                 g_lg_n: g_lg,
@@ -314,7 +322,7 @@ impl TerzaghiModel {
             } else {
                 Regime::ExtractionSpiral
             };
-            (regime, terms)
+            (regime, terms, if g_lg > 0.0 { moment_lg } else { 0.0 })
         } else {
             // Eqs. (24)-(25), with the typo "b gamma" read as b_e lambda.
             let terms = Terms {
@@ -326,11 +334,10 @@ impl TerzaghiModel {
                 d_l_m: 2.0 / 3.0 * l_s * sin_b,
                 d_perp_m: d_perp,
             };
-            (Regime::ExtractionTriangle, terms)
+            (Regime::ExtractionTriangle, terms, 0.0)
         };
 
-        let moment =
-            terms.g_t_n * terms.d_tg_m + terms.f_l_n * terms.d_l_m + terms.g_lg_n * terms.d_lg_m;
+        let moment = terms.g_t_n * terms.d_tg_m + terms.f_l_n * terms.d_l_m + moment_lg;
         let normal = moment / d_perp; // Eq. (21)
         let tangential = normal * c.tan_delta; // Eq. (22a)
         TerzaghiForce {
