@@ -10,43 +10,83 @@ use crate::ident::Sample;
 use std::io::Read;
 use std::path::Path;
 
+/// What is wrong with a force log (CSV); names the file, and the line and column where it can.
 #[derive(Debug, thiserror::Error)]
 pub enum DatasetError {
+    /// The file cannot be read.
     #[error("cannot read {path}: {error}")]
-    Io { path: String, error: std::io::Error },
+    Io {
+        /// The file.
+        path: String,
+        /// The system's error.
+        error: std::io::Error,
+    },
+    /// The file has no header.
     #[error("{path}: empty file (expected a header with beta_rad,drag_n,lift_n)")]
-    Empty { path: String },
+    Empty {
+        /// The file.
+        path: String,
+    },
+    /// The header lacks a column every log has.
     #[error("{path}: header lacks column {column:?} (found: {found})")]
     MissingColumn {
+        /// The file.
         path: String,
+        /// The column it lacks.
         column: &'static str,
+        /// The columns it has.
         found: String,
     },
+    /// A value that is not a number.
     #[error("{path} line {line}, column {column}: {value:?} is not a number")]
     NotANumber {
+        /// The file.
         path: String,
+        /// The line (from 1).
         line: u64,
+        /// The column.
         column: &'static str,
+        /// The value, as written.
         value: String,
     },
+    /// A column the log may not have, refused rather than ignored.
     #[error(
         "{path}: unknown column {column:?} (a force log has t_s, beta_rad or beta_deg, drag_n, lift_n, and for a moving hip hip_height_m, hip_vx_m_s, hip_vz_m_s, pitch_rad){hint}"
     )]
     UnknownColumn {
+        /// The file.
         path: String,
+        /// The column.
         column: String,
+        /// The known column it may have meant, as text to append ("" for none).
         hint: String,
     },
+    /// A hip column given to a command that takes a leg at its configured hip height.
     #[error(
         "{path}: {column} gives the hip's motion, which only replay --reevaluate reads (with a params file); this command takes a leg turning at its configured hip height"
     )]
-    HipNotTaken { path: String, column: &'static str },
+    HipNotTaken {
+        /// The file.
+        path: String,
+        /// The hip column.
+        column: &'static str,
+    },
+    /// A hip velocity or pitch column without `hip_height_m`.
     #[error("{path}: {column} needs hip_height_m beside it")]
-    HipWithoutHeight { path: String, column: &'static str },
+    HipWithoutHeight {
+        /// The file.
+        path: String,
+        /// The column given without the height.
+        column: &'static str,
+    },
+    /// A line that is not a CSV record of the header's columns.
     #[error("{path} line {line}: {message}")]
     Malformed {
+        /// The file.
         path: String,
+        /// The line (from 1).
         line: u64,
+        /// What is wrong with it.
         message: String,
     },
 }
@@ -61,16 +101,22 @@ const HIP_COLUMNS: [&str; 4] = ["hip_height_m", "hip_vx_m_s", "hip_vz_m_s", "pit
 /// the log gives them, its horizontal and vertical velocity (m/s) and the body's pitch (rad).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HipRow {
+    /// The hip's height above the surface (m; negative below it).
     pub height_m: f64,
+    /// The hip's horizontal velocity (m/s), where the log gives it.
     pub vx_m_s: Option<f64>,
+    /// The hip's vertical velocity, up (m/s), where the log gives it.
     pub vz_m_s: Option<f64>,
+    /// The body's pitch (rad), where the log gives it.
     pub pitch_rad: Option<f64>,
 }
 
 /// A force log: its samples, and its hip's rows where it has `hip_height_m`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ForceLog {
+    /// The samples, one per row.
     pub samples: Vec<Sample>,
+    /// The hip of each row, where the log has `hip_height_m`.
     pub hips: Option<Vec<HipRow>>,
 }
 

@@ -39,6 +39,8 @@
 //! The checks of the diagnosis and the models (withheld effects, held-out strokes, the DEM
 //! campaign) are the crate `terzaghi-eval`, apart from the product.
 
+#![deny(missing_docs)]
+
 #[cfg(feature = "cli")]
 mod cli;
 pub mod config;

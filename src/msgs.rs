@@ -8,25 +8,35 @@ use serde::{Deserialize, Serialize};
 /// `rosgraph_msgs/Clock`: the time of a simulation or of a log played back, on `/clock`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub struct Clock {
+    /// The time it carries.
     pub clock: Time,
 }
 
 /// `rcl_interfaces/Log`: a node's log line, on `/rosout`.
 #[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub struct RosLog {
+    /// When the line was logged.
     pub stamp: Time,
+    /// Severity: 10 debug, 20 info, 30 warn, 40 error, 50 fatal.
     pub level: u8,
+    /// The logging node's name.
     pub name: String,
+    /// The line.
     pub msg: String,
+    /// Source file that logged it.
     pub file: String,
+    /// Function that logged it.
     pub function: String,
+    /// Line in that file.
     pub line: u32,
 }
 
 /// `builtin_interfaces/Time`
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub struct Time {
+    /// Seconds since the epoch.
     pub sec: i32,
+    /// Nanoseconds within the second, below 1e9.
     pub nanosec: u32,
 }
 
@@ -39,9 +49,11 @@ impl Time {
             nanosec: ns.rem_euclid(1_000_000_000) as u32,
         })
     }
+    /// Nanoseconds since the epoch.
     pub fn to_nanos(self) -> i64 {
         self.sec as i64 * 1_000_000_000 + self.nanosec as i64
     }
+    /// Seconds since the epoch.
     pub fn to_secs(self) -> f64 {
         self.sec as f64 + self.nanosec as f64 * 1e-9
     }
@@ -54,48 +66,66 @@ impl Time {
 /// `std_msgs/Header`
 #[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub struct Header {
+    /// Time of the data.
     pub stamp: Time,
+    /// The frame the data is in.
     pub frame_id: String,
 }
 
 /// `sensor_msgs/JointState`: parallel arrays; velocity and effort may be empty.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct JointState {
+    /// Stamp of the joint states.
     pub header: Header,
+    /// Joint names.
     pub name: Vec<String>,
+    /// Joint positions (rad for a revolute joint), by name's index.
     pub position: Vec<f64>,
+    /// Joint velocities (rad/s); empty where not measured.
     pub velocity: Vec<f64>,
+    /// Joint efforts (N m); empty where not measured.
     pub effort: Vec<f64>,
 }
 
 /// `geometry_msgs/Vector3`
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct Vector3 {
+    /// x component.
     pub x: f64,
+    /// y component.
     pub y: f64,
+    /// z component.
     pub z: f64,
 }
 
 /// `geometry_msgs/Wrench`
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct Wrench {
+    /// Force (N).
     pub force: Vector3,
+    /// Torque (N m).
     pub torque: Vector3,
 }
 
 /// `geometry_msgs/WrenchStamped`
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct WrenchStamped {
+    /// Stamp and sensor frame.
     pub header: Header,
+    /// The force and torque.
     pub wrench: Wrench,
 }
 
 /// `geometry_msgs/Quaternion` (ROS's default is the identity, `w = 1`).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Quaternion {
+    /// x component.
     pub x: f64,
+    /// y component.
     pub y: f64,
+    /// z component.
     pub z: f64,
+    /// Scalar part.
     pub w: f64,
 }
 
@@ -113,150 +143,236 @@ impl Default for Quaternion {
 /// `geometry_msgs/Transform`
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct Transform {
+    /// Position of the child frame's origin in the parent frame (m).
     pub translation: Vector3,
+    /// Orientation of the child frame in the parent frame.
     pub rotation: Quaternion,
 }
 
 /// `geometry_msgs/TransformStamped`: the pose of `child_frame_id` in `header.frame_id`.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct TransformStamped {
+    /// Stamp and parent frame.
     pub header: Header,
+    /// The frame whose pose this is.
     pub child_frame_id: String,
+    /// The child frame's pose in the parent.
     pub transform: Transform,
 }
 
 /// `geometry_msgs/Point`
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct Point {
+    /// x (m).
     pub x: f64,
+    /// y (m).
     pub y: f64,
+    /// z (m).
     pub z: f64,
 }
 
 /// `geometry_msgs/Pose`
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct Pose {
+    /// Position (m).
     pub position: Point,
+    /// Orientation.
     pub orientation: Quaternion,
 }
 
 /// `geometry_msgs/PoseStamped`: a body's pose in `header.frame_id`.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct PoseStamped {
+    /// Stamp and the frame the pose is in.
     pub header: Header,
+    /// The pose.
     pub pose: Pose,
 }
 
 /// `tf2_msgs/TFMessage`, as `/tf` and `/tf_static` carry it.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct TfMessage {
+    /// The transforms, each stamped.
     pub transforms: Vec<TransformStamped>,
 }
 
 /// `diagnostic_msgs/KeyValue`
 #[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub struct KeyValue {
+    /// Name of the value.
     pub key: String,
+    /// The value, as text.
     pub value: String,
 }
 
 /// `diagnostic_msgs/DiagnosticStatus`
 #[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub struct DiagnosticStatus {
+    /// OK, WARN, ERROR or STALE (the constants below).
     pub level: u8,
+    /// What is reported on, as `node: part`.
     pub name: String,
+    /// A short summary for people.
     pub message: String,
+    /// The hardware this is about.
     pub hardware_id: String,
+    /// Each reported value.
     pub values: Vec<KeyValue>,
 }
 
 impl DiagnosticStatus {
+    /// Level: all is well.
     pub const OK: u8 = 0;
+    /// Level: something needs attention.
     pub const WARN: u8 = 1;
+    /// Level: something is wrong.
     pub const ERROR: u8 = 2;
+    /// Level: no recent report.
     pub const STALE: u8 = 3;
 }
 
 /// `diagnostic_msgs/DiagnosticArray`
 #[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub struct DiagnosticArray {
+    /// Stamp of the report.
     pub header: Header,
+    /// One status per part reported on.
     pub status: Vec<DiagnosticStatus>,
 }
 
 /// `terzaghi_msgs/LegForce` (msgs/msg/LegForce.msg)
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct LegForce {
+    /// Stamp of the JointState the prediction was made from; frame `<leg>_hip`.
     pub header: Header,
+    /// Attack angle beta (rad) in [0, 2 pi): 0 horizontal, pi/2 vertical.
     pub attack_angle_rad: f64,
+    /// Length of the leg below the surface (m).
     pub submerged_length_m: f64,
+    /// Depth of the tip below the free surface (m).
     pub depth_m: f64,
+    /// Horizontal force resisting the travel (N); the force on the leg is -drag along x.
     pub drag_n: f64,
+    /// Vertical force, positive up (N).
     pub lift_n: f64,
+    /// Moment about the hip axis, positive when it resists the rotation (N m).
     pub hip_torque_nm: f64,
+    /// Regime of the prediction: one of the `REGIME_*` codes of `LegForce.msg`.
     pub regime: u8,
+    /// `improved`, `conventional`, `rft` or `sinkage`.
     pub model: String,
+    /// Fitting width's `b_k` used (`b_e = b_k b a^(-beta)`).
     pub b_k: f64,
+    /// Fitting width's `a` used.
     pub a: f64,
+    /// Plate-medium friction angle used (deg).
     pub delta_deg: f64,
+    /// Whether `b_k`, `a` (and delta) come from online identification.
     pub identified: bool,
+    /// The bare improved model's drag (N), what the corrections are added to.
     pub bare_drag_n: f64,
+    /// The bare improved model's lift (N).
     pub bare_lift_n: f64,
+    /// Each correction's name, in the order of its parts below.
     pub correction_names: Vec<String>,
+    /// Each correction's part of the drag (N).
     pub correction_drag_n: Vec<f64>,
+    /// Each correction's part of the lift (N).
     pub correction_lift_n: Vec<f64>,
+    /// What the leg's F/T sensor is expected to read, drag (N): the medium's force through the
+    /// sensor's own corrections; equal to `drag_n` without them.
     pub sensor_drag_n: f64,
+    /// What the F/T sensor is expected to read, lift (N).
     pub sensor_lift_n: f64,
+    /// The hip's height above the surface for this prediction (m).
     pub hip_height_m: f64,
+    /// The body's pitch added to the attack angle (rad; ROS's pitch, positive nose down).
     pub body_pitch_rad: f64,
+    /// The hip's horizontal velocity, forward (m/s).
     pub hip_forward_m_s: f64,
+    /// The hip's vertical velocity, up (m/s).
     pub hip_up_m_s: f64,
+    /// Whether the hip came from the robot's state (`/tf`); else the configured height, level and still.
     pub robot_state: bool,
+    /// The scale RFT's stresses were multiplied by; 1 for the improved or conventional model.
     pub rft_scale: f64,
 }
 
 /// `terzaghi_msgs/Gap` (msgs/msg/Gap.msg)
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct Gap {
+    /// Stamp of the newest F/T sample diagnosed; frame `<leg>_hip`.
     pub header: Header,
+    /// Strokes diagnosed.
     pub strokes: u32,
+    /// F/T samples diagnosed.
     pub samples: u64,
+    /// The bare model's held-out RMS residual over drag and lift (N).
     pub heldout_rmse_n: f64,
+    /// The sensor noise over drag and lift (N).
     pub noise_n: f64,
+    /// Whether the residual exceeds the noise beyond chance.
     pub gap_real: bool,
+    /// `none`, `unexplained`, or the effect with the largest share of the gap.
     pub verdict: String,
+    /// The significant effects, in the order found.
     pub effects: Vec<String>,
+    /// The share of the gap each effect adds (%).
     pub share_of_gap_pct: Vec<f64>,
+    /// What shows each effect (`force_out_of_medium`, `alignment`, `onset_angle`, `contrast`, `form_only`).
     pub basis: Vec<String>,
+    /// What the diagnosis says of each effect.
     pub claim: Vec<String>,
+    /// Significant effects the leg's model does not correct: what the node warns of.
     pub new_effects: Vec<String>,
+    /// Why the strokes could not be diagnosed (empty when they were).
     pub error: String,
 }
 
 /// `terzaghi_msgs/ModelParams` (msgs/msg/ModelParams.msg)
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct ModelParams {
+    /// Stamp of the last F/T sample used.
     pub header: Header,
+    /// Estimated `b_k` of the fitting width.
     pub b_k: f64,
+    /// Estimated `a` of the fitting width.
     pub a: f64,
+    /// Estimated plate-medium friction angle (deg).
     pub delta_deg: f64,
+    /// Standard deviation of `b_k`, from the estimator's covariance.
     pub std_b_k: f64,
+    /// Standard deviation of `a`.
     pub std_a: f64,
+    /// Standard deviation of `delta_deg` (deg).
     pub std_delta_deg: f64,
+    /// Samples that updated the estimate.
     pub samples_used: u64,
+    /// Samples skipped: non-finite, outside the excitation gate, stuck sensor, or without a joint
+    /// angle close enough in time.
     pub samples_rejected: u64,
+    /// RMS of recent innovations, measured minus predicted force (N).
     pub innovation_rms_n: f64,
+    /// Whether the relative standard deviations of `b_k` and `a` are below the configured bound.
     pub converged: bool,
+    /// Changes of the medium detected so far.
     pub changes_detected: u32,
     /// For a leg with corrections, each learnt coefficient as `<effect>.<param>`, its value and
     /// standard deviation (empty otherwise).
     pub correction_params: Vec<String>,
+    /// Each learnt coefficient's value, by `correction_params`' index.
     pub correction_values: Vec<f64>,
+    /// Each learnt coefficient's standard deviation.
     pub correction_stds: Vec<f64>,
+    /// An RFT leg's learnt scale of its stresses; 1 for the improved or conventional model.
     pub rft_scale: f64,
+    /// The RFT scale's standard deviation; 0 for the improved or conventional model.
     pub std_rft_scale: f64,
+    /// With `estimator.fit_surface`: how far the surface is above where the hip's height puts it (m).
     pub surface_offset_m: f64,
+    /// The surface offset's standard deviation (m).
     pub std_surface_offset_m: f64,
+    /// Whether the surface offset has converged (the leg then predicts at the corrected height).
     pub surface_converged: bool,
 }
 
@@ -405,16 +521,27 @@ pub fn to_cdr<M: Serialize>(msg: &M) -> Result<Vec<u8>, cdr_encoding::Error> {
 #[derive(Debug, thiserror::Error)]
 pub enum CdrError {
     #[error("CDR message shorter than its 4-byte header ({0} bytes)")]
+    /// Fewer bytes than the header (the count).
     TooShort(usize),
     #[error("unsupported CDR encapsulation {0:#06x} (plain CDR, big or little endian, only)")]
+    /// An encapsulation other than plain CDR (its code).
     Encapsulation(u16),
     // Not `#[from]`, which would make the inner error the source too, printed twice by `{e:#}`.
     #[error("CDR payload does not decode: {0}")]
+    /// The payload does not decode as the message.
     Decode(cdr_encoding::Error),
     #[error("CDR payload ends at byte {at} inside a field")]
-    Truncated { at: usize },
+    /// The payload ends inside a field (at this byte).
+    Truncated {
+        /// The byte.
+        at: usize,
+    },
     #[error("CDR string at byte {at} is not UTF-8")]
-    NotUtf8 { at: usize },
+    /// A string that is not UTF-8 (at this byte).
+    NotUtf8 {
+        /// The byte where the string starts.
+        at: usize,
+    },
 }
 
 impl From<cdr_encoding::Error> for CdrError {
@@ -445,6 +572,7 @@ pub fn from_cdr<M: for<'de> Deserialize<'de>>(bytes: &[u8]) -> Result<M, CdrErro
 /// the result is the same as [`from_cdr`]'s, which a unit test checks on good and
 /// damaged bytes and a property test (`tests/properties.rs`) on arbitrary messages.
 pub trait DecodeInto {
+    /// Decodes `bytes` (with their encapsulation header) into `self`, as [`from_cdr`] would make it.
     fn decode_into(&mut self, bytes: &[u8]) -> Result<(), CdrError>;
 }
 

@@ -241,6 +241,8 @@ class WalkRecording:
         self.ft_topics = {name: "/" + topic(name) for name in HEXAPOD_HIPS}
 
     def on_step(self, model, data, c: "Coupling") -> None:
+        """Records the step just taken (every ``every``-th): the torso's pose, the joint
+        states, and each leg's F/T as ``c`` applied it."""
         self.steps += 1
         if self.steps % self.every:
             return
@@ -259,6 +261,7 @@ class WalkRecording:
                             frame_id=f"{leg.name}_ft")
 
     def close(self) -> int:
+        """Finishes the MCAP file; returns the messages written."""
         return self.rec.close()
 
 

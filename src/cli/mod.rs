@@ -27,6 +27,7 @@ use clap::{Args, Parser, Subcommand};
 #[command(name = "terzaghi", version, about, long_about = None)]
 pub struct Cli {
     #[command(subcommand)]
+    /// The command to run.
     pub command: Command,
 }
 
@@ -223,6 +224,7 @@ pub fn exit_code(e: &anyhow::Error) -> u8 {
     if failed { 1 } else { 2 }
 }
 
+/// Runs one `terzaghi` command: what `main` does after parsing.
 pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::HelpMarkdown => print_out(&help_markdown()),

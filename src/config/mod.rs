@@ -31,25 +31,58 @@ use crate::model::ModelError;
 #[derive(Debug, thiserror::Error)]
 pub enum ConfigError {
     #[error("parameter {name} = {value}: {reason}")]
+    /// A parameter whose value is refused.
     Invalid {
+        /// The parameter's name.
         name: String,
+        /// Its value, as given.
         value: String,
+        /// Why it is refused.
         reason: String,
     },
     #[error("parameter {name} is required: {hint}")]
-    Missing { name: String, hint: String },
+    /// A parameter that must be given and was not.
+    Missing {
+        /// The parameter's name.
+        name: String,
+        /// What to give.
+        hint: String,
+    },
     #[error("parameter {name}: {error}")]
-    Model { name: String, error: ModelError },
+    /// A parameter the model refuses.
+    Model {
+        /// The parameter's name.
+        name: String,
+        /// The model's refusal.
+        error: ModelError,
+    },
     #[error("cannot read params file {path}: {error}")]
-    ReadFile { path: String, error: std::io::Error },
+    /// A params file that cannot be read.
+    ReadFile {
+        /// The file.
+        path: String,
+        /// The system's error.
+        error: std::io::Error,
+    },
     #[error("params file {path}: {reason}")]
-    BadFile { path: String, reason: String },
+    /// A params file that is not a ROS 2 params file.
+    BadFile {
+        /// The file.
+        path: String,
+        /// What is wrong with it.
+        reason: String,
+    },
     #[error("--ros-args: {0}")]
+    /// `--ros-args` that do not parse (what is wrong).
     RosArgs(String),
     #[error("{name}={value}: {reason}")]
+    /// An environment variable the node reads, with a value it refuses.
     Env {
+        /// The variable.
         name: &'static str,
+        /// Its value.
         value: String,
+        /// Why it is refused.
         reason: &'static str,
     },
 }

@@ -68,6 +68,7 @@ pub struct OutputTopics {
 }
 
 impl OutputTopics {
+    /// The topics of the node configured by `cfg`, with `remaps` applied.
     pub fn of(cfg: &super::NodeConfig, remaps: &[(String, String)]) -> OutputTopics {
         let resolve = |rel: &str| resolve_topic(rel, &cfg.namespace, &cfg.node_name, remaps);
         OutputTopics {

@@ -16,14 +16,18 @@ use std::path::PathBuf;
 /// Which model the node evaluates.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ModelKind {
+    /// The improved Terzaghi model (fitting width `b_e = b_k b a^(-beta)`).
     Improved,
+    /// The conventional Terzaghi model (`b_e = b`).
     Conventional,
+    /// Resistive force theory, element by element.
     Rft,
     /// A horizontal plate pushed straight down, by the plate-sinkage law of a medium file.
     Sinkage,
 }
 
 impl ModelKind {
+    /// The name as the `model` parameter takes it.
     pub fn as_str(self) -> &'static str {
         match self {
             ModelKind::Improved => "improved",
@@ -64,22 +68,31 @@ impl FtFrame {
 /// One leg, validated.
 #[derive(Debug, Clone)]
 pub struct LegConfig {
+    /// The leg's name, as `legs` lists it.
     pub name: String,
-    /// `ft_topic` as given (before resolution), and the RFT set's name ("" for none).
+    /// `ft_topic` as given (before resolution).
     pub ft_topic_given: String,
+    /// The name of the leg's RFT coefficient set (`""` for none).
     pub rft_name: String,
+    /// The JointState name of the leg's hip joint.
     pub joint: String,
     /// `+1` or `-1`: `beta = direction * (position - angle_offset_rad)`.
     pub direction: f64,
+    /// The joint position at which the attack angle is 0 (rad).
     pub angle_offset_rad: f64,
+    /// The leg's plate (for a curved leg, its chord) and configured hip height.
     pub plate: Plate,
+    /// The leg's medium.
     pub medium: Medium,
+    /// The medium preset the leg names, if it names one.
     pub preset: Option<&'static MediumPreset>,
     /// The configured fitting width (used until identification converges).
     pub width: FittingWidth,
     /// Resolved F/T topic, if the leg has a sensor.
     pub ft_topic: Option<String>,
+    /// How the leg's F/T sensor is mounted, and its readings turned into drag and lift.
     pub ft_frame: FtFrame,
+    /// The leg's RFT coefficients, for the RFT model.
     pub rft: Option<RftCoefficients>,
     /// RFT's speed law, fitted to `<leg>.rft_speed_file`'s intrusions at several speeds.
     pub rft_speed: Option<crate::model::RftSpeedFit>,
@@ -153,13 +166,19 @@ pub struct LegProfile {
 /// The whole node, validated.
 #[derive(Debug, Clone)]
 pub struct NodeConfig {
+    /// The node's name.
     pub node_name: String,
+    /// The node's namespace.
     pub namespace: String,
+    /// Which model the node evaluates.
     pub model: ModelKind,
     /// Resolved JointState topic.
     pub joint_states_topic: String,
+    /// Whether a leg predicts with its identified `b_k`, `a` once they converge.
     pub use_identified: bool,
+    /// The legs, in the order of the `legs` parameter.
     pub legs: Vec<LegConfig>,
+    /// The online estimator's options.
     pub estimator: OnlineOptions,
     /// Memory (strokes) of the online identification of a leg with corrections: it learns more
     /// values than the bare model's two, from effects that show in some strokes only. A leg with
@@ -168,12 +187,15 @@ pub struct NodeConfig {
     /// Identify the surface's level online too (`estimator.fit_surface`), for flat legs of the
     /// Terzaghi models with F/T.
     pub fit_surface: bool,
+    /// Elements per leg for RFT.
     pub rft_elements: usize,
+    /// Period of `/diagnostics` (s).
     pub diagnostics_period_s: f64,
     /// Largest time between an F/T sample and the joint angle it is matched with.
     pub max_match_dt_s: f64,
     /// Bound of the input queue: beyond it the oldest message is dropped and counted.
     pub queue_depth: usize,
+    /// Rate of each leg's `model_params` (Hz).
     pub model_params_rate_hz: f64,
     /// MCAP file to record the session to, if any.
     pub record: Option<PathBuf>,
@@ -217,6 +239,7 @@ pub struct RobotStateConfig {
     /// (resolved; `None`: not read), the pose of `body_frame` in the message's frame (the world
     /// frame when it names none).
     pub pose_topic: Option<String>,
+    /// The body's frame, whose pose `pose_topic` carries.
     pub body_frame: String,
 }
 

@@ -5,13 +5,21 @@ use std::collections::BTreeMap;
 /// A parameter value, as ROS 2 types them.
 #[derive(Debug, Clone, PartialEq)]
 pub enum ParamValue {
+    /// `bool`.
     Bool(bool),
+    /// `integer` (64-bit).
     Int(i64),
+    /// `double`.
     Double(f64),
+    /// `string`.
     String(String),
+    /// `bool[]`.
     BoolArray(Vec<bool>),
+    /// `integer[]`.
     IntArray(Vec<i64>),
+    /// `double[]`.
     DoubleArray(Vec<f64>),
+    /// `string[]`.
     StringArray(Vec<String>),
 }
 

@@ -10,8 +10,11 @@ use std::path::PathBuf;
 pub struct RosArgs {
     /// `-p name:=value`, in order (later wins).
     pub params: Vec<(String, ParamValue)>,
+    /// `--params-file FILE`, in order.
     pub params_files: Vec<PathBuf>,
+    /// `-r __node:=NAME`.
     pub node_name: Option<String>,
+    /// `-r __ns:=NAMESPACE`.
     pub namespace: Option<String>,
     /// `-r from:=to` topic remappings.
     pub remaps: Vec<(String, String)>,
@@ -26,10 +29,15 @@ pub struct RosArgs {
 /// ROS 2 log severities, with the values of `rcl_interfaces/msg/Log`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
 pub enum LogLevel {
+    /// Debugging detail.
     Debug = 10,
+    /// Normal operation.
     Info = 20,
+    /// Something needs attention.
     Warn = 30,
+    /// Something failed.
     Error = 40,
+    /// The node cannot go on.
     Fatal = 50,
 }
 
@@ -46,6 +54,7 @@ impl LogLevel {
         })
     }
 
+    /// The severity's name as ROS prints it (`INFO`).
     pub fn as_str(self) -> &'static str {
         match self {
             LogLevel::Debug => "DEBUG",

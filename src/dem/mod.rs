@@ -30,52 +30,98 @@ pub const SETTLED_KE_RATIO_MAX: f64 = 1e-4;
 /// A run whose largest force stays below this never touched the bed.
 pub const CONTACT_FORCE_MIN_N: f64 = 1e-3;
 
-/// The leg's name in a run's session, its joint and its F/T topic.
+/// The leg's name in a run's session.
 pub const LEG: &str = "leg";
+/// The leg's joint in a run's session.
 pub const JOINT: &str = "hip";
+/// The leg's F/T topic in a run's session.
 pub const FT_TOPIC: &str = "/ft_sensor/wrench";
+/// The joint states' topic in a run's session.
 pub const JOINT_STATES_TOPIC: &str = "/joint_states";
 
 /// What a run's file gets wrong.
 #[derive(Debug, thiserror::Error)]
 pub enum DemError {
+    /// The file cannot be read.
     #[error("cannot read {path}: {error}")]
-    Io { path: String, error: std::io::Error },
+    Io {
+        /// The file.
+        path: String,
+        /// The system's error.
+        error: std::io::Error,
+    },
+    /// A description line the run must have.
     #[error("{path}: the run does not say its {key} (a line '# {key}: VALUE' before the header)")]
-    MissingKey { path: String, key: &'static str },
+    MissingKey {
+        /// The file.
+        path: String,
+        /// The key it lacks.
+        key: &'static str,
+    },
+    /// A description value that is not a number.
     #[error("{path}: {key} = {value:?} is not a number")]
     BadValue {
+        /// The file.
         path: String,
+        /// The key.
         key: &'static str,
+        /// Its value, as written.
         value: String,
     },
+    /// A geometry or medium the model refuses.
     #[error("{path}: {error}")]
-    Model { path: String, error: ModelError },
+    Model {
+        /// The file.
+        path: String,
+        /// The model's refusal.
+        error: ModelError,
+    },
+    /// A line that is not a record of the header's columns.
     #[error("{path} line {line}: {message}")]
     Malformed {
+        /// The file.
         path: String,
+        /// The line (from 1).
         line: usize,
+        /// What is wrong with it.
         message: String,
     },
+    /// A bed still moving when the stroke began.
     #[error(
         "{path}: its bed did not settle (kinetic energy {ratio:e} of N m g d, at most {max:e}); settle it longer before a stroke: not written as a session"
     )]
-    Unsettled { path: String, ratio: f64, max: f64 },
+    Unsettled {
+        /// The file.
+        path: String,
+        /// The bed's kinetic energy over `N m g d`.
+        ratio: f64,
+        /// The most that counts as settled.
+        max: f64,
+    },
+    /// A run whose leg never touched the bed.
     #[error(
         "{path}: the leg never touched the bed (largest force {max_n:.2e} N over {samples} samples); check the hip height against the bed's surface: not written as a session"
     )]
     NoContact {
+        /// The file.
         path: String,
+        /// The largest force (N).
         max_n: f64,
+        /// The samples read.
         samples: usize,
     },
+    /// A value that is not a finite number.
     #[error(
         "{path} line {line}: {column} is {value}, not a finite number: not written as a session"
     )]
     NonFinite {
+        /// The file.
         path: String,
+        /// The line (from 1).
         line: usize,
+        /// The column.
         column: &'static str,
+        /// The value.
         value: f64,
     },
 }
@@ -83,11 +129,15 @@ pub enum DemError {
 /// One force sample of a run, in the hip frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DemSample {
+    /// Time since the stroke began (s).
     pub t_s: f64,
     /// The attack angle, unwrapped over several strokes.
     pub beta_rad: f64,
+    /// Horizontal force resisting the travel (N).
     pub drag_n: f64,
+    /// Vertical force, up (N).
     pub lift_n: f64,
+    /// Moment about the hip axis, resisting the rotation (N m).
     pub hip_torque_nm: f64,
     /// Where the hip was, for a run whose hip moves (columns `hip_x_m,hip_z_m`): its travel
     /// forward from its start and its height above the surface (m).
@@ -112,16 +162,20 @@ pub enum LegShape {
 /// A checked run.
 #[derive(Debug, Clone)]
 pub struct DemRun {
+    /// The run's name (its file's stem).
     pub name: String,
     /// Every `# key: value` line, as written.
     pub meta: BTreeMap<String, String>,
+    /// The leg's shape.
     pub shape: LegShape,
     /// The geometry the model is told (for a C-leg, `length_m` is the chord).
     pub plate: Plate,
     /// Unit weight from the bed's packing, internal friction from its angle of repose, delta
     /// from the grain-plate contact friction.
     pub medium: Medium,
+    /// The leg's rotation rate (rad/s).
     pub omega_rad_s: f64,
+    /// The force samples, in time order.
     pub samples: Vec<DemSample>,
 }
 
@@ -319,7 +373,9 @@ pub fn join_runs(runs: Vec<DemRun>) -> Result<DemRun, DemError> {
 /// at several speeds).
 #[derive(Debug, Clone)]
 pub struct Campaign {
+    /// `campaign.json` as written.
     pub manifest: serde_json::Value,
+    /// The runs, checked.
     pub runs: Vec<DemRun>,
     /// `(beta_r, gamma, alpha_x, alpha_z)`, N/cm^3.
     pub rft_grid: Vec<(f64, f64, f64, f64)>,
@@ -328,6 +384,7 @@ pub struct Campaign {
 }
 
 impl Campaign {
+    /// The run named `name`, if the campaign has it.
     pub fn run(&self, name: &str) -> Option<&DemRun> {
         self.runs.iter().find(|r| r.name == name)
     }

@@ -36,9 +36,13 @@ use tokio::sync::watch;
 
 /// Everything the node needs to start.
 pub struct NodeSetup {
+    /// The parameters as given, which the node serves.
     pub params: ParamMap,
+    /// The configuration validated from them.
     pub config: NodeConfig,
+    /// The DDS domain (`ROS_DOMAIN_ID`).
     pub domain_id: u16,
+    /// Whether discovery stays on this machine (`ROS_LOCALHOST_ONLY`).
     pub localhost_only: bool,
     /// `--log-level`, `--disable-rosout-logs`, `--disable-stdout-logs`.
     pub log: LogSettings,
@@ -49,13 +53,19 @@ pub struct NodeSetup {
 /// What a run did, printed at shutdown.
 #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct RunSummary {
+    /// JointStates taken off DDS.
     pub joint_states: u64,
+    /// Leg predictions published.
     pub predictions: u64,
+    /// Messages dropped at the bounded input queue.
     pub dropped: u64,
     /// From taking a JointState off DDS to having published every leg's outputs.
     pub processing_p50_ns: u64,
+    /// 99th percentile of the processing time (ns).
     pub processing_p99_ns: u64,
+    /// Longest processing time (ns).
     pub processing_max_ns: u64,
+    /// JointStates whose processing was timed.
     pub processing_count: u64,
 }
 
@@ -176,6 +186,7 @@ impl SequenceGaps {
     }
 }
 
+/// The QoS of the node's subscriptions: best effort (which matches every publisher), a deep history.
 pub fn qos_in() -> QosProfile {
     // Best effort matches every publisher; a deep history rides out bursts.
     QosProfile::subscription_default()
@@ -208,10 +219,12 @@ fn message_type<M: RosMessage>() -> MessageTypeName {
     MessageTypeName::new(M::TYPE.0, M::TYPE.1)
 }
 
+/// A publisher of `M` on `topic` with [`qos_out`].
 pub fn publisher<M: RosMessage>(node: &mut Node, topic: &str) -> Result<Publisher<M>> {
     publisher_with_qos(node, topic, qos_out())
 }
 
+/// A publisher of `M` on `topic` with `qos`.
 pub fn publisher_with_qos<M: RosMessage>(
     node: &mut Node,
     topic: &str,
@@ -224,6 +237,7 @@ pub fn publisher_with_qos<M: RosMessage>(
         .with_context(|| format!("cannot publish {topic}"))
 }
 
+/// A subscription to `M` on `topic` with [`qos_in`].
 pub fn subscription<M: RosMessage>(node: &mut Node, topic: &str) -> Result<Subscription<M>> {
     subscription_with_depth(node, topic, 1000)
 }
@@ -244,6 +258,7 @@ pub fn subscription_with_depth<M: RosMessage>(
         .with_context(|| format!("cannot subscribe to {topic}"))
 }
 
+/// A parameter value as ros2-client serves it.
 pub fn to_ros(v: &ParamValue) -> ros2_client::ParameterValue {
     match v.clone() {
         ParamValue::Bool(b) => ParameterValue::Boolean(b),
@@ -257,6 +272,7 @@ pub fn to_ros(v: &ParamValue) -> ros2_client::ParameterValue {
     }
 }
 
+/// A parameter value from ros2-client; `None` for a type the node has no parameter of.
 pub fn from_ros(v: &ParameterValue) -> Option<ParamValue> {
     Some(match v.clone() {
         ParameterValue::Boolean(b) => ParamValue::Bool(b),

@@ -13,25 +13,38 @@ use std::sync::Arc;
 
 /// Where the node's outputs go.
 pub trait Publish {
+    /// Publishes `leg`'s predicted wrench.
     fn wrench(&self, leg: usize, msg: WrenchStamped);
+    /// Publishes `leg`'s force.
     fn force(&self, leg: usize, msg: LegForce);
+    /// Publishes `leg`'s model parameters.
     fn params(&self, leg: usize, msg: ModelParams);
+    /// Publishes the node's diagnostics.
     fn diagnostics(&self, msg: DiagnosticArray);
+    /// Publishes what the node's diagnosis of `leg` found.
     fn gap(&self, leg: usize, msg: Gap);
 }
 
 /// Topic names of what the node reads and writes, resolved once.
 pub struct Topics {
+    /// The JointState topic.
     pub joints: Arc<str>,
+    /// Each leg's F/T topic (empty for a leg without one).
     pub ft: Vec<Arc<str>>,
+    /// Each leg's predicted wrench topic.
     pub wrench: Vec<Arc<str>>,
+    /// Each leg's force topic.
     pub force: Vec<Arc<str>>,
+    /// Each leg's model parameters topic.
     pub params: Vec<Arc<str>>,
+    /// Each leg's gap topic.
     pub gap: Vec<Arc<str>>,
+    /// The diagnostics topic.
     pub diagnostics: Arc<str>,
 }
 
 impl Topics {
+    /// The topics of the node configured by `cfg`.
     pub fn new(cfg: &NodeConfig) -> Topics {
         let out = crate::config::OutputTopics::of(cfg, &cfg.remaps);
         let per_leg = |f: fn(&crate::config::LegTopics) -> &String| -> Vec<Arc<str>> {

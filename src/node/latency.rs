@@ -8,6 +8,8 @@ const SUB: usize = 1 << SUB_BITS;
 const OCTAVES: usize = 29;
 
 #[derive(Debug, Clone)]
+/// A log-linear histogram of durations (ns): buckets of 1/64 of a power of two, up to about
+/// 17 s, in fixed memory.
 pub struct Histogram {
     counts: Vec<u64>,
     total: u64,
@@ -43,16 +45,19 @@ fn bucket_upper_ns(b: usize) -> u64 {
 }
 
 impl Histogram {
+    /// Adds one duration (ns).
     pub fn record(&mut self, ns: u64) {
         self.counts[bucket(ns)] += 1;
         self.total += 1;
         self.max_ns = self.max_ns.max(ns);
     }
 
+    /// Durations recorded.
     pub fn count(&self) -> u64 {
         self.total
     }
 
+    /// The longest duration recorded (ns).
     pub fn max_ns(&self) -> u64 {
         self.max_ns
     }

@@ -41,14 +41,21 @@ impl LiveChannel {
 /// The node's topics in the live view: what it reads (joint states, each leg's F/T) and what it
 /// writes (each leg's predicted wrench, leg force and parameters, `/diagnostics`, `/rosout`).
 pub struct Live {
+    /// The WebSocket server.
     pub server: LiveServer,
+    /// The joint states the node reads.
     pub joints: LiveChannel,
     /// Per leg; `None` for a leg without an F/T topic.
     pub ft: Vec<Option<LiveChannel>>,
+    /// Per leg, its predicted wrench.
     pub wrench: Vec<LiveChannel>,
+    /// Per leg, its force.
     pub force: Vec<LiveChannel>,
+    /// Per leg, its model parameters.
     pub params: Vec<LiveChannel>,
+    /// `/diagnostics`.
     pub diagnostics: LiveChannel,
+    /// `/rosout`.
     pub rosout: LiveChannel,
 }
 
@@ -85,6 +92,7 @@ impl Live {
 pub struct LiveServer {
     context: Arc<Context>,
     server: Option<foxglove::WebSocketServerHandle>,
+    /// The address the server listens on.
     pub addr: SocketAddr,
 }
 

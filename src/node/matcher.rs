@@ -21,8 +21,11 @@ pub struct Matched {
     pub t_ns: i64,
     /// Stamp of the joint angle it was matched with.
     pub angle_t_ns: i64,
+    /// The leg's attack angle at the matched joint angle (rad).
     pub beta_rad: f64,
+    /// The measured drag (N).
     pub drag_n: f64,
+    /// The measured lift (N).
     pub lift_n: f64,
 }
 

@@ -29,10 +29,18 @@ pub enum RecordError {
     // Not `#[from]`, which would make the inner error the source as well, and `{e:#}` would
     // print its text twice.
     #[error("MCAP: {0}")]
+    /// The MCAP writer's error.
     Mcap(mcap::McapError),
     #[error("cannot encode a message on {topic}: {error}")]
-    Encode { topic: String, error: String },
+    /// A message that does not encode as CDR.
+    Encode {
+        /// The topic.
+        topic: String,
+        /// Why it does not encode.
+        error: String,
+    },
     #[error(transparent)]
+    /// The file's input or output failed.
     Io(#[from] std::io::Error),
 }
 
@@ -45,15 +53,19 @@ impl From<mcap::McapError> for RecordError {
 /// The QoS a topic was offered with, as rosbag2 records it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct OfferedQos {
+    /// Whether the publisher was reliable (else best effort).
     pub reliable: bool,
+    /// Its history depth.
     pub depth: u32,
 }
 
 impl OfferedQos {
+    /// Reliable, depth 10: what ROS publishers offer by default.
     pub const RELIABLE: OfferedQos = OfferedQos {
         reliable: true,
         depth: 10,
     };
+    /// Best effort, depth 10: what sensor publishers offer.
     pub const BEST_EFFORT: OfferedQos = OfferedQos {
         reliable: false,
         depth: 10,
@@ -158,6 +170,7 @@ pub struct SessionWriter<W: Write + Seek> {
 }
 
 impl<W: Write + Seek> SessionWriter<W> {
+    /// A session writer into `w`, with `opts`.
     pub fn new(w: W, opts: RecordOptions) -> Result<Self, RecordError> {
         let mcap = mcap::WriteOptions::new()
             .profile("ros2")

@@ -9,35 +9,48 @@ use std::collections::BTreeMap;
 /// A topic of a session.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TopicInfo {
+    /// The topic's name.
     pub topic: String,
     /// `pkg/msg/Type`
     pub type_name: String,
+    /// The schema's definition, as recorded (`ros2msg` text for ROS 2).
     pub schema_text: String,
     /// `cdr` for ROS 2; other encodings are listed but their messages are not decoded.
     pub encoding: String,
+    /// The channel's metadata (rosbag2's offered QoS among it).
     pub channel_metadata: BTreeMap<String, String>,
+    /// Messages on the topic.
     pub count: u64,
 }
 
 /// One message, as stored.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MessageRef {
+    /// The topic, by index in [`Scan::topics`].
     pub topic: usize,
+    /// When the message was logged (ns since the epoch).
     pub log_time_ns: u64,
+    /// When it was published (ns since the epoch).
     pub publish_time_ns: u64,
+    /// The message's bytes (CDR for ROS 2).
     pub data: Vec<u8>,
 }
 
 /// One message during a scan, borrowing its bytes (no copy per message).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MessageView<'a> {
+    /// The topic, by index in [`Scan::topics`].
     pub topic: usize,
+    /// When the message was logged (ns since the epoch).
     pub log_time_ns: u64,
+    /// When it was published (ns since the epoch).
     pub publish_time_ns: u64,
+    /// The message's bytes.
     pub data: &'a [u8],
 }
 
 impl MessageView<'_> {
+    /// The message with its bytes copied.
     pub fn to_owned(&self) -> MessageRef {
         MessageRef {
             topic: self.topic,
@@ -51,11 +64,15 @@ impl MessageView<'_> {
 /// What a scan found, besides the messages it handed on.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Scan {
+    /// The topics, in the order their channels appear.
     pub topics: Vec<TopicInfo>,
     /// Metadata records by name.
     pub metadata: BTreeMap<String, BTreeMap<String, String>>,
+    /// Messages in the file.
     pub messages: u64,
+    /// Log time of the first message (ns), if any.
     pub start_ns: Option<u64>,
+    /// Log time of the last message (ns), if any.
     pub end_ns: Option<u64>,
     /// The file ends as a finished MCAP does (footer, summary, end magic).
     pub complete: bool,
@@ -64,6 +81,7 @@ pub struct Scan {
 }
 
 impl Scan {
+    /// Time from the first message to the last (s); 0 without messages.
     pub fn duration_s(&self) -> f64 {
         match (self.start_ns, self.end_ns) {
             (Some(a), Some(b)) => b.saturating_sub(a) as f64 * 1e-9,
@@ -71,6 +89,7 @@ impl Scan {
         }
     }
 
+    /// The index of `topic` in [`Self::topics`], if the file has it.
     pub fn topic_index(&self, topic: &str) -> Option<usize> {
         self.topics.iter().position(|t| t.topic == topic)
     }
@@ -225,7 +244,9 @@ fn decompress_chunk(header: &mcap::records::ChunkHeader, data: &[u8]) -> Result<
 /// A whole session in memory: topics, metadata and messages.
 #[derive(Debug, Clone, Default)]
 pub struct Session {
+    /// The topics and metadata.
     pub scan: Scan,
+    /// The messages, in log-time order.
     pub messages: Vec<MessageRef>,
 }
 
@@ -247,13 +268,23 @@ pub fn read_session(bytes: &[u8]) -> Result<Session, RecordError> {
 #[derive(Debug, thiserror::Error)]
 pub enum DecodeError {
     #[error("{topic} carries {found}, not {wanted}")]
+    /// A topic whose schema is not the type read.
     WrongType {
+        /// The topic.
         topic: String,
+        /// The type it carries.
         found: String,
+        /// The type read.
         wanted: String,
     },
     #[error("{topic}: {error}")]
-    Cdr { topic: String, error: CdrError },
+    /// A message that does not decode.
+    Cdr {
+        /// The topic.
+        topic: String,
+        /// Why it does not decode.
+        error: CdrError,
+    },
 }
 
 impl Scan {
@@ -350,7 +381,9 @@ fn head_of(
 /// What [`scan_topics`] reads: a session in memory, or an [`IndexedFile`].
 #[derive(Clone, Copy)]
 pub enum Source<'a> {
+    /// A whole file in memory.
     Bytes(&'a [u8]),
+    /// A file read through its index.
     Indexed(&'a IndexedFile),
 }
 

@@ -8,8 +8,11 @@ use std::io::{Seek, Write};
 /// What a recovery kept.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Recovered {
+    /// Messages written again.
     pub messages: u64,
+    /// Topics written again.
     pub topics: usize,
+    /// Whether the input ended where a complete file ends (nothing was cut off).
     pub input_complete: bool,
     /// Why reading the input stopped, if it was damaged.
     pub stopped: Option<String>,

@@ -112,6 +112,7 @@ impl FloatText {
 }
 
 impl CsvRows {
+    /// A writer of rows for the legs named `legs` (their names go into the rows).
     pub fn new(legs: &[String]) -> Result<Self> {
         let legs = legs
             .iter()
@@ -135,6 +136,7 @@ impl CsvRows {
         })
     }
 
+    /// Appends row `r` as one CSV line to `out`.
     pub fn push(&mut self, out: &mut Vec<u8>, r: &Row) {
         self.floats.put(out, r.t_s);
         self.legs[r.leg].put(out);

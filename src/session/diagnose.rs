@@ -31,7 +31,9 @@ pub struct DiagnoseFileOptions {
 /// One leg's diagnosis, or why it could not be made.
 #[derive(Debug)]
 pub struct LegDiagnosis {
+    /// The leg's name.
     pub leg: String,
+    /// Its diagnosis, or why none could be made.
     pub result: Result<Diagnosis, String>,
     /// How the leg's F/T sensor delivers its values (its effective rate and hold, from the
     /// spacing of changes of the lift it measured), if it changes often enough to tell.
@@ -50,7 +52,9 @@ fn sensor_of(samples: &[crate::ident::Sample]) -> Option<crate::diagnose::sinkag
 /// The diagnosis of a log, leg by leg.
 #[derive(Debug)]
 pub struct Diagnosed {
+    /// The log diagnosed.
     pub log: PathBuf,
+    /// Each leg's diagnosis.
     pub legs: Vec<LegDiagnosis>,
     /// The node configuration of the log's legs (for a CSV log, its one leg's), which the
     /// corrected parameters complete.
@@ -144,11 +148,14 @@ pub fn diagnose_legs(legs: &[LegLog], opts: &DiagnoseOptions) -> Vec<LegDiagnosi
 /// A leg's `report.json`: the leg, the log, and the report's fields.
 #[derive(serde::Serialize)]
 pub struct LegReport<'a> {
+    /// The leg's name.
     pub leg: &'a str,
+    /// The log, as given.
     pub log: &'a str,
     /// The sensor's habits: its effective rate and hold.
     pub sensor: Option<&'a crate::diagnose::sinkage::SensorHabits>,
     #[serde(flatten)]
+    /// The report's fields.
     pub report: &'a Report,
 }
 

@@ -14,42 +14,68 @@ use std::path::Path;
 /// One row of the trace: the estimate after an update.
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct TracePoint {
+    /// Time of the update (log clock, s).
     pub t_s: f64,
+    /// Estimated `b_k`.
     pub b_k: f64,
+    /// Estimated `a`.
     pub a: f64,
+    /// Estimated plate-medium friction angle (deg).
     pub delta_deg: f64,
+    /// Standard deviation of `b_k`.
     pub std_b_k: f64,
+    /// Standard deviation of `a`.
     pub std_a: f64,
+    /// RMS of recent innovations (N).
     pub innovation_rms_n: f64,
+    /// Whether the estimate has converged.
     pub converged: bool,
 }
 
 #[derive(Debug, Clone, Serialize)]
+/// What the online identification of a log found: the final estimate, its fit, and its samples
+/// and changes.
 pub struct OnlineReport {
+    /// Final `b_k`.
     pub b_k: f64,
+    /// Final `a`.
     pub a: f64,
+    /// Final plate-medium friction angle (deg).
     pub delta_deg: f64,
+    /// How the improved model with the final estimate fits the log.
     pub improved: GoodnessOfFit,
+    /// How the conventional model (`b_e = b`) fits the log.
     pub conventional: GoodnessOfFit,
     /// Samples scored (the same selection as `fit`).
     pub samples: usize,
+    /// Standard deviation of `b_k`.
     pub std_b_k: f64,
+    /// Standard deviation of `a`.
     pub std_a: f64,
+    /// Standard deviation of the friction angle (deg).
     pub std_delta_deg: f64,
+    /// Whether the estimate converged.
     pub converged: bool,
     /// Time stamp of the first sample at which the estimate was converged (log clock, s).
     pub converged_at_s: Option<f64>,
+    /// Changes of the medium detected.
     pub changes_detected: u64,
+    /// Each change detected.
     pub changes: Vec<ChangeEvent>,
+    /// Samples that updated the estimate.
     pub samples_used: u64,
+    /// Samples skipped as not finite.
     pub samples_non_finite: u64,
+    /// Samples skipped outside the excitation gate.
     pub samples_not_excited: u64,
+    /// Samples skipped as a stuck sensor's.
     pub samples_stuck: u64,
 }
 
 /// What [`identify_online`] found.
 #[derive(Debug, Clone)]
 pub struct OnlineIdentification {
+    /// The report.
     pub report: OnlineReport,
     /// The estimate after every update.
     pub trace: Vec<TracePoint>,

@@ -21,7 +21,9 @@ use std::path::Path;
 /// What reading a session's inputs found.
 #[derive(Debug, Clone, Default, serde::Serialize)]
 pub struct Read {
+    /// JointStates read.
     pub joint_states: u64,
+    /// F/T samples read.
     pub ft_samples: u64,
     /// F/T samples matched to a joint angle, over every leg.
     pub matched: u64,
@@ -227,7 +229,9 @@ pub type HipPlaces = Vec<Option<HipMotion>>;
 
 /// Every leg's measured samples, and where the robot's state placed its hip at each.
 pub struct Placed {
+    /// Each leg's measured samples.
     pub samples: Vec<Vec<Sample>>,
+    /// Where the robot's state placed each leg's hip at its samples.
     pub hips: Vec<HipPlaces>,
 }
 

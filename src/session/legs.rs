@@ -16,8 +16,11 @@ use std::path::{Path, PathBuf};
 /// (drag and lift in the hip frame against the attack angle).
 #[derive(Debug, Clone)]
 pub struct LegLog {
+    /// The leg's name.
     pub name: String,
+    /// The leg's model (plate and medium).
     pub model: TerzaghiModel,
+    /// Its samples.
     pub samples: Vec<Sample>,
     /// For a leg the recorded robot's state places (`<leg>.hip_frame`): where its hip was at
     /// each sample (`None` where the state had no place; empty for other legs).
@@ -28,17 +31,23 @@ pub struct LegLog {
 /// topic carries its F/T, and its geometry and medium.
 #[derive(Debug, Clone)]
 pub struct JointLeg {
+    /// The leg's name.
     pub name: String,
     /// The joint's name in the JointState messages.
     pub joint: String,
+    /// The JointState topic.
     pub joint_states_topic: String,
     /// The leg's measured F/T topic (geometry_msgs/WrenchStamped).
     pub wrench_topic: String,
+    /// How the F/T sensor is mounted.
     pub ft_frame: FtFrame,
     /// `beta = direction * (position - angle_offset_rad)`; `direction` is `1` or `-1`.
     pub direction: f64,
+    /// The joint position at which the attack angle is 0 (rad).
     pub angle_offset_rad: f64,
+    /// The leg's plate and hip height.
     pub plate: Plate,
+    /// The leg's medium.
     pub medium: Medium,
 }
 

@@ -15,10 +15,15 @@ use std::time::Duration;
 /// The message types the recorder knows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Kind {
+    /// `sensor_msgs/JointState`.
     Joints,
+    /// `geometry_msgs/WrenchStamped`.
     Wrench,
+    /// `terzaghi_msgs/LegForce`.
     Force,
+    /// `terzaghi_msgs/ModelParams`.
     Params,
+    /// `diagnostic_msgs/DiagnosticArray`.
     Diag,
 }
 
@@ -75,7 +80,9 @@ fn spawn<M: RosMessage + Sync>(
 /// What a recording wrote.
 #[derive(Debug, Clone, Copy)]
 pub struct Recorded {
+    /// Messages written.
     pub written: u64,
+    /// Messages dropped (the recorder's queue was full).
     pub dropped: u64,
 }
 

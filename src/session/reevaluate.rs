@@ -20,24 +20,39 @@ use std::path::{Path, PathBuf};
 /// One prediction, with the measurement it is next to (if the leg has F/T).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct Row {
+    /// Time of the JointState (log clock, s).
     pub t_s: f64,
+    /// The leg, by index.
     pub leg: usize,
+    /// The attack angle (rad).
     pub beta_rad: f64,
+    /// The regime of the prediction.
     pub regime: Regime,
+    /// The measured drag next to it (N), if the leg has F/T.
     pub measured_drag_n: Option<f64>,
+    /// The measured lift (N), if the leg has F/T.
     pub measured_lift_n: Option<f64>,
+    /// The predicted drag (N).
     pub predicted_drag_n: f64,
+    /// The predicted lift (N).
     pub predicted_lift_n: f64,
+    /// The predicted hip torque (N m).
     pub predicted_hip_torque_nm: f64,
+    /// The `b_k` predicted with.
     pub b_k: f64,
+    /// The `a` predicted with.
     pub a: f64,
+    /// Whether `b_k`, `a` (or RFT's scale) were learnt.
     pub identified: bool,
     /// The bare improved model (no corrections), and what the F/T sensor is expected to read
     /// (the prediction through the sensor's corrections); both equal the prediction for a leg
     /// without corrections.
     pub bare_drag_n: f64,
+    /// The bare model's lift (N).
     pub bare_lift_n: f64,
+    /// What the sensor is expected to read, drag (N).
     pub expected_reading_drag_n: f64,
+    /// What the sensor is expected to read, lift (N).
     pub expected_reading_lift_n: f64,
 }
 
@@ -46,7 +61,9 @@ pub struct Row {
 /// corrections), drag and lift each.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct RowErrors {
+    /// Errors of the bare model, drag and lift.
     pub bare: [FitSums; 2],
+    /// Errors of the expected reading, drag and lift.
     pub expected: [FitSums; 2],
     /// Rows of a sinkage leg held, unloaded or rising ([`Regime::Unloading`]), left out of the
     /// sums: the rig, not the medium, sets their force.
@@ -54,6 +71,7 @@ pub struct RowErrors {
 }
 
 impl RowErrors {
+    /// Adds row `r`, where it has a measurement.
     pub fn add(&mut self, r: &Row) {
         let (Some(d), Some(l)) = (r.measured_drag_n, r.measured_lift_n) else {
             return;
@@ -80,7 +98,9 @@ impl RowErrors {
 pub enum Output<'a> {
     /// A recorded input, as it was.
     Input(&'a Scan, &'a MessageView<'a>),
+    /// A leg's prediction, at a log time (ns).
     Prediction(u64, &'a LegOutput),
+    /// A leg's model parameters (log time in ns, the leg's index).
     Params(u64, usize, &'a ModelParams),
     /// The node's own diagnosis of a leg's recent strokes (run in line here, in the background
     /// in the node).
@@ -90,8 +110,11 @@ pub enum Output<'a> {
 /// What a re-evaluation did.
 #[derive(Debug, Clone, Default, serde::Serialize)]
 pub struct Summary {
+    /// JointStates read.
     pub joint_states: u64,
+    /// F/T samples read.
     pub ft_samples: u64,
+    /// Rows predicted.
     pub rows: u64,
     /// Topics of the file that the configuration does not use.
     pub skipped_topics: Vec<String>,
@@ -99,7 +122,9 @@ pub struct Summary {
     pub undecodable: u64,
     /// Samples of a CSV log without a usable time (counted, skipped).
     pub skipped_samples: u64,
+    /// Whether the whole input was read.
     pub complete: bool,
+    /// Why it stopped early, if it did.
     pub stopped: Option<String>,
     /// Final estimate per leg with F/T.
     pub estimates: Vec<Option<Estimate>>,
@@ -444,6 +469,7 @@ pub struct ReevaluateOptions {
 /// What a re-evaluation of a file did.
 #[derive(Debug, Clone)]
 pub struct Reevaluation {
+    /// What it did.
     pub summary: Summary,
     /// The configuration it ran with.
     pub config: NodeConfig,

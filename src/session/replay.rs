@@ -43,7 +43,9 @@ impl Default for ReplayOptions {
 /// What a replay published.
 #[derive(Debug, Clone, Default)]
 pub struct Replayed {
+    /// Messages published.
     pub sent: u64,
+    /// Messages that did not decode (counted, not published).
     pub undecodable: u64,
     /// Topics of the file not replayed (unknown type or encoding), with their type.
     pub skipped: Vec<String>,

@@ -18,8 +18,11 @@ use std::f64::consts::{PI, TAU};
 /// What the simulation hides from the node.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Truth {
+    /// The medium's true `b_k`.
     pub b_k: f64,
+    /// The medium's true `a`.
     pub a: f64,
+    /// The effects the model lacks, added to the forces.
     pub effects: Vec<Hidden>,
     /// Size of the effects, 0-1 (see the generator).
     pub magnitude: f64,
@@ -33,10 +36,13 @@ pub struct Truth {
 /// How the robot walks.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Gait {
+    /// Length of the session (s).
     pub seconds: f64,
+    /// JointState rate (Hz).
     pub rate_hz: f64,
     /// Mean leg speed (rad/s); each stride draws 0.6-1.4 times it.
     pub mean_speed_rad_s: f64,
+    /// Seed of the strides' random speeds and the sensor noise.
     pub seed: u64,
 }
 
@@ -54,6 +60,7 @@ pub struct Body {
 }
 
 impl Body {
+    /// Whether the body neither heaves, pitches nor moves.
     pub fn is_still(&self) -> bool {
         *self == Body::default()
     }
@@ -62,13 +69,17 @@ impl Body {
 /// The body's pose at one sample, in the world frame `odom` (the surface at z = 0).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BodyPose {
+    /// Forward position (m).
     pub x_m: f64,
+    /// Height of the body's origin above the surface (m).
     pub z_m: f64,
+    /// Pitch (rad; ROS's pitch, positive nose down).
     pub pitch_rad: f64,
 }
 
 /// The frame of the body (`base_link`, REP 105) and of the world the surface is level in.
 pub const BODY_FRAME: &str = "base_link";
+/// The world frame the surface is level in.
 pub const WORLD_FRAME: &str = "odom";
 
 /// Where a leg's hip sits in the body frame, from its name (the shipped robot's): `front`,
@@ -101,7 +112,9 @@ pub fn hip_frame(leg_name: &str) -> String {
 /// F/T sensor reads (drag, lift).
 #[derive(Debug, Clone)]
 pub struct Session {
+    /// Time of each sample (s).
     pub t_s: Vec<f64>,
+    /// Each leg's samples, by time.
     pub legs: Vec<Vec<Sample>>,
     /// True sensor noise per leg (N).
     pub noise_n: Vec<f64>,
@@ -116,6 +129,8 @@ fn tripod_phase(leg: usize) -> f64 {
     if leg.is_multiple_of(2) { 0.0 } else { PI }
 }
 
+/// Simulates the robot of `cfg` walking by `gait` on the medium `truth`: each leg's angle and
+/// the forces its F/T sensor reads.
 pub fn simulate(cfg: &NodeConfig, truth: &Truth, gait: &Gait) -> Session {
     simulate_moving(cfg, truth, gait, &Body::default())
 }
@@ -338,6 +353,8 @@ pub fn ft_components(frame: FtFrame, fx: f64, fz: f64, beta_rad: f64) -> (f64, f
     }
 }
 
+/// The F/T reading of `leg` at sample `k` as the sensor's `WrenchStamped` (stamped from
+/// `t0_ns`).
 pub fn wrench(cfg: &NodeConfig, s: &Session, leg: usize, k: usize, t0_ns: i64) -> WrenchStamped {
     let x = &s.legs[leg][k];
     let lc = &cfg.legs[leg];

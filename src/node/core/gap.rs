@@ -26,6 +26,7 @@ pub const GAP_MAX_POINTS: usize = 4_000;
 /// One leg's recent strokes, for a diagnosis.
 #[derive(Debug, Clone)]
 pub struct GapJob {
+    /// The leg, by index in the configuration.
     pub leg: usize,
     /// The strokes' samples, a shared block per stroke: handing them over copies nothing on
     /// the message path; [`GapJob::samples`] joins them, on the worker.
@@ -34,6 +35,7 @@ pub struct GapJob {
     pub model: TerzaghiModel,
     /// Stamp of the newest sample (ns).
     pub stamp_ns: i64,
+    /// Strokes in the job.
     pub strokes: usize,
 }
 
@@ -43,6 +45,7 @@ impl GapJob {
         self.strokes_samples.iter().map(|s| s.len()).sum()
     }
 
+    /// Whether the job has no sample.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }

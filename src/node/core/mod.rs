@@ -35,7 +35,9 @@ pub use super::matcher::Matched;
 /// Counters of one leg, since start.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
 pub struct LegCounters {
+    /// JointStates that named the leg's joint.
     pub joint_states: u64,
+    /// Predictions published.
     pub predictions: u64,
     /// JointStates that did not name this leg's joint.
     pub missing_joint: u64,
@@ -43,6 +45,7 @@ pub struct LegCounters {
     pub invalid_position: u64,
     /// JointState stamps older than the last one used.
     pub stamps_backwards: u64,
+    /// F/T samples received.
     pub ft_received: u64,
     /// F/T samples with no joint angle within `max_match_dt_s`.
     pub ft_unmatched: u64,
@@ -60,6 +63,7 @@ pub struct LegCounters {
 /// Node-wide counters, since start.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
 pub struct NodeCounters {
+    /// JointStates received.
     pub joint_states: u64,
     /// JointStates whose arrays disagree in length, or whose stamp is invalid.
     pub invalid_joint_states: u64,
@@ -226,8 +230,11 @@ impl CorrectedLeg {
 /// has corrections), the bare model's, and what the sensor is expected to read.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RowPrediction {
+    /// The medium's force (with every correction of the medium).
     pub medium: Prediction,
+    /// The bare model's drag and lift (N).
     pub bare_n: [f64; 2],
+    /// What the F/T sensor is expected to read, drag and lift (N).
     pub sensor_n: [f64; 2],
 }
 
@@ -328,6 +335,7 @@ pub struct Outputs {
 }
 
 impl Outputs {
+    /// Empties every leg's outputs, keeping their memory for the next message.
     pub fn clear(&mut self) {
         self.legs.clear();
         self.params.clear();
@@ -338,8 +346,11 @@ impl Outputs {
 /// The outputs of one leg for one JointState.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LegOutput {
+    /// The leg, by index in the configuration.
     pub leg: usize,
+    /// The predicted wrench on the leg, in its hip frame.
     pub wrench: WrenchStamped,
+    /// The leg's force, with what it came from.
     pub force: LegForce,
 }
 
@@ -379,6 +390,7 @@ fn state_frames(tf: &mut TfTree, cfg: &NodeConfig) -> (FrameId, Vec<Option<Frame
 }
 
 impl NodeCore {
+    /// The core of the node configured by `cfg`, before any message.
     pub fn new(cfg: NodeConfig) -> NodeCore {
         let mut tf = TfTree::default();
         let (world_frame, hip_frames) = state_frames(&mut tf, &cfg);
@@ -621,6 +633,7 @@ impl NodeCore {
         self.legs[i].model = self.model_for(i, id.as_ref());
     }
 
+    /// The configuration the node runs with.
     pub fn config(&self) -> &NodeConfig {
         &self.cfg
     }
@@ -1256,10 +1269,12 @@ impl NodeCore {
         self.cfg.legs.get(leg).map(|l| l.name.as_str())
     }
 
+    /// Counters of `leg` (by index), if the node has it.
     pub fn leg_counters(&self, leg: usize) -> Option<LegCounters> {
         self.legs.get(leg).map(|l| l.counters)
     }
 
+    /// The node's counters.
     pub fn counters(&self) -> NodeCounters {
         self.counters
     }
@@ -1269,6 +1284,7 @@ impl NodeCore {
         Some(*self.legs.get(leg)?.surface.as_ref()?.estimate())
     }
 
+    /// The online estimate of `leg` (by index), if the node has it.
     pub fn estimate(&self, leg: usize) -> Option<Estimate> {
         self.legs
             .get(leg)?
