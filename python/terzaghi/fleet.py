@@ -58,8 +58,11 @@ COLUMNS = [
     "baseline_b_k",
     "baseline_a",
     "corrected_b_k",
+    "corrected_b_k_std",
     "corrected_a",
+    "corrected_a_std",
     "corrected_terms",
+    "corrected_terms_std",
     "sensor_offset_drag_n",
     "sensor_offset_lift_n",
     "sensor_offset_significant",
@@ -90,6 +93,13 @@ def _row(robot: str, path: Path, start_s: Optional[float]) -> Dict[str, Any]:
     return row
 
 
+def _terms_text(terms) -> str:
+    """Terms as ``effect=c1,c2;effect=c1``, each coefficient to six significant digits."""
+    return ";".join(
+        f"{t['effect']}=" + ",".join(f"{c:.6g}" for c in t.get("coefficients", [])) for t in terms
+    )
+
+
 def diagnose_recording(path: PathLike, robot: str, out: Optional[PathLike] = None) -> List[Dict[str, Any]]:
     """One recording's rows, one per leg; on any failure one row whose ``error`` says why.
 
@@ -116,6 +126,7 @@ def diagnose_recording(path: PathLike, robot: str, out: Optional[PathLike] = Non
         verdict = r.get("verdict") or {}
         baseline = r.get("baseline") or {}
         corrected = r.get("corrected_model") or {}
+        corrected_std = r.get("corrected_model_std") or {}
         offset = (r.get("signatures") or {}).get("sensor_offset") or {}
         row.update(
             leg=r.get("leg"),
@@ -128,10 +139,10 @@ def diagnose_recording(path: PathLike, robot: str, out: Optional[PathLike] = Non
             baseline_a=baseline.get("a"),
             corrected_b_k=corrected.get("b_k"),
             corrected_a=corrected.get("a"),
-            corrected_terms=";".join(
-                f"{t['effect']}=" + ",".join(f"{c:.6g}" for c in t.get("coefficients", []))
-                for t in corrected.get("terms", [])
-            ),
+            corrected_terms=_terms_text(corrected.get("terms", [])),
+            corrected_b_k_std=corrected_std.get("b_k"),
+            corrected_a_std=corrected_std.get("a"),
+            corrected_terms_std=_terms_text(corrected_std.get("terms", [])),
             sensor_offset_drag_n=offset.get("drag_n"),
             sensor_offset_lift_n=offset.get("lift_n"),
             sensor_offset_significant=offset.get("significant"),

@@ -85,6 +85,10 @@ def test_the_table_matches_terzaghi_diagnose_per_file(recordings, tmp_path):
             assert row["verdict"] == r["verdict"]["effect"]
             assert row["corrected_b_k"] == r["corrected_model"]["b_k"]
             assert row["corrected_a"] == r["corrected_model"]["a"]
+            # The corrected values' standard deviations, from the diagnosis's folds.
+            assert row["corrected_b_k_std"] == r["corrected_model_std"]["b_k"] > 0
+            assert row["corrected_a_std"] == r["corrected_model_std"]["a"] > 0
+            assert row["corrected_terms_std"].count("=") == row["corrected_terms"].count("=")
             assert row["sensor_offset_lift_n"] == r["signatures"]["sensor_offset"]["lift_n"]
             assert row["baseline_rmse_n"] == r["baseline"]["rmse_n"]
 

@@ -53,6 +53,28 @@ pub struct Fit {
     pub nonlinear: Vec<Nonlinear>,
     /// Held-out sum of squared residuals over drag and lift (N^2).
     pub heldout_sse: f64,
+    /// Standard deviations of `a` and of the coefficients: the delete-a-fold jackknife over
+    /// the folds' fits (each on every stroke but its fold's), `sqrt((k-1)/k sum (x_i - mean)^2)`,
+    /// the nonlinear values as each fold chose them. Whole strokes leave together, so strokes
+    /// that differ widen it as they should. `None` with fewer than two folds.
+    pub std: Option<FitStd>,
+}
+
+/// The standard deviations of a [`Fit`]'s values.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FitStd {
+    /// Of `a`.
+    pub a: f64,
+    /// Of each coefficient, in the order of [`Fit::coefficients`].
+    pub coefficients: Vec<f64>,
+}
+
+/// The delete-a-group jackknife's standard deviation of values `x` from `k >= 2` fits, each
+/// leaving one group out.
+fn jackknife_std(x: impl Iterator<Item = f64> + Clone) -> f64 {
+    let k = x.clone().count() as f64;
+    let mean = x.clone().sum::<f64>() / k;
+    ((k - 1.0) / k * x.map(|v| (v - mean).powi(2)).sum::<f64>()).sqrt()
 }
 
 impl Fit {
@@ -192,8 +214,16 @@ pub fn fit(ctx: &Context, design: &Design, search: Option<Effect>) -> Fit {
         .map(|(p, h)| (p.y_n[0] - h[0]).powi(2) + (p.y_n[1] - h[1]).powi(2))
         .sum();
     let all = &best[k_all];
+    let folds = &best[..k_all];
+    let std = (k_all >= 2).then(|| FitStd {
+        a: jackknife_std(folds.iter().map(|c| c.ln_a.exp())),
+        coefficients: (0..all.coef.len())
+            .map(|j| jackknife_std(folds.iter().map(|c| c.coef[j])))
+            .collect(),
+    });
     design.fixed = best.iter().map(|c| c.nl).collect();
     Fit {
+        std,
         nonlinear: design.fixed.clone(),
         design,
         heldout_n: heldout,

@@ -31,7 +31,7 @@ pub(crate) use context::Context;
 pub use context::median;
 pub use effects::Effect;
 pub use kinematics::{Kinematics, Turns, kinematics};
-pub use report::{Diagnosis, Evidence, Report, VerdictEffect};
+pub use report::{CorrectedStd, Diagnosis, Evidence, Report, VerdictEffect};
 
 use crate::ident::Sample;
 use crate::model::{HipMotion, TerzaghiModel};
@@ -290,7 +290,16 @@ mod tests {
 
     /// A session of the model with `b_k = 2, a = 1.5`, changed by `effect(drag, lift)`.
     fn session(strokes: usize, effect: impl Fn(f64, f64) -> (f64, f64)) -> Vec<Sample> {
-        let mut rng = rand::rngs::StdRng::seed_from_u64(3);
+        session_seeded(3, strokes, effect)
+    }
+
+    /// [`session`] with its noise and strokes drawn from `seed`.
+    fn session_seeded(
+        seed: u64,
+        strokes: usize,
+        effect: impl Fn(f64, f64) -> (f64, f64),
+    ) -> Vec<Sample> {
+        let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
         let truth = unit().with_fitting_width(FittingWidth::new(2.0, 1.5).unwrap());
         let angles = sim::rotate(&sim::Rotation::default(), strokes, &mut rng);
         sim::measure(&angles, 0.01, &mut rng, |_, b| {
@@ -319,6 +328,47 @@ mod tests {
         assert!(r.gap.excess_ratio.abs() < 0.1, "{}", r.gap.excess_ratio);
         assert!(r.candidates.iter().all(|c| c.gap_closed_pct.is_none()));
         assert_eq!(r.corrected_model_forward_gap_closed_pct, None, "no step");
+    }
+
+    /// The corrected model's standard deviations say how far its values scatter: over twelve
+    /// sessions that differ in their noise and strokes only, the spread of `b_k`, `a` and the
+    /// offset's coefficients is within a factor of two of the median standard deviation each
+    /// session's diagnosis gives.
+    #[test]
+    fn the_corrected_models_standard_deviations_are_its_spread() {
+        let mut values: Vec<Vec<f64>> = Vec::new();
+        let mut stds: Vec<Vec<f64>> = Vec::new();
+        for seed in 0..12 {
+            let s = session_seeded(seed, 12, |d, l| (d + 3.0, l - 2.0));
+            let r = diagnose(&unit(), &s, &DiagnoseOptions::default())
+                .unwrap()
+                .report;
+            let c = &r.corrected_model;
+            let sd = r.corrected_model_std.expect("folds");
+            assert_eq!(c.terms.len(), sd.terms.len());
+            let bias = c.terms.iter().position(|t| t.effect == Effect::SensorBias);
+            let bias = bias.expect("the offset is found");
+            let mut v = vec![c.b_k, c.a];
+            v.extend(&c.terms[bias].coefficients);
+            let mut d = vec![sd.b_k, sd.a];
+            d.extend(&sd.terms[bias].coefficients);
+            values.push(v);
+            stds.push(d);
+        }
+        for j in 0..values[0].len() {
+            let x: Vec<f64> = values.iter().map(|v| v[j]).collect();
+            let mean = x.iter().sum::<f64>() / x.len() as f64;
+            let spread =
+                (x.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (x.len() - 1) as f64).sqrt();
+            let mut d: Vec<f64> = stds.iter().map(|v| v[j]).collect();
+            d.sort_by(f64::total_cmp);
+            let said = 0.5 * (d[5] + d[6]);
+            eprintln!("value {j}: spread {spread:.3e}, standard deviation said {said:.3e}");
+            assert!(
+                said > 0.5 * spread && said < 2.0 * spread,
+                "value {j}: spread {spread:.3e}, standard deviation said {said:.3e}"
+            );
+        }
     }
 
     #[test]

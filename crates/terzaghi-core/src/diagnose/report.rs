@@ -18,6 +18,39 @@ pub struct Diagnosis {
     pub plot: PlotData,
 }
 
+/// Standard deviations of a corrected model's values: the delete-a-fold jackknife over the
+/// fit's folds of whole strokes, each fitted on every stroke but its own (nonlinear values, such
+/// as a sensor's lag, held as each fold chose them).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct CorrectedStd {
+    /// Of `b_k`.
+    pub b_k: f64,
+    /// Of `a`.
+    pub a: f64,
+    /// Of each term's coefficients, in the order of the corrected model's terms.
+    pub terms: Vec<Term>,
+}
+
+/// The standard deviations of the corrected model `f` gives ([`corrected_model`]).
+pub(crate) fn corrected_std(f: &Fit) -> Option<CorrectedStd> {
+    let s = f.std.as_ref()?;
+    let mut terms = Vec::with_capacity(f.design.effects.len());
+    let mut j = 1;
+    for &e in &f.design.effects {
+        let n = e.linear_params().len();
+        terms.push(Term {
+            effect: e,
+            coefficients: s.coefficients[j..j + n].to_vec(),
+        });
+        j += n;
+    }
+    Some(CorrectedStd {
+        b_k: s.coefficients[0],
+        a: s.a,
+        terms,
+    })
+}
+
 /// What the diagnosis found in a leg's session: the gap between model and measurement, where it
 /// lies, the candidate effects, the steps taken and the verdict.
 #[derive(Debug, Clone, serde::Serialize)]
@@ -57,6 +90,10 @@ pub struct Report {
     /// The corrected model of every step taken, fitted on every stroke: what the node predicts
     /// with once given it (`corrected.yaml`). The baseline's `b_k, a` alone without steps.
     pub corrected_model: Corrections,
+    /// Standard deviations of the corrected model's `b_k`, `a` and terms' coefficients, from
+    /// the folds of the fit that gave them (see [`CorrectedStd`]); `None` with fewer than two
+    /// folds.
+    pub corrected_model_std: Option<CorrectedStd>,
     /// Share of the gap the corrected model closes on held-out strokes, %: the last step's
     /// `gap_closed_pct` it holds (0 with no step).
     pub corrected_model_gap_closed_pct: f64,
@@ -688,16 +725,22 @@ pub(super) fn analyse(
                 effects: admissible.design.effects.clone(),
                 fixed: admissible.nonlinear.clone(),
             };
-            let c = corrected_model(full, &fit(full, &design, None));
+            let f = fit(full, &design, None);
+            let c = corrected_model(full, &f);
             c.validate(length_m)
-                .map(|()| (c, full.points.len()))
+                .map(|()| (c, corrected_std(&f), full.points.len()))
                 .map_err(|e| e.to_string())
         });
-    let (corrected_model, corrected_model_fit_samples, corrected_model_refit_refused) = match refit
-    {
-        Some(Ok((c, fitted_on))) => (c, fitted_on, None),
+    let (
+        corrected_model,
+        corrected_model_std,
+        corrected_model_fit_samples,
+        corrected_model_refit_refused,
+    ) = match refit {
+        Some(Ok((c, std, fitted_on))) => (c, std, fitted_on, None),
         other => (
             corrected_model(ctx, &admissible),
+            corrected_std(&admissible),
             ctx.points.len(),
             other.and_then(Result::err),
         ),
@@ -767,6 +810,7 @@ pub(super) fn analyse(
             corrected_model_gap_closed_pct,
             corrected_model_forward_gap_closed_pct,
             corrected_model_left_out,
+            corrected_model_std,
             corrected_model_fit_samples,
             corrected_model_refit_refused,
             hip_placed_points: ctx
