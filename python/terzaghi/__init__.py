@@ -34,6 +34,7 @@ __all__ = [
     "diagnose",
     "session_rows",
     "Recorder",
+    "Node",
 ]
 
 #: The regimes' names, indexed by the codes :func:`predict` returns (``LegForce.msg``'s order).
@@ -355,6 +356,61 @@ class Recorder:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+class Node:
+    """The node's core, without DDS or a clock: it predicts each leg's force from the messages a
+    robot would send it, exactly as ``terzaghi node`` publishes them. With a ``corrected.yaml``
+    of :func:`diagnose` as its parameters, it predicts with the corrections the diagnosis found.
+
+    Args:
+        params_file: a node parameter file (``corrected.yaml``, a robot's parameters); optional.
+        params: parameters over the file's, ``{name: value}`` (as ``-p name:=value``).
+
+    Feed it in stamp order: :meth:`pose` (the body's pose, for a robot whose hips
+    ``<leg>.hip_offset_m`` places in the body), :meth:`wrench` (a leg's measured F/T, which the
+    node learns from) and :meth:`joint_state`, which returns the legs' predictions.
+    """
+
+    def __init__(self, params_file: Optional[PathLike] = None,
+                 params: Optional[Dict[str, Any]] = None) -> None:
+        pairs = [(str(k), _param_text(str(k), v)) for k, v in (params or {}).items()]
+        self._inner = _terzaghi.Node(None if params_file is None else os.fspath(params_file), pairs)
+        #: The legs' names, in the order of the ``legs`` parameter and of the returned arrays.
+        self.legs: List[str] = list(self._inner.legs())
+        self._fields = list(_terzaghi.NODE_FIELDS)
+
+    @property
+    def params(self) -> Dict[str, str]:
+        """The parameters the node runs with (defaults, the file, the overrides), as text: what
+        a :class:`Recorder` stores so that a recording replays with them."""
+        return dict(self._inner.params())
+
+    def pose(self, t_ns: int, position, orientation_xyzw, frame_id: str = "") -> None:
+        """The body's pose at ``t_ns`` (ns): position (m) and unit quaternion ``(x, y, z, w)``
+        in ``frame_id`` (the world frame when empty)."""
+        self._inner.pose(int(t_ns), [float(v) for v in position],
+                         [float(v) for v in orientation_xyzw], frame_id)
+
+    def wrench(self, leg: Union[int, str], t_ns: int, force, torque=(0.0, 0.0, 0.0),
+               frame_id: str = "") -> None:
+        """Leg ``leg``'s (index or name) measured F/T at ``t_ns`` (N, N m, in its sensor's
+        frame)."""
+        i = self.legs.index(leg) if isinstance(leg, str) else int(leg)
+        self._inner.wrench(i, int(t_ns), [float(v) for v in force], [float(v) for v in torque],
+                           frame_id)
+
+    def joint_state(self, t_ns: int, names: List[str], position, velocity=None) -> Dict[str, np.ndarray]:
+        """A JointState at ``t_ns``: returns each leg's prediction as arrays over
+        :attr:`legs` (NaN for a leg whose joint the message does not name): ``drag_n``,
+        ``lift_n``, ``hip_torque_nm`` (the medium's force with every correction),
+        ``sensor_drag_n``, ``sensor_lift_n`` (what its F/T sensor is expected to read),
+        ``bare_drag_n``, ``bare_lift_n`` (the bare model's), ``hip_height_m``,
+        ``attack_angle_rad`` and ``regime`` (codes, :data:`REGIMES`)."""
+        pos = [float(v) for v in np.ravel(position)]
+        vel = [] if velocity is None else [float(v) for v in np.ravel(velocity)]
+        cols = self._inner.joint_state(int(t_ns), list(names), pos, vel)
+        return {k: np.asarray(v) for k, v in zip(self._fields, cols)}
 
 
 def rhex_params() -> Dict[str, str]:

@@ -21,11 +21,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Dict, List, Optional, Sequence
+from typing import TYPE_CHECKING, Dict, List, Optional, Sequence
 
 import numpy as np
 
 from .batch import LegBatch
+
+if TYPE_CHECKING:
+    from . import Node
 
 __all__ = ["LegMap", "Coupling", "HEXAPOD_XML", "hexapod_xml", "hexapod_params", "WalkRecording", "walk"]
 
@@ -46,19 +49,40 @@ class Coupling:
     Args:
         model: the ``mujoco.MjModel``.
         legs: the legs (:class:`LegMap`), all of one shape and size.
-        leg_model: the leg model (:class:`terzaghi.batch.LegBatch`).
+        leg_model: the leg model (:class:`terzaghi.batch.LegBatch`), evaluated for all legs at
+            once; or ``None`` with ``node``.
         torso: the body whose pitch and forward direction the hips share (the robot's trunk).
         surface_z_m: the height of the sand's free surface in the world (m).
+        node: instead of ``leg_model``, the node's core (:class:`terzaghi.Node`) with the
+            robot's parameters, for instance a ``corrected.yaml``: each step it is sent the
+            torso's pose and the joint states, stamped ``t0_ns`` plus the simulated time, and
+            the legs feel what it predicts, corrections included. Its legs' names are the map's,
+            its joints the map's joints, its hips placed in the torso (``<leg>.hip_offset_m``,
+            ``robot_state.pose_topic``), as :func:`hexapod_params` sets them; the surface is
+            at ``z = 0``.
     """
 
-    def __init__(self, model, legs: Sequence[LegMap], leg_model: LegBatch, *, torso: str,
-                 surface_z_m: float = 0.0) -> None:
+    def __init__(self, model, legs: Sequence[LegMap], leg_model: Optional[LegBatch] = None, *,
+                 torso: str, surface_z_m: float = 0.0, node: Optional["Node"] = None,
+                 t0_ns: int = 1_700_000_000 * 10**9) -> None:
         import mujoco
 
+        if (leg_model is None) == (node is None):
+            raise ValueError("give either leg_model (a LegBatch) or node (a terzaghi.Node)")
         self.model = model
         self.legs = list(legs)
         self.leg_model = leg_model
+        self.node = node
+        self.t0_ns = int(t0_ns)
         self.surface_z_m = float(surface_z_m)
+        if node is not None:
+            missing = [leg.name for leg in self.legs if leg.name not in node.legs]
+            if missing:
+                raise ValueError(f"legs {missing}: not legs of the node (its legs: {node.legs})")
+            if self.surface_z_m != 0.0:
+                raise ValueError("with a node the surface is at z = 0 (robot_state.surface_height_m)")
+            self._node_index = np.array([node.legs.index(leg.name) for leg in self.legs], dtype=np.intp)
+            self._joints = [leg.joint for leg in self.legs]
         name = lambda kind, n: mujoco.mj_name2id(model, kind, n)
         self._torso = name(mujoco.mjtObj.mjOBJ_BODY, torso)
         if self._torso < 0:
@@ -115,9 +139,19 @@ class Coupling:
         """Reads the legs from ``data``, evaluates the model and writes each leg's wrench into
         ``data.xfrc_applied`` (call before ``mj_step``). The other bodies' entries are kept."""
         x = self.read(data)
-        self.leg_model.forces(x["beta"], x["h"], pitch_rad=x["pitch"], omega_rad_s=x["omega"],
-                              forward_m_s=x["fwd"], up_m_s=x["up"],
-                              out=(self.drag_n, self.lift_n, self.hip_torque_nm))
+        if self.node is not None:
+            t = self.t0_ns + int(round(data.time * 1e9))
+            p, q = self._torso_pose
+            self.node.pose(t, p, (q[1], q[2], q[3], q[0]))
+            f = self.node.joint_state(t, self._joints, x["beta"], x["omega"])
+            for k, out in (("drag_n", self.drag_n), ("lift_n", self.lift_n),
+                           ("hip_torque_nm", self.hip_torque_nm)):
+                # A leg the node did not predict (no pose yet) feels nothing.
+                out[:] = np.nan_to_num(f[k][self._node_index], nan=0.0)
+        else:
+            self.leg_model.forces(x["beta"], x["h"], pitch_rad=x["pitch"], omega_rad_s=x["omega"],
+                                  forward_m_s=x["fwd"], up_m_s=x["up"],
+                                  out=(self.drag_n, self.lift_n, self.hip_torque_nm))
         axis = data.xmat[self._torso].reshape(3, 3)[:, 1]  # the hips' +y axis: the legs turn about it
         f = self.drag_n[:, None] * self._fwd[None, :]
         f[:, 2] += self.lift_n
@@ -266,22 +300,26 @@ class WalkRecording:
 
 
 def walk(seconds: float, *, coupling: bool = True, leg_model: Optional[LegBatch] = None,
-         mean_rad_s: float = 4.0, on_step=None):
+         node: Optional["Node"] = None, width_m: float = 0.025, mean_rad_s: float = 4.0,
+         on_step=None):
     """The hexapod walking for ``seconds`` of simulated time, with terzaghi's forces on its legs
     (or, ``coupling=False``, with none: the legs turn in the air and the torso lies on the
-    floor). ``on_step(model, data, coupling)`` is called after each step. Returns the model and
-    data at the end."""
+    floor). The forces come from ``leg_model`` (by default the improved model on poppy seeds),
+    or from ``node``, the node's core with the robot's parameters (a ``corrected.yaml`` over
+    :func:`hexapod_params`), which predicts with their corrections. Legs 0.1 m long and
+    ``width_m`` wide. ``on_step(model, data, coupling)`` is called after each step. Returns the
+    model and data at the end."""
     import mujoco
 
-    if leg_model is None:
-        leg_model = LegBatch(length_m=0.1, width_m=0.025, medium="poppy_lp")
-    model = mujoco.MjModel.from_xml_string(hexapod_xml())
+    if leg_model is None and node is None:
+        leg_model = LegBatch(length_m=0.1, width_m=width_m, medium="poppy_lp")
+    model = mujoco.MjModel.from_xml_string(hexapod_xml(width_m=width_m))
     data = mujoco.MjData(model)
     # Start the tripods half a turn apart.
     for leg in hexapod_legs():
         j = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, leg.joint)
         data.qpos[model.jnt_qposadr[j]] = 0.8 if leg.name in TRIPOD_A else 0.8 + math.pi
-    c = Coupling(model, hexapod_legs(), leg_model, torso="torso") if coupling else None
+    c = Coupling(model, hexapod_legs(), leg_model, torso="torso", node=node) if coupling else None
     mujoco.mj_forward(model, data)
     steps = int(round(seconds / model.opt.timestep))
     act = {n: mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, f"{n}_servo") for n in HEXAPOD_HIPS}

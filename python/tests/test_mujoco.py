@@ -144,3 +144,74 @@ def _stroke_forces():
     beta = np.radians(np.arange(1.0, 90.0, 0.5))
     f = terzaghi.predict(beta, hip_height_m=0.0, **LEG)
     return beta, f["drag_n"], f["lift_n"]
+
+
+def _corrected_yaml(tmp_path):
+    """A robot's corrected.yaml: the shipped six-legged robot (legs 0.1 x 0.04 m) walking on a
+    medium with a surcharge the model leaves out, diagnosed."""
+    robot = tmp_path / "robot.mcap"
+    run("simulate-robot", "--seconds", "20", "--hidden", "surcharge", "--magnitude", "1",
+        "-o", robot)
+    reports = terzaghi.diagnose(robot, tmp_path / "diagnosis")
+    assert all(r["verdict"]["effect"] == "surcharge" for r in reports), [r["verdict"] for r in reports]
+    return tmp_path / "diagnosis" / "corrected.yaml"
+
+
+def _hexapod_over(params_file_legs):
+    """What the MuJoCo hexapod changes of a robot's parameters: its joints, its hips placed in
+    the torso whose pose /body_pose carries, its F/T in the hip frame."""
+    p = tm.hexapod_params(width_m=0.04)
+    keep = {"robot_state.pose_topic"}
+    for leg in params_file_legs:
+        keep |= {f"{leg}.{k}" for k in ("joint", "direction", "angle_offset_rad", "hip_offset_m", "ft_frame")}
+    return {k: v for k, v in p.items() if k in keep}
+
+
+def test_a_node_couples_as_the_leg_model_does():
+    # The node's core with the hexapod's parameters gives each step the forces the batch model
+    # gives for the state the coupling read: its hips placed from the torso's pose.
+    node = terzaghi.Node(params=tm.hexapod_params())
+    batch = LegBatch(**LEG)
+    out = tuple(np.empty(6) for _ in range(3))
+    worst = [0.0, 0]
+
+    def check(model, data, c):
+        x = c._in
+        batch.forces(x["beta"], x["h"], pitch_rad=x["pitch"], out=out)
+        worst[0] = max(worst[0], float(np.max(np.abs(c.lift_n - out[1]))), float(np.max(np.abs(c.drag_n - out[0]))))
+        worst[1] += int(np.count_nonzero(out[1]))
+
+    tm.walk(2.0, node=node, on_step=check)
+    assert worst[1] > 1000
+    assert worst[0] < 1e-6, worst
+
+
+def test_the_hexapod_walks_again_with_a_corrected_yaml(tmp_path):
+    corrected = _corrected_yaml(tmp_path)
+    node = terzaghi.Node(corrected, params=_hexapod_over(tm.HEXAPOD_HIPS))
+    assert sorted(node.legs) == sorted(tm.HEXAPOD_HIPS)
+    path = tmp_path / "corrected_walk.mcap"
+    recording = tm.WalkRecording(path, node.params)
+    heights = []
+
+    def step(model, data, c):
+        recording.on_step(model, data, c)
+        heights.append(data.qpos[2])
+
+    model, data = tm.walk(10.0, node=node, width_m=0.04, on_step=step)
+    recording.close()
+    # It walks on the corrected model's forces: forward, lifted off the floor at times.
+    assert data.qpos[0] > 0.3 and max(heights) > 0.04, (data.qpos[:3], max(heights))
+    # The recording replayed through the node's own code, with the parameters recorded (the
+    # corrections among them): it predicts what the legs felt, to 1e-6, and the surcharge is
+    # part of it.
+    rows = terzaghi.session_rows(path, params={"use_identified": False})
+    assert sorted(rows) == sorted(tm.HEXAPOD_HIPS)
+    for leg, r in rows.items():
+        m = ~np.isnan(r["measured_lift_n"])
+        assert m.sum() > 4000
+        err = np.abs(r["predicted_lift_n"][m] - r["measured_lift_n"][m])
+        assert np.max(err) < 1e-6 * max(1.0, np.max(np.abs(r["measured_lift_n"][m]))), (leg, np.max(err))
+        # The surcharge adds lift where the leg is in the sand: the bare model's is less.
+        loaded = m & (r["measured_lift_n"] > 1.0)
+        assert np.mean(r["predicted_lift_n"][loaded] - r["bare_lift_n"][loaded]) > 0.05, leg

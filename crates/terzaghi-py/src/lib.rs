@@ -843,6 +843,196 @@ impl Recorder {
     }
 }
 
+/// The node's core (no DDS, no clock): its parameters (a `corrected.yaml` of the diagnosis,
+/// a robot's parameter file, overrides), fed the messages a robot would send it, predicting
+/// each leg's force as the node publishes it.
+#[pyclass(module = "terzaghi._terzaghi", name = "Node", unsendable)]
+struct Node {
+    core: terzaghi::node::core::NodeCore,
+    out: terzaghi::node::core::Outputs,
+    params: Vec<(String, String)>,
+    joints: terzaghi::msgs::JointState,
+}
+
+/// The fields of each leg's prediction that [`Node::joint_state`] returns, in order.
+const NODE_FIELDS: [&str; 10] = [
+    "drag_n",
+    "lift_n",
+    "hip_torque_nm",
+    "sensor_drag_n",
+    "sensor_lift_n",
+    "bare_drag_n",
+    "bare_lift_n",
+    "hip_height_m",
+    "attack_angle_rad",
+    "regime",
+];
+
+#[pymethods]
+impl Node {
+    #[new]
+    #[pyo3(signature = (params_file, params))]
+    fn new(
+        params_file: Option<std::path::PathBuf>,
+        params: Vec<(String, String)>,
+    ) -> PyResult<Self> {
+        let ros = terzaghi::config::RosArgs {
+            params: params
+                .into_iter()
+                .map(|(k, v)| {
+                    let v = terzaghi::config::parse_value(&v);
+                    (k, v)
+                })
+                .collect(),
+            params_files: params_file.into_iter().collect(),
+            ..Default::default()
+        };
+        let map = terzaghi::config::load_params(&ros, "terzaghi", "/").map_err(err)?;
+        let cfg =
+            terzaghi::config::NodeConfig::from_params(&map, "terzaghi", "/", &[]).map_err(err)?;
+        Ok(Node {
+            core: terzaghi::node::core::NodeCore::new(cfg),
+            out: Default::default(),
+            params: map
+                .iter()
+                .map(|(k, v)| (k.clone(), v.to_string()))
+                .collect(),
+            joints: Default::default(),
+        })
+    }
+
+    /// The legs' names, in the order of the `legs` parameter.
+    fn legs(&self) -> Vec<String> {
+        self.core
+            .config()
+            .legs
+            .iter()
+            .map(|l| l.name.clone())
+            .collect()
+    }
+
+    /// The parameters the node runs with (defaults, the file, the overrides), as text.
+    fn params(&self) -> Vec<(String, String)> {
+        self.params.clone()
+    }
+
+    /// The body's pose (`robot_state.pose_topic`), position (m) and orientation `(x, y, z,
+    /// w)`, in `frame_id` ("" for the world frame).
+    #[pyo3(signature = (t_ns, position, orientation_xyzw, frame_id))]
+    fn pose(
+        &mut self,
+        t_ns: i64,
+        position: [f64; 3],
+        orientation_xyzw: [f64; 4],
+        frame_id: &str,
+    ) -> PyResult<()> {
+        let [x, y, z, w] = orientation_xyzw;
+        let msg = terzaghi::msgs::PoseStamped {
+            header: header(t_ns, frame_id)?,
+            pose: terzaghi::msgs::Pose {
+                position: terzaghi::msgs::Point {
+                    x: position[0],
+                    y: position[1],
+                    z: position[2],
+                },
+                orientation: terzaghi::msgs::Quaternion { x, y, z, w },
+            },
+        };
+        self.out.clear();
+        self.core
+            .handle(terzaghi::node::core::Input::Pose(&msg), &mut self.out);
+        Ok(())
+    }
+
+    /// A measured wrench of leg `leg` (by index), in its sensor's frame: what the node learns
+    /// from.
+    #[pyo3(signature = (leg, t_ns, force, torque, frame_id))]
+    fn wrench(
+        &mut self,
+        leg: usize,
+        t_ns: i64,
+        force: [f64; 3],
+        torque: [f64; 3],
+        frame_id: &str,
+    ) -> PyResult<()> {
+        let n = self.core.legs();
+        if leg >= n {
+            return Err(TerzaghiError::new_err(format!(
+                "leg {leg}: the node has {n} legs"
+            )));
+        }
+        let v = |a: [f64; 3]| terzaghi::msgs::Vector3 {
+            x: a[0],
+            y: a[1],
+            z: a[2],
+        };
+        let msg = terzaghi::msgs::WrenchStamped {
+            header: header(t_ns, frame_id)?,
+            wrench: terzaghi::msgs::Wrench {
+                force: v(force),
+                torque: v(torque),
+            },
+        };
+        self.out.clear();
+        self.core.handle(
+            terzaghi::node::core::Input::Wrench(leg, &msg),
+            &mut self.out,
+        );
+        Ok(())
+    }
+
+    /// A JointState: each configured leg whose joint it names is predicted. Returns, per field
+    /// of [`NODE_FIELDS`], one value per leg (in the order of [`Node::legs`]; NaN for a leg
+    /// the message does not predict).
+    #[pyo3(signature = (t_ns, names, position, velocity))]
+    fn joint_state(
+        &mut self,
+        t_ns: i64,
+        names: Vec<String>,
+        position: Vec<f64>,
+        velocity: Vec<f64>,
+    ) -> PyResult<Vec<Vec<f64>>> {
+        if position.len() != names.len() || !(velocity.is_empty() || velocity.len() == names.len())
+        {
+            return Err(TerzaghiError::new_err(format!(
+                "{} names, {} positions, {} velocities: give one position (and velocity, or none) per name",
+                names.len(),
+                position.len(),
+                velocity.len()
+            )));
+        }
+        self.joints.header = header(t_ns, "")?;
+        self.joints.name = names;
+        self.joints.position = position;
+        self.joints.velocity = velocity;
+        self.out.clear();
+        self.core.handle(
+            terzaghi::node::core::Input::Joints(&self.joints),
+            &mut self.out,
+        );
+        let mut cols = vec![vec![f64::NAN; self.core.legs()]; NODE_FIELDS.len()];
+        for o in &self.out.legs {
+            let f = &o.force;
+            let v = [
+                f.drag_n,
+                f.lift_n,
+                f.hip_torque_nm,
+                f.sensor_drag_n,
+                f.sensor_lift_n,
+                f.bare_drag_n,
+                f.bare_lift_n,
+                f.hip_height_m,
+                f.attack_angle_rad,
+                f64::from(f.regime),
+            ];
+            for (c, x) in cols.iter_mut().zip(v) {
+                c[o.leg] = x;
+            }
+        }
+        Ok(cols)
+    }
+}
+
 /// The shipped six-legged robot's node parameters (`launch_configs/rhex.yaml` over the
 /// defaults), as `name`, value text pairs.
 #[pyfunction]
@@ -867,6 +1057,8 @@ fn _terzaghi(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Online>()?;
     m.add_class::<Batch>()?;
     m.add_class::<Recorder>()?;
+    m.add_class::<Node>()?;
+    m.add("NODE_FIELDS", NODE_FIELDS.to_vec())?;
     m.add_function(wrap_pyfunction!(rhex_params, m)?)?;
     m.add(
         "REGIMES",
