@@ -20,16 +20,20 @@ pub enum ModelKind {
     Conventional,
     /// Resistive force theory (Li, Zhang & Goldman 2013).
     Rft,
+    /// A horizontal plate pushed straight down, by the plate-sinkage law of a medium file
+    /// (`terzaghi calibrate` writes one): its depth is the hip's height below the surface.
+    Sinkage,
 }
 
 impl ModelKind {
-    /// The kind of that name: `improved`, `conventional` or `rft`.
+    /// The kind of that name: `improved`, `conventional`, `rft` or `sinkage`.
     pub fn by_name(name: &str) -> Result<ModelKind> {
         Ok(match name {
             "improved" => ModelKind::Improved,
             "conventional" => ModelKind::Conventional,
             "rft" => ModelKind::Rft,
-            other => bail!("model {other:?}: expected improved, conventional or rft"),
+            "sinkage" => ModelKind::Sinkage,
+            other => bail!("model {other:?}: expected improved, conventional, rft or sinkage"),
         })
     }
 }
@@ -45,6 +49,9 @@ pub struct MediumSpec {
     pub phi_deg: Option<f64>,
     /// Custom medium: plate-medium friction angle (deg).
     pub delta_deg: Option<f64>,
+    /// A medium file (a plate-sinkage law calibrated from measurements), for the sinkage
+    /// model.
+    pub file: Option<std::path::PathBuf>,
 }
 
 /// A medium and the preset it came from, if any (whose identified fitting widths the improved
@@ -60,6 +67,12 @@ pub struct ChosenMedium {
 impl MediumSpec {
     /// The medium: the preset, or the three custom values (all of them, and no preset).
     pub fn medium(&self) -> Result<ChosenMedium> {
+        if let Some(f) = &self.file {
+            bail!(
+                "the medium file {} is a plate-sinkage law: it predicts model sinkage (a plate pushed straight down), not a turning leg's soil values",
+                f.display()
+            );
+        }
         let custom = [self.unit_weight_n_m3, self.phi_deg, self.delta_deg];
         match (&self.preset, custom) {
             (Some(name), [None, None, None]) => {
@@ -139,9 +152,9 @@ pub fn terzaghi_model(
     }
 }
 
-/// A leg's shape: a flat plate, or RHex's C-leg (an arc whose chord is the plate's length),
-/// which RFT integrates element by element.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+/// A leg's shape: a flat plate, RHex's C-leg (an arc whose chord is the plate's length), or
+/// any mid-line; RFT integrates the curved ones element by element.
+#[derive(Debug, Clone, PartialEq, Default)]
 pub enum LegShape {
     /// A flat plate.
     #[default]
@@ -152,6 +165,12 @@ pub enum LegShape {
         radius_m: Option<f64>,
         /// The arc's span (deg; default 180).
         span_deg: Option<f64>,
+    },
+    /// A mid-line `[(s, q)]` in metres, from the hip: `s` along the chord toward the tip, `q`
+    /// toward the travel (the node's `<leg>.shape: polyline` and `<leg>.profile`).
+    Polyline {
+        /// The points, hip side first.
+        line: Vec<(f64, f64)>,
     },
 }
 
@@ -243,16 +262,31 @@ pub struct ModelSpec {
 impl ModelSpec {
     /// The model; every value that does not make one is refused by name.
     pub fn build(&self) -> Result<ForceModel> {
-        let plate = plate(self.length_m, self.width_m, self.hip_height_m)?;
         if self.kind != ModelKind::Improved && (self.b_k.is_some() || self.a.is_some()) {
             bail!("b_k and a (--bk, --a) apply to the improved model only");
         }
         if self.kind != ModelKind::Rft && self.shape != LegShape::Plate {
             bail!(
-                "a C-leg is predicted by RFT only (model rft), not the {:?} model",
+                "a curved leg (C-leg, polyline) is predicted by RFT only (model rft), not the {:?} model",
                 self.kind
             );
         }
+        if self.kind == ModelKind::Sinkage {
+            let Some(file) = &self.medium.file else {
+                bail!("model sinkage needs a medium file (terzaghi calibrate writes one)");
+            };
+            if self.medium.preset.is_some() || self.medium.unit_weight_n_m3.is_some() {
+                bail!(
+                    "model sinkage takes its medium from the medium file, not a preset or soil values"
+                );
+            }
+            // The plate's own height is where it stands without a hip given; it sinks by the
+            // hip's height below the surface of each prediction.
+            let plate = Plate::new(self.length_m, self.width_m, self.hip_height_m.max(0.0))?;
+            let (_, leg) = sinkage_leg(file, self.length_m, self.width_m, plate)?;
+            return Ok(ForceModel::Sinkage(leg));
+        }
+        let plate = plate(self.length_m, self.width_m, self.hip_height_m)?;
         match self.kind {
             ModelKind::Improved | ModelKind::Conventional => {
                 let chosen = self.medium.medium()?;
@@ -284,16 +318,43 @@ impl ModelSpec {
                     );
                 }
                 let coeffs = RftCoefficients::by_name(&set, self.rft_zeta)?;
-                Ok(ForceModel::Rft(match self.shape {
+                Ok(ForceModel::Rft(match &self.shape {
                     LegShape::Plate => RftModel::new(plate, coeffs, self.rft_elements)?,
                     LegShape::CLeg { radius_m, span_deg } => {
-                        let line = c_leg_line(self.length_m, radius_m, span_deg)?;
+                        let line = c_leg_line(self.length_m, *radius_m, *span_deg)?;
                         RftModel::with_profile(plate, coeffs, self.rft_elements, line)?
+                    }
+                    LegShape::Polyline { line } => {
+                        RftModel::with_profile(plate, coeffs, self.rft_elements, line.clone())?
                     }
                 }))
             }
+            ModelKind::Sinkage => unreachable!("built above"),
         }
     }
+}
+
+/// The sinkage leg of a medium file: a disc of diameter `width_m` when `length_m` equals it,
+/// else a `width_m` x `length_m` rectangle, pressing by the file's law; `plate` is its
+/// configured geometry. Returns the file too (what `terzaghi media` shows of it).
+pub fn sinkage_leg(
+    file: &std::path::Path,
+    length_m: f64,
+    width_m: f64,
+    plate: Plate,
+) -> Result<(
+    crate::medium_file::MediumFile,
+    crate::model::sinkage::SinkageLeg,
+)> {
+    use crate::model::sinkage::{PlateShape, SinkageLeg};
+    let medium = crate::medium_file::MediumFile::read(file)?;
+    let law = medium.model()?;
+    let shape = if (length_m - width_m).abs() <= 1e-12 {
+        PlateShape::disc(width_m)
+    } else {
+        PlateShape::rectangle(width_m, length_m)
+    }?;
+    Ok((medium, SinkageLeg::new(law, shape, plate)))
 }
 
 #[cfg(test)]

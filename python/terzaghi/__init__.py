@@ -59,22 +59,34 @@ def _medium(medium, unit_weight_n_m3, phi_deg, delta_deg) -> tuple:
             _finite("delta_deg", delta_deg))
 
 
+def _profile(profile) -> Optional[List[tuple]]:
+    """A polyline's points as ``[(s, q), ...]`` floats, or an error naming what is wrong."""
+    if profile is None:
+        return None
+    p = np.asarray(profile, dtype=np.float64)
+    if p.ndim != 2 or p.shape[1] != 2:
+        raise TerzaghiError(f"profile has shape {p.shape}: give the mid-line as [(s, q), ...] in metres")
+    return [(float(s), float(q)) for s, q in p]
+
+
 def _model_tail(b_k, a, rft_coeffs, rft_zeta, rft_elements, shape, c_leg_radius_m,
-                c_leg_span_deg) -> tuple:
-    """The fitting width, RFT's values and the leg's shape as the native calls take them."""
+                c_leg_span_deg, profile=None, medium_file=None) -> tuple:
+    """The fitting width, RFT's values, the leg's shape and a medium file as the native calls
+    take them."""
     if isinstance(rft_elements, bool) or int(rft_elements) != rft_elements or rft_elements < 1:
         raise TerzaghiError(f"rft_elements = {rft_elements!r}: must be a positive whole number")
     return (_finite("b_k", b_k), _finite("a", a), rft_coeffs, _finite("rft_zeta", rft_zeta),
             int(rft_elements), shape, _finite("c_leg_radius_m", c_leg_radius_m),
-            _finite("c_leg_span_deg", c_leg_span_deg))
+            _finite("c_leg_span_deg", c_leg_span_deg), _profile(profile),
+            None if medium_file is None else os.fspath(medium_file))
 
 
 def predict(
     beta_rad: ArrayLike,
     *,
-    length_m: float,
+    length_m: Optional[float] = None,
     width_m: float,
-    hip_height_m: float,
+    hip_height_m: ArrayLike,
     medium: Optional[str] = None,
     unit_weight_n_m3: Optional[float] = None,
     phi_deg: Optional[float] = None,
@@ -88,22 +100,33 @@ def predict(
     shape: str = "plate",
     c_leg_radius_m: Optional[float] = None,
     c_leg_span_deg: Optional[float] = None,
+    profile=None,
+    medium_file: Optional[PathLike] = None,
+    up_m_s: Optional[ArrayLike] = None,
 ) -> Dict[str, np.ndarray]:
-    """The forces on a flat leg at each attack angle, as ``terzaghi predict`` gives them.
+    """The forces on a leg at each attack angle, as ``terzaghi predict`` gives them.
 
     Args:
         beta_rad: attack angles (rad), an array of any shape (or a number).
         length_m, width_m: the plate, from the hip axis to the tip (m).
-        hip_height_m: height of the hip axis above the free surface (m).
+        hip_height_m: height of the hip axis above the free surface (m). An array (broadcast
+            with ``beta_rad``) gives each sample its own hip, as the node's robot state does;
+            for ``model="sinkage"`` it is minus the plate's depth.
         medium: a preset's name (see ``terzaghi media``), or else give
             ``unit_weight_n_m3``, ``phi_deg`` and ``delta_deg``.
-        model: ``"improved"`` (default), ``"conventional"`` or ``"rft"``.
+        model: ``"improved"`` (default), ``"conventional"``, ``"rft"`` or ``"sinkage"`` (a
+            horizontal plate pushed straight down, by the law of ``medium_file``, written by
+            ``terzaghi calibrate``: a disc of diameter ``width_m``, or a rectangle with
+            ``length_m``; ``up_m_s``, the plate's vertical velocity, tells loading, below
+            -0.1 mm/s, from unloading).
         b_k, a: the improved model's fitting width (default: the preset's for this width).
         rft_coeffs, rft_zeta, rft_elements: RFT's coefficient set, its generic scale
             (N/cm^3) and its elements over the submerged length.
         shape: ``"plate"`` or ``"c_leg"`` (RHex's C-leg, an arc whose chord is ``length_m``,
             of ``c_leg_radius_m`` (default half the length) over ``c_leg_span_deg`` (default
-            180); RFT only, as the node's ``<leg>.shape: c_leg``).
+            180); RFT only, as the node's ``<leg>.shape: c_leg``), or ``"polyline"`` (any
+            mid-line: ``profile``, ``[(s, q), ...]`` in metres from the hip, ``s`` along the
+            chord, ``q`` toward the travel; RFT only, as ``<leg>.shape: polyline``).
 
     Returns:
         A dict of arrays shaped like ``beta_rad``: ``drag_n``, ``lift_n``,
@@ -114,16 +137,25 @@ def predict(
         TerzaghiError: a value the model refuses (a NaN angle, a plate that never enters the
             medium, an unknown preset, ...), named.
     """
-    drag, lift, torque, submerged, depth, regime = _terzaghi.predict(
-        beta_rad,
-        model,
-        float(length_m),
-        float(width_m),
-        float(hip_height_m),
-        *_medium(medium, unit_weight_n_m3, phi_deg, delta_deg),
-        *_model_tail(b_k, a, rft_coeffs, rft_zeta, rft_elements, shape, c_leg_radius_m,
-                     c_leg_span_deg),
-    )
+    if length_m is None:
+        if model != "sinkage":
+            raise TerzaghiError("length_m is needed (the leg from the hip axis to the tip)")
+        length_m = width_m  # a disc
+    tail = (*_medium(medium, unit_weight_n_m3, phi_deg, delta_deg),
+            *_model_tail(b_k, a, rft_coeffs, rft_zeta, rft_elements, shape, c_leg_radius_m,
+                         c_leg_span_deg, profile, medium_file))
+    if model == "sinkage" or np.ndim(hip_height_m) > 0 or up_m_s is not None:
+        b, h, u = np.broadcast_arrays(np.asarray(beta_rad, dtype=np.float64),
+                                      np.asarray(hip_height_m, dtype=np.float64),
+                                      np.asarray(0.0 if up_m_s is None else up_m_s, dtype=np.float64))
+        cols, regime = _terzaghi.predict_moving(
+            b.ravel().tolist(), h.ravel().tolist(), u.ravel().tolist(), model, float(length_m),
+            float(width_m), *tail)
+        drag, lift, torque, submerged, depth = (np.asarray(c).reshape(b.shape) for c in cols)
+        regime = np.frombuffer(bytes(regime), dtype=np.uint8).reshape(b.shape).copy()
+    else:
+        drag, lift, torque, submerged, depth, regime = _terzaghi.predict(
+            beta_rad, model, float(length_m), float(width_m), float(hip_height_m), *tail)
     return {
         "drag_n": drag,
         "lift_n": lift,

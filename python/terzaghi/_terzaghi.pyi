@@ -28,6 +28,8 @@ def predict(
     shape: str,
     c_leg_radius_m: Optional[float],
     c_leg_span_deg: Optional[float],
+    profile: Optional[List[Tuple[float, float]]],
+    medium_file: Optional[str],
 ) -> Tuple[
     npt.NDArray[np.float64],
     npt.NDArray[np.float64],
@@ -36,6 +38,29 @@ def predict(
     npt.NDArray[np.float64],
     npt.NDArray[np.uint8],
 ]: ...
+
+def predict_moving(
+    beta_rad: List[float],
+    hip_height_m: List[float],
+    up_m_s: List[float],
+    model: str,
+    length_m: float,
+    width_m: float,
+    medium: Optional[str],
+    unit_weight_n_m3: Optional[float],
+    phi_deg: Optional[float],
+    delta_deg: Optional[float],
+    b_k: Optional[float],
+    a: Optional[float],
+    rft_coeffs: Optional[str],
+    rft_zeta: Optional[float],
+    rft_elements: int,
+    shape: str,
+    c_leg_radius_m: Optional[float],
+    c_leg_span_deg: Optional[float],
+    profile: Optional[List[Tuple[float, float]]],
+    medium_file: Optional[str],
+) -> Tuple[List[List[float]], List[int]]: ...
 def fit_json(
     beta_rad: npt.ArrayLike,
     drag_n: npt.ArrayLike,
@@ -100,6 +125,8 @@ class Batch:
         shape: str,
         c_leg_radius_m: Optional[float],
         c_leg_span_deg: Optional[float],
+        profile: Optional[List[Tuple[float, float]]],
+        medium_file: Optional[str],
     ) -> None: ...
     def forces_into(
         self,

@@ -39,8 +39,11 @@ class LegBatch:
     Args:
         length_m, width_m: the leg (for a C-leg, ``length_m`` is its hip-to-tip chord).
         medium, unit_weight_n_m3, phi_deg, delta_deg: as for :func:`terzaghi.predict`.
-        model: ``"improved"`` (default), ``"conventional"`` or ``"rft"``.
-        shape: ``"plate"`` or ``"c_leg"`` (RFT only; ``c_leg_radius_m``, ``c_leg_span_deg``).
+        model: ``"improved"`` (default), ``"conventional"``, ``"rft"`` or ``"sinkage"`` (a
+            plate pushed straight down by the law of ``medium_file``; its depth is minus the
+            hip's height, ``up_m_s`` tells loading from unloading).
+        shape: ``"plate"``, ``"c_leg"`` (``c_leg_radius_m``, ``c_leg_span_deg``) or
+            ``"polyline"`` (``profile``, ``[(s, q), ...]`` in metres); the curved ones RFT only.
         b_k, a, rft_coeffs, rft_zeta, rft_elements: as for :func:`terzaghi.predict`.
     """
 
@@ -62,6 +65,8 @@ class LegBatch:
         rft_elements: int = 100,
         c_leg_radius_m: Optional[float] = None,
         c_leg_span_deg: Optional[float] = None,
+        profile=None,
+        medium_file=None,
     ) -> None:
         self._inner = _terzaghi.Batch(
             model,
@@ -69,7 +74,7 @@ class LegBatch:
             float(width_m),
             *_medium(medium, unit_weight_n_m3, phi_deg, delta_deg),
             *_model_tail(b_k, a, rft_coeffs, rft_zeta, rft_elements, shape, c_leg_radius_m,
-                         c_leg_span_deg),
+                         c_leg_span_deg, profile, medium_file),
         )
 
     def forces(

@@ -326,6 +326,7 @@ impl MediumArgs {
             unit_weight_n_m3: self.unit_weight_n_m3,
             phi_deg: self.phi_deg,
             delta_deg: self.delta_deg,
+            file: None,
         }
     }
 

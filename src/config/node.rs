@@ -1045,7 +1045,7 @@ fn sinkage_medium(
     ),
     ConfigError,
 > {
-    use crate::model::sinkage::{PlateShape, SinkageLeg};
+    use crate::model::sinkage::PlateShape;
     let name = format!("{leg}.medium");
     let Some(path) = g.str(&name)?.filter(|p| !p.is_empty()) else {
         return Err(ConfigError::Missing {
@@ -1053,18 +1053,15 @@ fn sinkage_medium(
             hint: "model sinkage needs a medium file (written by terzaghi calibrate)".into(),
         });
     };
-    let file = crate::medium_file::MediumFile::read(std::path::Path::new(&path))
-        .map_err(|e| invalid(&name, &path, format!("{e:#}")))?;
-    let law = file
-        .model()
-        .map_err(|e| invalid(&name, &path, format!("{e:#}")))?;
-    let shape = if (length_m - width_m).abs() <= 1e-12 {
+    // The shape's refusal names the width; the file's its path.
+    if (length_m - width_m).abs() <= 1e-12 {
         PlateShape::disc(width_m)
     } else {
         PlateShape::rectangle(width_m, length_m)
     }
     .map_err(model_err(&format!("{leg}.width_m")))?;
-    Ok((file, SinkageLeg::new(law, shape, *plate)))
+    crate::model_spec::sinkage_leg(std::path::Path::new(&path), length_m, width_m, *plate)
+        .map_err(|e| invalid(&name, &path, format!("{e:#}")))
 }
 
 /// RFT coefficients fitted to a calibration grid: a CSV of `beta_rad,gamma_rad,alpha_x,alpha_z`

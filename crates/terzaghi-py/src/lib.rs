@@ -47,16 +47,27 @@ fn spec(
     shape: &str,
     c_leg_radius_m: Option<f64>,
     c_leg_span_deg: Option<f64>,
+    profile: Option<Vec<(f64, f64)>>,
+    medium_file: Option<std::path::PathBuf>,
 ) -> PyResult<ModelSpec> {
-    let shape = match shape {
-        "plate" => terzaghi::model_spec::LegShape::Plate,
-        "c_leg" => terzaghi::model_spec::LegShape::CLeg {
+    let shape = match (shape, profile) {
+        ("plate", None) => terzaghi::model_spec::LegShape::Plate,
+        ("c_leg", None) => terzaghi::model_spec::LegShape::CLeg {
             radius_m: c_leg_radius_m,
             span_deg: c_leg_span_deg,
         },
-        other => {
+        ("polyline", Some(line)) => terzaghi::model_spec::LegShape::Polyline { line },
+        ("polyline", None) => {
+            return Err(TerzaghiError::new_err(
+                "shape polyline needs profile: the leg's mid-line as [(s, q), ...] in metres (s from the hip along the chord, q toward the travel)",
+            ));
+        }
+        (_, Some(_)) => {
+            return Err(TerzaghiError::new_err("profile is for shape polyline"));
+        }
+        (other, None) => {
             return Err(TerzaghiError::new_err(format!(
-                "shape {other:?}: expected plate or c_leg"
+                "shape {other:?}: expected plate, c_leg or polyline"
             )));
         }
     };
@@ -72,7 +83,10 @@ fn spec(
         length_m,
         width_m,
         hip_height_m,
-        medium: medium_spec(medium, unit_weight_n_m3, phi_deg, delta_deg),
+        medium: MediumSpec {
+            file: medium_file,
+            ..medium_spec(medium, unit_weight_n_m3, phi_deg, delta_deg)
+        },
         b_k,
         a,
         rft_coeffs,
@@ -94,6 +108,7 @@ fn medium_spec(
         unit_weight_n_m3,
         phi_deg,
         delta_deg,
+        file: None,
     }
 }
 
@@ -112,7 +127,7 @@ fn base_model(
 /// The model's forces at every angle of `beta_rad` (any shape): drag, lift, hip torque,
 /// submerged length, depth (each the shape of `beta_rad`) and the regime's code.
 #[pyfunction]
-#[pyo3(signature = (beta_rad, model, length_m, width_m, hip_height_m, medium, unit_weight_n_m3, phi_deg, delta_deg, b_k, a, rft_coeffs, rft_zeta, rft_elements, shape, c_leg_radius_m, c_leg_span_deg))]
+#[pyo3(signature = (beta_rad, model, length_m, width_m, hip_height_m, medium, unit_weight_n_m3, phi_deg, delta_deg, b_k, a, rft_coeffs, rft_zeta, rft_elements, shape, c_leg_radius_m, c_leg_span_deg, profile, medium_file))]
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
 fn predict<'py>(
     py: Python<'py>,
@@ -133,6 +148,8 @@ fn predict<'py>(
     shape: &str,
     c_leg_radius_m: Option<f64>,
     c_leg_span_deg: Option<f64>,
+    profile: Option<Vec<(f64, f64)>>,
+    medium_file: Option<std::path::PathBuf>,
 ) -> PyResult<(
     Bound<'py, PyArrayDyn<f64>>,
     Bound<'py, PyArrayDyn<f64>>,
@@ -158,6 +175,8 @@ fn predict<'py>(
         shape,
         c_leg_radius_m,
         c_leg_span_deg,
+        profile,
+        medium_file,
     )?
     .build()
     .map_err(err)?;
@@ -194,6 +213,94 @@ fn predict<'py>(
         z.into_pyarray(py),
         regime.into_pyarray(py),
     ))
+}
+
+/// [`predict`] with each sample's own hip: heights (m above the surface, negative below it)
+/// and vertical velocities (m/s, up) beside the angles, flat arrays of one length. The sinkage
+/// model's path (its depth is the hip's height below the surface); the model is built with its
+/// hip at the surface.
+#[pyfunction]
+#[pyo3(signature = (beta_rad, hip_height_m, up_m_s, model, length_m, width_m, medium, unit_weight_n_m3, phi_deg, delta_deg, b_k, a, rft_coeffs, rft_zeta, rft_elements, shape, c_leg_radius_m, c_leg_span_deg, profile, medium_file))]
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+fn predict_moving<'py>(
+    py: Python<'py>,
+    beta_rad: Vec<f64>,
+    hip_height_m: Vec<f64>,
+    up_m_s: Vec<f64>,
+    model: &str,
+    length_m: f64,
+    width_m: f64,
+    medium: Option<String>,
+    unit_weight_n_m3: Option<f64>,
+    phi_deg: Option<f64>,
+    delta_deg: Option<f64>,
+    b_k: Option<f64>,
+    a: Option<f64>,
+    rft_coeffs: Option<String>,
+    rft_zeta: Option<f64>,
+    rft_elements: usize,
+    shape: &str,
+    c_leg_radius_m: Option<f64>,
+    c_leg_span_deg: Option<f64>,
+    profile: Option<Vec<(f64, f64)>>,
+    medium_file: Option<std::path::PathBuf>,
+) -> PyResult<(Vec<Vec<f64>>, Vec<u8>)> {
+    if hip_height_m.len() != beta_rad.len() || up_m_s.len() != beta_rad.len() {
+        return Err(TerzaghiError::new_err(format!(
+            "{} angles, {} hip heights, {} vertical velocities: give one of each per sample",
+            beta_rad.len(),
+            hip_height_m.len(),
+            up_m_s.len()
+        )));
+    }
+    let m: ForceModel = spec(
+        model,
+        length_m,
+        width_m,
+        0.0,
+        medium,
+        unit_weight_n_m3,
+        phi_deg,
+        delta_deg,
+        b_k,
+        a,
+        rft_coeffs,
+        rft_zeta,
+        rft_elements,
+        shape,
+        c_leg_radius_m,
+        c_leg_span_deg,
+        profile,
+        medium_file,
+    )?
+    .build()
+    .map_err(err)?;
+    py.detach(move || {
+        let mut cols: Vec<Vec<f64>> = (0..5).map(|_| Vec::with_capacity(beta_rad.len())).collect();
+        let mut regime = Vec::with_capacity(beta_rad.len());
+        for (k, ((&b, &h), &u)) in beta_rad.iter().zip(&hip_height_m).zip(&up_m_s).enumerate() {
+            let hip = terzaghi::model::HipMotion {
+                up_m_s: u,
+                ..terzaghi::model::HipMotion::still(h)
+            };
+            let p = m.predict_moving(b, &hip).map_err(|e| {
+                TerzaghiError::new_err(format!(
+                    "sample {k} (flat index): beta_rad {b}, hip_height_m {h}, up_m_s {u}: {e}"
+                ))
+            })?;
+            for (c, v) in cols.iter_mut().zip([
+                p.drag_n,
+                p.lift_n,
+                p.hip_torque_nm,
+                p.submerged_m,
+                p.depth_m,
+            ]) {
+                c.push(v);
+            }
+            regime.push(p.regime.code());
+        }
+        Ok((cols, regime))
+    })
 }
 
 /// Samples from equal-shaped arrays of angle, drag and lift (and time).
@@ -515,7 +622,7 @@ fn optional_slice<'a>(
 #[pymethods]
 impl Batch {
     #[new]
-    #[pyo3(signature = (model, length_m, width_m, medium, unit_weight_n_m3, phi_deg, delta_deg, b_k, a, rft_coeffs, rft_zeta, rft_elements, shape, c_leg_radius_m, c_leg_span_deg))]
+    #[pyo3(signature = (model, length_m, width_m, medium, unit_weight_n_m3, phi_deg, delta_deg, b_k, a, rft_coeffs, rft_zeta, rft_elements, shape, c_leg_radius_m, c_leg_span_deg, profile, medium_file))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         model: &str,
@@ -533,6 +640,8 @@ impl Batch {
         shape: &str,
         c_leg_radius_m: Option<f64>,
         c_leg_span_deg: Option<f64>,
+        profile: Option<Vec<(f64, f64)>>,
+        medium_file: Option<std::path::PathBuf>,
     ) -> PyResult<Self> {
         // The hip height is given per leg and step; 0 to build.
         let model = spec(
@@ -552,6 +661,8 @@ impl Batch {
             shape,
             c_leg_radius_m,
             c_leg_span_deg,
+            profile,
+            medium_file,
         )?
         .build()
         .map_err(err)?;
@@ -1049,6 +1160,7 @@ fn rhex_params() -> PyResult<Vec<(String, String)>> {
 fn _terzaghi(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("TerzaghiError", m.py().get_type::<TerzaghiError>())?;
     m.add_function(wrap_pyfunction!(predict, m)?)?;
+    m.add_function(wrap_pyfunction!(predict_moving, m)?)?;
     m.add_function(wrap_pyfunction!(fit_json, m)?)?;
     m.add_function(wrap_pyfunction!(diagnose_json, m)?)?;
     m.add_function(wrap_pyfunction!(recording_info, m)?)?;

@@ -1,0 +1,115 @@
+"""Polyline legs and medium files from Python, against the binary's node on the same inputs."""
+
+import numpy as np
+import pytest
+
+import terzaghi
+from terzaghi.batch import LegBatch
+from test_api import REPO, run
+
+RUNS = sorted((REPO / "tests" / "data" / "real-plate-sinkage").glob("plate_smallbox_run*_D*mm.csv"))
+
+
+def half_circle(chord_m, segments=32):
+    """A half circle on the chord from the hip to the tip, its convex side toward the travel:
+    the points the node's ``shape: c_leg`` integrates (written here from the geometry)."""
+    r = chord_m / 2
+    ang = np.pi - np.pi * np.arange(segments + 1) / segments
+    return np.column_stack([r + r * np.cos(ang), r * np.sin(ang)])
+
+
+def test_a_polyline_leg_is_the_c_leg_when_its_points_are():
+    beta = np.radians(np.arange(-60.0, 240.0, 7.0))
+    leg = dict(length_m=0.1, width_m=0.025, hip_height_m=0.02, medium="poppy_lp", model="rft",
+               rft_elements=96)
+    c = terzaghi.predict(beta, shape="c_leg", **leg)
+    p = terzaghi.predict(beta, shape="polyline", profile=half_circle(0.1), **leg)
+    assert np.count_nonzero(c["lift_n"]) > 10
+    for k in ("drag_n", "lift_n", "hip_torque_nm"):
+        np.testing.assert_allclose(p[k], c[k], rtol=1e-9, atol=1e-12)
+    # The batch takes it too.
+    b = LegBatch(length_m=0.1, width_m=0.025, medium="poppy_lp", model="rft", rft_elements=96,
+                 shape="polyline", profile=half_circle(0.1))
+    d, l, t = b.forces(beta, np.full(beta.shape, 0.02))
+    np.testing.assert_allclose(l, c["lift_n"], rtol=1e-9, atol=1e-12)
+
+
+def test_a_polyline_leg_predicts_what_the_node_predicts():
+    # The node's own code for a leg of shape polyline, at its configured hip height.
+    line = np.array([[0.0, 0.0], [0.04, 0.012], [0.08, 0.01], [0.1, -0.005]])
+    params = {"model": "rft", "legs": ["leg"], "leg.joint": "hip", "leg.length_m": 0.1,
+              "leg.width_m": 0.03, "leg.hip_height_m": 0.03, "leg.medium": "poppy_lp",
+              "leg.shape": "polyline", "leg.profile": [float(v) for v in line.ravel()],
+              "rft_elements": 90}
+    node = terzaghi.Node(params=params)
+    beta = np.radians(np.arange(10.0, 170.0, 5.0))
+    mine = terzaghi.predict(beta, length_m=0.1, width_m=0.03, hip_height_m=0.03, medium="poppy_lp",
+                            model="rft", shape="polyline", profile=line, rft_elements=90)
+    lift = []
+    for k, b in enumerate(beta):
+        # Turning forward at 2 rad/s about a still hip: each element moves along its own normal,
+        # as the quasi-static prediction has it.
+        f = node.joint_state(10**9 + k * 10**7, ["hip"], [b], [2.0])
+        lift.append(f["lift_n"][0])
+    assert np.count_nonzero(mine["lift_n"]) > 10
+    np.testing.assert_allclose(lift, mine["lift_n"], rtol=1e-9, atol=1e-12)
+
+
+def test_a_bad_profile_is_refused_by_name():
+    leg = dict(length_m=0.1, width_m=0.025, hip_height_m=0.02, medium="poppy_lp", model="rft")
+    with pytest.raises(terzaghi.TerzaghiError, match="profile"):
+        terzaghi.predict(0.5, shape="polyline", **leg)
+    with pytest.raises(terzaghi.TerzaghiError, match="coincide"):
+        terzaghi.predict(0.5, shape="polyline", profile=[(0, 0), (0, 0), (0.1, 0)], **leg)
+    with pytest.raises(terzaghi.TerzaghiError, match="RFT only"):
+        terzaghi.predict(0.5, shape="polyline", profile=half_circle(0.1),
+                         **{**leg, "model": "improved"})
+
+
+@pytest.fixture(scope="module")
+def medium_file(tmp_path_factory):
+    """The medium calibrated on the shared runs of the 60 and 100 mm plates."""
+    path = tmp_path_factory.mktemp("medium") / "without_80.yaml"
+    run("calibrate", *[r for r in RUNS if "D80mm" not in r.name], "--law", "depth_width_power",
+        "-o", path)
+    return path
+
+
+def test_a_medium_file_predicts_a_plate_pushed_down_as_the_node_does(medium_file, tmp_path):
+    # A plate of 80 mm pushed down 30 mm at 1 mm/s, then held: through the binary's replay of a
+    # CSV force log with a moving hip (the node's code), and through predict.
+    t = np.arange(0.0, 40.0, 0.1)
+    depth = np.minimum(t * 1e-3, 0.03)
+    log = tmp_path / "push.csv"
+    np.savetxt(log, np.column_stack([t, 0 * t, 0 * t, 0 * t, -depth]), delimiter=",",
+               header="t_s,beta_rad,drag_n,lift_n,hip_height_m", comments="", fmt="%.9g")
+    params = tmp_path / "plate.yaml"
+    params.write_text(
+        "/**:\n  ros__parameters:\n    model: sinkage\n    legs: [plate]\n    plate:\n"
+        "      joint: plate_joint\n      width_m: 0.08\n      hip_height_m: 0.0\n"
+        f"      medium: {medium_file}\n      ft_topic: /plate/ft\n")
+    rows = terzaghi.session_rows(log, params_file=params, params={"use_identified": False})["plate"]
+    up = np.gradient(-depth, t)
+    mine = terzaghi.predict(0.0, width_m=0.08, hip_height_m=-depth, up_m_s=up, model="sinkage",
+                            medium_file=medium_file)
+    assert mine["lift_n"].shape == t.shape and mine["lift_n"].max() > 50.0
+    np.testing.assert_allclose(mine["lift_n"], rows["predicted_lift_n"], rtol=1e-9, atol=1e-9)
+    # Loading while it moves down, unloading once held.
+    names = [terzaghi.REGIMES[c] for c in mine["regime"]]
+    assert names[100] == "penetration" and names[-1] == "unloading"
+    # The batch takes the medium file too.
+    b = LegBatch(length_m=0.08, width_m=0.08, model="sinkage", medium_file=medium_file)
+    _, l, _ = b.forces(np.zeros_like(t), -depth, up_m_s=up)
+    np.testing.assert_allclose(l, mine["lift_n"], rtol=1e-12)
+
+
+def test_a_medium_file_is_refused_where_it_does_not_apply(medium_file, tmp_path):
+    with pytest.raises(terzaghi.TerzaghiError, match="plate-sinkage law"):
+        terzaghi.predict(0.5, length_m=0.1, width_m=0.025, hip_height_m=0.0,
+                         medium_file=medium_file)
+    with pytest.raises(terzaghi.TerzaghiError, match="needs a medium file"):
+        terzaghi.predict(0.0, width_m=0.08, hip_height_m=-0.01, model="sinkage")
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(medium_file.read_text().replace("unit_weight_n_m3:", "unit_weight_n_m3: .nan #", 1))
+    with pytest.raises(terzaghi.TerzaghiError, match="unit weight .* NaN"):
+        terzaghi.predict(0.0, width_m=0.08, hip_height_m=-0.01, model="sinkage", medium_file=bad)
