@@ -33,6 +33,8 @@ __all__ = [
     "OnlineEstimator",
     "diagnose",
     "session_rows",
+    "read_topics",
+    "topic_counts",
     "Recorder",
     "Node",
 ]
@@ -344,6 +346,52 @@ def session_rows(
         else:
             out[name] = legs
     return out
+
+
+def read_topics(path: PathLike, topics: Optional[List[str]] = None, *,
+                pandas: bool = False) -> Dict[str, Any]:
+    """A recording's topics as tables: one row per message, in the recording's order.
+
+    The types read are the node's and its inputs': ``sensor_msgs/JointState`` (a column per
+    joint and field: ``position.<joint>``, ``velocity.<joint>``, ``effort.<joint>``, NaN where
+    a message does not name the joint), ``geometry_msgs/WrenchStamped`` (``force_x_n``, ...,
+    ``torque_z_nm``), ``geometry_msgs/PoseStamped`` (``x_m``, ``y_m``, ``z_m``, ``qx``, ...,
+    ``qw``), ``terzaghi_msgs/LegForce`` and ``terzaghi_msgs/ModelParams`` (their numeric fields;
+    booleans as 0 or 1). Every table has ``log_time_s`` and ``stamp_s`` (the header's stamp),
+    seconds since the Unix epoch. Topics of other types are left out; a message that does not
+    decode is skipped, and counted by :func:`topic_counts`.
+
+    Args:
+        path: the ``.mcap`` recording.
+        topics: the topics to read (default: every topic of a type read); naming a topic the
+            recording lacks, or one of a type not read, is an error.
+        pandas: a ``pandas.DataFrame`` per topic instead of a dict of arrays.
+
+    Returns:
+        ``{topic: {column: array}}`` (or ``{topic: DataFrame}``).
+    """
+    tables = _terzaghi.read_topics(os.fspath(path), None if topics is None else list(topics))
+    out: Dict[str, Any] = {}
+    for topic, type_name, read, _messages, _bad, cols in tables:
+        if not read:
+            if topics is not None:
+                raise TerzaghiError(f"{topic} carries {type_name}, which read_topics does not read")
+            continue
+        d = dict(cols)
+        if pandas:
+            import pandas as pd
+
+            d = pd.DataFrame(d)
+        out[topic] = d
+    return out
+
+
+def topic_counts(path: PathLike) -> Dict[str, Dict[str, Any]]:
+    """Each topic of a recording: its type, its messages, whether :func:`read_topics` reads its
+    type, and how many of its messages did not decode."""
+    return {topic: {"type": type_name, "messages": messages, "read": read, "undecodable": bad}
+            for topic, type_name, read, messages, bad, _ in
+            _terzaghi.read_topics(os.fspath(path), None)}
 
 
 class Recorder:

@@ -154,6 +154,10 @@ class Recorder:
     ) -> None: ...
     def close(self) -> int: ...
 
+def read_topics(
+    path: str, topics: Optional[List[str]]
+) -> List[Tuple[str, str, bool, int, int, List[Tuple[str, npt.NDArray[np.float64]]]]]: ...
+
 NODE_FIELDS: List[str]
 
 class Node:

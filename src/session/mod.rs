@@ -68,6 +68,7 @@ pub mod reevaluate;
 #[cfg(feature = "node")]
 pub mod replay;
 pub(crate) mod report_html;
+pub mod topics;
 
 use crate::record::read::{IndexedFile, Scan, Source, scan};
 use anyhow::{Context as _, Result};

@@ -303,6 +303,49 @@ fn predict_moving<'py>(
     })
 }
 
+/// A recording's topics as tables ([`terzaghi::session::topics::read_topics`]): per topic its
+/// name, type, whether its type is read, its messages, those that did not decode, and its
+/// columns as arrays.
+#[pyfunction]
+#[pyo3(signature = (path, topics))]
+#[allow(clippy::type_complexity)]
+fn read_topics<'py>(
+    py: Python<'py>,
+    path: std::path::PathBuf,
+    topics: Option<Vec<String>>,
+) -> PyResult<
+    Vec<(
+        String,
+        String,
+        bool,
+        u64,
+        u64,
+        Vec<(String, Bound<'py, PyArray1<f64>>)>,
+    )>,
+> {
+    let tables = py
+        .detach(|| terzaghi::session::topics::read_topics(&path, topics.as_deref()))
+        .map_err(err)?;
+    Ok(tables
+        .into_iter()
+        .map(|t| {
+            let cols = t
+                .columns
+                .into_iter()
+                .map(|(n, v)| (n, v.into_pyarray(py)))
+                .collect();
+            (
+                t.topic,
+                t.type_name,
+                t.read,
+                t.messages,
+                t.undecodable,
+                cols,
+            )
+        })
+        .collect())
+}
+
 /// Samples from equal-shaped arrays of angle, drag and lift (and time).
 fn samples(
     beta_rad: &F64Array<'_>,
@@ -1161,6 +1204,7 @@ fn _terzaghi(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("TerzaghiError", m.py().get_type::<TerzaghiError>())?;
     m.add_function(wrap_pyfunction!(predict, m)?)?;
     m.add_function(wrap_pyfunction!(predict_moving, m)?)?;
+    m.add_function(wrap_pyfunction!(read_topics, m)?)?;
     m.add_function(wrap_pyfunction!(fit_json, m)?)?;
     m.add_function(wrap_pyfunction!(diagnose_json, m)?)?;
     m.add_function(wrap_pyfunction!(recording_info, m)?)?;
