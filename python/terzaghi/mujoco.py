@@ -35,12 +35,15 @@ __all__ = ["LegMap", "Coupling", "HEXAPOD_XML", "hexapod_xml", "hexapod_params",
 
 @dataclass(frozen=True)
 class LegMap:
-    """One leg: its name (as the node names legs), the hinge joint that turns it and the body it
-    moves (whose origin is on the hinge's axis, the hip)."""
+    """One leg: its name (as the node names legs), the hinge joint that turns it, the body it
+    moves (whose origin is on the hinge's axis, the hip) and, where it differs from the
+    coupling's, its own leg model (:class:`terzaghi.batch.LegBatch`: its shape and size, a
+    C-leg where the others are plates)."""
 
     name: str
     joint: str
     body: str
+    model: Optional[LegBatch] = None
 
 
 class Coupling:
@@ -48,9 +51,10 @@ class Coupling:
 
     Args:
         model: the ``mujoco.MjModel``.
-        legs: the legs (:class:`LegMap`), all of one shape and size.
-        leg_model: the leg model (:class:`terzaghi.batch.LegBatch`), evaluated for all legs at
-            once; or ``None`` with ``node``.
+        legs: the legs (:class:`LegMap`).
+        leg_model: the leg model (:class:`terzaghi.batch.LegBatch`) of every leg whose map
+            names none, evaluated for those legs at once (legs of one model share a call); or
+            ``None`` with ``node``, or where every map names its model.
         torso: the body whose pitch and forward direction the hips share (the robot's trunk).
         surface_z_m: the height of the sand's free surface in the world (m).
         node: instead of ``leg_model``, the node's core (:class:`terzaghi.Node`) with the
@@ -67,8 +71,12 @@ class Coupling:
                  t0_ns: int = 1_700_000_000 * 10**9) -> None:
         import mujoco
 
-        if (leg_model is None) == (node is None):
-            raise ValueError("give either leg_model (a LegBatch) or node (a terzaghi.Node)")
+        legs = list(legs)
+        if node is not None and (leg_model is not None or any(leg.model for leg in legs)):
+            raise ValueError("give either leg models (leg_model, LegMap.model) or node (a terzaghi.Node)")
+        if node is None and leg_model is None and not all(leg.model for leg in legs):
+            missing = [leg.name for leg in legs if leg.model is None]
+            raise ValueError(f"legs {missing}: no leg model (give leg_model, LegMap.model or node)")
         self.model = model
         self.legs = list(legs)
         self.leg_model = leg_model
@@ -108,6 +116,16 @@ class Coupling:
         self._dof = np.array(self._dof, dtype=np.intp)
         self._in = {k: np.zeros(n) for k in ["beta", "h", "pitch", "omega", "fwd", "up"]}
         self.drag_n, self.lift_n, self.hip_torque_nm = (np.zeros(n) for _ in range(3))
+        # The legs of each model, with arrays kept from step to step for their inputs and forces.
+        groups: Dict[int, list] = {}
+        for i, leg in enumerate(self.legs):
+            m = leg.model or leg_model
+            if m is not None:
+                groups.setdefault(id(m), [m, []])[1].append(i)
+        self._groups = [(m, np.array(idx, dtype=np.intp),
+                         {k: np.zeros(len(idx)) for k in self._in},
+                         tuple(np.zeros(len(idx)) for _ in range(3)))
+                        for m, idx in groups.values()]
         self._vel = np.zeros((n, 6))
         self._fwd = np.array([1.0, 0.0, 0.0])
 
@@ -148,10 +166,18 @@ class Coupling:
                            ("hip_torque_nm", self.hip_torque_nm)):
                 # A leg the node did not predict (no pose yet) feels nothing.
                 out[:] = np.nan_to_num(f[k][self._node_index], nan=0.0)
+        elif len(self._groups) == 1 and len(self._groups[0][1]) == len(self.legs):
+            # One model for every leg: in place, no copies.
+            self._groups[0][0].forces(x["beta"], x["h"], pitch_rad=x["pitch"],
+                                      omega_rad_s=x["omega"], forward_m_s=x["fwd"], up_m_s=x["up"],
+                                      out=(self.drag_n, self.lift_n, self.hip_torque_nm))
         else:
-            self.leg_model.forces(x["beta"], x["h"], pitch_rad=x["pitch"], omega_rad_s=x["omega"],
-                                  forward_m_s=x["fwd"], up_m_s=x["up"],
-                                  out=(self.drag_n, self.lift_n, self.hip_torque_nm))
+            for m, idx, g, out in self._groups:
+                for k, v in g.items():
+                    np.take(x[k], idx, out=v)
+                m.forces(g["beta"], g["h"], pitch_rad=g["pitch"], omega_rad_s=g["omega"],
+                         forward_m_s=g["fwd"], up_m_s=g["up"], out=out)
+                self.drag_n[idx], self.lift_n[idx], self.hip_torque_nm[idx] = out
         axis = data.xmat[self._torso].reshape(3, 3)[:, 1]  # the hips' +y axis: the legs turn about it
         f = self.drag_n[:, None] * self._fwd[None, :]
         f[:, 2] += self.lift_n
@@ -301,14 +327,15 @@ class WalkRecording:
 
 def walk(seconds: float, *, coupling: bool = True, leg_model: Optional[LegBatch] = None,
          node: Optional["Node"] = None, width_m: float = 0.025, mean_rad_s: float = 4.0,
-         on_step=None):
+         legs: Optional[Sequence[LegMap]] = None, on_step=None):
     """The hexapod walking for ``seconds`` of simulated time, with terzaghi's forces on its legs
     (or, ``coupling=False``, with none: the legs turn in the air and the torso lies on the
     floor). The forces come from ``leg_model`` (by default the improved model on poppy seeds),
     or from ``node``, the node's core with the robot's parameters (a ``corrected.yaml`` over
     :func:`hexapod_params`), which predicts with their corrections. Legs 0.1 m long and
-    ``width_m`` wide. ``on_step(model, data, coupling)`` is called after each step. Returns the
-    model and data at the end."""
+    ``width_m`` wide; ``legs`` may give some of them their own leg models (default
+    :func:`hexapod_legs`). ``on_step(model, data, coupling)`` is called after each step.
+    Returns the model and data at the end."""
     import mujoco
 
     if leg_model is None and node is None:
@@ -319,7 +346,10 @@ def walk(seconds: float, *, coupling: bool = True, leg_model: Optional[LegBatch]
     for leg in hexapod_legs():
         j = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, leg.joint)
         data.qpos[model.jnt_qposadr[j]] = 0.8 if leg.name in TRIPOD_A else 0.8 + math.pi
-    c = Coupling(model, hexapod_legs(), leg_model, torso="torso", node=node) if coupling else None
+    legs = hexapod_legs() if legs is None else list(legs)
+    if node is not None or all(leg.model for leg in legs):
+        leg_model = None
+    c = Coupling(model, legs, leg_model, torso="torso", node=node) if coupling else None
     mujoco.mj_forward(model, data)
     steps = int(round(seconds / model.opt.timestep))
     act = {n: mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, f"{n}_servo") for n in HEXAPOD_HIPS}

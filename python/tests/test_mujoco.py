@@ -215,3 +215,32 @@ def test_the_hexapod_walks_again_with_a_corrected_yaml(tmp_path):
         # The surcharge adds lift where the leg is in the sand: the bare model's is less.
         loaded = m & (r["measured_lift_n"] > 1.0)
         assert np.mean(r["predicted_lift_n"][loaded] - r["bare_lift_n"][loaded]) > 0.05, leg
+
+
+def test_each_leg_feels_its_own_shape():
+    # The front legs are RHex's C-legs (RFT), the others flat plates (the improved model):
+    # every step, each leg's force is its own model's for the state the coupling read.
+    plates = LegBatch(**LEG)
+    clegs = LegBatch(**LEG, model="rft", shape="c_leg", rft_elements=96)
+    legs = [tm.LegMap(m.name, m.joint, m.body, clegs if m.name.startswith("front") else None)
+            for m in tm.hexapod_legs()]
+    front = np.array([m.name.startswith("front") for m in legs])
+    worst, loaded = [0.0], [0, 0]
+
+    def check(model, data, c):
+        x = c._in
+        for batch, which in ((plates, ~front), (clegs, front)):
+            d, l, t = batch.forces(x["beta"][which], x["h"][which], pitch_rad=x["pitch"][which],
+                                   omega_rad_s=x["omega"][which], forward_m_s=x["fwd"][which],
+                                   up_m_s=x["up"][which])
+            worst[0] = max(worst[0], float(np.max(np.abs(c.lift_n[which] - l))),
+                           float(np.max(np.abs(c.hip_torque_nm[which] - t))))
+        loaded[0] += int(np.count_nonzero(c.lift_n[front]))
+        loaded[1] += int(np.count_nonzero(c.lift_n[~front]))
+
+    tm.walk(2.0, leg_model=plates, legs=legs, on_step=check)
+    assert min(loaded) > 200, loaded
+    assert worst[0] < 1e-9, worst
+    with pytest.raises(ValueError, match="no leg model"):
+        tm.Coupling(mujoco.MjModel.from_xml_string(tm.hexapod_xml()),
+                    [tm.LegMap("front_left", "front_left_joint", "front_left")], torso="torso")
