@@ -113,3 +113,27 @@ def test_a_medium_file_is_refused_where_it_does_not_apply(medium_file, tmp_path)
     bad.write_text(medium_file.read_text().replace("unit_weight_n_m3:", "unit_weight_n_m3: .nan #", 1))
     with pytest.raises(terzaghi.TerzaghiError, match="unit weight .* NaN"):
         terzaghi.predict(0.0, width_m=0.08, hip_height_m=-0.01, model="sinkage", medium_file=bad)
+
+
+def test_polylines_and_medium_files_equal_the_binarys_predict(medium_file):
+    import json
+
+    line = [(0.0, 0.0), (0.05, 0.02), (0.1, 0.0)]
+    flat = ",".join(f"{v}" for p in line for v in p)
+    cli = json.loads(run("predict", "--model", "rft", "--medium", "poppy_lp", "--shape", "polyline",
+                         "--profile", flat, "--length-m", "0.1", "--width-m", "0.03",
+                         "--hip-height-m", "0.02", "--beta-deg", "0:180:5", "--format", "json"))
+    mine = terzaghi.predict(np.radians([r["beta_deg"] for r in cli]), length_m=0.1, width_m=0.03,
+                            hip_height_m=0.02, medium="poppy_lp", model="rft", shape="polyline",
+                            profile=line)
+    assert sum(r["lift_n"] != 0 for r in cli) > 10
+    np.testing.assert_allclose(mine["lift_n"], [r["lift_n"] for r in cli], rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(mine["drag_n"], [r["drag_n"] for r in cli], rtol=1e-12, atol=1e-12)
+    cli = json.loads(run("predict", "--model", "sinkage", "--medium-file", medium_file,
+                         "--length-m", "0.08", "--width-m", "0.08", "--hip-height-m", "0",
+                         "--depth-m", "0:0.03:0.001", "--format", "json"))
+    depth = np.array([r["depth_m"] for r in cli])
+    mine = terzaghi.predict(0.0, width_m=0.08, hip_height_m=-depth, up_m_s=-1e-3, model="sinkage",
+                            medium_file=medium_file)
+    np.testing.assert_allclose(mine["lift_n"], [r["lift_n"] for r in cli], rtol=1e-12, atol=1e-12)
+    assert [terzaghi.REGIMES[c] for c in mine["regime"]] == [r["regime"] for r in cli]

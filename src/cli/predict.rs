@@ -1,4 +1,4 @@
-//! `terzaghi predict`: one row per attack angle.
+//! `terzaghi predict`: one row per attack angle (or, for a plate pushed down, per depth).
 
 use super::{MediumArgs, PlateArgs, WidthArgs, print_out};
 use crate::model::{ForceModel, Prediction};
@@ -14,6 +14,20 @@ pub enum ModelKind {
     Conventional,
     /// Resistive force theory (Li, Zhang & Goldman 2013).
     Rft,
+    /// A horizontal plate pushed straight down, by the plate-sinkage law of --medium-file (a
+    /// disc when --length-m equals --width-m, else a rectangle); rows per --depth-m, loading.
+    Sinkage,
+}
+
+/// The leg's shape.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Shape {
+    /// A flat plate.
+    Plate,
+    /// RHex's C-leg: an arc whose chord is --length-m (RFT only).
+    CLeg,
+    /// Any mid-line, given by --profile (RFT only).
+    Polyline,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -43,24 +57,57 @@ pub struct PredictArgs {
     /// RFT: the medium's scale factor zeta for the generic coefficients (N/cm^3).
     #[arg(long, value_name = "N_CM3", allow_negative_numbers = true)]
     pub rft_zeta: Option<f64>,
+    /// The leg's shape (curved legs are RFT's).
+    #[arg(long, value_enum, default_value = "plate")]
+    pub shape: Shape,
+    /// --shape c-leg: the arc's radius (m; default half of --length-m, a half circle).
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
+    pub c_leg_radius_m: Option<f64>,
+    /// --shape c-leg: the arc's span (deg; default 180).
+    #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
+    pub c_leg_span_deg: Option<f64>,
+    /// --shape polyline: the leg's mid-line S0,Q0,S1,Q1,... in metres from the hip (S along
+    /// the chord toward the tip, Q toward the travel), as the node's <leg>.profile.
+    #[arg(long, value_name = "S0,Q0,S1,Q1,...", allow_hyphen_values = true)]
+    pub profile: Option<String>,
+    /// --model sinkage: the medium file (written by terzaghi calibrate).
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["medium", "unit_weight_n_m3"])]
+    pub medium_file: Option<std::path::PathBuf>,
     /// Attack angles in degrees: FROM:TO:STEP (both ends included) or a single angle.
+    #[arg(
+        long,
+        value_name = "FROM:TO:STEP",
+        allow_hyphen_values = true,
+        required_unless_present = "depth_m",
+        conflicts_with = "depth_m"
+    )]
+    pub beta_deg: Option<String>,
+    /// --model sinkage: the plate's depths below the surface (m), FROM:TO:STEP or one depth.
     #[arg(long, value_name = "FROM:TO:STEP", allow_hyphen_values = true)]
-    pub beta_deg: String,
+    pub depth_m: Option<String>,
     /// Output format.
     #[arg(long, value_enum, default_value = "csv")]
     pub format: Format,
 }
+
+/// The speed a sinkage plate of `--depth-m` is pressed at (m/s): loading.
+const LOADING_M_S: f64 = 1e-3;
 
 /// Most rows one call prints.
 const MAX_ROWS: usize = 1_000_000;
 
 /// Parses `FROM:TO:STEP` or a single angle into the list of angles (degrees).
 pub fn parse_range(text: &str) -> Result<Vec<f64>> {
+    parse_range_of("--beta-deg", text)
+}
+
+/// [`parse_range`] for the values of `flag`.
+fn parse_range_of(flag: &str, text: &str) -> Result<Vec<f64>> {
     let parts: Vec<&str> = text.split(':').collect();
     let num = |s: &str| -> Result<f64> {
         match s.trim().parse::<f64>() {
             Ok(v) if v.is_finite() => Ok(v),
-            _ => bail!("--beta-deg {text:?}: {s:?} is not a finite number"),
+            _ => bail!("{flag} {text:?}: {s:?} is not a finite number"),
         }
     };
     match parts.as_slice() {
@@ -68,18 +115,18 @@ pub fn parse_range(text: &str) -> Result<Vec<f64>> {
         [from, to, step] => {
             let (from, to, step) = (num(from)?, num(to)?, num(step)?);
             if step == 0.0 || (to - from) * step < 0.0 {
-                bail!("--beta-deg {text:?}: STEP must be non-zero and lead from FROM to TO");
+                bail!("{flag} {text:?}: STEP must be non-zero and lead from FROM to TO");
             }
             let n = ((to - from) / step + 1e-9).floor() + 1.0;
             if n > MAX_ROWS as f64 {
-                bail!("--beta-deg {text:?} gives {n} angles; at most {MAX_ROWS}");
+                bail!("{flag} {text:?} gives {n} values; at most {MAX_ROWS}");
             }
             // Rounded to 1e-9 deg so that 0.1-steps print as 0.3, not 0.30000000000000004.
             Ok((0..n as usize)
                 .map(|i| ((from + i as f64 * step) * 1e9).round() / 1e9)
                 .collect())
         }
-        _ => bail!("--beta-deg {text:?}: expected FROM:TO:STEP or a single angle"),
+        _ => bail!("{flag} {text:?}: expected FROM:TO:STEP or a single value"),
     }
 }
 
@@ -95,33 +142,89 @@ struct Row {
 }
 
 pub fn build_model(a: &PredictArgs) -> Result<ForceModel> {
+    use crate::model_spec::LegShape;
+    let shape = match (a.shape, &a.profile) {
+        (Shape::Plate, None) => LegShape::Plate,
+        (Shape::CLeg, None) => LegShape::CLeg {
+            radius_m: a.c_leg_radius_m,
+            span_deg: a.c_leg_span_deg,
+        },
+        (Shape::Polyline, Some(text)) => LegShape::Polyline {
+            line: parse_profile(text)?,
+        },
+        (Shape::Polyline, None) => {
+            bail!("--shape polyline needs --profile S0,Q0,S1,Q1,... (the leg's mid-line in metres)")
+        }
+        (_, Some(_)) => bail!("--profile is for --shape polyline"),
+    };
+    if a.shape != Shape::CLeg && (a.c_leg_radius_m.is_some() || a.c_leg_span_deg.is_some()) {
+        bail!("--c-leg-radius-m and --c-leg-span-deg are for --shape c-leg");
+    }
+    if (a.model == ModelKind::Sinkage) != a.depth_m.is_some() {
+        bail!("--depth-m goes with --model sinkage, --beta-deg with the turning leg's models");
+    }
     crate::model_spec::ModelSpec {
         kind: match a.model {
             ModelKind::Improved => crate::model_spec::ModelKind::Improved,
             ModelKind::Conventional => crate::model_spec::ModelKind::Conventional,
             ModelKind::Rft => crate::model_spec::ModelKind::Rft,
+            ModelKind::Sinkage => crate::model_spec::ModelKind::Sinkage,
         },
         length_m: a.plate.length_m,
         width_m: a.plate.width_m,
         hip_height_m: a.plate.hip_height_m,
-        medium: a.medium.spec(),
+        medium: crate::model_spec::MediumSpec {
+            file: a.medium_file.clone(),
+            ..a.medium.spec()
+        },
         b_k: a.width.b_k,
         a: a.width.a,
         rft_coeffs: a.rft_coeffs.clone(),
         rft_zeta: a.rft_zeta,
         rft_elements: a.rft_elements,
-        shape: crate::model_spec::LegShape::Plate,
+        shape,
     }
     .build()
 }
 
+/// `S0,Q0,S1,Q1,...` as points; an odd count or a value that is no finite number is refused.
+fn parse_profile(text: &str) -> Result<Vec<(f64, f64)>> {
+    let v: Vec<f64> = text
+        .split(',')
+        .map(|s| match s.trim().parse::<f64>() {
+            Ok(v) if v.is_finite() => Ok(v),
+            _ => bail!("--profile {text:?}: {s:?} is not a finite number"),
+        })
+        .collect::<Result<_>>()?;
+    if !v.len().is_multiple_of(2) {
+        bail!(
+            "--profile {text:?}: {} values, an odd count; give S,Q pairs",
+            v.len()
+        );
+    }
+    Ok(v.chunks(2).map(|p| (p[0], p[1])).collect())
+}
+
 pub fn run(a: PredictArgs) -> Result<()> {
-    let betas = parse_range(&a.beta_deg)?;
     let model = build_model(&a)?;
-    let rows: Vec<Row> = betas
+    // A sinkage plate at each depth, pressed down (loading); a turning leg at each angle.
+    let (values, sinkage) = match (&a.depth_m, &a.beta_deg) {
+        (Some(d), _) => (parse_range_of("--depth-m", d)?, true),
+        (None, Some(b)) => (parse_range(b)?, false),
+        (None, None) => bail!("give --beta-deg (or --depth-m with --model sinkage)"),
+    };
+    let rows: Vec<Row> = values
         .iter()
-        .map(|&deg| {
-            let p: Prediction = model.predict(deg.to_radians())?;
+        .map(|&v| {
+            let (deg, p): (f64, Prediction) = if sinkage {
+                let hip = crate::model::HipMotion {
+                    up_m_s: -LOADING_M_S,
+                    ..crate::model::HipMotion::still(-v)
+                };
+                (0.0, model.predict_moving(0.0, &hip)?)
+            } else {
+                (v, model.predict(v.to_radians())?)
+            };
             Ok(Row {
                 beta_deg: deg,
                 submerged_m: p.submerged_m,
