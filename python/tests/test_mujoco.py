@@ -246,3 +246,22 @@ def test_each_leg_feels_its_own_shape():
     with pytest.raises(ValueError, match="no leg model"):
         tm.Coupling(mujoco.MjModel.from_xml_string(tm.hexapod_xml()),
                     [tm.LegMap("front_left", "front_left_joint", "front_left")], torso="torso")
+
+
+def test_the_example_runs_and_its_mjcf_is_the_hexapods(tmp_path):
+    import runpy
+    import sys
+    from pathlib import Path
+
+    examples = Path(__file__).resolve().parents[1] / "examples"
+    assert (examples / "hexapod.xml").read_text() == tm.hexapod_xml()
+    out = tmp_path / "walk.mcap"
+    argv = sys.argv
+    try:
+        sys.argv = ["hexapod_walk.py", "--seconds", "1", "--record", str(out)]
+        runpy.run_path(str(examples / "hexapod_walk.py"), run_name="__main__")
+    finally:
+        sys.argv = argv
+    tables = terzaghi.read_topics(out)
+    assert len(tables["/joint_states"]["stamp_s"]) == 500
+    assert len(tables["/body_pose"]["z_m"]) == 500
