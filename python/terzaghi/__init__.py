@@ -476,7 +476,14 @@ class Node:
                frame_id: str = "") -> None:
         """Leg ``leg``'s (index or name) measured F/T at ``t_ns`` (N, N m, in its sensor's
         frame)."""
-        i = self.legs.index(leg) if isinstance(leg, str) else int(leg)
+        if isinstance(leg, str):
+            if leg not in self.legs:
+                raise TerzaghiError(f"leg {leg!r}: the node's legs are {self.legs}")
+            i = self.legs.index(leg)
+        else:
+            i = int(leg)
+            if not 0 <= i < len(self.legs):
+                raise TerzaghiError(f"leg {leg!r}: the node has {len(self.legs)} legs (0 to {len(self.legs) - 1})")
         self._inner.wrench(i, int(t_ns), [float(v) for v in force], [float(v) for v in torque],
                            frame_id)
 

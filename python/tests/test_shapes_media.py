@@ -53,6 +53,10 @@ def test_a_polyline_leg_predicts_what_the_node_predicts():
         lift.append(f["lift_n"][0])
     assert np.count_nonzero(mine["lift_n"]) > 10
     np.testing.assert_allclose(lift, mine["lift_n"], rtol=1e-9, atol=1e-12)
+    # A leg the node does not have is refused by name or index, never an IndexError.
+    for bad in ("nope", -1, 1):
+        with pytest.raises(terzaghi.TerzaghiError, match="leg"):
+            node.wrench(bad, 10**9, (0.0, 0.0, 1.0))
 
 
 def test_a_bad_profile_is_refused_by_name():
