@@ -632,8 +632,8 @@ fn each_run_replayed_through_the_node() {
             );
             assert!(r2 >= 0.9, "{name}: R^2 {r2}");
             assert!(
-                used_deep >= 0.9,
-                "{name}: scale in use on {used_deep} of the rows deeper than 3 mm"
+                used >= 0.9 && used_deep >= 0.9,
+                "{name}: scale in use on {used} of the loaded rows, {used_deep} of those deeper than 3 mm"
             );
             assert!(
                 summary.contains("changes detected: 0") || !summary.contains("changes detected"),
@@ -685,6 +685,64 @@ fn the_learnt_scale_survives_from_one_intrusion_to_the_next() {
             assert_eq!(p.0, p.1, "{size} mm, intrusion {}: {p:?}", k + 1);
         }
     }
+}
+
+/// A re-evaluation's row is a prediction: it is made before the leg learns from the row's own
+/// measurement. A loaded row's measured force tripled leaves its own prediction as it was, and
+/// moves the next row's.
+#[test]
+fn a_rows_prediction_is_made_before_the_row_is_learnt() {
+    let dir = tempfile::tempdir().unwrap();
+    let medium = calibrate_without(80, dir.path());
+    let params = plate_params(dir.path(), 0.08, &medium);
+    let run = runs()
+        .into_iter()
+        .find(|r| r.to_string_lossy().contains("run7_"))
+        .unwrap();
+    let log = dir.path().join("run7_log.csv");
+    as_force_log(&run, &log);
+    let plain = replay_rows(&{
+        let out = dir.path().join("plain_rows.csv");
+        replay(&log, &params, true, &out);
+        out
+    });
+    // The 40th loaded row, its measured lift tripled in the log.
+    let loaded: Vec<usize> = (0..plain.len())
+        .filter(|&i| plain[i].loaded().is_some())
+        .collect();
+    let (k, next) = (loaded[40], loaded[41]);
+    let t = plain[k].t_s;
+    let text = std::fs::read_to_string(&log).unwrap();
+    let mut changed = 0;
+    let altered: Vec<String> = text
+        .lines()
+        .map(|line| {
+            let f: Vec<&str> = line.split(',').collect();
+            match f[0].parse::<f64>() {
+                Ok(ts) if (ts - t).abs() < 1e-6 => {
+                    changed += 1;
+                    let lift: f64 = f[3].parse().unwrap();
+                    format!("{},{},{},{},{}", f[0], f[1], f[2], 3.0 * lift, f[4])
+                }
+                _ => line.to_string(),
+            }
+        })
+        .collect();
+    assert_eq!(changed, 1);
+    let altered_log = dir.path().join("altered_log.csv");
+    std::fs::write(&altered_log, altered.join("\n") + "\n").unwrap();
+    let out = dir.path().join("altered_rows.csv");
+    replay(&altered_log, &params, true, &out);
+    let altered = replay_rows(&out);
+    assert_eq!(altered[k].t_s, plain[k].t_s);
+    assert_eq!(
+        altered[k].predicted_lift_n, plain[k].predicted_lift_n,
+        "the row's prediction saw its own measurement"
+    );
+    assert!(
+        (altered[next].predicted_lift_n - plain[next].predicted_lift_n).abs() > 1e-6,
+        "the next row learnt nothing from it"
+    );
 }
 
 /// A hip far below the bed, far above it, or not a number: a counted skip or a zero force,

@@ -195,8 +195,19 @@ fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
             e.map(|e| {
                 // An RFT leg learns RFT's scale (its estimate's b_k), a sinkage leg its law's.
                 if done.config.model == crate::config::ModelKind::Sinkage {
+                    // Its surface, learnt with the scale, in millimetres.
+                    let surface = summary.surfaces.get(i).copied().flatten().map_or(
+                        String::new(),
+                        |s| {
+                            format!(
+                                ", surface {:+.2} +- {:.2} mm",
+                                s.offset_m * 1e3,
+                                s.std_offset_m * 1e3
+                            )
+                        },
+                    );
                     format!(
-                        "{}: scale {:.4} +- {:.4} of the medium file's law (converged: {}, changes detected: {})",
+                        "{}: scale {:.4} +- {:.4} of the medium file's law{surface} (converged: {}, changes detected: {})",
                         l.name, e.b_k, e.std_b_k, e.converged, e.changes_detected
                     )
                 } else if done.config.model == crate::config::ModelKind::Rft && l.rft.is_some() {

@@ -163,7 +163,12 @@ pub fn reevaluate<'a>(
     on_row: impl FnMut(&Row),
     on_output: impl FnMut(Output),
 ) -> Result<Summary, RecordError> {
-    run_core(source.into(), NodeCore::new(cfg), on_row, on_output)
+    run_core(
+        source.into(),
+        NodeCore::new(cfg).keep_row_predictions(),
+        on_row,
+        on_output,
+    )
 }
 
 /// [`reevaluate`] for rows only: the node's own diagnoses of its legs' gaps (`gap_check`),
@@ -175,7 +180,12 @@ pub fn reevaluate_rows<'a>(
     on_output: impl FnMut(Output),
 ) -> Result<Summary, RecordError> {
     cfg.gap_check.every_strokes = 0;
-    run_core(source.into(), NodeCore::new(cfg), on_row, on_output)
+    run_core(
+        source.into(),
+        NodeCore::new(cfg).keep_row_predictions(),
+        on_row,
+        on_output,
+    )
 }
 
 /// The node core run offline: inputs in, rows and output messages out.
@@ -256,12 +266,13 @@ impl Driver {
             let msg = core.on_gap_report(&job, &result);
             on_output(Output::Gap(log_ns, job.leg, &msg));
         }
-        for &(leg, mt) in &self.outputs.matches {
-            let Some(r) = core.row_prediction(leg, &mt) else {
+        for m in &self.outputs.matches {
+            // What the leg predicted before it learnt from the sample.
+            let (leg, mt) = (m.leg, m.matched);
+            let Some((r, (b_k, a, identified))) = m.before else {
                 continue;
             };
             let p = r.medium;
-            let (b_k, a, identified) = core.width_in_use(leg).unwrap_or((0.0, 0.0, false));
             self.rows += 1;
             let row = Row {
                 t_s: mt.t_ns as f64 * 1e-9,
@@ -378,7 +389,7 @@ pub fn reevaluate_log(
     // A leg's rows are the node's predictions; its own diagnosis of its gap is not part of
     // them (and would run in line here, every few strokes).
     cfg.gap_check.every_strokes = 0;
-    let mut driver = Driver::new(NodeCore::new(cfg));
+    let mut driver = Driver::new(NodeCore::new(cfg).keep_row_predictions());
     let mut js = JointState {
         name: vec![joint],
         position: vec![0.0],

@@ -15,7 +15,8 @@ use super::matcher::{FtMatcher, Match, NoAngle, usable_stamp_ns};
 use crate::config::{ModelKind, NodeConfig};
 use crate::diagnose::Turns;
 use crate::ident::{
-    CorrectedEstimator, Estimate, OnlineEstimator, Sample, ScaleEstimator, SurfaceEstimator,
+    CorrectedEstimator, Estimate, OnlineEstimator, Sample, ScaleEstimator, SinkageEstimator,
+    SurfaceEstimator,
 };
 use crate::model::corrections::{
     CorrectedModel, CorrectedPrediction, Effect, MOTION_WINDOW_S, Motion, MotionTracker,
@@ -97,22 +98,6 @@ struct Leg {
     given_hips: std::collections::VecDeque<(i64, HipMotion)>,
 }
 
-/// Updates before a sinkage leg's learnt scale may converge (a turning leg's estimator waits
-/// for `OnlineOptions::default().converge_min_updates`, over strokes).
-const SINKAGE_CONVERGE_MIN_UPDATES: u64 = 6;
-/// A sinkage leg's estimator forgets per row, not over strokes (its joint does not turn): a
-/// memory of about 20 rows, under 2 s of a 12 Hz sensor, follows the law's slow drift with depth,
-/// which a sinkage leg never raises as a change of medium.
-const SINKAGE_FORGETTING_PER_ROW: f64 = 0.95;
-/// The relative standard deviation below which a sinkage leg's scale converges (at least
-/// `estimator.converge_rel_std`): tests of one sand scatter by 10 % and more from run to run,
-/// so a scale known to 5 % is known better than the medium's calibration.
-const SINKAGE_CONVERGE_REL_STD: f64 = 0.05;
-
-/// A sinkage leg's rows are relative to the law's force, their noise first taken as this share
-/// of it (then measured from the rows at convergence, as a turning leg's in newtons).
-const SINKAGE_INITIAL_REL_NOISE: f64 = 0.05;
-
 /// Hips kept per leg from a log's columns, for the F/T samples matched to their angles.
 const GIVEN_HIPS: usize = 256;
 
@@ -121,7 +106,7 @@ impl Leg {
     /// used); `None` for a leg that does not learn one.
     fn rft_scale(&self, use_identified: bool) -> Option<f64> {
         match (&self.estimator, &self.identified, use_identified) {
-            (Some(Learner::RftScale(_)), Some(e), true) => Some(e.b_k),
+            (Some(Learner::RftScale(_) | Learner::Sinkage(_)), Some(e), true) => Some(e.b_k),
             _ => None,
         }
     }
@@ -149,6 +134,8 @@ enum Learner {
     Bare(Box<OnlineEstimator>),
     Corrected(Box<CorrectedEstimator>),
     RftScale(Box<ScaleEstimator>),
+    /// A sinkage leg's: the medium's scale under the plate and the surface's level.
+    Sinkage(Box<SinkageEstimator>),
 }
 
 impl Learner {
@@ -157,6 +144,7 @@ impl Learner {
             Learner::Bare(e) => e.estimate(),
             Learner::Corrected(e) => e.estimate(),
             Learner::RftScale(e) => e.estimate(),
+            Learner::Sinkage(e) => e.estimate(),
         }
     }
 }
@@ -330,8 +318,22 @@ pub struct Outputs {
     /// Identified parameters due for publication, with their leg.
     pub params: Vec<(usize, ModelParams)>,
     /// The F/T samples matched to a joint angle, with their leg: what a re-evaluation puts next
-    /// to the prediction there ([`NodeCore::row_prediction`]).
-    pub matches: Vec<(usize, Matched)>,
+    /// to the prediction there.
+    pub matches: Vec<MatchedRow>,
+}
+
+/// An F/T sample matched to a joint angle of a leg, with what the leg predicted there before
+/// it learnt from the sample (when the core keeps it, [`NodeCore::keep_row_predictions`]): a
+/// re-evaluation's row is a prediction, not a fit to the row itself.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MatchedRow {
+    /// The leg.
+    pub leg: usize,
+    /// The sample and its angle.
+    pub matched: Matched,
+    /// The prediction at the sample before it was learnt from, and the fitting width then in
+    /// use (`b_k`, `a`, whether identified; [`NodeCore::width_in_use`]).
+    pub before: Option<(RowPrediction, (f64, f64, bool))>,
 }
 
 impl Outputs {
@@ -366,7 +368,9 @@ pub struct NodeCore {
     /// F/T samples decided by the matcher, waiting to be used.
     decided: Vec<Match>,
     /// The F/T samples matched while the input was handled.
-    matches: Vec<(usize, Matched)>,
+    matches: Vec<MatchedRow>,
+    /// Whether each match keeps the prediction before it is learnt from.
+    keep_row_predictions: bool,
     /// Diagnoses due, for [`NodeCore::take_gap_jobs`].
     gap_jobs: Vec<GapJob>,
     /// The robot's state from `/tf` and `/tf_static`.
@@ -390,6 +394,13 @@ fn state_frames(tf: &mut TfTree, cfg: &NodeConfig) -> (FrameId, Vec<Option<Frame
 }
 
 impl NodeCore {
+    /// Makes every matched F/T sample keep the prediction its leg made there before learning
+    /// from it ([`MatchedRow::before`]), as a re-evaluation's rows need.
+    pub fn keep_row_predictions(mut self) -> NodeCore {
+        self.keep_row_predictions = true;
+        self
+    }
+
     /// The core of the node configured by `cfg`, before any message.
     pub fn new(cfg: NodeConfig) -> NodeCore {
         let mut tf = TfTree::default();
@@ -403,6 +414,7 @@ impl NodeCore {
             last_diag_ns: None,
             decided: Vec::new(),
             matches: Vec::new(),
+            keep_row_predictions: false,
             gap_jobs: Vec::new(),
             tf,
             world_frame,
@@ -491,34 +503,31 @@ impl NodeCore {
     fn new_leg(&self, i: usize) -> Leg {
         let lc = &self.cfg.legs[i];
         let corrected = self.corrected_model(i);
-        // A leg predicted by RFT (a plate or another shape) learns RFT's scale; a sinkage leg
-        // its law's.
+        // A sinkage leg learns its medium's scale and the surface's level; a leg predicted by
+        // RFT (a plate or another shape) RFT's scale.
+        let model = self.model_for(i, None);
         let estimator = lc.ft_topic.as_ref().and_then(|_| {
-            if (self.cfg.model == ModelKind::Rft && lc.rft.is_some())
-                || self.cfg.model == ModelKind::Sinkage
-            {
-                let opts = match self.cfg.model {
-                    // A plate-sinkage test loads for a hundred rows, not for strokes: its scale
-                    // is used once it is known to converge_rel_std.
-                    ModelKind::Sinkage => crate::ident::OnlineOptions {
-                        converge_min_updates: SINKAGE_CONVERGE_MIN_UPDATES,
-                        forgetting: crate::ident::online::Forgetting::PerSample(
-                            SINKAGE_FORGETTING_PER_ROW,
-                        ),
-                        // Within an intrusion the law's ratio to the measured force drifts
-                        // with depth (the law's shape, not a new medium): the memory follows
-                        // it, and no change is raised.
-                        cusum_alarm: f64::MAX,
+            if let ForceModel::Sinkage(leg) = &model {
+                return SinkageEstimator::new(
+                    leg.model().clone(),
+                    *leg.shape(),
+                    crate::ident::SinkageOptions {
                         converge_rel_std: self
                             .cfg
                             .estimator
                             .converge_rel_std
-                            .max(SINKAGE_CONVERGE_REL_STD),
-                        ..self.cfg.estimator
+                            .max(crate::ident::SinkageOptions::default().converge_rel_std),
+                        huber_k: self.cfg.estimator.huber_k,
+                        ..Default::default()
                     },
-                    _ => self.cfg.estimator,
-                };
-                return Some(Learner::RftScale(Box::new(ScaleEstimator::new(opts))));
+                )
+                .ok()
+                .map(|e| Learner::Sinkage(Box::new(e)));
+            }
+            if self.cfg.model == ModelKind::Rft && lc.rft.is_some() {
+                return Some(Learner::RftScale(Box::new(ScaleEstimator::new(
+                    self.cfg.estimator,
+                ))));
             }
             if lc.profile.is_some() {
                 return None;
@@ -552,7 +561,7 @@ impl NodeCore {
                 .map(|e| Learner::Bare(Box::new(e)))
         });
         Leg {
-            model: self.model_for(i, None),
+            model,
             corrected: corrected.map(CorrectedLeg::new),
             hip_frame: format!("{}_hip", lc.name),
             estimator,
@@ -800,7 +809,12 @@ impl NodeCore {
 
     /// The surface's offset leg `i` predicts with: the learnt one once converged (and used).
     fn surface_offset_m(&self, i: usize) -> Option<f64> {
-        let e = self.legs.get(i)?.surface.as_ref()?.estimate();
+        let l = self.legs.get(i)?;
+        let e = match (&l.estimator, &l.surface) {
+            (Some(Learner::Sinkage(e)), _) => e.surface(),
+            (_, Some(s)) => s.estimate(),
+            _ => return None,
+        };
         (e.converged && self.cfg.use_identified).then_some(e.offset_m)
     }
 
@@ -910,7 +924,11 @@ impl NodeCore {
                     if let Some(s) = rft_scale {
                         p = scaled(p, s);
                     }
-                    let is_rft = matches!(leg.estimator, Some(Learner::RftScale(_)));
+                    // An RFT or sinkage leg learns a scale, never a Terzaghi b_k.
+                    let is_rft = matches!(
+                        leg.estimator,
+                        Some(Learner::RftScale(_) | Learner::Sinkage(_))
+                    );
                     let width = match (&leg.identified, self.cfg.use_identified && !is_rft) {
                         (Some(e), true) => (
                             e.b_k,
@@ -983,7 +1001,16 @@ impl NodeCore {
         match m {
             Match::Unmatched => self.legs[leg].counters.ft_unmatched += 1,
             Match::Matched(mt) => {
-                self.matches.push((leg, mt));
+                let before = if self.keep_row_predictions {
+                    self.row_prediction(leg, &mt).zip(self.width_in_use(leg))
+                } else {
+                    None
+                };
+                self.matches.push(MatchedRow {
+                    leg,
+                    matched: mt,
+                    before,
+                });
                 // Where the robot's state put the hip at the matched angle, once for both.
                 let state_hip = self.hip_at(leg, mt.angle_t_ns, mt.beta_rad);
                 self.watch_gap(leg, &mt, state_hip);
@@ -1090,41 +1117,31 @@ impl NodeCore {
                     Some(h) => l.model.predict_moving(mt.beta_rad, h),
                     None => l.model.predict(mt.beta_rad),
                 };
-                // A plate held, unloaded or rising bears what the rig gives it, not the law's
-                // force: it teaches nothing of the medium's scale.
-                let sinkage = matches!(l.model, ForceModel::Sinkage(_));
-                match unit {
-                    Ok(u) if u.regime == Regime::Unloading => {}
-                    // Nor do the top millimetres, where the surface's roughness and level, not
-                    // the law, set the force (the calibration leaves them out too).
-                    Ok(u) if sinkage && u.depth_m < crate::ident::sinkage::FIT_MIN_DEPTH_M => {}
-                    // A sinkage leg's rows are relative to the law's force: a granular force
-                    // scatters in proportion to its size (a few newtons at 100 N, tens at
-                    // 300 N), which one noise in newtons would read as a change of medium.
-                    Ok(u)
-                        if sinkage
-                            && u.drag_n.hypot(u.lift_n) >= self.cfg.estimator.min_unit_force_n =>
-                    {
-                        // In units where the estimator's initial noise is
-                        // SINKAGE_INITIAL_REL_NOISE of the law's force.
-                        let k = self.cfg.estimator.initial_noise_n
-                            / (SINKAGE_INITIAL_REL_NOISE * u.drag_n.hypot(u.lift_n));
-                        let relative = Sample {
-                            drag_n: sample.drag_n * k,
-                            lift_n: sample.lift_n * k,
-                            ..sample
-                        };
-                        let _ = e.update(&relative, [u.drag_n * k, u.lift_n * k]);
+                if let Ok(u) = unit {
+                    let _ = e.update(&sample, [u.drag_n, u.lift_n]);
+                }
+            }
+            Learner::Sinkage(e) => {
+                // The regime and depth at the hip as given: the learnt surface is the
+                // estimator's own to apply.
+                let given = state_hip
+                    .unwrap_or_else(|| HipMotion::still(self.cfg.legs[leg].plate.hip_height_m()));
+                match l.model.predict_moving(mt.beta_rad, &given) {
+                    // A plate held, unloaded or rising bears what the rig gives it, not the
+                    // law's force: it teaches nothing of the medium.
+                    Ok(u) if u.regime == Regime::Penetration => {
+                        let _ = e.update(-given.height_m, sample.lift_n);
                     }
-                    Ok(u) => {
-                        let _ = e.update(&sample, [u.drag_n, u.lift_n]);
-                    }
+                    Ok(_) => e.left_medium(-given.height_m),
                     Err(_) => {}
                 }
             }
         }
         let e = *est.estimate();
-        let surface_now = l.surface.as_ref().map(|s| *s.estimate());
+        let surface_now = match est {
+            Learner::Sinkage(e) => Some(*e.surface()),
+            _ => l.surface.as_ref().map(|s| *s.estimate()),
+        };
         let surface_event = surface_before.zip(surface_now).is_some_and(|(b, n)| {
             b.converged != n.converged || b.changes_detected != n.changes_detected
         });
@@ -1169,7 +1186,9 @@ impl NodeCore {
         // An RFT leg's estimate is of its scale; its b_k and a are the configured ones.
         let lc = &self.cfg.legs[leg];
         let (b_k, a, std_b_k, rft_scale, std_rft_scale) = match &l.estimator {
-            Some(Learner::RftScale(_)) => (lc.width.b_k(), lc.width.a(), 0.0, e.b_k, e.std_b_k),
+            Some(Learner::RftScale(_) | Learner::Sinkage(_)) => {
+                (lc.width.b_k(), lc.width.a(), 0.0, e.b_k, e.std_b_k)
+            }
             _ => (e.b_k, e.a, e.std_b_k, 1.0, 0.0),
         };
         l.last_params_ns = Some(t_ns);
@@ -1281,7 +1300,11 @@ impl NodeCore {
 
     /// The surface's estimate of `leg`, for a leg that learns it.
     pub fn surface_estimate(&self, leg: usize) -> Option<crate::ident::SurfaceEstimate> {
-        Some(*self.legs.get(leg)?.surface.as_ref()?.estimate())
+        let l = self.legs.get(leg)?;
+        if let Some(Learner::Sinkage(e)) = &l.estimator {
+            return Some(*e.surface());
+        }
+        Some(*l.surface.as_ref()?.estimate())
     }
 
     /// The online estimate of `leg` (by index), if the node has it.

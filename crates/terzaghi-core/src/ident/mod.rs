@@ -13,6 +13,7 @@ pub mod metrics;
 pub mod online;
 pub mod scale;
 pub mod sinkage;
+pub mod sinkage_online;
 pub mod surface;
 
 pub use batch::{BatchFit, BatchOptions, fit_batch};
@@ -20,6 +21,7 @@ pub use corrected::{Coefficient, CorrectedEstimator};
 pub use metrics::{ComponentFit, FitSums, GoodnessOfFit, goodness_of_fit};
 pub use online::{Estimate, OnlineEstimator, OnlineOptions};
 pub use scale::ScaleEstimator;
+pub use sinkage_online::{SinkageEstimator, SinkageOptions};
 pub use surface::{SurfaceEstimate, SurfaceEstimator};
 
 use crate::model::{ModelError, Regime, TerzaghiModel};
