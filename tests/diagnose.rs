@@ -582,7 +582,72 @@ fn the_report_gives_the_sensors_rate_and_hold() {
             (stream / update / rows_per_value - 1.0).abs() < 0.05,
             "{file}: {s}"
         );
+        // The corrected model tells the node the sensor's period where it holds its values.
+        let corrected = std::fs::read_to_string(out_dir.join("corrected.yaml")).unwrap();
+        let hold_s = corrected
+            .lines()
+            .find_map(|l| l.trim().strip_prefix("sensor_hold_s:"))
+            .map(|v| v.trim().parse::<f64>().unwrap());
+        if rows_per_value > 1.0 {
+            let hold_s =
+                hold_s.unwrap_or_else(|| panic!("{file}: no sensor_hold_s in\n{corrected}"));
+            assert!(
+                (hold_s * stream / rows_per_value - 1.0).abs() < 0.05,
+                "{file}: hold {hold_s} s"
+            );
+        } else {
+            assert_eq!(hold_s, None, "{file}: {corrected}");
+        }
     }
+    // Replayed with it, the node's expected reading is the force held as the sensor holds it:
+    // closer to what the sensor read than the force itself.
+    let rows = dir.join("held_rows.csv");
+    ok(&terzaghi(&[
+        "replay",
+        "--reevaluate",
+        dir.join("held.csv").to_str().unwrap(),
+        "--params-file",
+        dir.join("report_held.csv/corrected.yaml").to_str().unwrap(),
+        "-o",
+        rows.to_str().unwrap(),
+    ]));
+    let mut rdr = csv::Reader::from_path(&rows).unwrap();
+    let h = rdr.headers().unwrap().clone();
+    let col = |c: &str| h.iter().position(|x| x == c).unwrap();
+    let (im, ip, ie) = (
+        col("measured_lift_n"),
+        col("predicted_lift_n"),
+        col("expected_reading_lift_n"),
+    );
+    // Over the rows in the medium: the error of each, and whether the expected reading changes
+    // at the rows where the sensor's does.
+    let (mut n, mut sp, mut se, mut agree) = (0.0, 0.0, 0.0, 0.0);
+    let mut last: Option<(f64, f64)> = None;
+    for r in rdr.records() {
+        let r = r.unwrap();
+        if r[im].is_empty() {
+            continue;
+        }
+        let (m, p, e): (f64, f64, f64) = (
+            r[im].parse().unwrap(),
+            r[ip].parse().unwrap(),
+            r[ie].parse().unwrap(),
+        );
+        if let (Some((lm, le)), true) = (last, p != 0.0) {
+            n += 1.0;
+            sp += (m - p).powi(2);
+            se += (m - e).powi(2);
+            agree += f64::from(u8::from((m != lm) == (e != le)));
+        }
+        last = Some((m, e));
+    }
+    let (rmse_p, rmse_e) = ((sp / n).sqrt(), (se / n).sqrt());
+    eprintln!(
+        "held 8 rows, {n} rows in the medium: RMSE of the force {rmse_p:.3} N, of the expected reading {rmse_e:.3} N; the expected reading changes with the sensor's on {:.1} % of rows",
+        100.0 * agree / n
+    );
+    assert!(agree / n > 0.95, "{agree} of {n}");
+    assert!(rmse_e < rmse_p, "{rmse_e} against {rmse_p}");
 }
 
 /// A 12 Hz sensor whose readings come three of its samples (250 ms) late: the lag is searched

@@ -348,6 +348,10 @@ other_node:
                 "-p left.trough_exit_depth_m:=nan",
                 "left.trough_exit_depth_m",
             ),
+            // A sensor's sample period that is negative, slower than 1 Hz, or no number.
+            ("-p left.sensor_hold_s:=-0.01", "left.sensor_hold_s"),
+            ("-p left.sensor_hold_s:=2.0", "left.sensor_hold_s"),
+            ("-p left.sensor_hold_s:=nan", "left.sensor_hold_s"),
             // A speed law without RFT, one from no file, and one from the grid (not a speed table).
             (
                 "-p left.rft_speed_file:=tests/dem/campaign/rft_entry.csv",

@@ -104,6 +104,10 @@ pub struct LegConfig {
     /// How much lower the surface is where those strokes left the medium (m; negative: the
     /// heap of grains they pushed back), linearly between entry and exit.
     pub trough_exit_depth_m: f64,
+    /// The F/T sensor's sample period (s): it holds each value this long, and the node's
+    /// expected reading (`leg_force.sensor_*`) is the force held so. 0: it updates with every
+    /// message.
+    pub sensor_hold_s: f64,
     /// The leg's shape: `None` for a flat plate, else its mid-line (`<leg>.shape` `c_leg` or
     /// `polyline`), which only RFT predicts.
     pub profile: Option<LegProfile>,
@@ -144,6 +148,7 @@ impl LegConfig {
             rft_speed: None,
             trough_depth_m: 0.0,
             trough_exit_depth_m: 0.0,
+            sensor_hold_s: 0.0,
             profile: None,
             corrections: None,
             sinkage: None,
@@ -265,7 +270,7 @@ pub const STARTUP_ONLY: [&str; 5] = [
 ];
 
 /// Names of the per-leg parameters (`<leg>.<name>`).
-pub const LEG_KEYS: [&str; 26] = [
+pub const LEG_KEYS: [&str; 27] = [
     "joint",
     "direction",
     "angle_offset_rad",
@@ -292,7 +297,12 @@ pub const LEG_KEYS: [&str; 26] = [
     "hip_offset_m",
     "trough_depth_m",
     "trough_exit_depth_m",
+    "sensor_hold_s",
 ];
+
+/// The longest sample period `<leg>.sensor_hold_s` takes (s): a sensor slower than 1 Hz does
+/// not follow a leg's stroke.
+const MAX_SENSOR_HOLD_S: f64 = 1.0;
 
 /// Node-wide parameters that have no default: the list of legs, and ROS's own simulated time.
 const GLOBAL_KEYS_WITHOUT_DEFAULT: [&str; 2] = ["legs", "use_sim_time"];
@@ -1006,6 +1016,16 @@ fn leg_config(
             ),
         ));
     }
+    let sensor_hold_s = g.f64(&k("sensor_hold_s"))?.unwrap_or(0.0);
+    if !(sensor_hold_s.is_finite() && (0.0..=MAX_SENSOR_HOLD_S).contains(&sensor_hold_s)) {
+        return Err(invalid(
+            &k("sensor_hold_s"),
+            &sensor_hold_s,
+            format!(
+                "expected the F/T sensor's sample period in seconds, from 0 (it updates with every message) up to {MAX_SENSOR_HOLD_S}"
+            ),
+        ));
+    }
     Ok(LegConfig {
         name: leg.to_string(),
         ft_topic_given: g.str(&k("ft_topic"))?.unwrap_or_default(),
@@ -1023,6 +1043,7 @@ fn leg_config(
         rft_speed,
         trough_depth_m,
         trough_exit_depth_m,
+        sensor_hold_s,
         profile,
         corrections,
         hip_frame,

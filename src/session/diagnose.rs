@@ -228,8 +228,12 @@ pub fn write_reports(d: &Diagnosed, out: &Path) -> Result<Written> {
                     &dir.join("report.html"),
                     &super::report_html::html(&leg.leg, diag)?,
                 )?;
-                let leg_params =
-                    corrected_params(&d.config, &leg.leg, &diag.report.corrected_model);
+                let leg_params = corrected_params(
+                    &d.config,
+                    &leg.leg,
+                    &diag.report.corrected_model,
+                    leg.sensor.as_ref(),
+                );
                 if !single {
                     write_text(
                         &dir.join("corrected.yaml"),
@@ -274,8 +278,18 @@ pub fn write_reports(d: &Diagnosed, out: &Path) -> Result<Written> {
     Ok(written)
 }
 
-/// The parameters of leg `leg`'s corrected model, with `fitted_for` the leg's configuration.
-fn corrected_params(cfg: &NodeConfig, leg: &str, c: &Corrections) -> ParamMap {
+/// A log whose F/T values are each held for this many rows or more comes from a sensor that
+/// samples slower than it publishes: the node is told its period (`<leg>.sensor_hold_s`).
+const HELD_ROWS_PER_VALUE: f64 = 1.5;
+
+/// The parameters of leg `leg`'s corrected model, with `fitted_for` the leg's configuration;
+/// with `sensor` habits that hold each value, the sensor's sample period.
+fn corrected_params(
+    cfg: &NodeConfig,
+    leg: &str,
+    c: &Corrections,
+    sensor: Option<&crate::diagnose::sinkage::SensorHabits>,
+) -> ParamMap {
     let Some(l) = cfg.legs.iter().find(|l| l.name == leg) else {
         return ParamMap::new();
     };
@@ -285,6 +299,11 @@ fn corrected_params(cfg: &NodeConfig, leg: &str, c: &Corrections) -> ParamMap {
     // A diagnosis that kept no term has the baseline alone: its b_k and a.
     if c.terms.is_empty() {
         p.retain(|k, _| !k.contains(".corrections."));
+    }
+    if let Some(h) = sensor
+        .filter(|h| h.rows_per_value >= HELD_ROWS_PER_VALUE && h.hold_s > 0.0 && h.hold_s <= 1.0)
+    {
+        p.insert(format!("{leg}.sensor_hold_s"), ParamValue::Double(h.hold_s));
     }
     p
 }

@@ -20,7 +20,7 @@ use crate::ident::{
 };
 use crate::model::corrections::{
     CorrectedModel, CorrectedPrediction, Effect, MOTION_WINDOW_S, Motion, MotionTracker,
-    SensorLagFilter,
+    SampleHold, SensorLagFilter,
 };
 use crate::model::{
     FittingWidth, ForceModel, HipMotion, Plate, Prediction, Regime, TerzaghiModel, wrap_beta_rad,
@@ -96,6 +96,13 @@ struct Leg {
     troughs: trough::Troughs,
     /// The hips a log gave it ([`Input::Hip`]), by stamp, oldest first.
     given_hips: std::collections::VecDeque<(i64, HipMotion)>,
+    /// The F/T sensor's sample-and-hold (`<leg>.sensor_hold_s`), its instants anchored where its
+    /// value was last seen to change.
+    hold: SampleHold,
+    /// The last F/T force and torque received, to see the sensor update.
+    last_ft: Option<[f64; 6]>,
+    /// The expected readings held at recent angles, by their stamps, for a re-evaluation's rows.
+    held: VecDeque<(i64, [f64; 2])>,
 }
 
 /// Hips kept per leg from a log's columns, for the F/T samples matched to their angles.
@@ -576,6 +583,9 @@ impl NodeCore {
             surface: self.surface_estimator(i),
             troughs: trough::Troughs::default(),
             given_hips: std::collections::VecDeque::new(),
+            hold: SampleHold::default(),
+            last_ft: None,
+            held: VecDeque::new(),
         }
     }
 
@@ -953,6 +963,20 @@ impl NodeCore {
                     f
                 }
             };
+            let mut force = force;
+            // What a sample-and-hold sensor reads: the expected reading at its last instant.
+            if lc.sensor_hold_s > 0.0 {
+                let held = leg.hold.step(
+                    stamp_ns as f64 * 1e-9,
+                    [force.sensor_drag_n, force.sensor_lift_n],
+                    lc.sensor_hold_s,
+                );
+                [force.sensor_drag_n, force.sensor_lift_n] = held;
+                if leg.held.len() == RECENT_PREDICTIONS {
+                    leg.held.pop_front();
+                }
+                leg.held.push_back((stamp_ns, held));
+            }
             leg.counters.predictions += 1;
             out.push(LegOutput {
                 leg: i,
@@ -985,6 +1009,15 @@ impl NodeCore {
             return;
         };
         l.counters.ft_received += 1;
+        // A sample-and-hold sensor updated where its value changes: its instants fall from there.
+        if self.cfg.legs[leg].sensor_hold_s > 0.0 {
+            let (f, t) = (&msg.wrench.force, &msg.wrench.torque);
+            let v = [f.x, f.y, f.z, t.x, t.y, t.z];
+            if l.last_ft.is_some_and(|last| last != v) {
+                l.hold.updated_at(msg.header.stamp.to_secs());
+            }
+            l.last_ft = Some(v);
+        }
         let mut decided = std::mem::take(&mut self.decided);
         if !self.matcher.on_wrench(leg, msg, |m| decided.push(m)) {
             self.legs[leg].counters.ft_invalid += 1;
@@ -1233,6 +1266,16 @@ impl NodeCore {
     /// corrections, the one made for the joint angle it was matched with; else the current
     /// model's at its angle.
     pub fn row_prediction(&self, leg: usize, mt: &Matched) -> Option<RowPrediction> {
+        let l = self.legs.get(leg)?;
+        let mut row = self.row_prediction_unheld(leg, mt)?;
+        // A sample-and-hold sensor's reading, as predicted at the angle.
+        if let Some((_, held)) = l.held.iter().rev().find(|(t, _)| *t == mt.angle_t_ns) {
+            row.sensor_n = *held;
+        }
+        Some(row)
+    }
+
+    fn row_prediction_unheld(&self, leg: usize, mt: &Matched) -> Option<RowPrediction> {
         let l = self.legs.get(leg)?;
         match &l.corrected {
             Some(c) => c

@@ -1000,6 +1000,64 @@ impl SensorLagFilter {
     }
 }
 
+/// How early, in periods, [`SampleHold`] takes an instant due.
+const HOLD_SLACK_PERIODS: f64 = 0.1;
+
+/// A sample-and-hold F/T sensor's reading: the force at the last instant the sensor sampled,
+/// held until the next. Its instants fall every `period_s` from an anchor: the last time its
+/// value was seen to change (the sensor's own update, [`SampleHold::updated_at`]), or else the
+/// first sample.
+#[derive(Debug, Clone, Default)]
+pub struct SampleHold {
+    anchor_s: Option<f64>,
+    /// The period of the last step (s).
+    period_s: f64,
+    /// The instant held (its index from the anchor, the anchor) and the value sampled then.
+    held: Option<(f64, f64, [f64; 2])>,
+}
+
+impl SampleHold {
+    /// Marks `t_s` as a time the sensor updated its value: its instants fall from there.
+    pub fn updated_at(&mut self, t_s: f64) {
+        if !t_s.is_finite() {
+            return;
+        }
+        // The update the last instant taken stood for (within the slack): that instant is
+        // the update's, not a reason to sample again.
+        if let (Some((k, a, v)), true) = (self.held, self.period_s > 0.0) {
+            let taken_s = a + k * self.period_s;
+            if (t_s - taken_s).abs() <= HOLD_SLACK_PERIODS * self.period_s {
+                self.held = Some((0.0, t_s, v));
+            }
+        }
+        self.anchor_s = Some(t_s);
+    }
+
+    /// The reading at `t_s` of a sensor that samples every `period_s` the force `x` (drag,
+    /// lift) there: `x` itself at the first sample past an instant, the value held since
+    /// otherwise. A period that is not positive, a time not finite or a non-finite force pass
+    /// `x` as it is.
+    pub fn step(&mut self, t_s: f64, x: [f64; 2], period_s: f64) -> [f64; 2] {
+        let usable = period_s > 0.0 && period_s.is_finite() && t_s.is_finite();
+        if !(usable && x[0].is_finite() && x[1].is_finite()) {
+            return x;
+        }
+        self.period_s = period_s;
+        let anchor = *self.anchor_s.get_or_insert(t_s);
+        // An instant is taken up to a tenth of a period before it is due: the period is a
+        // measured one, and stamps jitter. The anchor moves with each update seen, so the slack
+        // does not add up.
+        let instant = ((t_s - anchor) / period_s + HOLD_SLACK_PERIODS).floor();
+        match self.held {
+            Some((k, a, v)) if k == instant && a == anchor => v,
+            _ => {
+                self.held = Some((instant, anchor, x));
+                x
+            }
+        }
+    }
+}
+
 /// Follows a leg's motion from its attack angles and their times, causally (each value from the
 /// samples up to it): the angle made continuous across turns, the stroke count, the angular
 /// speed and acceleration as least-squares slopes over a short window, and the area swept since
@@ -1116,6 +1174,45 @@ fn slope(w: &std::collections::VecDeque<(f64, f64)>) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_held_reading_changes_only_at_the_sensors_instants() {
+        let mut h = SampleHold::default();
+        // A 100 Hz stream of a ramp, read by a 12.5 Hz sensor anchored at 0.
+        h.updated_at(0.0);
+        let read: Vec<f64> = (0..40)
+            .map(|i| {
+                let t = f64::from(i) * 0.01;
+                h.step(t, [0.0, t], 0.08)[1]
+            })
+            .collect();
+        for (i, r) in read.iter().enumerate() {
+            let t = i as f64 * 0.01;
+            let instant = (t / 0.08 + 1e-9).floor() * 0.08;
+            assert!(
+                (r - instant).abs() < 0.0101,
+                "at {t}: {r} against {instant}"
+            );
+        }
+        let changes = read.windows(2).filter(|w| w[0] != w[1]).count();
+        assert_eq!(changes, 4);
+        // The sensor seen updating re-anchors the instants.
+        h.updated_at(0.405);
+        assert_eq!(h.step(0.41, [0.0, 9.0], 0.08), [0.0, 9.0]);
+        assert_eq!(h.step(0.47, [0.0, 10.0], 0.08), [0.0, 9.0]);
+        // An instant taken as it fell due, then the sensor seen updating then: the instant
+        // stands for that update, and the value is not sampled again.
+        let mut h = SampleHold::default();
+        h.updated_at(0.0);
+        assert_eq!(h.step(0.0, [0.0, 1.0], 0.1), [0.0, 1.0]);
+        assert_eq!(h.step(0.095, [0.0, 2.0], 0.1), [0.0, 2.0]);
+        h.updated_at(0.1);
+        assert_eq!(h.step(0.105, [0.0, 3.0], 0.1), [0.0, 2.0]);
+        assert_eq!(h.step(0.195, [0.0, 4.0], 0.1), [0.0, 4.0]);
+        // No period: the force as it is.
+        assert_eq!(h.step(0.48, [1.0, 2.0], 0.0), [1.0, 2.0]);
+        assert_eq!(h.step(f64::NAN, [1.0, 2.0], 0.08), [1.0, 2.0]);
+    }
 
     fn plate() -> Plate {
         Plate::new(0.25, 0.06, 0.15).unwrap()
