@@ -319,11 +319,7 @@ fn corrected_header(log: &str, leg: &str, r: &Report, whole: bool) -> String {
         .collect();
     let mut s = format!(
         "Leg {leg} of {log}: the corrected model its diagnosis found (written by terzaghi diagnose).\nBaseline b_k, a fitted with {}; verdict {}.\n",
-        if terms.is_empty() {
-            "no correction (no term was significant)".to_string()
-        } else {
-            format!("the corrections {}", terms.join(", "))
-        },
+        corrections_said(&terms, r.verdict.effect, &r.corrected_model_left_out),
         r.verdict.effect
     );
     s += if whole {
@@ -332,6 +328,39 @@ fn corrected_header(log: &str, leg: &str, r: &Report, whole: bool) -> String {
         "With the robot's own parameters:\n  terzaghi node --ros-args --params-file ROBOT.yaml --params-file corrected.yaml"
     };
     s
+}
+
+/// What a `corrected.yaml`'s header says of its corrections, in agreement with the report: the
+/// terms it holds; or, without any, why the verdict's effect is not among them (its fit left the
+/// terms' bounds, or it did not predict held-out strokes better beside the baseline), or that no
+/// term was significant.
+fn corrections_said(
+    terms: &[&str],
+    verdict: crate::diagnose::VerdictEffect,
+    left_out: &[String],
+) -> String {
+    use crate::diagnose::VerdictEffect;
+    if !terms.is_empty() {
+        return format!("the corrections {}", terms.join(", "));
+    }
+    match verdict {
+        VerdictEffect::Effect(e) => {
+            let why = left_out
+                .iter()
+                .find(|l| l.starts_with(e.name()))
+                .map_or_else(
+                    || "its term did not predict held-out strokes better".to_string(),
+                    |l| format!("left out: {l}"),
+                );
+            format!(
+                "no correction (the verdict's {} is not in it, {why}; report.json: corrected_model_left_out)",
+                e.name()
+            )
+        }
+        VerdictEffect::None | VerdictEffect::Unexplained => {
+            "no correction (no term was significant)".to_string()
+        }
+    }
 }
 
 fn write_index(out: &Path, legs: usize, reports: &[(PathBuf, serde_json::Value)]) -> Result<()> {
@@ -361,4 +390,29 @@ fn write_index(out: &Path, legs: usize, reports: &[(PathBuf, serde_json::Value)]
     }
     page += &format!("</ul><p>{legs} legs.</p></body></html>\n");
     write_text(&out.join("report.html"), &page)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::corrections_said;
+    use crate::diagnose::{Effect, VerdictEffect};
+
+    /// The header never says no term was significant while the verdict names one.
+    #[test]
+    fn the_header_agrees_with_the_verdict() {
+        let cohesion = VerdictEffect::Effect(Effect::Cohesion);
+        assert_eq!(
+            corrections_said(&["cohesion", "rate"], cohesion, &[]),
+            "the corrections cohesion, rate"
+        );
+        let left = ["cohesion (c_pa -40 below 0)".to_string()];
+        let said = corrections_said(&[], cohesion, &left);
+        assert!(!said.contains("no term was significant"), "{said}");
+        assert!(said.contains("cohesion (c_pa -40 below 0)"), "{said}");
+        let said = corrections_said(&[], cohesion, &[]);
+        assert!(said.contains("cohesion is not in it"), "{said}");
+        assert!(
+            corrections_said(&[], VerdictEffect::None, &[]).contains("no term was significant")
+        );
+    }
 }
