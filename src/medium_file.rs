@@ -139,6 +139,30 @@ impl MediumFile {
         .with_context(|| format!("medium {:?}", self.name))
     }
 
+    /// The law in depth an RFT leg of `coefficients` takes from this medium: the file's
+    /// `rft_depth_power` law (`xi`, `n`), its scale carried from the `alpha_z` it was calibrated
+    /// against to `coefficients`' own for a horizontal plate moving down. A file of another law
+    /// is refused by name: its pressure is not RFT's stress.
+    pub fn rft_depth_law(
+        &self,
+        coefficients: &crate::model::RftCoefficients,
+    ) -> Result<crate::model::RftDepthLaw> {
+        if self.law != SinkageLaw::RftDepthPower {
+            bail!(
+                "medium {:?} holds the {} law; an RFT leg takes the rft_depth_power law (write one with terzaghi calibrate --law rft_depth_power)",
+                self.name,
+                self.law.name()
+            );
+        }
+        let (xi, n) = (self.params["xi"], self.params["n"]);
+        let own = coefficients.alpha_z_down_n_cm3();
+        if !(own.is_finite() && own > 0.0) {
+            bail!("these RFT coefficients give no stress for a plate moving down ({own} N/cm^3)");
+        }
+        crate::model::RftDepthLaw::new(xi * self.rft_alpha_z_n_cm3 / own, n)
+            .with_context(|| format!("medium {:?}", self.name))
+    }
+
     /// The file as YAML, with a header that says what it is.
     pub fn to_yaml(&self) -> Result<String> {
         Ok(format!(

@@ -289,6 +289,11 @@ impl ModelSpec {
         let plate = plate(self.length_m, self.width_m, self.hip_height_m)?;
         match self.kind {
             ModelKind::Improved | ModelKind::Conventional => {
+                if self.medium.file.is_some() {
+                    bail!(
+                        "a medium file (a plate-sinkage law) serves the sinkage and RFT models; the Terzaghi models take a preset or soil values"
+                    );
+                }
                 let chosen = self.medium.medium()?;
                 let width = match self.kind {
                     ModelKind::Improved => Some(fitting_width(self.b_k, self.a, &chosen, &plate)?),
@@ -299,6 +304,8 @@ impl ModelSpec {
             ModelKind::Rft => {
                 let set = match (&self.rft_coeffs, &self.medium.preset) {
                     (Some(s), _) => s.clone(),
+                    // A medium file's RFT law was calibrated against poppy_lp's stress.
+                    (None, _) if self.medium.file.is_some() => "poppy_lp".into(),
                     (None, Some(name)) => match presets::preset(name)?.rft {
                         Some(presets::RftSet::PoppyLp) => "poppy_lp".into(),
                         Some(presets::RftSet::PoppyCp) => "poppy_cp".into(),
@@ -318,16 +325,27 @@ impl ModelSpec {
                     );
                 }
                 let coeffs = RftCoefficients::by_name(&set, self.rft_zeta)?;
-                Ok(ForceModel::Rft(match &self.shape {
-                    LegShape::Plate => RftModel::new(plate, coeffs, self.rft_elements)?,
-                    LegShape::CLeg { radius_m, span_deg } => {
-                        let line = c_leg_line(self.length_m, *radius_m, *span_deg)?;
-                        RftModel::with_profile(plate, coeffs, self.rft_elements, line)?
+                let depth_law = match &self.medium.file {
+                    Some(file) => Some(
+                        crate::medium_file::MediumFile::read(file)?
+                            .rft_depth_law(&coeffs)
+                            .with_context(|| format!("{}", file.display()))?,
+                    ),
+                    None => None,
+                };
+                Ok(ForceModel::Rft(
+                    match &self.shape {
+                        LegShape::Plate => RftModel::new(plate, coeffs, self.rft_elements)?,
+                        LegShape::CLeg { radius_m, span_deg } => {
+                            let line = c_leg_line(self.length_m, *radius_m, *span_deg)?;
+                            RftModel::with_profile(plate, coeffs, self.rft_elements, line)?
+                        }
+                        LegShape::Polyline { line } => {
+                            RftModel::with_profile(plate, coeffs, self.rft_elements, line.clone())?
+                        }
                     }
-                    LegShape::Polyline { line } => {
-                        RftModel::with_profile(plate, coeffs, self.rft_elements, line.clone())?
-                    }
-                }))
+                    .with_depth_law(depth_law),
+                ))
             }
             ModelKind::Sinkage => unreachable!("built above"),
         }

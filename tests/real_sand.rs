@@ -687,6 +687,94 @@ fn the_learnt_scale_survives_from_one_intrusion_to_the_next() {
     }
 }
 
+/// An RFT leg names a medium file of the `rft_depth_power` law in place of a preset: a
+/// horizontal plate of it, pushed straight down, feels the law's force through the node's own
+/// code, as a sinkage leg of the same file does. A file of another law is refused by name.
+#[test]
+fn an_rft_leg_takes_its_stress_in_depth_from_a_medium_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let medium = dir.path().join("rft_law.yaml");
+    ok(&Command::new(terzaghi())
+        .arg("calibrate")
+        .args(runs())
+        .args(["--law", "rft_depth_power", "-o"])
+        .arg(&medium)
+        .output()
+        .unwrap());
+    let run = runs()
+        .into_iter()
+        .find(|r| r.to_string_lossy().contains("run7_"))
+        .unwrap();
+    let log = dir.path().join("run7_log.csv");
+    as_force_log(&run, &log);
+    let params = |name: &str, model: &str, extra: &str, medium: &Path| {
+        let p = dir.path().join(format!("{name}.yaml"));
+        std::fs::write(
+            &p,
+            format!(
+                "/**:\n  ros__parameters:\n    model: {model}\n    legs: [plate]\n    plate:\n      joint: plate_joint\n      length_m: 0.08\n      width_m: 0.05\n      hip_height_m: 0.0\n      medium: {}\n      ft_topic: /plate/ft\n{extra}",
+                medium.display()
+            ),
+        )
+        .unwrap();
+        p
+    };
+    let sinkage = params("sinkage", "sinkage", "", &medium);
+    let rft = params(
+        "rft",
+        "rft",
+        "      shape: polyline\n      profile: [0.0, 0.0, 0.08, 0.0]\n",
+        &medium,
+    );
+    let rows = |p: &Path, tag: &str| {
+        let out = dir.path().join(format!("{tag}_rows.csv"));
+        replay(&log, p, false, &out);
+        replay_rows(&out)
+    };
+    let (by_law, by_rft) = (rows(&sinkage, "sinkage"), rows(&rft, "rft"));
+    assert_eq!(by_law.len(), by_rft.len());
+    let mut loaded = 0;
+    for (a, b) in by_law.iter().zip(&by_rft) {
+        if a.loaded().is_none() || a.predicted_lift_n <= 0.0 {
+            continue;
+        }
+        loaded += 1;
+        assert!(
+            (b.predicted_lift_n / a.predicted_lift_n - 1.0).abs() < 1e-6,
+            "at {} s: RFT {} N against the law's {} N",
+            a.t_s,
+            b.predicted_lift_n,
+            a.predicted_lift_n
+        );
+    }
+    assert!(loaded > 100, "{loaded} loaded rows");
+    // A medium file of another law is not RFT's stress.
+    let other = calibrate_without(60, dir.path());
+    let refused_params = params(
+        "refused",
+        "rft",
+        "      shape: polyline\n      profile: [0.0, 0.0, 0.08, 0.0]\n",
+        &other,
+    );
+    let out = Command::new(terzaghi())
+        .args(["replay", "--reevaluate"])
+        .arg(&log)
+        .arg("--params-file")
+        .arg(&refused_params)
+        .arg("-o")
+        .arg(dir.path().join("refused.csv"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        err.contains("plate.medium")
+            && err.contains("depth_width_power")
+            && err.contains("rft_depth_power"),
+        "{err}"
+    );
+}
+
 /// A re-evaluation's row is a prediction: it is made before the leg learns from the row's own
 /// measurement. A loaded row's measured force tripled leaves its own prediction as it was, and
 /// moves the next row's.

@@ -41,7 +41,8 @@ class LegBatch:
         medium, unit_weight_n_m3, phi_deg, delta_deg: as for :func:`terzaghi.predict`.
         model: ``"improved"`` (default), ``"conventional"``, ``"rft"`` or ``"sinkage"`` (a
             plate pushed straight down by the law of ``medium_file``; its depth is minus the
-            hip's height, ``up_m_s`` tells loading from unloading).
+            hip's height, ``up_m_s`` tells loading from unloading); with ``"rft"``, a
+            ``medium_file`` of the ``rft_depth_power`` law scales RFT's stresses in depth.
         shape: ``"plate"``, ``"c_leg"`` (``c_leg_radius_m``, ``c_leg_span_deg``) or
             ``"polyline"`` (``profile``, ``[(s, q), ...]`` in metres); the curved ones RFT only.
         b_k, a, rft_coeffs, rft_zeta, rft_elements: as for :func:`terzaghi.predict`.

@@ -141,3 +141,26 @@ def test_polylines_and_medium_files_equal_the_binarys_predict(medium_file):
                             medium_file=medium_file)
     np.testing.assert_allclose(mine["lift_n"], [r["lift_n"] for r in cli], rtol=1e-12, atol=1e-12)
     assert [terzaghi.REGIMES[c] for c in mine["regime"]] == [r["regime"] for r in cli]
+
+
+def test_an_rft_leg_takes_a_medium_files_law_in_depth(tmp_path):
+    import json
+
+    law = tmp_path / "rft_law.yaml"
+    run("calibrate", *RUNS, "--law", "rft_depth_power", "-o", law)
+    leg = dict(length_m=0.1, width_m=0.03, hip_height_m=0.02, model="rft", shape="c_leg")
+    beta = np.radians(np.arange(0.0, 181.0, 5.0))
+    mine = terzaghi.predict(beta, medium_file=law, **leg)
+    cli = json.loads(run("predict", "--model", "rft", "--medium-file", law, "--shape", "c-leg",
+                         "--length-m", "0.1", "--width-m", "0.03", "--hip-height-m", "0.02",
+                         "--beta-deg", "0:180:5", "--format", "json"))
+    np.testing.assert_allclose(mine["lift_n"], [r["lift_n"] for r in cli], rtol=1e-12, atol=1e-12)
+    # The calibrated sand is several times RFT's poppy_lp at these depths.
+    plain = terzaghi.predict(beta, medium="poppy_lp", **leg)
+    deep = plain["lift_n"] > 1.0
+    assert deep.sum() > 5
+    assert np.all(mine["lift_n"][deep] > 2.0 * plain["lift_n"][deep])
+    with pytest.raises(terzaghi.TerzaghiError, match="rft_depth_power"):
+        other = tmp_path / "power.yaml"
+        run("calibrate", *RUNS, "--law", "depth_width_power", "-o", other)
+        terzaghi.predict(beta, medium_file=other, **leg)

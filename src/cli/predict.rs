@@ -70,7 +70,8 @@ pub struct PredictArgs {
     /// the chord toward the tip, Q toward the travel), as the node's <leg>.profile.
     #[arg(long, value_name = "S0,Q0,S1,Q1,...", allow_hyphen_values = true)]
     pub profile: Option<String>,
-    /// --model sinkage: the medium file (written by terzaghi calibrate).
+    /// --model sinkage: the medium file (written by terzaghi calibrate); --model rft: a medium
+    /// file of the rft_depth_power law, whose scale and depth exponent RFT's stresses take.
     #[arg(long, value_name = "FILE", conflicts_with_all = ["medium", "unit_weight_n_m3"])]
     pub medium_file: Option<std::path::PathBuf>,
     /// Attack angles in degrees: FROM:TO:STEP (both ends included) or a single angle.

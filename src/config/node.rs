@@ -96,6 +96,9 @@ pub struct LegConfig {
     pub rft: Option<RftCoefficients>,
     /// RFT's speed law, fitted to `<leg>.rft_speed_file`'s intrusions at several speeds.
     pub rft_speed: Option<crate::model::RftSpeedFit>,
+    /// RFT's stress in depth from the leg's medium file (`<leg>.medium`, model rft), where it
+    /// is not RFT's linear one.
+    pub rft_depth: Option<crate::model::RftDepthLaw>,
     /// How much lower the surface is where the leg's own earlier strokes entered the medium
     /// (m); 0 with `trough_exit_depth_m` 0: the surface is where it was. The robot's state
     /// (`hip_frame`) places the strokes; without it the hip stays where configured, as on a
@@ -146,6 +149,7 @@ impl LegConfig {
             ft_frame: FtFrame::Hip,
             rft: None,
             rft_speed: None,
+            rft_depth: None,
             trough_depth_m: 0.0,
             trough_exit_depth_m: 0.0,
             sensor_hold_s: 0.0,
@@ -765,11 +769,13 @@ impl NodeConfig {
                         self.rft_elements,
                         p.line.clone(),
                     )?
-                    .with_speed_law(leg.rft_speed.map(|f| f.law)),
+                    .with_speed_law(leg.rft_speed.map(|f| f.law))
+                    .with_depth_law(leg.rft_depth),
                 ),
                 (Some(c), None) => ForceModel::Rft(
                     RftModel::new(leg.plate, c.clone(), self.rft_elements)?
-                        .with_speed_law(leg.rft_speed.map(|f| f.law)),
+                        .with_speed_law(leg.rft_speed.map(|f| f.law))
+                        .with_depth_law(leg.rft_depth),
                 ),
                 (None, _) => ForceModel::Terzaghi(TerzaghiModel::new(leg.plate, medium, width)),
             },
@@ -827,7 +833,35 @@ fn leg_config(
         ModelKind::Sinkage => Some(sinkage_medium(g, leg, width, length, &plate)?),
         _ => None,
     };
+    // A medium file of an RFT leg: its law in depth and scale (see `rft_depth` below).
+    let rft_medium_file = match (model, g.str(&k("medium"))?) {
+        (ModelKind::Rft, Some(v)) if is_medium_file(&v) => Some((
+            v.clone(),
+            crate::medium_file::MediumFile::read(std::path::Path::new(&v))
+                .map_err(|e| invalid(&k("medium"), &v, format!("{e:#}")))?,
+        )),
+        (ModelKind::Improved | ModelKind::Conventional, Some(v)) if is_medium_file(&v) => {
+            return Err(invalid(
+                &k("medium"),
+                &v,
+                "a medium file serves model sinkage and model rft; the Terzaghi models take a preset or soil values",
+            ));
+        }
+        _ => None,
+    };
     let (medium, preset) = match (g.str(&k("medium"))?, &sinkage_file) {
+        (_, None) if rft_medium_file.is_some() => {
+            // The Terzaghi medium of an RFT leg with a medium file is the file's unit weight
+            // (RFT's stresses come from the file).
+            let (_, file) = rft_medium_file.as_ref().expect("checked");
+            let m = Medium::new(
+                file.unit_weight_n_m3,
+                g.f64(&k("phi_deg"))?.unwrap_or(30.0),
+                g.f64(&k("delta_deg"))?.unwrap_or(0.0),
+            )
+            .map_err(model_err(&k("medium")))?;
+            (m, None)
+        }
         (_, Some((file, _))) => {
             // The Terzaghi medium of a sinkage leg is the file's unit weight; its friction
             // angles play no part in the law.
@@ -911,6 +945,8 @@ fn leg_config(
     let rft_name = g
         .str(&k("rft_coeffs"))?
         .filter(|s| !s.is_empty())
+        // A medium file's RFT law was calibrated against poppy_lp's stress.
+        .or_else(|| rft_medium_file.as_ref().map(|_| "poppy_lp".to_string()))
         .or_else(|| {
             preset.and_then(|p| p.rft).map(|s| match s {
                 RftSet::PoppyLp => "poppy_lp".to_string(),
@@ -935,6 +971,13 @@ fn leg_config(
             });
         }
         (None, None) => None,
+    };
+    let rft_depth = match (&rft_medium_file, &rft) {
+        (Some((path, file)), Some(c)) => Some(
+            file.rft_depth_law(c)
+                .map_err(|e| invalid(&k("medium"), path, format!("{e:#}")))?,
+        ),
+        _ => None,
     };
     let rft_speed = match (g.str(&k("rft_speed_file"))?.filter(|f| !f.is_empty()), &rft) {
         (None, _) => None,
@@ -1041,6 +1084,7 @@ fn leg_config(
         ft_frame,
         rft,
         rft_speed,
+        rft_depth,
         trough_depth_m,
         trough_exit_depth_m,
         sensor_hold_s,
@@ -1050,6 +1094,12 @@ fn leg_config(
         hip_offset_m,
         sinkage: sinkage_file.map(|(_, s)| s),
     })
+}
+
+/// Whether a `<leg>.medium` value names a medium file rather than a preset: a path (a `/`) or a
+/// YAML file's name.
+fn is_medium_file(value: &str) -> bool {
+    value.contains('/') || value.ends_with(".yaml") || value.ends_with(".yml")
 }
 
 /// The medium file and plate of a leg of model `sinkage` (`<leg>.medium` names the file).

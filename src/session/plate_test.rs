@@ -405,12 +405,9 @@ fn read_sidecar(file: &Path) -> Result<RunSidecar> {
 /// coefficients: what the RFT law scales.
 pub fn rft_alpha_z_down_n_cm3() -> f64 {
     use crate::model::RftCoefficients;
-    let c = RftCoefficients::by_name("poppy_lp", None).expect("a built-in set");
-    // Moving straight down is an intrusion angle of pi/2 below the horizontal.
-    c.alpha(0.0, std::f64::consts::FRAC_PI_2)
-        .1
-        .abs()
-        .max(c.alpha(0.0, -std::f64::consts::FRAC_PI_2).1.abs())
+    RftCoefficients::by_name("poppy_lp", None)
+        .expect("a built-in set")
+        .alpha_z_down_n_cm3()
 }
 
 /// The unit weight the tests give (N/m^3): their bulk density times g, the same in every test

@@ -30,8 +30,8 @@ pub use corrections::{CorrectedModel, CorrectedPrediction, Corrections, Effect};
 pub use medium::{FittingWidth, Medium, MediumPreset, Provenance};
 pub use plate::{Plate, wrap_beta_rad};
 pub use rft::{
-    MAX_PROFILE_POINTS, RftCoefficients, RftFit, RftGrid, RftModel, RftSpeedFit, RftSpeedLaw,
-    RftSpeedTable, c_leg_profile, check_profile, rft_leg, rft_leg_moving,
+    MAX_PROFILE_POINTS, RftCoefficients, RftDepthLaw, RftFit, RftGrid, RftModel, RftSpeedFit,
+    RftSpeedLaw, RftSpeedTable, c_leg_profile, check_profile, rft_leg, rft_leg_moving,
 };
 pub use terzaghi::{Terms, TerzaghiForce, TerzaghiModel};
 

@@ -759,6 +759,16 @@ impl RftCoefficients {
         }
     }
 
+    /// `alpha_z` (N/cm^3) for a horizontal plate moving straight down: the stress per unit
+    /// depth a plate-sinkage test measures of RFT.
+    pub fn alpha_z_down_n_cm3(&self) -> f64 {
+        // Moving straight down is an intrusion angle of pi/2 below the horizontal.
+        self.alpha(0.0, FRAC_PI_2)
+            .1
+            .abs()
+            .max(self.alpha(0.0, -FRAC_PI_2).1.abs())
+    }
+
     /// [`Self::alpha`] for an element along `(tx, tz)` moving along `(vx, vz)` (neither zero),
     /// both in RFT's frame (the motion toward +x): its attack angle is the tangent's, folded
     /// into `[-pi/2, pi/2]`, and its intrusion angle the motion's below the horizontal. Twice
@@ -791,7 +801,56 @@ pub struct RftModel {
     /// The profile cut into this model's elements, once.
     profile_elements: Option<Box<LegElements>>,
     /// The dynamic stress of the element's speed; `None`: quasi-static.
-    speed_law: Option<RftSpeedLaw>,
+    speed_law: Option<Box<RftSpeedLaw>>,
+    /// The stress's law in depth, where it is not RFT's linear one (boxed: most legs have
+    /// none, and a model is held by value).
+    depth_law: Option<Box<RftDepthLaw>>,
+}
+
+/// A medium's stress in depth beyond RFT's linear one, calibrated on plate-sinkage tests (a
+/// medium file's `rft_depth_power` law): an element at depth `z` feels the stress RFT gives at
+/// the depth `scale z_ref (z / z_ref)^exponent`, `z_ref` 1 cm. With `scale` and `exponent` 1 it
+/// is RFT itself.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RftDepthLaw {
+    /// The factor on RFT's stress at 1 cm.
+    pub scale: f64,
+    /// The exponent of depth.
+    pub exponent: f64,
+}
+
+impl RftDepthLaw {
+    /// The reference depth (m).
+    pub const REF_DEPTH_M: f64 = 0.01;
+
+    /// The law, checked: both values finite and positive.
+    pub fn new(scale: f64, exponent: f64) -> Result<Self, ModelError> {
+        for (what, v) in [
+            ("RFT depth law's scale", scale),
+            ("RFT depth law's exponent", exponent),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(ModelError::OutOfRange {
+                    what,
+                    value: v,
+                    range: "> 0".into(),
+                });
+            }
+        }
+        Ok(RftDepthLaw { scale, exponent })
+    }
+
+    /// The depth (m) whose linear RFT stress an element at `depth_m` feels.
+    #[inline]
+    pub fn effective_depth_m(&self, depth_m: f64) -> f64 {
+        self.scale * Self::REF_DEPTH_M * (depth_m / Self::REF_DEPTH_M).powf(self.exponent)
+    }
+}
+
+/// `depth_m` through `law`, or as it is.
+#[inline]
+fn stressed_depth_m(law: Option<&RftDepthLaw>, depth_m: f64) -> f64 {
+    law.map_or(depth_m, |l| l.effective_depth_m(depth_m))
 }
 
 impl RftModel {
@@ -817,6 +876,7 @@ impl RftModel {
             profile: None,
             profile_elements: None,
             speed_law: None,
+            depth_law: None,
         })
     }
 
@@ -825,13 +885,24 @@ impl RftModel {
     /// [`Self::evaluate_moving`]; where neither is known ([`Self::evaluate`]) the stress is the
     /// quasi-static one.
     pub fn with_speed_law(mut self, law: Option<RftSpeedLaw>) -> Self {
-        self.speed_law = law;
+        self.speed_law = law.map(Box::new);
         self
     }
 
     /// The speed law, if any.
     pub fn speed_law(&self) -> Option<&RftSpeedLaw> {
-        self.speed_law.as_ref()
+        self.speed_law.as_deref()
+    }
+
+    /// The model with its stress in depth following `law` instead of RFT's linear one.
+    pub fn with_depth_law(mut self, law: Option<RftDepthLaw>) -> Self {
+        self.depth_law = law.map(Box::new);
+        self
+    }
+
+    /// The law in depth, if any.
+    pub fn depth_law(&self) -> Option<&RftDepthLaw> {
+        self.depth_law.as_deref()
     }
 
     /// RFT for a leg whose mid-line is `profile` (at least two points, in the leg's frame: `s`
@@ -881,7 +952,8 @@ impl RftModel {
             hip.height_m,
             beta,
             (hip.omega_rad_s, hip.leg_frame_velocity_m_s()),
-            self.speed_law.as_ref(),
+            self.speed_law.as_deref(),
+            self.depth_law.as_deref(),
         );
         // Depth of the lowest point, and the length of the mid-line below the surface.
         let (sin_b, cos_b) = beta.sin_cos();
@@ -1000,7 +1072,7 @@ impl RftModel {
                 }
             };
             // A turning leg's element moves at |omega| r about a still hip.
-            let extra = match (&self.speed_law, moving) {
+            let extra = match (self.speed_law.as_deref(), moving) {
                 (None, _) => 0.0,
                 (Some(law), true) => law.extra_depth_of_velocity_m(vx, vz),
                 // Along n at omega r: n's direction, reversed for a rotation backward.
@@ -1009,6 +1081,7 @@ impl RftModel {
                     law.extra_depth_of_velocity_m(w * vx, w * vz)
                 }
             };
+            let depth = stressed_depth_m(self.depth_law.as_deref(), depth);
             let (d_drag, d_lift) = (
                 m * ax * N_CM3_TO_N_M3 * (depth + extra) * area,
                 az * N_CM3_TO_N_M3 * (depth + extra) * area,
@@ -1088,6 +1161,7 @@ pub fn rft_leg_moving(
         beta_rad,
         motion,
         speed_law,
+        None,
     )
 }
 
@@ -1133,6 +1207,7 @@ impl LegElements {
 }
 
 /// [`rft_leg_moving`] over a line already cut into `elements`.
+#[allow(clippy::too_many_arguments)]
 fn rft_elements_moving(
     coefficients: &RftCoefficients,
     elements: &LegElements,
@@ -1141,6 +1216,7 @@ fn rft_elements_moving(
     beta_rad: f64,
     (omega_rad_s, hip_velocity_m_s): (f64, [f64; 2]),
     speed_law: Option<&RftSpeedLaw>,
+    depth_law: Option<&RftDepthLaw>,
 ) -> (f64, f64, f64) {
     let still = omega_rad_s == 0.0 && hip_velocity_m_s == [0.0, 0.0];
     let (omega, v_hip) = if still || !omega_rad_s.is_finite() {
@@ -1186,7 +1262,7 @@ fn rft_elements_moving(
         let extra = speed_law.map_or(0.0, |law| {
             law.extra_at_sine_m(speed, (-vz / speed).clamp(-1.0, 1.0))
         });
-        let k = N_CM3_TO_N_M3 * (depth + extra) * width_m * len;
+        let k = N_CM3_TO_N_M3 * (stressed_depth_m(depth_law, depth) + extra) * width_m * len;
         // alpha_x resists the motion's horizontal part: F_x = -m ax k.
         let (fx, fz) = (-m * ax * k, az * k);
         drag -= fx;
@@ -1310,6 +1386,44 @@ fn wrap_half_pi(angle: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A horizontal plate pushed straight down with a law in depth feels RFT's stress at the
+    /// law's depth, `scale z_ref (z / z_ref)^n`, everywhere along it; without it, RFT's own.
+    #[test]
+    fn a_depth_law_sets_the_stress_at_each_depth() {
+        let plate = Plate::new(0.08, 0.05, 0.0).unwrap();
+        let line = vec![(0.0, 0.0), (0.08, 0.0)];
+        let coeffs = RftCoefficients::Fit(RftFit::POPPY_LP);
+        let linear = RftModel::with_profile(plate, coeffs.clone(), 40, line).unwrap();
+        let law = RftDepthLaw::new(1.7, 1.25).unwrap();
+        let powered = linear.clone().with_depth_law(Some(law));
+        // Straight down: at beta 0 the chord is horizontal; the hip moves down, the leg does not
+        // turn.
+        let down = |depth_m: f64| HipMotion {
+            height_m: -depth_m,
+            omega_rad_s: 0.0,
+            up_m_s: -0.01,
+            ..HipMotion::still(-depth_m)
+        };
+        let per_m = linear.evaluate_moving(0.0, &down(0.01)).unwrap().lift_n / 0.01;
+        assert!(per_m > 0.0);
+        for z in [0.003, 0.01, 0.025] {
+            let p = powered.evaluate_moving(0.0, &down(z)).unwrap();
+            let at = linear
+                .evaluate_moving(0.0, &down(law.effective_depth_m(z)))
+                .unwrap();
+            assert!(
+                (p.lift_n / at.lift_n - 1.0).abs() < 1e-9,
+                "{z}: {p:?} against {at:?}"
+            );
+            // RFT's own stress grows linearly with depth.
+            let q = linear.evaluate_moving(0.0, &down(z)).unwrap();
+            assert!((q.lift_n / (per_m * z) - 1.0).abs() < 1e-9, "{z}: {q:?}");
+        }
+        assert!((law.effective_depth_m(0.01) - 0.017).abs() < 1e-15);
+        assert!(RftDepthLaw::new(f64::NAN, 1.0).is_err());
+        assert!(RftDepthLaw::new(1.0, -1.0).is_err());
+    }
     use std::f64::consts::FRAC_PI_4;
 
     fn plate() -> Plate {
