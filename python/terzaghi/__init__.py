@@ -119,9 +119,9 @@ def predict(
         model: ``"improved"`` (default), ``"conventional"``, ``"rft"`` or ``"sinkage"`` (a
             horizontal plate pushed straight down, by the law of ``medium_file``, written by
             ``terzaghi calibrate``: a disc of diameter ``width_m``, or a rectangle with
-            ``length_m``; ``up_m_s``, the plate's vertical velocity, tells loading, below
-            -0.1 mm/s, from unloading). With ``model="rft"``, ``medium_file`` (of the
-            ``rft_depth_power`` law) gives RFT's stresses its scale and depth exponent.
+            ``length_m``; ``up_m_s``, the plate's vertical velocity, tells loading, down at
+            0.5 mm/s or faster, from unloading). With ``model="rft"``, ``medium_file`` (of
+            the ``rft_depth_power`` law) gives RFT's stresses its scale and depth exponent.
         b_k, a: the improved model's fitting width (default: the preset's for this width).
         rft_coeffs, rft_zeta, rft_elements: RFT's coefficient set, its generic scale
             (N/cm^3) and its elements over the submerged length.
