@@ -775,6 +775,47 @@ fn an_rft_leg_takes_its_stress_in_depth_from_a_medium_file() {
     );
 }
 
+/// A plate pushed to 20 mm, drawn back to 10 mm and pushed to 30 mm: on the second push it
+/// reloads sand it already pressed until it passes 20 mm, which the node does not take for the
+/// law's loading (nor learns from); past it, it loads again.
+#[test]
+fn a_plate_reloading_pressed_sand_is_not_loading() {
+    let dir = tempfile::tempdir().unwrap();
+    let medium = calibrate_without(80, dir.path());
+    let params = plate_params(dir.path(), 0.08, &medium);
+    // Depth (mm) at 1 mm/s, 10 rows a second: 0 -> 20, 20 -> 10, 10 -> 30.
+    let mut depth_mm: Vec<f64> = (0..=200).map(|i| f64::from(i) * 0.1).collect();
+    depth_mm.extend((1..=100).map(|i| 20.0 - f64::from(i) * 0.1));
+    depth_mm.extend((1..=200).map(|i| 10.0 + f64::from(i) * 0.1));
+    let log = dir.path().join("reload.csv");
+    let mut text = String::from("t_s,beta_rad,drag_n,lift_n,hip_height_m\n");
+    for (i, z) in depth_mm.iter().enumerate() {
+        // The force a plate of this sand bears, roughly, so that the estimator has rows.
+        let f = 3.0 * z.powf(1.3);
+        text += &format!("{},0,0,{f},{}\n", i as f64 * 0.1, -z * 1e-3);
+    }
+    std::fs::write(&log, text).unwrap();
+    let out = dir.path().join("rows.csv");
+    replay(&log, &params, true, &out);
+    let rows = replay_rows(&out);
+    assert_eq!(rows.len(), depth_mm.len());
+    for (r, z) in rows.iter().zip(&depth_mm) {
+        let i = (r.t_s * 10.0).round() as usize;
+        let want = match i {
+            // The first push loads from its second row (a speed needs two).
+            2..=199 => Some("penetration"),
+            // Drawn back, then pushed through what it pressed.
+            202..=390 => Some("unloading"),
+            // Past the deepest point (within half a millimetre), loading again.
+            398..=499 => Some("penetration"),
+            _ => None,
+        };
+        if let Some(want) = want {
+            assert_eq!(r.regime, want, "row {i} at {z:.1} mm");
+        }
+    }
+}
+
 /// A re-evaluation's row is a prediction: it is made before the leg learns from the row's own
 /// measurement. A loaded row's measured force tripled leaves its own prediction as it was, and
 /// moves the next row's.

@@ -22,6 +22,7 @@ use crate::model::corrections::{
     CorrectedModel, CorrectedPrediction, Effect, MOTION_WINDOW_S, Motion, MotionTracker,
     SampleHold, SensorLagFilter,
 };
+use crate::model::sinkage::PressedDepth;
 use crate::model::{
     FittingWidth, ForceModel, HipMotion, Plate, Prediction, Regime, TerzaghiModel, wrap_beta_rad,
 };
@@ -103,6 +104,11 @@ struct Leg {
     last_ft: Option<[f64; 6]>,
     /// The expected readings held at recent angles, by their stamps, for a re-evaluation's rows.
     held: VecDeque<(i64, [f64; 2])>,
+    /// A sinkage leg's deepest point pressed in its present intrusion.
+    pressed: PressedDepth,
+    /// A sinkage leg's recent angles (by stamp) at which it moved down through sand it had
+    /// already pressed: reloading, not the law's loading.
+    reloads: VecDeque<(i64, bool)>,
 }
 
 /// Hips kept per leg from a log's columns, for the F/T samples matched to their angles.
@@ -117,6 +123,15 @@ impl Leg {
             _ => None,
         }
     }
+}
+
+/// Whether a sinkage leg was reloading pressed sand at the angle stamped `angle_t_ns`.
+fn reloading_at(reloads: &VecDeque<(i64, bool)>, angle_t_ns: i64) -> bool {
+    reloads
+        .iter()
+        .rev()
+        .find(|(t, _)| *t == angle_t_ns)
+        .is_some_and(|(_, r)| *r)
 }
 
 /// `p` with its forces and torque multiplied by `scale` (RFT's learnt scale).
@@ -586,6 +601,8 @@ impl NodeCore {
             hold: SampleHold::default(),
             last_ft: None,
             held: VecDeque::new(),
+            pressed: PressedDepth::new(&crate::model::sinkage::RegimeOptions::default()),
+            reloads: VecDeque::new(),
         }
     }
 
@@ -930,6 +947,18 @@ impl NodeCore {
                         leg.counters.invalid_position += 1;
                         continue;
                     };
+                    // A plate moving down through sand it already pressed reloads it: the
+                    // rig's force, not the law's loading.
+                    if matches!(leg.model, ForceModel::Sinkage(_)) {
+                        let reloading = !leg.pressed.press(p.depth_m);
+                        if reloading && p.regime == Regime::Penetration {
+                            p.regime = Regime::Unloading;
+                        }
+                        if leg.reloads.len() == RECENT_PREDICTIONS {
+                            leg.reloads.pop_front();
+                        }
+                        leg.reloads.push_back((stamp_ns, reloading));
+                    }
                     let rft_scale = leg.rft_scale(self.cfg.use_identified);
                     if let Some(s) = rft_scale {
                         p = scaled(p, s);
@@ -1159,10 +1188,11 @@ impl NodeCore {
                 // estimator's own to apply.
                 let given = state_hip
                     .unwrap_or_else(|| HipMotion::still(self.cfg.legs[leg].plate.hip_height_m()));
+                let reloading = reloading_at(&l.reloads, mt.angle_t_ns);
                 match l.model.predict_moving(mt.beta_rad, &given) {
-                    // A plate held, unloaded or rising bears what the rig gives it, not the
-                    // law's force: it teaches nothing of the medium.
-                    Ok(u) if u.regime == Regime::Penetration => {
+                    // A plate held, unloaded, rising or reloading pressed sand bears what the
+                    // rig gives it, not the law's force: it teaches nothing of the medium.
+                    Ok(u) if u.regime == Regime::Penetration && !reloading => {
                         let _ = e.update(-given.height_m, sample.lift_n);
                     }
                     Ok(_) => e.left_medium(-given.height_m),
@@ -1291,10 +1321,13 @@ impl NodeCore {
                         None => l.model.predict(mt.beta_rad),
                     }
                     .ok()?;
-                let p = match l.rft_scale(self.cfg.use_identified) {
+                let mut p = match l.rft_scale(self.cfg.use_identified) {
                     Some(s) => scaled(p, s),
                     None => p,
                 };
+                if p.regime == Regime::Penetration && reloading_at(&l.reloads, mt.angle_t_ns) {
+                    p.regime = Regime::Unloading;
+                }
                 Some(RowPrediction::bare(p))
             }
         }

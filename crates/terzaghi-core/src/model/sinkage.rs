@@ -447,6 +447,47 @@ impl Default for RegimeOptions {
     }
 }
 
+/// The deepest point a plate has pressed in its present intrusion, followed sample by sample,
+/// as [`sinkage_regimes`] follows it over a test's rows: a plate moving down within what it has
+/// already pressed reloads sand the law does not describe; only past the deepest point (within
+/// `depth_tolerance_m`) does it load virgin medium again. Out of the medium, it forgets.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PressedDepth {
+    deepest_m: f64,
+    tolerance_m: f64,
+}
+
+impl PressedDepth {
+    /// Nothing pressed yet; `opts.depth_tolerance_m` as [`sinkage_regimes`] takes it.
+    pub fn new(opts: &RegimeOptions) -> PressedDepth {
+        PressedDepth {
+            deepest_m: f64::NEG_INFINITY,
+            tolerance_m: opts.depth_tolerance_m,
+        }
+    }
+
+    /// The plate at `depth_m` below the surface: whether it is at or past the deepest point
+    /// pressed before (virgin medium), which it then remembers. A depth that is not finite
+    /// changes nothing and is not virgin.
+    pub fn press(&mut self, depth_m: f64) -> bool {
+        if !depth_m.is_finite() {
+            return false;
+        }
+        if depth_m <= 0.0 {
+            self.deepest_m = f64::NEG_INFINITY;
+            return true;
+        }
+        let virgin = depth_m >= self.deepest_m - self.tolerance_m;
+        self.deepest_m = self.deepest_m.max(depth_m);
+        virgin
+    }
+
+    /// The deepest point pressed in this intrusion (m), if any.
+    pub fn deepest_m(&self) -> Option<f64> {
+        self.deepest_m.is_finite().then_some(self.deepest_m)
+    }
+}
+
 /// The regime of every row of `(t_s, depth_m)`, in order. The speed is the depth's own central
 /// difference on its own timeline; a row with a non-finite time or depth is `Unloading` (never
 /// `Loading`), and is not used for its neighbours' speeds. A log may hold several intrusions:
@@ -488,6 +529,27 @@ pub fn sinkage_regimes(rows: &[(f64, f64)], opts: &RegimeOptions) -> Vec<Sinkage
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Down to 20 mm, back to 10 mm, down to 30 mm: the second push reloads pressed sand until
+    /// it passes 20 mm (within half a millimetre); out of the sand, it forgets.
+    #[test]
+    fn a_plate_reloading_pressed_sand_is_not_virgin_loading() {
+        let mut p = PressedDepth::new(&RegimeOptions::default());
+        for z in [0.005, 0.01, 0.02] {
+            assert!(p.press(z));
+        }
+        // Rising back (the caller's regime says unloading), then pushed down again.
+        assert!(!p.press(0.015) && !p.press(0.01));
+        assert!(!p.press(0.015));
+        assert!(!p.press(0.019));
+        assert!(p.press(0.0196));
+        assert!(p.press(0.03));
+        assert_eq!(p.deepest_m(), Some(0.03));
+        assert!(!p.press(f64::NAN));
+        assert!(p.press(-0.001));
+        assert_eq!(p.deepest_m(), None);
+        assert!(p.press(0.002));
+    }
 
     fn model(law: SinkageLaw, params: &[f64]) -> SinkageModel {
         SinkageModel::new(law, params.to_vec(), 13_000.0, 0.2).unwrap()
