@@ -816,6 +816,61 @@ fn a_plate_reloading_pressed_sand_is_not_loading() {
     }
 }
 
+/// `terzaghi fit --medium-file` fits the medium's law to a test: against the medium
+/// calibrated on the other sizes, each 80 mm run's scale is within the runs' scatter and the
+/// fit closes part of the gap; the depth told 8 mm too deep is found as the surface's level.
+/// Geometry or a preset beside the file is refused by name.
+#[test]
+fn fit_names_a_medium_file_and_fits_its_law_to_a_test() {
+    let dir = tempfile::tempdir().unwrap();
+    let medium = calibrate_without(80, dir.path());
+    let fit = |test: &Path| {
+        let out = Command::new(terzaghi())
+            .arg("fit")
+            .arg(test)
+            .arg("--medium-file")
+            .arg(&medium)
+            .arg("--json")
+            .output()
+            .unwrap();
+        json(&out)
+    };
+    for run in runs().into_iter().filter(|r| diameter_mm(r) == 80) {
+        let f = fit(&run);
+        let scale = f["scale"]["value"].as_f64().unwrap();
+        let (before, after) = (
+            f["r2_as_calibrated"].as_f64().unwrap(),
+            f["r2_fitted"].as_f64().unwrap(),
+        );
+        eprintln!(
+            "{}: scale {scale:.3}, R^2 {before:.4} -> {after:.4}",
+            run.display()
+        );
+        assert!((0.8..1.25).contains(&scale), "{f}");
+        assert!(after > before, "{f}");
+        let deeper = altered(&run, dir.path(), "deeper", "depth_m", 0.008);
+        let shifted = fit(&deeper)["surface_above_depth_zero_m"]["value"]
+            .as_f64()
+            .unwrap();
+        let base = f["surface_above_depth_zero_m"]["value"].as_f64().unwrap();
+        assert!(
+            (shifted - base + 0.008).abs() < 0.002,
+            "{shifted} against {base}"
+        );
+    }
+    refused(
+        &[
+            "fit".as_ref(),
+            runs()[0].as_os_str(),
+            "--medium-file".as_ref(),
+            medium.as_os_str(),
+            "--medium".as_ref(),
+            "poppy_lp".as_ref(),
+        ],
+        &["--medium-file fits a plate-sinkage test", "--medium"],
+    );
+}
+
 /// A re-evaluation's row is a prediction: it is made before the leg learns from the row's own
 /// measurement. A loaded row's measured force tripled leaves its own prediction as it was, and
 /// moves the next row's.

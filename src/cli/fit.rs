@@ -4,7 +4,7 @@
 use super::log_source::LogArgs;
 use super::print_out;
 use crate::ident::{BatchFit, BatchOptions, GoodnessOfFit, fit_batch};
-use anyhow::Result;
+use anyhow::{Result, bail};
 use clap::Args;
 
 #[derive(Debug, Args)]
@@ -20,9 +20,20 @@ pub struct FitArgs {
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
+    /// DATA is a plate-sinkage test (a shared run's CSV with its JSON, or a plain log of t_s,
+    /// depth_m, force_n): fit this medium file's law to it, its scale with the surface's level
+    /// and the sensor's bias (written by terzaghi calibrate).
+    #[arg(long, value_name = "FILE")]
+    pub medium_file: Option<std::path::PathBuf>,
+    /// A plain plate-sinkage log's plate: a disc of this diameter (m), with --medium-file.
+    #[arg(long, value_name = "M", requires = "medium_file")]
+    pub plate_diameter_m: Option<f64>,
 }
 
 pub fn run(a: FitArgs) -> Result<()> {
+    if let Some(medium_file) = &a.medium_file {
+        return fit_test(&a, medium_file);
+    }
     crate::session::files::refuse_stdout_over_input(&a.log.inputs())?;
     let (model, samples) = a.log.load()?;
     let opts = BatchOptions {
@@ -62,4 +73,69 @@ pub fn render(fit: &BatchFit, fit_delta: bool) -> String {
     s += &row("improved", &fit.improved);
     s += &row("conventional", &fit.conventional);
     s
+}
+
+/// `fit --medium-file`: the medium file's law fitted to a plate-sinkage test (its scale, the
+/// surface's level and the sensor's bias), as the diagnosis of a test fits it.
+fn fit_test(a: &FitArgs, medium_file: &std::path::Path) -> Result<()> {
+    use crate::model::sinkage::{PlateShape, RegimeOptions};
+    use crate::session::plate_test::{DepthColumn, diagnose_test, read_test};
+    let l = &a.log;
+    if l.plate.any() || l.medium.medium.is_some() || l.medium.unit_weight_n_m3.is_some() {
+        bail!(
+            "--medium-file fits a plate-sinkage test: its plate comes from the run's JSON or --plate-diameter-m, its medium from the file, not from --length-m, --width-m, --hip-height-m or --medium"
+        );
+    }
+    if l.leg.is_some() || l.params_file.is_some() || a.fit_delta || a.all_regimes {
+        bail!(
+            "--medium-file fits a plate-sinkage test, which has no leg, node parameters, delta or regimes to choose"
+        );
+    }
+    crate::session::files::refuse_stdout_over_input(&[l.data.as_path(), medium_file])?;
+    let medium = crate::medium_file::MediumFile::read(medium_file)?;
+    let plate = a.plate_diameter_m.map(PlateShape::disc).transpose()?;
+    let test = read_test(
+        &l.data,
+        plate,
+        DepthColumn::AsLogged,
+        &RegimeOptions::default(),
+    )?;
+    let d = diagnose_test(&test, &medium)?;
+    let g = &d.gap;
+    if a.json {
+        return print_out(
+            &(serde_json::to_string_pretty(&serde_json::json!({
+                "file": d.file,
+                "plate": d.plate,
+                "medium": d.medium,
+                "rows_used": g.rows_used,
+                "scale": g.scale,
+                "surface_above_depth_zero_m": g.depth_shift_m,
+                "bias_n": g.bias_n,
+                "r2_as_calibrated": g.r2_as_calibrated,
+                "rmse_as_calibrated_n": g.rmse_as_calibrated_n,
+                "r2_fitted": g.r2_corrected,
+                "rmse_fitted_n": g.rmse_corrected_n,
+            }))? + "\n"),
+        );
+    }
+    print_out(&format!(
+        "{} ({}) against medium {}: {} rows used (loading, and above the surface before it)\n\
+         scale = {:.4} +- {:.4} of the law   surface {:+.2} +- {:.2} mm above the depth's zero   bias {:+.3} +- {:.3} N\n\
+         as calibrated: R^2 {:.4}, RMSE {:.3} N   fitted: R^2 {:.4}, RMSE {:.3} N\n",
+        d.file.display(),
+        d.plate,
+        d.medium,
+        g.rows_used,
+        g.scale.value,
+        g.scale.std_dev,
+        g.depth_shift_m.value * 1e3,
+        g.depth_shift_m.std_dev * 1e3,
+        g.bias_n.value,
+        g.bias_n.std_dev,
+        g.r2_as_calibrated,
+        g.rmse_as_calibrated_n,
+        g.r2_corrected,
+        g.rmse_corrected_n,
+    ))
 }
