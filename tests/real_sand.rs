@@ -469,13 +469,13 @@ fn r2_rmse(pairs: &[(f64, f64)]) -> (f64, f64) {
     (1.0 - ss_res / ss_tot, (ss_res / n).sqrt())
 }
 
-/// R^2 of the lift over the loaded rows of a re-evaluation's CSV.
-fn loaded_r2(rows_csv: &Path) -> f64 {
+/// R^2 and RMSE (N) of the lift over the loaded rows of a re-evaluation's CSV.
+fn loaded_r2(rows_csv: &Path) -> (f64, f64) {
     let pairs: Vec<(f64, f64)> = replay_rows(rows_csv)
         .iter()
         .filter_map(ReplayRow::loaded)
         .collect();
-    r2_rmse(&pairs).0
+    r2_rmse(&pairs)
 }
 
 /// A row of `replay --reevaluate -o rows.csv`, the columns these tests read.
@@ -574,7 +574,7 @@ fn each_run_replayed_through_the_node() {
                 (rows_csv, summary)
             });
             let summary = learnt.1.clone();
-            let r2_calibrated = loaded_r2(&calibrated.0);
+            let (r2_calibrated, rmse_calibrated_n) = loaded_r2(&calibrated.0);
             let rows = replay_rows(&learnt.0);
             // The run's depth by time, to tell the loaded rows deeper than 3 mm (the law's
             // domain in calibration, where the estimator learns).
@@ -613,7 +613,9 @@ fn each_run_replayed_through_the_node() {
             let pairs: Vec<(f64, f64)> = measured.iter().copied().zip(predicted).collect();
             let (r2, rmse_n) = r2_rmse(&pairs);
             let used = f64::from(identified) / n;
-            eprintln!("{name}: as calibrated, loaded rows' R^2 {r2_calibrated:.3}");
+            eprintln!(
+                "{name}: as calibrated, loaded rows' R^2 {r2_calibrated:.3}, RMSE {rmse_calibrated_n:.2} N"
+            );
             assert!(
                 r2_calibrated >= 0.9,
                 "{name}: R^2 as calibrated {r2_calibrated}"
