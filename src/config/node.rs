@@ -849,22 +849,15 @@ fn leg_config(
         }
         _ => None,
     };
-    let (medium, preset) = match (g.str(&k("medium"))?, &sinkage_file) {
-        (_, None) if rft_medium_file.is_some() => {
-            // The Terzaghi medium of an RFT leg with a medium file is the file's unit weight
-            // (RFT's stresses come from the file).
-            let (_, file) = rft_medium_file.as_ref().expect("checked");
-            let m = Medium::new(
-                file.unit_weight_n_m3,
-                g.f64(&k("phi_deg"))?.unwrap_or(30.0),
-                g.f64(&k("delta_deg"))?.unwrap_or(0.0),
-            )
-            .map_err(model_err(&k("medium")))?;
-            (m, None)
-        }
-        (_, Some((file, _))) => {
-            // The Terzaghi medium of a sinkage leg is the file's unit weight; its friction
-            // angles play no part in the law.
+    // A leg whose medium is a file (sinkage, or RFT's stresses in depth).
+    let medium_file = sinkage_file
+        .as_ref()
+        .map(|(f, _)| f)
+        .or(rft_medium_file.as_ref().map(|(_, f)| f));
+    let (medium, preset) = match (g.str(&k("medium"))?, medium_file) {
+        (_, Some(file)) => {
+            // The Terzaghi medium of a leg with a medium file is the file's unit weight; its
+            // friction angles play no part in the file's law.
             let m = Medium::new(
                 file.unit_weight_n_m3,
                 g.f64(&k("phi_deg"))?.unwrap_or(30.0),

@@ -164,18 +164,8 @@ impl SinkageEstimator {
             est: Estimate {
                 b_k: 1.0,
                 a: 1.0,
-                delta_deg: 0.0,
                 std_b_k: opts.prior_scale_rel_std,
-                std_a: 0.0,
-                std_delta_deg: 0.0,
-                samples_used: 0,
-                samples_non_finite: 0,
-                samples_not_excited: 0,
-                samples_stuck: 0,
-                innovation_rms_n: 0.0,
-                noise_n: 0.0,
-                converged: false,
-                changes_detected: 0,
+                ..Estimate::default()
             },
             surface: SurfaceEstimate::default(),
         };
