@@ -460,6 +460,17 @@ fn as_force_log(run: &Path, out: &Path) {
     w.flush().unwrap();
 }
 
+/// Run 7 (80 mm) as a CSV force log in `dir` ([`as_force_log`]).
+fn run7_as_force_log(dir: &Path) -> PathBuf {
+    let run = runs()
+        .into_iter()
+        .find(|r| r.to_string_lossy().contains("run7_"))
+        .unwrap();
+    let log = dir.join("run7_log.csv");
+    as_force_log(&run, &log);
+    log
+}
+
 /// R^2 and RMSE (N) of `(measured, predicted)` pairs.
 fn r2_rmse(pairs: &[(f64, f64)]) -> (f64, f64) {
     let n = pairs.len() as f64;
@@ -703,12 +714,7 @@ fn an_rft_leg_takes_its_stress_in_depth_from_a_medium_file() {
         .arg(&medium)
         .output()
         .unwrap());
-    let run = runs()
-        .into_iter()
-        .find(|r| r.to_string_lossy().contains("run7_"))
-        .unwrap();
-    let log = dir.path().join("run7_log.csv");
-    as_force_log(&run, &log);
+    let log = run7_as_force_log(dir.path());
     let params = |name: &str, model: &str, extra: &str, medium: &Path| {
         let p = dir.path().join(format!("{name}.yaml"));
         std::fs::write(
@@ -876,12 +882,7 @@ fn a_rows_prediction_is_made_before_the_row_is_learnt() {
     let dir = tempfile::tempdir().unwrap();
     let medium = calibrate_without(80, dir.path());
     let params = plate_params(dir.path(), 0.08, &medium);
-    let run = runs()
-        .into_iter()
-        .find(|r| r.to_string_lossy().contains("run7_"))
-        .unwrap();
-    let log = dir.path().join("run7_log.csv");
-    as_force_log(&run, &log);
+    let log = run7_as_force_log(dir.path());
     let plain = replay_rows(&{
         let out = dir.path().join("plain_rows.csv");
         replay(&log, &params, true, &out);
