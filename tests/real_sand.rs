@@ -412,6 +412,10 @@ fn bad_tests_and_media_are_refused_by_name() {
         .output()
         .unwrap());
     assert!(listed.contains("calibrated") && listed.contains("fitted by:   terzaghi calibrate"));
+    assert!(
+        listed.contains("serves:      model sinkage (a plate pushed straight down); model rft takes the rft_depth_power law only"),
+        "{listed}"
+    );
     for (key, value, words) in [
         ("  n: ", ".nan", &["sinkage exponent n", "NaN"][..]),
         ("  k_pa: ", "-2000", &["k (Pa)", "-2000"][..]),

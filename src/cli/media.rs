@@ -68,6 +68,14 @@ pub fn run(a: MediaArgs) -> Result<()> {
             let sd = m.std_dev.get(name).copied().unwrap_or(f64::NAN);
             s += &format!("  {name:<12} {v:>14.6} +- {sd:.6}\n");
         }
+        s += &format!(
+            "  serves:      {}\n",
+            if m.law == crate::model::sinkage::SinkageLaw::RftDepthPower {
+                "model sinkage (a plate pushed straight down) and model rft (any leg shape: RFT's stress in depth)"
+            } else {
+                "model sinkage (a plate pushed straight down); model rft takes the rft_depth_power law only"
+            }
+        );
         s += &format!("  fitted by:   {}\n", m.source.command);
         s += &format!("  unit weight: {}\n", m.source.unit_weight);
         s += &format!(
