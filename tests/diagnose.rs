@@ -642,10 +642,12 @@ fn the_report_gives_the_sensors_rate_and_hold() {
         last = Some((m, e));
     }
     let (rmse_p, rmse_e) = ((sp / n).sqrt(), (se / n).sqrt());
-    eprintln!(
+    let line = format!(
         "held 8 rows, {n} rows in the medium: RMSE of the force {rmse_p:.3} N, of the expected reading {rmse_e:.3} N; the expected reading changes with the sensor's on {:.1} % of rows",
         100.0 * agree / n
     );
+    eprintln!("{line}");
+    assert!(common::docs_text().contains(&line), "the docs lack\n{line}");
     assert!(agree / n > 0.95, "{agree} of {n}");
     assert!(rmse_e < rmse_p, "{rmse_e} against {rmse_p}");
 }
