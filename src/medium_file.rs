@@ -8,6 +8,10 @@ use anyhow::{Context, Result, bail};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
+/// The RFT coefficient set a medium file's `rft_alpha_z_n_cm3` is taken from (calibration), and
+/// the one an RFT leg naming the file uses unless it names another.
+pub const RFT_SET: &str = "poppy_lp";
+
 /// A medium file: a sinkage law with its values, and where each came from.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct MediumFile {

@@ -305,7 +305,7 @@ impl ModelSpec {
                 let set = match (&self.rft_coeffs, &self.medium.preset) {
                     (Some(s), _) => s.clone(),
                     // A medium file's RFT law was calibrated against poppy_lp's stress.
-                    (None, _) if self.medium.file.is_some() => "poppy_lp".into(),
+                    (None, _) if self.medium.file.is_some() => crate::medium_file::RFT_SET.into(),
                     (None, Some(name)) => match presets::preset(name)?.rft {
                         Some(presets::RftSet::PoppyLp) => "poppy_lp".into(),
                         Some(presets::RftSet::PoppyCp) => "poppy_cp".into(),

@@ -876,6 +876,17 @@ fn fit_names_a_medium_file_and_fits_its_law_to_a_test() {
         ],
         &["--medium-file fits a plate-sinkage test", "--medium"],
     );
+    refused(
+        &[
+            "fit".as_ref(),
+            runs()[0].as_os_str(),
+            "--medium-file".as_ref(),
+            medium.as_os_str(),
+            "--plate-diameter-m".as_ref(),
+            "-0.1".as_ref(),
+        ],
+        &["plate diameter", "-0.1"],
+    );
 }
 
 /// A re-evaluation's row is a prediction: it is made before the leg learns from the row's own

@@ -26,7 +26,12 @@ pub struct FitArgs {
     #[arg(long, value_name = "FILE")]
     pub medium_file: Option<std::path::PathBuf>,
     /// A plain plate-sinkage log's plate: a disc of this diameter (m), with --medium-file.
-    #[arg(long, value_name = "M", requires = "medium_file")]
+    #[arg(
+        long,
+        value_name = "M",
+        requires = "medium_file",
+        allow_negative_numbers = true
+    )]
     pub plate_diameter_m: Option<f64>,
 }
 

@@ -181,31 +181,18 @@ fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
         .zip(&done.config.legs)
         .enumerate()
         .filter_map(|(i, (e, l))| {
-            let surface = summary
-                .surfaces
-                .get(i)
-                .copied()
-                .flatten()
-                .map_or(String::new(), |s| {
-                    format!(
-                        ", surface {:+.4} +- {:.4} m (converged: {})",
-                        s.offset_m, s.std_offset_m, s.converged
-                    )
-                });
+            let learnt_surface = summary.surfaces.get(i).copied().flatten();
             e.map(|e| {
                 // An RFT leg learns RFT's scale (its estimate's b_k), a sinkage leg its law's.
                 if done.config.model == crate::config::ModelKind::Sinkage {
                     // Its surface, learnt with the scale, in millimetres.
-                    let surface = summary.surfaces.get(i).copied().flatten().map_or(
-                        String::new(),
-                        |s| {
-                            format!(
-                                ", surface {:+.2} +- {:.2} mm",
-                                s.offset_m * 1e3,
-                                s.std_offset_m * 1e3
-                            )
-                        },
-                    );
+                    let surface = learnt_surface.map_or(String::new(), |s| {
+                        format!(
+                            ", surface {:+.2} +- {:.2} mm",
+                            s.offset_m * 1e3,
+                            s.std_offset_m * 1e3
+                        )
+                    });
                     format!(
                         "{}: scale {:.4} +- {:.4} of the medium file's law{surface} (converged: {}, changes detected: {})",
                         l.name, e.b_k, e.std_b_k, e.converged, e.changes_detected
@@ -216,6 +203,12 @@ fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
                         l.name, e.b_k, e.std_b_k, e.converged
                     )
                 } else {
+                    let surface = learnt_surface.map_or(String::new(), |s| {
+                        format!(
+                            ", surface {:+.4} +- {:.4} m (converged: {})",
+                            s.offset_m, s.std_offset_m, s.converged
+                        )
+                    });
                     format!(
                         "{}: b_k {:.4} a {:.4} (converged: {}){surface}",
                         l.name, e.b_k, e.a, e.converged

@@ -939,7 +939,11 @@ fn leg_config(
         .str(&k("rft_coeffs"))?
         .filter(|s| !s.is_empty())
         // A medium file's RFT law was calibrated against poppy_lp's stress.
-        .or_else(|| rft_medium_file.as_ref().map(|_| "poppy_lp".to_string()))
+        .or_else(|| {
+            rft_medium_file
+                .as_ref()
+                .map(|_| crate::medium_file::RFT_SET.to_string())
+        })
         .or_else(|| {
             preset.and_then(|p| p.rft).map(|s| match s {
                 RftSet::PoppyLp => "poppy_lp".to_string(),

@@ -405,7 +405,7 @@ fn read_sidecar(file: &Path) -> Result<RunSidecar> {
 /// coefficients: what the RFT law scales.
 pub fn rft_alpha_z_down_n_cm3() -> f64 {
     use crate::model::RftCoefficients;
-    RftCoefficients::by_name("poppy_lp", None)
+    RftCoefficients::by_name(crate::medium_file::RFT_SET, None)
         .expect("a built-in set")
         .alpha_z_down_n_cm3()
 }

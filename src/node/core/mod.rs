@@ -115,6 +115,16 @@ struct Leg {
 const GIVEN_HIPS: usize = 256;
 
 impl Leg {
+    /// The surface's level it learns: a sinkage leg's estimator learns it with the medium's
+    /// scale, a flat leg's surface estimator alone (`estimator.fit_surface`).
+    fn surface_estimate(&self) -> Option<crate::ident::SurfaceEstimate> {
+        match (&self.estimator, &self.surface) {
+            (Some(Learner::Sinkage(e)), _) => Some(*e.surface()),
+            (_, Some(s)) => Some(*s.estimate()),
+            _ => None,
+        }
+    }
+
     /// The scale RFT's prediction is multiplied by: the learnt one while it is converged (and
     /// used); `None` for a leg that does not learn one.
     fn rft_scale(&self, use_identified: bool) -> Option<f64> {
@@ -125,13 +135,21 @@ impl Leg {
     }
 }
 
-/// Whether a sinkage leg was reloading pressed sand at the angle stamped `angle_t_ns`.
-fn reloading_at(reloads: &VecDeque<(i64, bool)>, angle_t_ns: i64) -> bool {
-    reloads
-        .iter()
+/// Keeps `value` for the angle stamped `stamp_ns` in `ring`, the oldest dropped past `cap`:
+/// what a leg made at its recent angles, for the F/T samples matched to them later.
+fn keep_recent<T>(ring: &mut VecDeque<(i64, T)>, cap: usize, stamp_ns: i64, value: T) {
+    if ring.len() >= cap {
+        ring.pop_front();
+    }
+    ring.push_back((stamp_ns, value));
+}
+
+/// The value `ring` keeps for the angle stamped `stamp_ns` (the newest, if several).
+fn kept_at<T: Copy>(ring: &VecDeque<(i64, T)>, stamp_ns: i64) -> Option<T> {
+    ring.iter()
         .rev()
-        .find(|(t, _)| *t == angle_t_ns)
-        .is_some_and(|(_, r)| *r)
+        .find(|(t, _)| *t == stamp_ns)
+        .map(|(_, v)| *v)
 }
 
 /// `p` with its forces and torque multiplied by `scale` (RFT's learnt scale).
@@ -215,10 +233,7 @@ impl CorrectedLeg {
         let motion = self
             .tracker
             .update(t_s, beta_rad, submerged, plate.length_m());
-        if self.motions.len() == RECENT_MOTIONS {
-            self.motions.pop_front();
-        }
-        self.motions.push_back((stamp_ns, motion));
+        keep_recent(&mut self.motions, RECENT_MOTIONS, stamp_ns, motion);
         let mut p = self.model.evaluate_at(beta_rad, &motion, hip).ok()?;
         let c = self.model.corrections();
         if c.has(Effect::SensorLag) {
@@ -227,11 +242,12 @@ impl CorrectedLeg {
             p.sensor_drag_n = y[0] + bias[0];
             p.sensor_lift_n = y[1] + bias[1];
         }
-        if self.recent.len() == RECENT_PREDICTIONS {
-            self.recent.pop_front();
-        }
-        self.recent
-            .push_back((stamp_ns, RowPrediction::corrected(&p)));
+        keep_recent(
+            &mut self.recent,
+            RECENT_PREDICTIONS,
+            stamp_ns,
+            RowPrediction::corrected(&p),
+        );
         Some(p)
     }
 }
@@ -836,12 +852,7 @@ impl NodeCore {
 
     /// The surface's offset leg `i` predicts with: the learnt one once converged (and used).
     fn surface_offset_m(&self, i: usize) -> Option<f64> {
-        let l = self.legs.get(i)?;
-        let e = match (&l.estimator, &l.surface) {
-            (Some(Learner::Sinkage(e)), _) => e.surface(),
-            (_, Some(s)) => s.estimate(),
-            _ => return None,
-        };
+        let e = self.legs.get(i)?.surface_estimate()?;
         (e.converged && self.cfg.use_identified).then_some(e.offset_m)
     }
 
@@ -954,10 +965,7 @@ impl NodeCore {
                         if reloading && p.regime == Regime::Penetration {
                             p.regime = Regime::Unloading;
                         }
-                        if leg.reloads.len() == RECENT_PREDICTIONS {
-                            leg.reloads.pop_front();
-                        }
-                        leg.reloads.push_back((stamp_ns, reloading));
+                        keep_recent(&mut leg.reloads, RECENT_PREDICTIONS, stamp_ns, reloading);
                     }
                     let rft_scale = leg.rft_scale(self.cfg.use_identified);
                     if let Some(s) = rft_scale {
@@ -1001,10 +1009,7 @@ impl NodeCore {
                     lc.sensor_hold_s,
                 );
                 [force.sensor_drag_n, force.sensor_lift_n] = held;
-                if leg.held.len() == RECENT_PREDICTIONS {
-                    leg.held.pop_front();
-                }
-                leg.held.push_back((stamp_ns, held));
+                keep_recent(&mut leg.held, RECENT_PREDICTIONS, stamp_ns, held);
             }
             leg.counters.predictions += 1;
             out.push(LegOutput {
@@ -1148,7 +1153,7 @@ impl NodeCore {
             drag_n: mt.drag_n,
             lift_n: mt.lift_n,
         };
-        let surface_before = l.surface.as_ref().map(|s| *s.estimate());
+        let surface_before = l.surface_estimate();
         if let Some(s) = l.surface.as_mut() {
             let _ = s.update(&sample, nominal_height);
         }
@@ -1163,13 +1168,7 @@ impl NodeCore {
                 // have left the buffer).
                 let motions = l.corrected.as_ref().map(|c| &c.motions);
                 let motion = motions
-                    .and_then(|ms| {
-                        ms.iter()
-                            .rev()
-                            .find(|(t, _)| *t == mt.angle_t_ns)
-                            .or(ms.back())
-                    })
-                    .map(|(_, m)| *m)
+                    .and_then(|ms| kept_at(ms, mt.angle_t_ns).or(ms.back().map(|(_, m)| *m)))
                     .unwrap_or_default();
                 let _ = e.update_at(&sample, &motion, hip.as_ref());
             }
@@ -1188,7 +1187,7 @@ impl NodeCore {
                 // estimator's own to apply.
                 let given = state_hip
                     .unwrap_or_else(|| HipMotion::still(self.cfg.legs[leg].plate.hip_height_m()));
-                let reloading = reloading_at(&l.reloads, mt.angle_t_ns);
+                let reloading = kept_at(&l.reloads, mt.angle_t_ns).unwrap_or(false);
                 match l.model.predict_moving(mt.beta_rad, &given) {
                     // A plate held, unloaded, rising or reloading pressed sand bears what the
                     // rig gives it, not the law's force: it teaches nothing of the medium.
@@ -1201,10 +1200,7 @@ impl NodeCore {
             }
         }
         let e = *est.estimate();
-        let surface_now = match est {
-            Learner::Sinkage(e) => Some(*e.surface()),
-            _ => l.surface.as_ref().map(|s| *s.estimate()),
-        };
+        let surface_now = l.surface_estimate();
         let surface_event = surface_before.zip(surface_now).is_some_and(|(b, n)| {
             b.converged != n.converged || b.changes_detected != n.changes_detected
         });
@@ -1299,8 +1295,8 @@ impl NodeCore {
         let l = self.legs.get(leg)?;
         let mut row = self.row_prediction_unheld(leg, mt)?;
         // A sample-and-hold sensor's reading, as predicted at the angle.
-        if let Some((_, held)) = l.held.iter().rev().find(|(t, _)| *t == mt.angle_t_ns) {
-            row.sensor_n = *held;
+        if let Some(held) = kept_at(&l.held, mt.angle_t_ns) {
+            row.sensor_n = held;
         }
         Some(row)
     }
@@ -1308,12 +1304,7 @@ impl NodeCore {
     fn row_prediction_unheld(&self, leg: usize, mt: &Matched) -> Option<RowPrediction> {
         let l = self.legs.get(leg)?;
         match &l.corrected {
-            Some(c) => c
-                .recent
-                .iter()
-                .rev()
-                .find(|(t, _)| *t == mt.angle_t_ns)
-                .map(|(_, p)| *p),
+            Some(c) => kept_at(&c.recent, mt.angle_t_ns),
             None => {
                 let p =
                     match self.with_surface(leg, self.hip_at(leg, mt.angle_t_ns, mt.beta_rad)) {
@@ -1325,7 +1316,9 @@ impl NodeCore {
                     Some(s) => scaled(p, s),
                     None => p,
                 };
-                if p.regime == Regime::Penetration && reloading_at(&l.reloads, mt.angle_t_ns) {
+                if p.regime == Regime::Penetration
+                    && kept_at(&l.reloads, mt.angle_t_ns).unwrap_or(false)
+                {
                     p.regime = Regime::Unloading;
                 }
                 Some(RowPrediction::bare(p))
@@ -1376,11 +1369,7 @@ impl NodeCore {
 
     /// The surface's estimate of `leg`, for a leg that learns it.
     pub fn surface_estimate(&self, leg: usize) -> Option<crate::ident::SurfaceEstimate> {
-        let l = self.legs.get(leg)?;
-        if let Some(Learner::Sinkage(e)) = &l.estimator {
-            return Some(*e.surface());
-        }
-        Some(*l.surface.as_ref()?.estimate())
+        self.legs.get(leg)?.surface_estimate()
     }
 
     /// The online estimate of `leg` (by index), if the node has it.

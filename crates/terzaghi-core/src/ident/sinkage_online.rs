@@ -274,6 +274,8 @@ impl SinkageEstimator {
         self.updates += 1;
         self.last_depth_m = depth_m;
         let predicted = x[0].exp() * self.law.force_n(&self.shape, depth_m + x[1]);
+        // The noise assumed of the row, in newtons: relative to the force there.
+        self.est.noise_n = o.rel_noise * predicted;
         let e = lift_n - predicted;
         self.est.innovation_rms_n = if self.updates == 1 {
             e.abs()
@@ -289,9 +291,6 @@ impl SinkageEstimator {
     /// afresh in the next intrusion (the scale is kept).
     pub fn left_medium(&mut self, depth_m: f64) {
         if !depth_m.is_finite() || depth_m + self.x[1] > -self.opts.clear_of_surface_m {
-            return;
-        }
-        if self.x[1] == 0.0 && self.p[(1, 1)] == self.opts.prior_surface_std_m.powi(2) {
             return;
         }
         self.x[1] = 0.0;
@@ -329,7 +328,6 @@ impl SinkageEstimator {
         let e = &mut self.est;
         e.b_k = s;
         e.std_b_k = s * sd_ln_s;
-        e.noise_n = o.rel_noise;
         e.converged = self.updates >= o.converge_min_updates
             && (sd_ln_s < o.converge_rel_std || sd_force < o.converge_rel_std);
         self.surface = SurfaceEstimate {
