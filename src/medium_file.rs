@@ -1,11 +1,17 @@
 //! Medium files: a plate-sinkage law calibrated from measurements (`terzaghi calibrate` writes
 //! them), with where each value came from; `terzaghi media` lists them and a leg of `model:
-//! sinkage` names one as its `<leg>.medium`.
+//! sinkage` or `model: rft` names one as its `<leg>.medium`. Calibrated from intrusion tests
+//! in any direction, a file also carries RFT's angular shape, its law in depth and its speed
+//! law ([`MediumRftShape`]), which every RFT leg naming the file uses; a file without them
+//! lends an RFT leg its depth law on `poppy_lp`'s shape, and says the shape is a preset's.
 
+use crate::ident::rft_shape::{RftShapeFit, ShapeForm};
 use crate::ident::sinkage::SinkageFit;
 use crate::model::sinkage::{SinkageLaw, SinkageModel};
+use crate::model::{RftCoefficients, RftDepthLaw, RftFit, RftSpeedLaw};
 use anyhow::{Context, Result, bail};
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// The RFT coefficient set a medium file's `rft_alpha_z_n_cm3` is taken from (calibration), and
@@ -29,6 +35,232 @@ pub struct MediumFile {
     pub rft_alpha_z_n_cm3: f64,
     /// Where the values came from.
     pub source: MediumSource,
+    /// RFT's shape measured from intrusion tests, where the file was calibrated on any.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rft_shape: Option<MediumRftShape>,
+}
+
+/// RFT's angular shape, law in depth and speed law, fitted to intrusion tests
+/// ([`crate::ident::rft_shape`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MediumRftShape {
+    /// `li_nine` (the nine coefficients free) or `preset_scaled` (a preset's shape times one
+    /// scale: the tests did not tell the nine apart).
+    pub form: ShapeForm,
+    /// Why the reduced form, where it is.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reduced_because: Option<String>,
+    /// Li, Zhang and Goldman's coefficients by name (`A00`, `A10`, `B11`, `B01`, `B-11`,
+    /// `C11`, `C01`, `C-11`, `D10`), N/cm^3: the stress per depth at 1 cm.
+    pub coefficients_n_cm3: BTreeMap<String, f64>,
+    /// Their standard deviations (jackknife over tests).
+    pub std_dev_n_cm3: BTreeMap<String, f64>,
+    /// The exponent `n` of the law in depth: an element at depth `z` feels the stress at
+    /// `1 cm (z / 1 cm)^n`.
+    pub depth_exponent: f64,
+    /// Its standard deviation.
+    pub std_depth_exponent: f64,
+    /// The speed of the tests the shape was fitted to (m/s).
+    pub reference_speed_m_s: f64,
+    /// R^2 of the horizontal and vertical force over the rows fitted.
+    pub r2_fx: f64,
+    /// See [`Self::r2_fx`].
+    pub r2_fz: f64,
+    /// The speed law, where tests ran at two or more speeds.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub speed_law: Option<MediumSpeedLaw>,
+    /// The tests.
+    pub tests: Vec<MediumIntrusionTest>,
+}
+
+/// RFT's speed law of a medium file: an element moving at `v` above `ref_speed_m_s` is as if
+/// `k (v - ref_speed_m_s)` deeper, `k` per direction of motion.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MediumSpeedLaw {
+    /// The calibration's speed (m/s).
+    pub ref_speed_m_s: f64,
+    /// The fastest speed measured (m/s): the law is not extrapolated past it.
+    pub max_speed_m_s: f64,
+    /// `k` (s) per direction (deg below the horizontal; negative: up).
+    pub gains: Vec<MediumSpeedGain>,
+    /// The share of the force's change with speed the law explains.
+    pub explained: f64,
+}
+
+/// One direction's gain of a [`MediumSpeedLaw`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MediumSpeedGain {
+    /// The direction of motion below the horizontal (deg).
+    pub direction_deg: f64,
+    /// The depth the dynamic stress is worth per m/s (s).
+    pub depth_per_speed_s: f64,
+}
+
+/// An intrusion test a medium file's shape was fitted to.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MediumIntrusionTest {
+    /// Its file.
+    pub file: String,
+    /// Its plate's chord angle (deg).
+    pub chord_angle_deg: f64,
+    /// Its direction of motion below the horizontal (deg; negative: up).
+    pub direction_deg: f64,
+    /// Its speed (m/s).
+    pub speed_m_s: f64,
+    /// Rows fitted (0: a faster test, for the speed law).
+    pub rows_fitted: usize,
+    /// Its measured `alpha_x`, `alpha_z` (N/cm^3).
+    pub alpha_x_n_cm3: f64,
+    /// See [`Self::alpha_x_n_cm3`].
+    pub alpha_z_n_cm3: f64,
+}
+
+/// The names of Li's nine coefficients, in [`RftFit`]'s order.
+pub const RFT_COEFFICIENT_NAMES: [&str; 9] = [
+    "A00", "A10", "B11", "B01", "B-11", "C11", "C01", "C-11", "D10",
+];
+
+fn fit_values(f: &RftFit) -> [f64; 9] {
+    [
+        f.a00, f.a10, f.b11, f.b01, f.bm11, f.c11, f.c01, f.cm11, f.d10,
+    ]
+}
+
+/// What an RFT leg takes from a medium file: the coefficients, the law in depth and the speed
+/// law, and whether the shape was measured.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RftLaw {
+    /// The coefficients.
+    pub coefficients: RftCoefficients,
+    /// The law in depth.
+    pub depth_law: RftDepthLaw,
+    /// The speed law, where the file has one.
+    pub speed_law: Option<RftSpeedLaw>,
+    /// The shape was fitted, coefficient by coefficient, to intrusion tests in several
+    /// directions (not a preset's).
+    pub shape_measured: bool,
+}
+
+impl MediumRftShape {
+    /// The shape of a fit, its tests' files in the order of `fit.tests`.
+    pub fn of_fit(fit: &RftShapeFit, files: &[PathBuf]) -> MediumRftShape {
+        let named = |f: &RftFit| {
+            RFT_COEFFICIENT_NAMES
+                .iter()
+                .zip(fit_values(f))
+                .map(|(n, v)| (n.to_string(), v))
+                .collect()
+        };
+        MediumRftShape {
+            form: fit.form,
+            reduced_because: fit.reduced_because.clone(),
+            coefficients_n_cm3: named(&fit.coefficients),
+            std_dev_n_cm3: named(&fit.std_dev),
+            depth_exponent: fit.depth_exponent,
+            std_depth_exponent: fit.depth_exponent_std,
+            reference_speed_m_s: fit.reference_speed_m_s,
+            r2_fx: fit.r2[0],
+            r2_fz: fit.r2[1],
+            speed_law: fit.speed.as_ref().map(|s| MediumSpeedLaw {
+                ref_speed_m_s: s.law.ref_speed_m_s,
+                max_speed_m_s: s.law.max_speed_m_s,
+                gains: s
+                    .law
+                    .gains()
+                    .iter()
+                    .map(|&(g, k)| MediumSpeedGain {
+                        direction_deg: g.to_degrees(),
+                        depth_per_speed_s: k,
+                    })
+                    .collect(),
+                explained: s.explained,
+            }),
+            tests: fit
+                .tests
+                .iter()
+                .zip(files)
+                .map(|(t, f)| MediumIntrusionTest {
+                    file: f.display().to_string(),
+                    chord_angle_deg: t.chord_angle_deg,
+                    direction_deg: t.direction_deg,
+                    speed_m_s: t.speed_m_s,
+                    rows_fitted: t.rows_fitted,
+                    alpha_x_n_cm3: t.measured_alpha_n_cm3[0],
+                    alpha_z_n_cm3: t.measured_alpha_n_cm3[1],
+                })
+                .collect(),
+        }
+    }
+
+    /// The coefficients, checked: each of the nine present and finite, no other.
+    pub fn coefficients(&self) -> Result<RftFit> {
+        let mut v = [0.0; 9];
+        for (slot, name) in v.iter_mut().zip(RFT_COEFFICIENT_NAMES) {
+            let x = *self.coefficients_n_cm3.get(name).with_context(|| {
+                format!(
+                    "rft_shape.coefficients_n_cm3 lacks {name} (it holds {})",
+                    RFT_COEFFICIENT_NAMES.join(", ")
+                )
+            })?;
+            if !x.is_finite() {
+                bail!("rft_shape.coefficients_n_cm3.{name} is {x}: it must be finite");
+            }
+            *slot = x;
+        }
+        if let Some(extra) = self
+            .coefficients_n_cm3
+            .keys()
+            .find(|k| !RFT_COEFFICIENT_NAMES.contains(&k.as_str()))
+        {
+            bail!(
+                "rft_shape.coefficients_n_cm3 has no coefficient {extra:?} (its coefficients: {})",
+                RFT_COEFFICIENT_NAMES.join(", ")
+            );
+        }
+        let f = RftFit {
+            a00: v[0],
+            a10: v[1],
+            b11: v[2],
+            b01: v[3],
+            bm11: v[4],
+            c11: v[5],
+            c01: v[6],
+            cm11: v[7],
+            d10: v[8],
+        };
+        let down = f.alpha(0.0, std::f64::consts::FRAC_PI_2).1;
+        if down.is_nan() || down <= 0.0 {
+            bail!(
+                "rft_shape's coefficients give {down} N/cm^3 for a plate pushed straight down: a medium's must be > 0"
+            );
+        }
+        Ok(f)
+    }
+
+    /// The speed law, checked, where there is one.
+    pub fn speed_law(&self) -> Result<Option<RftSpeedLaw>> {
+        let Some(s) = &self.speed_law else {
+            return Ok(None);
+        };
+        let gains: Vec<(f64, f64)> = s
+            .gains
+            .iter()
+            .map(|g| (g.direction_deg.to_radians(), g.depth_per_speed_s))
+            .collect();
+        Ok(Some(
+            RftSpeedLaw::by_direction(s.ref_speed_m_s, &gains, s.max_speed_m_s)
+                .context("rft_shape.speed_law")?,
+        ))
+    }
+
+    /// The law in depth, checked.
+    pub fn depth_law(&self) -> Result<RftDepthLaw> {
+        RftDepthLaw::new(1.0, self.depth_exponent).context("rft_shape.depth_exponent")
+    }
 }
 
 /// Where a medium file's values came from.
@@ -106,6 +338,112 @@ impl MediumFile {
                     })
                     .collect(),
             },
+            rft_shape: None,
+        }
+    }
+
+    /// The medium file of intrusion tests alone: its shape, and as its plate-sinkage law the
+    /// shape's own for a horizontal plate pushed straight down (`rft_depth_power` with `xi` 1,
+    /// against the shape's `alpha_z`, and its depth exponent), so that a sinkage leg and an RFT
+    /// plate naming the file agree.
+    pub fn of_shape(
+        name: &str,
+        fit: &RftShapeFit,
+        files: &[PathBuf],
+        unit_weight_n_m3: f64,
+        command: &str,
+        unit_weight_source: &str,
+    ) -> MediumFile {
+        let [down, down_sd] = fit.alpha_z_down_n_cm3;
+        MediumFile {
+            name: name.to_string(),
+            law: SinkageLaw::RftDepthPower,
+            params: [
+                ("xi".to_string(), 1.0),
+                ("n".to_string(), fit.depth_exponent),
+            ]
+            .into(),
+            std_dev: [
+                ("xi".to_string(), down_sd / down),
+                ("n".to_string(), fit.depth_exponent_std),
+            ]
+            .into(),
+            unit_weight_n_m3,
+            rft_alpha_z_n_cm3: down,
+            source: MediumSource {
+                command: command.to_string(),
+                unit_weight: unit_weight_source.to_string(),
+                depth_column: "depth_m".to_string(),
+                r2: fit.r2[1],
+                tests: Vec::new(),
+            },
+            rft_shape: Some(MediumRftShape::of_fit(fit, files)),
+        }
+    }
+
+    /// What an RFT leg naming this file uses. With a measured shape: its coefficients, law in
+    /// depth and speed law (a coefficient set named beside it, `explicit`, is refused: the file
+    /// carries its own). Without: `explicit` or `poppy_lp`'s shape, with the file's
+    /// `rft_depth_power` law ([`Self::rft_depth_law`]) and no speed law.
+    pub fn rft_law(&self, explicit: Option<(&str, RftCoefficients)>) -> Result<RftLaw> {
+        match (&self.rft_shape, explicit) {
+            (Some(_), Some((name, _))) => bail!(
+                "medium {:?} carries its own RFT shape, measured from intrusion tests; a coefficient set ({name}) cannot be named beside it (leave rft_coeffs out, or name a medium file without a shape)",
+                self.name
+            ),
+            (Some(shape), None) => Ok(RftLaw {
+                coefficients: RftCoefficients::Fit(
+                    shape
+                        .coefficients()
+                        .with_context(|| format!("medium {:?}", self.name))?,
+                ),
+                depth_law: shape
+                    .depth_law()
+                    .with_context(|| format!("medium {:?}", self.name))?,
+                speed_law: shape
+                    .speed_law()
+                    .with_context(|| format!("medium {:?}", self.name))?,
+                shape_measured: shape.form == ShapeForm::LiNine,
+            }),
+            (None, explicit) => {
+                let coefficients = match explicit {
+                    Some((_, c)) => c,
+                    None => RftCoefficients::by_name(RFT_SET, None)?,
+                };
+                Ok(RftLaw {
+                    depth_law: self.rft_depth_law(&coefficients)?,
+                    coefficients,
+                    speed_law: None,
+                    shape_measured: false,
+                })
+            }
+        }
+    }
+
+    /// Where an RFT leg's angular shape comes from, in words.
+    pub fn rft_shape_text(&self) -> String {
+        match &self.rft_shape {
+            Some(s) if s.form == ShapeForm::LiNine => format!(
+                "measured: Li's nine coefficients fitted to {} intrusion tests, depth exponent {:.3}{}",
+                s.tests.len(),
+                s.depth_exponent,
+                match &s.speed_law {
+                    Some(l) => format!(
+                        ", speed law from {:.2} to {:.2} m/s",
+                        l.ref_speed_m_s, l.max_speed_m_s
+                    ),
+                    None => ", no speed law (no test at a second speed)".to_string(),
+                }
+            ),
+            Some(s) => format!(
+                "a preset's, scaled: {}",
+                s.reduced_because
+                    .as_deref()
+                    .unwrap_or("the tests did not tell the nine terms apart")
+            ),
+            None => format!(
+                "{RFT_SET}'s (a preset, not measured: the file was calibrated from plates pushed straight down; calibrate it with intrusion tests to measure it)"
+            ),
         }
     }
 
@@ -183,6 +521,10 @@ impl MediumFile {
         let m: MediumFile = serde_yaml_ng::from_str(&text)
             .with_context(|| format!("{} is not a medium file", file.display()))?;
         m.model().with_context(|| format!("{}", file.display()))?;
+        if m.rft_shape.is_some() {
+            m.rft_law(None)
+                .with_context(|| format!("{}", file.display()))?;
+        }
         Ok(m)
     }
 }

@@ -260,6 +260,20 @@ pub struct ModelSpec {
 }
 
 impl ModelSpec {
+    /// The RFT model of this leg's shape on `plate` with `coeffs`.
+    fn rft_leg(&self, plate: Plate, coeffs: RftCoefficients) -> Result<RftModel> {
+        Ok(match &self.shape {
+            LegShape::Plate => RftModel::new(plate, coeffs, self.rft_elements)?,
+            LegShape::CLeg { radius_m, span_deg } => {
+                let line = c_leg_line(self.length_m, *radius_m, *span_deg)?;
+                RftModel::with_profile(plate, coeffs, self.rft_elements, line)?
+            }
+            LegShape::Polyline { line } => {
+                RftModel::with_profile(plate, coeffs, self.rft_elements, line.clone())?
+            }
+        })
+    }
+
     /// The model; every value that does not make one is refused by name.
     pub fn build(&self) -> Result<ForceModel> {
         if self.kind != ModelKind::Improved && (self.b_k.is_some() || self.a.is_some()) {
@@ -302,6 +316,25 @@ impl ModelSpec {
                 Ok(ForceModel::Terzaghi(terzaghi_model(plate, &chosen, width)))
             }
             ModelKind::Rft => {
+                // A medium file gives the leg its law: a measured shape, or a set's shape with
+                // the file's law in depth.
+                if let Some(file) = &self.medium.file {
+                    let medium = crate::medium_file::MediumFile::read(file)?;
+                    let explicit = match &self.rft_coeffs {
+                        Some(set) => {
+                            Some((set.as_str(), RftCoefficients::by_name(set, self.rft_zeta)?))
+                        }
+                        None => None,
+                    };
+                    let law = medium
+                        .rft_law(explicit)
+                        .with_context(|| format!("{}", file.display()))?;
+                    return Ok(ForceModel::Rft(
+                        self.rft_leg(plate, law.coefficients)?
+                            .with_depth_law(Some(law.depth_law))
+                            .with_speed_law(law.speed_law),
+                    ));
+                }
                 let set = match (&self.rft_coeffs, &self.medium.preset) {
                     (Some(s), _) => s.clone(),
                     // A medium file's RFT law was calibrated against poppy_lp's stress.
@@ -325,27 +358,7 @@ impl ModelSpec {
                     );
                 }
                 let coeffs = RftCoefficients::by_name(&set, self.rft_zeta)?;
-                let depth_law = match &self.medium.file {
-                    Some(file) => Some(
-                        crate::medium_file::MediumFile::read(file)?
-                            .rft_depth_law(&coeffs)
-                            .with_context(|| format!("{}", file.display()))?,
-                    ),
-                    None => None,
-                };
-                Ok(ForceModel::Rft(
-                    match &self.shape {
-                        LegShape::Plate => RftModel::new(plate, coeffs, self.rft_elements)?,
-                        LegShape::CLeg { radius_m, span_deg } => {
-                            let line = c_leg_line(self.length_m, *radius_m, *span_deg)?;
-                            RftModel::with_profile(plate, coeffs, self.rft_elements, line)?
-                        }
-                        LegShape::Polyline { line } => {
-                            RftModel::with_profile(plate, coeffs, self.rft_elements, line.clone())?
-                        }
-                    }
-                    .with_depth_law(depth_law),
-                ))
+                Ok(ForceModel::Rft(self.rft_leg(plate, coeffs)?))
             }
             ModelKind::Sinkage => unreachable!("built above"),
         }

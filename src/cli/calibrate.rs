@@ -1,9 +1,17 @@
-//! `terzaghi calibrate`: a medium's plate-sinkage laws fitted to plate-sinkage tests, a medium
-//! file written, and (with --cross-validate) each plate size predicted from the others (the
-//! work is [`crate::session::plate_test`]).
+//! `terzaghi calibrate`: a medium's plate-sinkage laws fitted to plate-sinkage tests, and RFT's
+//! angular shape, law in depth and speed law fitted to intrusion tests in any direction; a
+//! medium file written, and (with --cross-validate) each plate size and each intrusion test
+//! predicted from the others (the work is [`crate::session::plate_test`] and
+//! [`crate::session::intrusion_test`]).
 
 use super::print_out;
+use crate::ident::rft_shape::{HeldOutIntrusion, RftShapeFit, ShapeForm, ShapeOptions};
+use crate::medium_file::{MediumRftShape, RFT_COEFFICIENT_NAMES};
 use crate::model::sinkage::{PlateShape, RegimeOptions, SinkageLaw};
+use crate::session::intrusion_test::{
+    IntrusionFile, calibrate_shape, cross_validate_tests, is_intrusion_test, read_intrusion_test,
+    unit_weight_of_tests,
+};
 use crate::session::plate_test::{
     DepthColumn, HeldOut, MediumFile, PlateTest, STRESS_DEPTH_M, by_size, calibrate,
     cross_validate, read_test, unit_weight_of,
@@ -24,7 +32,9 @@ pub enum DepthArg {
 pub struct CalibrateArgs {
     /// Plate-sinkage tests: CSV files in the shared runs' layout (time_s, depth_m, fz_n, ...,
     /// with the JSON of the same name beside each), or plain logs of t_s, depth_m, force_n
-    /// (with the plate's size given by flag).
+    /// (with the plate's size given by flag). Intrusion tests in any direction: CSV files of
+    /// t_s, x_m, depth_m, fx_n, fz_n with a JSON of the same name beside each (plate_chord_m,
+    /// plate_width_m, chord_angle_deg; docs/real-data.md gives the format). Any mix.
     #[arg(required = true, value_name = "TEST")]
     pub tests: Vec<PathBuf>,
     /// The plate of plain logs: a disc of this diameter (m).
@@ -62,9 +72,16 @@ pub struct CalibrateArgs {
     #[arg(long, default_value = "calibrated")]
     pub name: String,
     /// Predict each plate size from the laws calibrated on the other sizes, and print the
-    /// table (R^2 and RMSE per test, depth exponent and change of stress with size).
+    /// table (R^2 and RMSE per test, depth exponent and change of stress with size); and each
+    /// intrusion test from the shape fitted to the others, with the measured and predicted
+    /// alpha_x, alpha_z per direction of motion (which directions the tests have not measured).
     #[arg(long)]
     pub cross_validate: bool,
+    /// An intrusion test that starts with its plate buried is fitted from this many plate
+    /// chords of travel on (the stress builds as the grains ahead of a plate pushed from rest
+    /// jam).
+    #[arg(long, value_name = "CHORDS", default_value_t = 0.6)]
+    pub buried_start_chords: f64,
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
@@ -74,7 +91,7 @@ fn law_names() -> clap::builder::PossibleValuesParser {
     clap::builder::PossibleValuesParser::new(SinkageLaw::ALL.map(|l| l.name()))
 }
 
-pub fn read_tests(a: &CalibrateArgs) -> Result<Vec<PlateTest>> {
+pub fn read_tests(a: &CalibrateArgs, files: &[PathBuf]) -> Result<Vec<PlateTest>> {
     let plate = match (a.plate_diameter_m, a.plate_width_m, a.plate_length_m) {
         (Some(d), _, _) => Some(PlateShape::disc(d)?),
         (None, Some(w), Some(l)) => Some(PlateShape::rectangle(w, l)?),
@@ -84,10 +101,63 @@ pub fn read_tests(a: &CalibrateArgs) -> Result<Vec<PlateTest>> {
         DepthArg::Compensated => DepthColumn::Compensated,
         DepthArg::AsLogged => DepthColumn::AsLogged,
     };
-    a.tests
+    files
         .iter()
         .map(|f| read_test(f, plate, depth, &RegimeOptions::default()))
         .collect()
+}
+
+/// The plate-sinkage part of a calibration.
+struct PlatePart {
+    tests: Vec<PlateTest>,
+    unit_weight: f64,
+    unit_weight_source: String,
+    fits: Vec<crate::ident::sinkage::SinkageFit>,
+    failed: Vec<(SinkageLaw, String)>,
+    chosen: usize,
+    held: Option<Vec<HeldOut>>,
+}
+
+fn plate_part(a: &CalibrateArgs, files: &[PathBuf]) -> Result<PlatePart> {
+    let tests = read_tests(a, files)?;
+    let (unit_weight, unit_weight_source) = unit_weight_of(&tests, a.unit_weight_n_m3)?;
+    let (fits, failed) = calibrate(&tests, unit_weight);
+    let chosen = match &a.law {
+        Some(name) => fits
+            .iter()
+            .position(|f| f.model.law.name() == name)
+            .with_context(|| {
+                let why = failed
+                    .iter()
+                    .find(|(l, _)| l.name() == name)
+                    .map(|(_, e)| e.clone())
+                    .unwrap_or_default();
+                format!("{name} could not be fitted: {why}")
+            })?,
+        None if fits.is_empty() => bail!(
+            "no law could be fitted to these tests: {}",
+            failed
+                .iter()
+                .map(|(_, e)| e.clone())
+                .collect::<Vec<_>>()
+                .join("; ")
+        ),
+        None => 0,
+    };
+    let held = if a.cross_validate {
+        Some(cross_validate(&tests, unit_weight)?)
+    } else {
+        None
+    };
+    Ok(PlatePart {
+        tests,
+        unit_weight,
+        unit_weight_source,
+        fits,
+        failed,
+        chosen,
+        held,
+    })
 }
 
 pub fn run(a: CalibrateArgs) -> Result<()> {
@@ -101,32 +171,39 @@ pub fn run(a: CalibrateArgs) -> Result<()> {
     {
         bail!("--unit-weight-n-m3 must be a number > 0, got {w}");
     }
-    let tests = read_tests(&a)?;
-    let (unit_weight, unit_weight_source) = unit_weight_of(&tests, a.unit_weight_n_m3)?;
-    let (fits, failed) = calibrate(&tests, unit_weight);
-    let chosen = match &a.law {
-        Some(name) => fits
-            .iter()
-            .find(|f| f.model.law.name() == name)
-            .with_context(|| {
-                let why = failed
-                    .iter()
-                    .find(|(l, _)| l.name() == name)
-                    .map(|(_, e)| e.clone())
-                    .unwrap_or_default();
-                format!("{name} could not be fitted: {why}")
-            })?,
-        None => fits.first().context(
-            "no law could be fitted to these tests: ".to_string()
-                + &failed
-                    .iter()
-                    .map(|(_, e)| e.clone())
-                    .collect::<Vec<_>>()
-                    .join("; "),
-        )?,
+    if !(a.buried_start_chords.is_finite() && a.buried_start_chords >= 0.0) {
+        bail!(
+            "--buried-start-chords must be a number >= 0, got {}",
+            a.buried_start_chords
+        );
+    }
+    let (intrusion_files, plate_files): (Vec<PathBuf>, Vec<PathBuf>) =
+        a.tests.iter().cloned().partition(|f| is_intrusion_test(f));
+    if a.law.is_some() && plate_files.is_empty() {
+        bail!(
+            "--law chooses among plate-sinkage laws, and every test given is an intrusion test (its law in depth is fitted with its shape)"
+        );
+    }
+    let plates = if plate_files.is_empty() {
+        None
+    } else {
+        Some(plate_part(&a, &plate_files)?)
     };
-    let held = if a.cross_validate {
-        Some(cross_validate(&tests, unit_weight)?)
+    let intrusions: Vec<IntrusionFile> = intrusion_files
+        .iter()
+        .map(|f| read_intrusion_test(f))
+        .collect::<Result<_>>()?;
+    let options = ShapeOptions {
+        buried_start_chords: a.buried_start_chords,
+        ..ShapeOptions::default()
+    };
+    let shape = if intrusions.is_empty() {
+        None
+    } else {
+        Some(calibrate_shape(&intrusions, &options)?)
+    };
+    let shape_held = if a.cross_validate && !intrusions.is_empty() {
+        Some(cross_validate_tests(&intrusions, &options)?)
     } else {
         None
     };
@@ -134,45 +211,103 @@ pub fn run(a: CalibrateArgs) -> Result<()> {
         .chain(std::env::args().skip(1))
         .collect::<Vec<_>>()
         .join(" ");
-    let files: Vec<PathBuf> = tests.iter().map(|t| t.file.clone()).collect();
-    let depth_column = tests.first().map_or("depth_m", |t| t.depth_column);
-    let medium = MediumFile::of_fit(
-        &a.name,
-        chosen,
-        &files,
-        depth_column,
-        &command,
-        &unit_weight_source,
-    );
+    let medium = match (&plates, &shape) {
+        (Some(p), shape) => {
+            let files: Vec<PathBuf> = p.tests.iter().map(|t| t.file.clone()).collect();
+            let depth_column = p.tests.first().map_or("depth_m", |t| t.depth_column);
+            let mut m = MediumFile::of_fit(
+                &a.name,
+                &p.fits[p.chosen],
+                &files,
+                depth_column,
+                &command,
+                &p.unit_weight_source,
+            );
+            m.rft_shape = shape
+                .as_ref()
+                .map(|s| MediumRftShape::of_fit(s, &intrusion_files));
+            m
+        }
+        (None, Some(s)) => {
+            let (w, source) = unit_weight_of_tests(&intrusions, a.unit_weight_n_m3)?.context(
+                "no intrusion test's JSON gives unit_weight_n_m3: give --unit-weight-n-m3 (a medium file carries it for the legs that take a Terzaghi medium)",
+            )?;
+            MediumFile::of_shape(&a.name, s, &intrusion_files, w, &command, &source)
+        }
+        (None, None) => bail!("no test given"),
+    };
     if let Some(out) = &a.out {
         crate::session::files::write_text(out, &medium.to_yaml()?)
             .context(crate::session::files::cannot_write(out))?;
     }
     if a.json {
-        let v = serde_json::json!({
-            "tests": tests.iter().map(|t| serde_json::json!({
+        let mut v = serde_json::json!({ "medium": medium });
+        if let Some(p) = &plates {
+            v["tests"] =
+                serde_json::json!(p.tests.iter().map(|t| serde_json::json!({
                 "file": t.file, "plate": t.plate.label(), "depth_column": t.depth_column,
                 "rows": t.rows.len(), "loaded_rows": t.loaded().rows.len(),
                 "skipped_rows": t.skipped_rows,
-            })).collect::<Vec<_>>(),
-            "unit_weight_n_m3": unit_weight,
-            "fits": fits,
-            "not_fitted": failed.iter().map(|(l, e)| serde_json::json!({"law": l.name(), "error": e})).collect::<Vec<_>>(),
-            "medium": medium,
-            "cross_validation": held,
-            "cross_validation_by_size": held.as_deref().map(by_size),
-        });
+            })).collect::<Vec<_>>());
+            v["unit_weight_n_m3"] = serde_json::json!(p.unit_weight);
+            v["fits"] = serde_json::json!(p.fits);
+            v["not_fitted"] = serde_json::json!(
+                p.failed
+                    .iter()
+                    .map(|(l, e)| serde_json::json!({"law": l.name(), "error": e}))
+                    .collect::<Vec<_>>()
+            );
+            v["cross_validation"] = serde_json::json!(p.held);
+            v["cross_validation_by_size"] = serde_json::json!(p.held.as_deref().map(by_size));
+        }
+        if let Some(s) = &shape {
+            v["rft_shape"] = serde_json::json!(s);
+        }
+        if let Some((held, skipped)) = &shape_held {
+            v["rft_shape_cross_validation"] = serde_json::json!(held);
+            v["rft_shape_cross_validation_by_direction"] = serde_json::json!(by_direction(held));
+            v["rft_shape_cross_validation_skipped"] = serde_json::json!(skipped);
+        }
         return print_out(&(serde_json::to_string_pretty(&v)? + "\n"));
     }
+    let mut s = String::new();
+    if let Some(p) = &plates {
+        s += &render_plate_part(p);
+    }
+    if let Some(fit) = &shape {
+        if plates.is_some() {
+            s.push('\n');
+        }
+        s += &render_shape(fit, &options);
+    }
+    if let Some((held, skipped)) = &shape_held {
+        s += &render_shape_cross_validation(held, skipped);
+    }
+    if let Some(out) = &a.out {
+        s += &format!(
+            "\nwrote {} (law {}; RFT's shape {})\n",
+            out.display(),
+            medium.law.name(),
+            match &medium.rft_shape {
+                Some(r) => r.form.name(),
+                None => "poppy_lp's, not measured",
+            }
+        );
+    }
+    print_out(&s)
+}
+
+fn render_plate_part(p: &PlatePart) -> String {
+    let (tests, fits, failed, chosen) = (&p.tests, &p.fits, &p.failed, &p.fits[p.chosen]);
     let mut s = String::new();
     s += &format!(
         "{} tests, depth from {}, unit weight {:.0} N/m^3 ({})\n",
         tests.len(),
         tests.first().map(|t| t.depth_column).unwrap_or("depth_m"),
-        unit_weight,
-        unit_weight_source
+        p.unit_weight,
+        p.unit_weight_source
     );
-    for t in &tests {
+    for t in tests {
         s += &format!(
             "  {:<28} {:<12} {:>4} rows, {:>4} loaded, deepest {:>5.1} mm{}\n",
             t.name(),
@@ -192,7 +327,7 @@ pub fn run(a: CalibrateArgs) -> Result<()> {
         "{:<18} {:>7} {:>9}  parameters (+- one standard deviation)\n",
         "law", "R^2", "RMSE N"
     );
-    for f in &fits {
+    for f in fits {
         let params = f
             .model
             .law
@@ -215,7 +350,7 @@ pub fn run(a: CalibrateArgs) -> Result<()> {
             f.rmse_n
         );
     }
-    for (l, e) in &failed {
+    for (l, e) in failed {
         s += &format!("{:<18} not fitted: {e}\n", l.name());
     }
     s += &format!(
@@ -228,17 +363,218 @@ pub fn run(a: CalibrateArgs) -> Result<()> {
             t.name, t.plate, t.r2, t.rmse_n, t.peak_force_n
         );
     }
-    if let Some(held) = &held {
+    if let Some(held) = &p.held {
         s += &render_cross_validation(held);
     }
-    if let Some(out) = &a.out {
+    s
+}
+
+/// The shape's fit: its coefficients with their deviations, its depth and speed laws, and each
+/// test's measured and fitted stresses.
+pub fn render_shape(fit: &RftShapeFit, o: &ShapeOptions) -> String {
+    let mut s = format!(
+        "RFT's shape from {} intrusion tests ({} rows fitted, at {:.3} m/s; a test that starts buried is fitted from {} chords of travel on)\n",
+        fit.tests.len(),
+        fit.rows,
+        fit.reference_speed_m_s,
+        o.buried_start_chords
+    );
+    match fit.form {
+        ShapeForm::LiNine => {
+            s += "form li_nine: Li, Zhang and Goldman's nine coefficients, each fitted\n"
+        }
+        ShapeForm::PresetScaled => {
+            s += &format!(
+                "form preset_scaled: {}\n",
+                fit.reduced_because.as_deref().unwrap_or("")
+            )
+        }
+    }
+    s += "coefficients (N/cm^3 at 1 cm, +- one standard deviation, jackknife over tests):\n";
+    let c = [
+        fit.coefficients.a00,
+        fit.coefficients.a10,
+        fit.coefficients.b11,
+        fit.coefficients.b01,
+        fit.coefficients.bm11,
+        fit.coefficients.c11,
+        fit.coefficients.c01,
+        fit.coefficients.cm11,
+        fit.coefficients.d10,
+    ];
+    let d = [
+        fit.std_dev.a00,
+        fit.std_dev.a10,
+        fit.std_dev.b11,
+        fit.std_dev.b01,
+        fit.std_dev.bm11,
+        fit.std_dev.c11,
+        fit.std_dev.c01,
+        fit.std_dev.cm11,
+        fit.std_dev.d10,
+    ];
+    for (i, name) in RFT_COEFFICIENT_NAMES.iter().enumerate() {
+        s += &format!("  {name:<5} {:>8.4} +- {:.4}\n", c[i], d[i]);
+    }
+    s += &format!(
+        "depth: stress at 1 cm (z / 1 cm)^n, n {:.3} +- {:.3}; straight down alpha_z {:.4} +- {:.4} N/cm^3\n",
+        fit.depth_exponent,
+        fit.depth_exponent_std,
+        fit.alpha_z_down_n_cm3[0],
+        fit.alpha_z_down_n_cm3[1]
+    );
+    s += &format!(
+        "fitted rows: R^2 fx {:.3}, fz {:.3}; RMSE fx {:.3} N, fz {:.3} N\n",
+        fit.r2[0], fit.r2[1], fit.rmse_n[0], fit.rmse_n[1]
+    );
+    match (&fit.speed, &fit.no_speed_law_because) {
+        (Some(sp), _) => {
+            s += &format!(
+                "speed law: elements k (v - {:.3} m/s) deeper, up to {:.3} m/s; k {}; from {} faster tests ({:.0} % of the change with speed explained; one k for every direction {:.0} %)\n",
+                sp.law.ref_speed_m_s,
+                sp.law.max_speed_m_s,
+                sp.law.gains_text(),
+                sp.intrusions,
+                100.0 * sp.explained,
+                100.0 * sp.one_gain_explained
+            )
+        }
+        (None, why) => {
+            s += &format!(
+                "speed law: none ({})\n",
+                why.as_deref().unwrap_or("no test at a second speed")
+            )
+        }
+    }
+    s += "\nPer test (direction of motion below the horizontal in RFT's frame, the motion toward +x; alpha in N/cm^3)\n";
+    s += &format!(
+        "{:<28} {:>6} {:>6} {:>7} {:>5} {:>9} {:>9} {:>9} {:>9}\n",
+        "test", "chord", "dir", "m/s", "rows", "ax meas", "ax fit", "az meas", "az fit"
+    );
+    for t in &fit.tests {
         s += &format!(
-            "\nwrote {} (law {})\n",
-            out.display(),
-            chosen.model.law.name()
+            "{:<28} {:>6.0} {:>6.0} {:>7.3} {:>5} {:>9.4} {:>9.4} {:>9.4} {:>9.4}{}\n",
+            t.name,
+            t.chord_angle_deg,
+            t.direction_deg,
+            t.speed_m_s,
+            t.rows_fitted,
+            t.measured_alpha_n_cm3[0],
+            t.fitted_alpha_n_cm3[0],
+            t.measured_alpha_n_cm3[1],
+            t.fitted_alpha_n_cm3[1],
+            if t.rows_fitted == 0 {
+                "  (faster: speed law)"
+            } else {
+                ""
+            }
         );
     }
-    print_out(&s)
+    s
+}
+
+/// Held-out intrusion tests grouped by direction of motion (to the degree).
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct HeldOutDirection {
+    /// The direction below the horizontal (deg; negative: up).
+    pub direction_deg: f64,
+    /// Tests.
+    pub tests: usize,
+    /// Means of the measured and predicted `alpha_x, alpha_z` (N/cm^3).
+    pub measured_alpha_n_cm3: [f64; 2],
+    /// See [`Self::measured_alpha_n_cm3`].
+    pub predicted_alpha_n_cm3: [f64; 2],
+    /// The worst R^2 of the horizontal and vertical force over its tests.
+    pub worst_r2: [f64; 2],
+}
+
+/// [`HeldOutDirection`] of each direction, from up to down.
+pub fn by_direction(held: &[HeldOutIntrusion]) -> Vec<HeldOutDirection> {
+    let mut dirs: Vec<f64> = held.iter().map(|h| h.test.direction_deg.round()).collect();
+    dirs.sort_by(f64::total_cmp);
+    dirs.dedup();
+    dirs.into_iter()
+        .map(|d| {
+            let mine: Vec<&HeldOutIntrusion> = held
+                .iter()
+                .filter(|h| h.test.direction_deg.round() == d)
+                .collect();
+            let n = mine.len() as f64;
+            let mean =
+                |f: &dyn Fn(&HeldOutIntrusion) -> f64| mine.iter().map(|h| f(h)).sum::<f64>() / n;
+            let worst = |k: usize| mine.iter().map(|h| h.r2[k]).fold(f64::INFINITY, f64::min);
+            HeldOutDirection {
+                direction_deg: d,
+                tests: mine.len(),
+                measured_alpha_n_cm3: [
+                    mean(&|h| h.test.measured_alpha_n_cm3[0]),
+                    mean(&|h| h.test.measured_alpha_n_cm3[1]),
+                ],
+                predicted_alpha_n_cm3: [
+                    mean(&|h| h.predicted_alpha_n_cm3[0]),
+                    mean(&|h| h.predicted_alpha_n_cm3[1]),
+                ],
+                worst_r2: [worst(0), worst(1)],
+            }
+        })
+        .collect()
+}
+
+/// Each intrusion test predicted by the shape fitted to the others, and the same per direction.
+pub fn render_shape_cross_validation(held: &[HeldOutIntrusion], skipped: &[String]) -> String {
+    let mut s = String::from(
+        "\nEach intrusion test predicted from the shape fitted to the others (nothing fitted to it; alpha in N/cm^3)\n",
+    );
+    s += &format!(
+        "{:<28} {:>6} {:>6} {:>9} {:>9} {:>9} {:>9} {:>7} {:>7}  {}\n",
+        "test",
+        "chord",
+        "dir",
+        "ax meas",
+        "ax pred",
+        "az meas",
+        "az pred",
+        "R^2 fx",
+        "R^2 fz",
+        "form"
+    );
+    for h in held {
+        s += &format!(
+            "{:<28} {:>6.0} {:>6.0} {:>9.4} {:>9.4} {:>9.4} {:>9.4} {:>7.3} {:>7.3}  {}\n",
+            h.test.name,
+            h.test.chord_angle_deg,
+            h.test.direction_deg,
+            h.test.measured_alpha_n_cm3[0],
+            h.predicted_alpha_n_cm3[0],
+            h.test.measured_alpha_n_cm3[1],
+            h.predicted_alpha_n_cm3[1],
+            h.r2[0],
+            h.r2[1],
+            h.form.name()
+        );
+    }
+    for name in skipped {
+        s += &format!("{name:<28} not predicted: the others alone determine no shape\n");
+    }
+    s += "\nThe same, per direction of motion (deg below the horizontal; means over its tests)\n";
+    s += &format!(
+        "{:>6} {:>5} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9}\n",
+        "dir", "tests", "ax meas", "ax pred", "az meas", "az pred", "worst fx", "worst fz"
+    );
+    for d in by_direction(held) {
+        s += &format!(
+            "{:>6.0} {:>5} {:>9.4} {:>9.4} {:>9.4} {:>9.4} {:>9.3} {:>9.3}\n",
+            d.direction_deg,
+            d.tests,
+            d.measured_alpha_n_cm3[0],
+            d.predicted_alpha_n_cm3[0],
+            d.measured_alpha_n_cm3[1],
+            d.predicted_alpha_n_cm3[1],
+            d.worst_r2[0],
+            d.worst_r2[1]
+        );
+    }
+    s
 }
 
 fn sig(v: f64) -> String {

@@ -70,12 +70,39 @@ pub fn run(a: MediaArgs) -> Result<()> {
         }
         s += &format!(
             "  serves:      {}\n",
-            if m.law == crate::model::sinkage::SinkageLaw::RftDepthPower {
+            if m.law == crate::model::sinkage::SinkageLaw::RftDepthPower || m.rft_shape.is_some() {
                 "model sinkage (a plate pushed straight down) and model rft (any leg shape: RFT's stress in depth)"
             } else {
                 "model sinkage (a plate pushed straight down); model rft takes the rft_depth_power law only"
             }
         );
+        s += &format!("  RFT's shape: {}\n", m.rft_shape_text());
+        if let Some(shape) = &m.rft_shape {
+            s += &format!(
+                "  RFT's coefficients (N/cm^3 at 1 cm, +- one standard deviation): {}\n",
+                crate::medium_file::RFT_COEFFICIENT_NAMES
+                    .iter()
+                    .map(|n| format!(
+                        "{n} {:.4} +- {:.4}",
+                        shape
+                            .coefficients_n_cm3
+                            .get(*n)
+                            .copied()
+                            .unwrap_or(f64::NAN),
+                        shape.std_dev_n_cm3.get(*n).copied().unwrap_or(f64::NAN)
+                    ))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+            s += &format!(
+                "  RFT's depth exponent {:.3} +- {:.3}; R^2 fx {:.3}, fz {:.3} over {} intrusion tests\n",
+                shape.depth_exponent,
+                shape.std_depth_exponent,
+                shape.r2_fx,
+                shape.r2_fz,
+                shape.tests.len()
+            );
+        }
         s += &format!("  fitted by:   {}\n", m.source.command);
         s += &format!("  unit weight: {}\n", m.source.unit_weight);
         s += &format!(

@@ -99,6 +99,9 @@ pub struct LegConfig {
     /// RFT's stress in depth from the leg's medium file (`<leg>.medium`, model rft), where it
     /// is not RFT's linear one.
     pub rft_depth: Option<crate::model::RftDepthLaw>,
+    /// Where the leg's RFT shape comes from, in words, for a leg whose medium is a file (a
+    /// measured shape, or a preset's that the file's depth law scales).
+    pub rft_shape_text: Option<String>,
     /// How much lower the surface is where the leg's own earlier strokes entered the medium
     /// (m); 0 with `trough_exit_depth_m` 0: the surface is where it was. The robot's state
     /// (`hip_frame`) places the strokes; without it the hip stays where configured, as on a
@@ -150,6 +153,7 @@ impl LegConfig {
             rft: None,
             rft_speed: None,
             rft_depth: None,
+            rft_shape_text: None,
             trough_depth_m: 0.0,
             trough_exit_depth_m: 0.0,
             sensor_hold_s: 0.0,
@@ -935,6 +939,30 @@ fn leg_config(
     let frame = frame.as_deref().unwrap_or("hip");
     let ft_frame = FtFrame::from_name(frame)
         .ok_or_else(|| invalid(&k("ft_frame"), &frame, "expected hip or leg"))?;
+    // A medium file that carries its measured RFT shape gives the leg its coefficients, law in
+    // depth and speed law; a coefficient set, grid or speed file beside it is refused.
+    let file_law = match &rft_medium_file {
+        Some((path, file)) if file.rft_shape.is_some() => {
+            for key in ["rft_coeffs", "rft_grid_file", "rft_speed_file"] {
+                if let Some(v) = g.str(&k(key))?.filter(|s| !s.is_empty()) {
+                    return Err(invalid(
+                        &k(key),
+                        &v,
+                        format!(
+                            "the leg's medium file {path} carries its own RFT shape and speed law, measured from intrusion tests: leave {} out, or name a medium file without a shape",
+                            k(key)
+                        ),
+                    ));
+                }
+            }
+            Some(
+                file.rft_law(None)
+                    .map_err(|e| invalid(&k("medium"), path, format!("{e:#}")))?,
+            )
+        }
+        _ => None,
+    };
+    let rft_shape_text = rft_medium_file.as_ref().map(|(_, f)| f.rft_shape_text());
     let rft_name = g
         .str(&k("rft_coeffs"))?
         .filter(|s| !s.is_empty())
@@ -942,6 +970,7 @@ fn leg_config(
         .or_else(|| {
             rft_medium_file
                 .as_ref()
+                .filter(|_| file_law.is_none())
                 .map(|_| crate::medium_file::RFT_SET.to_string())
         })
         .or_else(|| {
@@ -957,6 +986,7 @@ fn leg_config(
         (None, n) => n,
     };
     let rft = match (&grid_file, rft_name.clone()) {
+        _ if file_law.is_some() => file_law.as_ref().map(|l| l.coefficients.clone()),
         (Some(f), _) => Some(rft_from_grid_file(&k("rft_grid_file"), f)?),
         (None, Some(n)) => {
             Some(RftCoefficients::by_name(&n, zeta).map_err(model_err(&k("rft_coeffs")))?)
@@ -970,6 +1000,7 @@ fn leg_config(
         (None, None) => None,
     };
     let rft_depth = match (&rft_medium_file, &rft) {
+        _ if file_law.is_some() => file_law.as_ref().map(|l| l.depth_law),
         (Some((path, file)), Some(c)) => Some(
             file.rft_depth_law(c)
                 .map_err(|e| invalid(&k("medium"), path, format!("{e:#}")))?,
@@ -977,6 +1008,24 @@ fn leg_config(
         _ => None,
     };
     let rft_speed = match (g.str(&k("rft_speed_file"))?.filter(|f| !f.is_empty()), &rft) {
+        _ if file_law.is_some() => {
+            let explained = rft_medium_file
+                .as_ref()
+                .and_then(|(_, f)| f.rft_shape.as_ref()?.speed_law.as_ref())
+                .map_or(f64::NAN, |l| l.explained);
+            file_law
+                .as_ref()
+                .and_then(|l| l.speed_law)
+                .map(|law| crate::model::RftSpeedFit {
+                    law,
+                    explained,
+                    one_gain_explained: f64::NAN,
+                    quadratic_explained: f64::NAN,
+                    factor_law_explained: f64::NAN,
+                    intrusions: 0,
+                    samples: 0,
+                })
+        }
         (None, _) => None,
         (Some(_), None) => {
             return Err(invalid(
@@ -1082,6 +1131,7 @@ fn leg_config(
         rft,
         rft_speed,
         rft_depth,
+        rft_shape_text,
         trough_depth_m,
         trough_exit_depth_m,
         sensor_hold_s,

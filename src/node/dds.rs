@@ -632,6 +632,17 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
 /// leg fitted to its table.
 fn startup_line(setup: &NodeSetup) -> String {
     let c = &setup.config;
+    let shapes: String = c
+        .legs
+        .iter()
+        .filter_map(|l| {
+            Some(format!(
+                "; {}: RFT's shape {}",
+                l.name,
+                l.rft_shape_text.as_ref()?
+            ))
+        })
+        .collect();
     let speed_laws: String = c
         .legs
         .iter()
@@ -648,7 +659,7 @@ fn startup_line(setup: &NodeSetup) -> String {
         })
         .collect();
     format!(
-        "terzaghi node {}/{}: {} legs ({}), model {}, joint states on {}, domain {}{}{speed_laws}",
+        "terzaghi node {}/{}: {} legs ({}), model {}, joint states on {}, domain {}{}{speed_laws}{shapes}",
         c.namespace.trim_end_matches('/'),
         c.node_name,
         c.legs.len(),

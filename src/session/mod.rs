@@ -60,6 +60,7 @@ pub mod diagnose;
 pub mod files;
 pub mod identify;
 pub mod inputs;
+pub mod intrusion_test;
 pub mod legs;
 pub mod plate_test;
 #[cfg(feature = "node")]

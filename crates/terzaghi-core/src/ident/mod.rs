@@ -11,6 +11,7 @@ pub mod batch;
 pub mod corrected;
 pub mod metrics;
 pub mod online;
+pub mod rft_shape;
 pub mod scale;
 pub mod sinkage;
 pub mod sinkage_online;

@@ -556,6 +556,20 @@ impl RftSpeedTable {
         Ok(RftSpeedTable { rows })
     }
 
+    /// A table of rows already read (`COLUMNS` each), checked as [`Self::parse`] checks them.
+    pub fn from_rows(rows: Vec<[f64; 8]>) -> Result<RftSpeedTable, String> {
+        if let Some(r) = rows
+            .iter()
+            .find(|r| r.iter().any(|v| !v.is_finite()) || r[0] <= 0.0 || r[3] <= 0.0 || r[4] <= 0.0)
+        {
+            return Err(format!(
+                "the row at beta {} rad, gamma {} rad, depth {} m has speed {} m/s, length {} m, width {} m: each must be finite, and speed and size > 0",
+                r[1], r[2], r[5], r[0], r[3], r[4]
+            ));
+        }
+        Ok(RftSpeedTable { rows })
+    }
+
     /// The law's gain for each direction of motion in the table, by least squares over both
     /// components of every sample of its faster intrusions with the element in the medium,
     /// against the slowest intrusion of the same element at the same share of its travel
