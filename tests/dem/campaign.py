@@ -13,6 +13,7 @@ and hip torque in the hip frame, the attack angle beta) as one CSV per run, whic
     python3 tests/dem/campaign.py --out tests/dem/campaign --rft      # the RFT calibration again
     python3 tests/dem/campaign.py --out tests/dem/campaign --rft-speed  # its intrusions at speed
     python3 tests/dem/campaign.py --out tests/dem/campaign --rft-entry  # ... into, across and out of the bed
+    python3 tests/dem/campaign.py --out tests/dem/campaign --intrusion-tests  # the same as calibration tests
 
 Needs `liggghts` (Debian: apt-get install liggghts) and, for the sessions, the terzaghi binary
 (--terzaghi, default target/release/terzaghi). Standard library only.
@@ -914,6 +915,68 @@ class Campaign:
                     f.write("%.3f,%.6f,%.6f,%.3f,%.3f,%.6f,%.6g,%.6g\n" % (
                         i["speed_m_s"], i["beta_rad"], i["gamma_rad"], RFT_ELEMENT_M, RFT_ELEMENT_M, depth, -fx, fz))
 
+    def intrusion_tests(self, jobs):
+        """A medium's calibration as a lab would run it, in the RFT bed: the grid's element buried
+        at 30 mm and pushed 30 mm at the grid's speed at 6 attack angles times 5 directions (down,
+        obliquely, across, up), and the same element into the bed from its surface, across it and
+        out of it at the grid's speed and each of RFT_SPEEDS_M_S (the plan of --rft and
+        --rft-entry). Each intrusion is kept whole, as `terzaghi calibrate` reads it."""
+        bd = self.rft_bed()
+        plan = [("it_buried_v%03d_b%+03d_g%+03d" % (round(RFT_SPEED_M_S * 100), b, g), RFT_SPEED_M_S, b, g, True)
+                for b in (-60, -30, 0, 30, 60, 90) for g in (-90, -45, 0, 45, 90)]
+        plan += [("it_surface_v%03d_b%+03d_g%+03d" % (round(v * 100), b, g), v, b, g, False)
+                 for v in (RFT_SPEED_M_S,) + RFT_SPEEDS_M_S for b in RFT_ENTRY_BETAS_DEG
+                 for g in RFT_ENTRY_GAMMAS_DEG + RFT_OUT_GAMMAS_DEG]
+
+        def one(p):
+            name, v, b, g, buried = p
+            beta, gamma = math.radians(b), math.radians(g)
+            if buried:
+                depth0, cx0, travel = 0.03, 0.0, RFT_TRAVEL_M
+            elif g > 0:
+                depth0, cx0, travel = -(0.0125 * abs(math.sin(beta)) + 0.002), 0.0, RFT_ENTRY_TRAVEL_M
+            else:
+                (depth0, cx0), travel = out_start(gamma), RFT_ENTRY_TRAVEL_M
+            rows = intrude(self.cfg, name, self.work, bd, beta, gamma, depth0=depth0,
+                           travel=travel, speed=v, cx0=cx0)
+            return {"name": name, "speed_m_s": v, "chord_angle_deg": b, "gamma_deg": g,
+                    "cx0": cx0, "depth0": depth0, "rows": rows}
+
+        with cf.ThreadPoolExecutor(max_workers=jobs) as pool:
+            out = list(pool.map(one, plan))
+        self.log("intrusion tests: %d" % len(out))
+        return out
+
+    def write_intrusion_tests(self, tests, bed):
+        """intrusions/<name>.csv and .json: each test in the format `terzaghi calibrate` reads
+        (the plate centre's x and depth, the force of the medium on the plate along +x and up)."""
+        d = os.path.join(self.out, "intrusions")
+        shutil.rmtree(d, ignore_errors=True)
+        os.makedirs(d)
+        for t in tests:
+            gamma = math.radians(t["gamma_deg"])
+            with open(os.path.join(d, t["name"] + ".csv"), "w") as f:
+                f.write("t_s,x_m,depth_m,fx_n,fz_n\n")
+                for moved, depth, fx, fz in t["rows"]:
+                    if moved < 0:
+                        continue
+                    f.write("%.5f,%.6f,%.6f,%.6g,%.6g\n" % (moved / t["speed_m_s"], t["cx0"] + moved * math.cos(gamma),
+                                                          depth, fx, fz))
+            meta = {
+                "plate_chord_m": RFT_ELEMENT_M,
+                "plate_width_m": RFT_ELEMENT_M,
+                "chord_angle_deg": t["chord_angle_deg"],
+                "unit_weight_n_m3": round(bed["unit_weight_n_m3"], 3),
+                "speed_m_s": t["speed_m_s"],
+                "description": "DEM (%s): a %.0f x %.0f mm plate element moved at %.2f m/s, %d deg below the horizontal, "
+                               "in the testbed's RFT bed (%d grains), tests/dem/campaign.py --intrusion-tests"
+                               % (self.engine, RFT_ELEMENT_M * 1e3, RFT_ELEMENT_M * 1e3, t["speed_m_s"], t["gamma_deg"],
+                                  bed["grains"]),
+            }
+            with open(os.path.join(d, t["name"] + ".json"), "w") as f:
+                json.dump(meta, f, indent=1)
+                f.write("\n")
+
     def write_rft_speed(self, rows):
         """rft_speed.csv: the intrusions at speed, and the same angles' rows of rft_grid.csv at
         the grid's speed, so that the file holds its own reference."""
@@ -1303,6 +1366,17 @@ def run_rft_entry_part(args):
                 travel_m=RFT_ENTRY_TRAVEL_M)
 
 
+def run_intrusion_tests_part(args):
+    """Runs the intrusion tests in an existing campaign: intrusions/ written, and the run
+    recorded in the manifest under `intrusion_tests`."""
+    out, path, manifest, camp = open_part(args, "--intrusion-tests", "intrusion tests for calibration")
+    tests = camp.intrusion_tests(args.jobs)
+    camp.write_intrusion_tests(tests, camp.beds["bed_rft"])
+    finish_part(camp, args, out, path, manifest, "intrusion_tests", "--intrusion-tests", "intrusion tests",
+                len(tests), speeds_m_s=[RFT_SPEED_M_S] + list(RFT_SPEEDS_M_S),
+                bed={k: v for k, v in camp.beds["bed_rft"].items() if k != "restart"})
+
+
 def import_sessions(out, terzaghi, log=print, only=None):
     """Writes every run's CSV in out/runs (or those named in `only`) as a ROS 2 MCAP session
     beside it, through `terzaghi import-dem`, which refuses a run that made no contact, has a
@@ -1350,6 +1424,9 @@ def main():
     ap.add_argument("--rft-entry", action="store_true",
                     help="run the RFT element into the bed from its surface, across it and out of it at the grid's "
                          "and higher speeds in the campaign in --out, writing rft_entry.csv")
+    ap.add_argument("--intrusion-tests", action="store_true",
+                    help="run a medium's calibration tests (a plate element buried and pushed in 30 directions, and "
+                         "into, across and out of the bed at four speeds) in the campaign in --out, writing intrusions/")
     ap.add_argument("--import-only", action="store_true",
                     help="only write the sessions of the CSV runs already in --out (no engine)")
     args = ap.parse_args()
@@ -1376,6 +1453,9 @@ def main():
         return
     if args.rft_entry:
         run_rft_entry_part(args)
+        return
+    if args.intrusion_tests:
+        run_intrusion_tests_part(args)
         return
     Campaign(args).run()
 
