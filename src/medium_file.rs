@@ -61,6 +61,13 @@ pub struct MediumRftShape {
     pub depth_exponent: f64,
     /// Its standard deviation.
     pub std_depth_exponent: f64,
+    /// The law's surface offset (m): the stress at depth `z` is that at `z` plus it (a bed of
+    /// coarse grains bears a plate from its first millimetre).
+    #[serde(default)]
+    pub surface_offset_m: f64,
+    /// Its standard deviation (m).
+    #[serde(default)]
+    pub std_surface_offset_m: f64,
     /// The speed of the tests the shape was fitted to (m/s).
     pub reference_speed_m_s: f64,
     /// R^2 of the horizontal and vertical force over the rows fitted.
@@ -162,6 +169,8 @@ impl MediumRftShape {
             std_dev_n_cm3: named(&fit.std_dev),
             depth_exponent: fit.depth_exponent,
             std_depth_exponent: fit.depth_exponent_std,
+            surface_offset_m: fit.surface_offset_m,
+            std_surface_offset_m: fit.surface_offset_std_m,
             reference_speed_m_s: fit.reference_speed_m_s,
             r2_fx: fit.r2[0],
             r2_fz: fit.r2[1],
@@ -259,7 +268,10 @@ impl MediumRftShape {
 
     /// The law in depth, checked.
     pub fn depth_law(&self) -> Result<RftDepthLaw> {
-        RftDepthLaw::new(1.0, self.depth_exponent).context("rft_shape.depth_exponent")
+        RftDepthLaw::new(1.0, self.depth_exponent)
+            .context("rft_shape.depth_exponent")?
+            .with_offset(self.surface_offset_m)
+            .context("rft_shape.surface_offset_m")
     }
 }
 
@@ -344,8 +356,9 @@ impl MediumFile {
 
     /// The medium file of intrusion tests alone: its shape, and as its plate-sinkage law the
     /// shape's own for a horizontal plate pushed straight down (`rft_depth_power` with `xi` 1,
-    /// against the shape's `alpha_z`, and its depth exponent), so that a sinkage leg and an RFT
-    /// plate naming the file agree.
+    /// against the shape's `alpha_z`, and its depth exponent): a sinkage leg naming the file
+    /// presses as an RFT plate does, but for the shape's surface offset, which the sinkage law
+    /// does not have.
     pub fn of_shape(
         name: &str,
         fit: &RftShapeFit,

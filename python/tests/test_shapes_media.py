@@ -164,3 +164,38 @@ def test_an_rft_leg_takes_a_medium_files_law_in_depth(tmp_path):
         other = tmp_path / "power.yaml"
         run("calibrate", *RUNS, "--law", "depth_width_power", "-o", other)
         terzaghi.predict(beta, medium_file=other, **leg)
+
+
+DEM_MEDIUM = REPO / "tests" / "dem" / "campaign" / "medium_from_intrusions.yaml"
+
+
+def test_a_medium_files_measured_rft_shape_reaches_predict_and_the_batch():
+    """A medium file calibrated from the DEM bed's intrusion tests carries its own RFT shape:
+    predict and LegBatch use it, equal to the binary to 1e-12, and it is not poppy_lp's shape."""
+    import json
+
+    leg = dict(length_m=0.1, width_m=0.03, hip_height_m=0.04, model="rft", shape="c_leg")
+    beta = np.radians(np.arange(-20.0, 200.0, 5.0))
+    mine = terzaghi.predict(beta, medium_file=DEM_MEDIUM, **leg)
+    cli = json.loads(run("predict", "--model", "rft", "--medium-file", DEM_MEDIUM, "--shape", "c-leg",
+                         "--length-m", "0.1", "--width-m", "0.03", "--hip-height-m", "0.04",
+                         "--beta-deg", "-20:195:5", "--format", "json"))
+    assert len(cli) == beta.size
+    for k in ("drag_n", "lift_n", "hip_torque_nm"):
+        np.testing.assert_allclose(mine[k], [r[k] for r in cli], rtol=1e-12, atol=1e-12)
+    b = LegBatch(length_m=0.1, width_m=0.03, model="rft", shape="c_leg", medium_file=DEM_MEDIUM)
+    d, l, t = b.forces(beta, np.full(beta.shape, 0.04))
+    np.testing.assert_allclose(d, mine["drag_n"], rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(l, mine["lift_n"], rtol=1e-12, atol=1e-12)
+    # The node's core naming the file: turning slower than the shape's reference speed (0.2
+    # rad/s, at most 0.02 m/s at the tip), it predicts the quasi-static forces.
+    params = {"model": "rft", "legs": ["leg"], "leg.joint": "hip", "leg.length_m": 0.1,
+              "leg.width_m": 0.03, "leg.hip_height_m": 0.04, "leg.medium": str(DEM_MEDIUM),
+              "leg.shape": "c_leg"}
+    node = terzaghi.Node(params=params)
+    got = [node.joint_state(10**9 + k * 10**7, ["hip"], [b], [0.2]) for k, b in enumerate(beta)]
+    np.testing.assert_allclose([g["drag_n"][0] for g in got], mine["drag_n"], rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose([g["lift_n"][0] for g in got], mine["lift_n"], rtol=1e-12, atol=1e-12)
+    # A coefficient set named beside a measured shape is refused, naming both.
+    with pytest.raises(terzaghi.TerzaghiError, match="carries its own RFT shape"):
+        terzaghi.predict(beta, medium_file=DEM_MEDIUM, rft_coeffs="poppy_lp", **leg)

@@ -34,7 +34,7 @@ pub struct CalibrateArgs {
     /// with the JSON of the same name beside each), or plain logs of t_s, depth_m, force_n
     /// (with the plate's size given by flag). Intrusion tests in any direction: CSV files of
     /// t_s, x_m, depth_m, fx_n, fz_n with a JSON of the same name beside each (plate_chord_m,
-    /// plate_width_m, chord_angle_deg; docs/real-data.md gives the format). Any mix.
+    /// plate_width_m, chord_angle_deg; docs/calibration.md gives the format). Any mix.
     #[arg(required = true, value_name = "TEST")]
     pub tests: Vec<PathBuf>,
     /// The plate of plain logs: a disc of this diameter (m).
@@ -82,6 +82,17 @@ pub struct CalibrateArgs {
     /// jam).
     #[arg(long, value_name = "CHORDS", default_value_t = 0.6)]
     pub buried_start_chords: f64,
+    /// Hold the intrusion tests' depth exponent at this value (default: fitted, 0.4-2.5).
+    #[arg(long, value_name = "N")]
+    pub depth_exponent: Option<f64>,
+    /// Hold the intrusion tests' surface offset at this depth (m; default: fitted, 0-15 mm).
+    #[arg(long, value_name = "M")]
+    pub surface_offset_m: Option<f64>,
+    /// RFT's shape from the intrusion tests that start buried alone; those that start above the
+    /// surface serve the speed law only (a plate entering from the surface pushes a heap of
+    /// grains ahead of it, which RFT does not describe).
+    #[arg(long)]
+    pub shape_from_buried: bool,
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
@@ -193,9 +204,25 @@ pub fn run(a: CalibrateArgs) -> Result<()> {
         .iter()
         .map(|f| read_intrusion_test(f))
         .collect::<Result<_>>()?;
+    let defaults = ShapeOptions::default();
+    if let Some(n) = a.depth_exponent
+        && !(n.is_finite() && (0.1..=5.0).contains(&n))
+    {
+        bail!("--depth-exponent must be a number in [0.1, 5], got {n}");
+    }
+    if let Some(z) = a.surface_offset_m
+        && !(z.is_finite() && (0.0..=0.1).contains(&z))
+    {
+        bail!("--surface-offset-m must be a number in [0, 0.1] m, got {z}");
+    }
     let options = ShapeOptions {
         buried_start_chords: a.buried_start_chords,
-        ..ShapeOptions::default()
+        exponent_range: a.depth_exponent.map_or(defaults.exponent_range, |n| (n, n)),
+        offset_range_m: a
+            .surface_offset_m
+            .map_or(defaults.offset_range_m, |z| (z, z)),
+        shape_from_buried_only: a.shape_from_buried,
+        ..defaults
     };
     let shape = if intrusions.is_empty() {
         None
@@ -417,9 +444,11 @@ pub fn render_shape(fit: &RftShapeFit, o: &ShapeOptions) -> String {
         s += &format!("  {name:<5} {:>8.4} +- {:.4}\n", c[i], d[i]);
     }
     s += &format!(
-        "depth: stress at 1 cm (z / 1 cm)^n, n {:.3} +- {:.3}; straight down alpha_z {:.4} +- {:.4} N/cm^3\n",
+        "depth: the stress at 1 cm ((z + z_0) / 1 cm)^n, n {:.3} +- {:.3}, z_0 {:.1} +- {:.1} mm; straight down alpha_z {:.4} +- {:.4} N/cm^3\n",
         fit.depth_exponent,
         fit.depth_exponent_std,
+        fit.surface_offset_m * 1e3,
+        fit.surface_offset_std_m * 1e3,
         fit.alpha_z_down_n_cm3[0],
         fit.alpha_z_down_n_cm3[1]
     );
@@ -455,8 +484,8 @@ pub fn render_shape(fit: &RftShapeFit, o: &ShapeOptions) -> String {
         s += &format!(
             "{:<28} {:>6.0} {:>6.0} {:>7.3} {:>5} {:>9.4} {:>9.4} {:>9.4} {:>9.4}{}\n",
             t.name,
-            t.chord_angle_deg,
-            t.direction_deg,
+            t.chord_angle_deg + 0.0,
+            t.direction_deg + 0.0,
             t.speed_m_s,
             t.rows_fitted,
             t.measured_alpha_n_cm3[0],
@@ -484,8 +513,8 @@ pub struct HeldOutDirection {
     pub measured_alpha_n_cm3: [f64; 2],
     /// See [`Self::measured_alpha_n_cm3`].
     pub predicted_alpha_n_cm3: [f64; 2],
-    /// The worst R^2 of the horizontal and vertical force over its tests.
-    pub worst_r2: [f64; 2],
+    /// The mean RMSE of the horizontal and vertical force over its tests (N).
+    pub rmse_n: [f64; 2],
 }
 
 /// [`HeldOutDirection`] of each direction, from up to down.
@@ -502,7 +531,7 @@ pub fn by_direction(held: &[HeldOutIntrusion]) -> Vec<HeldOutDirection> {
             let n = mine.len() as f64;
             let mean =
                 |f: &dyn Fn(&HeldOutIntrusion) -> f64| mine.iter().map(|h| f(h)).sum::<f64>() / n;
-            let worst = |k: usize| mine.iter().map(|h| h.r2[k]).fold(f64::INFINITY, f64::min);
+            let rmse = |k: usize| mine.iter().map(|h| h.rmse_n[k]).sum::<f64>() / n;
             HeldOutDirection {
                 direction_deg: d,
                 tests: mine.len(),
@@ -514,7 +543,7 @@ pub fn by_direction(held: &[HeldOutIntrusion]) -> Vec<HeldOutDirection> {
                     mean(&|h| h.predicted_alpha_n_cm3[0]),
                     mean(&|h| h.predicted_alpha_n_cm3[1]),
                 ],
-                worst_r2: [worst(0), worst(1)],
+                rmse_n: [rmse(0), rmse(1)],
             }
         })
         .collect()
@@ -542,14 +571,14 @@ pub fn render_shape_cross_validation(held: &[HeldOutIntrusion], skipped: &[Strin
         s += &format!(
             "{:<28} {:>6.0} {:>6.0} {:>9.4} {:>9.4} {:>9.4} {:>9.4} {:>7.3} {:>7.3}  {}\n",
             h.test.name,
-            h.test.chord_angle_deg,
-            h.test.direction_deg,
+            h.test.chord_angle_deg + 0.0,
+            h.test.direction_deg + 0.0,
             h.test.measured_alpha_n_cm3[0],
             h.predicted_alpha_n_cm3[0],
             h.test.measured_alpha_n_cm3[1],
             h.predicted_alpha_n_cm3[1],
-            h.r2[0],
-            h.r2[1],
+            h.rmse_n[0],
+            h.rmse_n[1],
             h.form.name()
         );
     }
@@ -559,19 +588,19 @@ pub fn render_shape_cross_validation(held: &[HeldOutIntrusion], skipped: &[Strin
     s += "\nThe same, per direction of motion (deg below the horizontal; means over its tests)\n";
     s += &format!(
         "{:>6} {:>5} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9}\n",
-        "dir", "tests", "ax meas", "ax pred", "az meas", "az pred", "worst fx", "worst fz"
+        "dir", "tests", "ax meas", "ax pred", "az meas", "az pred", "RMSE fx", "RMSE fz"
     );
     for d in by_direction(held) {
         s += &format!(
             "{:>6.0} {:>5} {:>9.4} {:>9.4} {:>9.4} {:>9.4} {:>9.3} {:>9.3}\n",
-            d.direction_deg,
+            d.direction_deg + 0.0,
             d.tests,
             d.measured_alpha_n_cm3[0],
             d.predicted_alpha_n_cm3[0],
             d.measured_alpha_n_cm3[1],
             d.predicted_alpha_n_cm3[1],
-            d.worst_r2[0],
-            d.worst_r2[1]
+            d.rmse_n[0],
+            d.rmse_n[1]
         );
     }
     s

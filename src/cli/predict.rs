@@ -71,7 +71,9 @@ pub struct PredictArgs {
     #[arg(long, value_name = "S0,Q0,S1,Q1,...", allow_hyphen_values = true)]
     pub profile: Option<String>,
     /// --model sinkage: the medium file (written by terzaghi calibrate); --model rft: a medium
-    /// file of the rft_depth_power law, whose scale and depth exponent RFT's stresses take.
+    /// file calibrated from intrusion tests, whose measured RFT shape, depth law and speed law
+    /// RFT takes, or one of the rft_depth_power law, whose scale and depth exponent RFT's
+    /// stresses take on poppy_lp's shape.
     #[arg(long, value_name = "FILE", conflicts_with_all = ["medium", "unit_weight_n_m3"])]
     pub medium_file: Option<std::path::PathBuf>,
     /// Attack angles in degrees: FROM:TO:STEP (both ends included) or a single angle.

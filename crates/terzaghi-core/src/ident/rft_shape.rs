@@ -15,8 +15,9 @@
 //! motion's angle below the horizontal in RFT's frame (the motion toward `+x`: a test moving
 //! toward `-x` is mirrored). `alpha_z`'s five coefficients and `alpha_x`'s four are linear in the
 //! row's force for a given `n`, so the fit is linear least squares inside a one-dimensional search
-//! of `n`. Each test weighs alike (its rows by one over its row count), and its rows by their
-//! depth: a row's residual is taken relative to the test's mean stressed depth.
+//! of `n` and a surface offset. Residuals are stresses (a row's force over its test's mean depth
+//! times area), each test's rows weighed by one over the square root of their count: every test
+//! weighs by its stresses, as Li et al. fitted theirs, whatever its length.
 //!
 //! A plate pushed from rest through a hole cut for it meets grains that have not yet jammed: a
 //! test that starts with the whole plate below the surface is fitted from
@@ -149,6 +150,13 @@ pub struct ShapeOptions {
     /// A test whose speed is within this factor of the slowest test's is quasi-static: it
     /// serves the shape; faster ones serve the speed law.
     pub reference_speed_factor: f64,
+    /// The depth exponents searched (a single value holds it).
+    pub exponent_range: (f64, f64),
+    /// The surface offsets searched (m; a single value holds it).
+    pub offset_range_m: (f64, f64),
+    /// Only tests that start buried serve the shape (those that start above the surface serve
+    /// the speed law alone).
+    pub shape_from_buried_only: bool,
 }
 
 impl Default for ShapeOptions {
@@ -159,6 +167,9 @@ impl Default for ShapeOptions {
             preset: RftFit::POPPY_LP,
             preset_name: "poppy_lp",
             reference_speed_factor: 1.25,
+            exponent_range: EXPONENT_RANGE,
+            offset_range_m: OFFSET_RANGE,
+            shape_from_buried_only: false,
         }
     }
 }
@@ -225,6 +236,10 @@ pub struct RftShapeFit {
     pub depth_exponent: f64,
     /// Its standard deviation.
     pub depth_exponent_std: f64,
+    /// The surface offset `z_0` of the law in depth (m): the stress is that at `z + z_0`.
+    pub surface_offset_m: f64,
+    /// Its standard deviation.
+    pub surface_offset_std_m: f64,
     /// `alpha_z` of a horizontal plate moving straight down (N/cm^3) and its standard deviation.
     pub alpha_z_down_n_cm3: [f64; 2],
     /// The speed of the tests the shape was fitted to (m/s): the slowest.
@@ -244,8 +259,15 @@ pub struct RftShapeFit {
     pub no_speed_law_because: Option<String>,
 }
 
-/// A fit with one test left out: its coefficients, exponent and `alpha_z` straight down.
-type LeaveOut = ([f64; 9], f64, f64);
+/// A fit with one test left out: its coefficients, exponent, offset and `alpha_z` straight
+/// down.
+type LeaveOut = ([f64; 9], f64, f64, f64);
+
+/// The law in depth: its exponent `n` and surface offset `z_0` (m).
+type Depth = (f64, f64);
+
+/// The surface offsets searched (m), from none to two of a coarse bed's grains.
+const OFFSET_RANGE: (f64, f64) = (0.0, 0.015);
 
 /// A row made ready: what the fit needs of it at any exponent.
 #[derive(Debug, Clone)]
@@ -265,6 +287,8 @@ struct Prepared {
     mirror: f64,
     /// In the shape's fit (quasi-static, past a buried start's transient).
     fitted: bool,
+    /// Its gain under RFT's linear law ([`Prepared::gain`] at `n` 1 and no offset).
+    ref_gain: f64,
     /// The depth of its centre, the velocity's direction (rad) and speed.
     centre_depth_m: f64,
     gamma_rad: f64,
@@ -272,14 +296,15 @@ struct Prepared {
 }
 
 impl Prepared {
-    /// `sum dA z_ref (z / z_ref)^n` times 1e6: N per (N/cm^3) of stress.
-    fn gain(&self, n: f64) -> f64 {
+    /// `sum dA z_ref ((z + z_0) / z_ref)^n` times 1e6: N per (N/cm^3) of stress, `d` being
+    /// `(n, z_0)`.
+    fn gain(&self, d: Depth) -> f64 {
         N_CM3_TO_N_M3
             * self.area_m2
             * self
                 .depths
                 .iter()
-                .map(|&z| REF_DEPTH_M * (z / REF_DEPTH_M).powf(n))
+                .map(|&z| REF_DEPTH_M * ((z + d.1) / REF_DEPTH_M).powf(d.0))
                 .sum::<f64>()
     }
 }
@@ -321,16 +346,23 @@ fn prepare(tests: &[IntrusionTest], o: &ShapeOptions) -> (Vec<Prepared>, Vec<(f6
             let sin_minus = sg * c2b - s2b * cg;
             let cos_plus = c2b * cg - s2b * sg;
             let cos_minus = c2b * cg + s2b * sg;
+            let area_m2 = ds * t.width_m;
+            let ref_gain = N_CM3_TO_N_M3 * area_m2 * depths.iter().sum::<f64>();
             out.push(Prepared {
                 test: ti,
                 depths,
-                area_m2: ds * t.width_m,
+                area_m2,
+                ref_gain,
                 phi_z: [1.0, c2b, sin_plus, sg, sin_minus],
                 phi_x: [cos_plus, cg, cos_minus, s2b],
                 y_z: r.fz_n,
                 y_x: -m * r.fx_n,
                 mirror: m,
-                fitted: !buried || travel >= o.buried_start_chords * t.chord_m,
+                fitted: if buried {
+                    travel >= o.buried_start_chords * t.chord_m
+                } else {
+                    !o.shape_from_buried_only
+                },
                 centre_depth_m: r.depth_m,
                 gamma_rad: sg.atan2(cg),
                 speed_m_s: v,
@@ -398,32 +430,36 @@ struct Solve {
 fn solve(
     rows: &[Prepared],
     use_row: &dyn Fn(&Prepared) -> bool,
-    n: f64,
+    n: Depth,
     form: ShapeForm,
     preset: &RftFit,
 ) -> Option<Solve> {
     let tests = rows.iter().map(|r| r.test).max().map_or(0, |m| m + 1);
     let mut count = vec![0usize; tests];
-    let mut gain_sum = vec![0.0; tests];
+    let mut ref_gain = vec![0.0; tests];
     let gains: Vec<f64> = rows
         .iter()
         .map(|r| {
             if use_row(r) {
-                let g = r.gain(n);
                 count[r.test] += 1;
-                gain_sum[r.test] += g;
-                g
+                ref_gain[r.test] += r.ref_gain;
+                r.gain(n)
             } else {
                 0.0
             }
         })
         .collect();
+    // Each test's residuals in stress (its force over its mean depth times area, RFT's linear
+    // law's: the same whatever law in depth is searched), and its rows by one over the square
+    // root of their count: every test weighs by its stresses, as Li et al. fitted theirs,
+    // whatever its plate's size or its length.
     let weight = |i: usize| {
         let t = rows[i].test;
-        if gains[i] == 0.0 || count[t] == 0 {
+        if gains[i] == 0.0 || count[t] == 0 || ref_gain[t] <= 0.0 {
             0.0
         } else {
-            count[t] as f64 / (gain_sum[t] * (count[t] as f64).sqrt())
+            let mean = ref_gain[t] / count[t] as f64;
+            1.0 / (mean * (count[t] as f64).sqrt())
         }
     };
     let (mut zz, mut zy, mut xx, mut xy, mut yy) = (
@@ -585,16 +621,18 @@ fn from_array(a: [f64; 9]) -> RftFit {
 /// tells the terms apart.
 const CONDITION_FLOOR: f64 = 1e-3;
 
-/// The exponent (in [`EXPONENT_RANGE`]) that minimises the weighted sum of squares, by golden
-/// section, and the solve there.
-fn best_exponent(
+/// The exponent (in [`EXPONENT_RANGE`]) that minimises the weighted sum of squares at the
+/// surface offset `z0`, by golden section, and the solve there.
+fn best_exponent_at(
     rows: &[Prepared],
     use_row: &dyn Fn(&Prepared) -> bool,
     form: ShapeForm,
-    preset: &RftFit,
-) -> Option<(f64, Solve)> {
-    let f = |n: f64| solve(rows, use_row, n, form, preset).map_or(f64::INFINITY, |s| s.sse);
-    let (mut a, mut b) = EXPONENT_RANGE;
+    o: &ShapeOptions,
+    z0: f64,
+) -> Option<(Depth, Solve)> {
+    let preset = &o.preset;
+    let f = |n: f64| solve(rows, use_row, (n, z0), form, preset).map_or(f64::INFINITY, |s| s.sse);
+    let (mut a, mut b) = o.exponent_range;
     let g = 0.5 * (5f64.sqrt() - 1.0);
     let (mut c, mut d) = (b - g * (b - a), a + g * (b - a));
     let (mut fc, mut fd) = (f(c), f(d));
@@ -617,30 +655,83 @@ fn best_exponent(
         }
     }
     let n = 0.5 * (a + b);
-    solve(rows, use_row, n, form, preset).map(|s| (n, s))
+    solve(rows, use_row, (n, z0), form, preset).map(|s| ((n, z0), s))
 }
 
-/// [`best_exponent`] for rows close to those whose best exponent is `n`: the vertex of the
-/// parabola through the sums of squares at `n` and `n +- 0.05` (a test left out moves the
-/// exponent by a few hundredths), within the range searched.
-fn near_exponent(
+/// The law in depth (exponent and surface offset) that minimises the weighted sum of squares:
+/// the offset on a millimetre grid over [`OFFSET_RANGE`], refined by the parabola through the
+/// best and its neighbours, the exponent by golden section at each; and the solve there.
+fn best_depth(
     rows: &[Prepared],
     use_row: &dyn Fn(&Prepared) -> bool,
     form: ShapeForm,
-    preset: &RftFit,
-    n: f64,
-) -> Option<(f64, Solve)> {
-    let h = 0.05;
-    let f = |x: f64| solve(rows, use_row, x, form, preset).map(|s| s.sse);
-    let (a, b, c) = (f(n - h)?, f(n)?, f(n + h)?);
+    o: &ShapeOptions,
+) -> Option<(Depth, Solve)> {
+    let step = 1e-3;
+    let range = o.offset_range_m;
+    let grid: Vec<f64> = (0..)
+        .map(|k| range.0 + k as f64 * step)
+        .take_while(|z| *z <= range.1 + 1e-12)
+        .collect();
+    let at: Vec<Option<(Depth, Solve)>> = grid
+        .iter()
+        .map(|&z0| best_exponent_at(rows, use_row, form, o, z0))
+        .collect();
+    let sse = |k: usize| at[k].as_ref().map_or(f64::INFINITY, |b| b.1.sse);
+    let k = (0..grid.len()).min_by(|&a, &b| sse(a).total_cmp(&sse(b)))?;
+    at[k].as_ref()?;
+    if k == 0 || k + 1 == grid.len() {
+        return at[k];
+    }
+    let (a, b, c) = (sse(k - 1), sse(k), sse(k + 1));
     let curvature = a - 2.0 * b + c;
-    let vertex = if curvature > 0.0 {
-        n + 0.5 * h * (a - c) / curvature
-    } else {
-        n
+    if !(curvature.is_finite() && curvature > 0.0) {
+        return at[k];
+    }
+    let z0 = grid[k] + 0.5 * step * (a - c) / curvature;
+    match best_exponent_at(rows, use_row, form, o, z0) {
+        Some(r) if r.1.sse <= b => Some(r),
+        _ => at[k],
+    }
+}
+
+/// [`best_depth`] for rows close to those whose best law in depth is `d`: the vertex of the
+/// parabola through the sums of squares at `n` and `n +- 0.05`, then at the offset and 1 mm
+/// either side (a test left out moves each a little), within the ranges searched.
+fn near_depth(
+    rows: &[Prepared],
+    use_row: &dyn Fn(&Prepared) -> bool,
+    form: ShapeForm,
+    o: &ShapeOptions,
+    d: Depth,
+) -> Option<(Depth, Solve)> {
+    let preset = &o.preset;
+    let vertex = |x: f64, h: f64, f: &dyn Fn(f64) -> Option<f64>, range: (f64, f64)| {
+        let lo = (x - h).max(range.0);
+        let hi = lo + 2.0 * h;
+        let mid = lo + h;
+        let (a, b, c) = (f(lo)?, f(mid)?, f(hi)?);
+        let curvature = a - 2.0 * b + c;
+        let v = if curvature > 0.0 {
+            mid + 0.5 * h * (a - c) / curvature
+        } else {
+            mid
+        };
+        Some(v.clamp(range.0, range.1))
     };
-    let vertex = vertex.clamp(EXPONENT_RANGE.0, EXPONENT_RANGE.1);
-    solve(rows, use_row, vertex, form, preset).map(|s| (vertex, s))
+    let n = vertex(
+        d.0,
+        0.05,
+        &|x| solve(rows, use_row, (x, d.1), form, preset).map(|s| s.sse),
+        o.exponent_range,
+    )?;
+    let z0 = vertex(
+        d.1,
+        1e-3,
+        &|x| solve(rows, use_row, (n, x), form, preset).map(|s| s.sse),
+        o.offset_range_m,
+    )?;
+    solve(rows, use_row, (n, z0), form, preset).map(|s| ((n, z0), s))
 }
 
 /// The shape, its depth exponent and the speed law fitted to `tests`, with standard deviations
@@ -672,16 +763,11 @@ pub fn fit_shape(tests: &[IntrusionTest], o: &ShapeOptions) -> Result<RftShapeFi
             "no row to fit the shape to: every test that starts buried ends before its transient (give it more travel)".into(),
         );
     }
-    let preset = &o.preset;
-    let (form, reduced_because, (n, best)) = match best_exponent(
-        &rows,
-        &use_row,
-        ShapeForm::LiNine,
-        preset,
-    ) {
+    let (form, reduced_because, (n, best)) = match best_depth(&rows, &use_row, ShapeForm::LiNine, o)
+    {
         Some(b) => (ShapeForm::LiNine, None, b),
         None => {
-            let b = best_exponent(&rows, &use_row, ShapeForm::PresetScaled, preset)
+            let b = best_depth(&rows, &use_row, ShapeForm::PresetScaled, o)
                 .ok_or("the tests' rows determine no stress (every force is zero?)")?;
             (
                 ShapeForm::PresetScaled,
@@ -701,8 +787,8 @@ pub fn fit_shape(tests: &[IntrusionTest], o: &ShapeOptions) -> Result<RftShapeFi
     if carriers.len() >= 2 {
         for &out in &carriers {
             let keep = |r: &Prepared| use_row(r) && r.test != out;
-            if let Some((ni, s)) = near_exponent(&rows, &keep, form, preset, n) {
-                leave_outs.push((as_array(&s.fit), ni, alpha_down(&s.fit)));
+            if let Some((di, s)) = near_depth(&rows, &keep, form, o, n) {
+                leave_outs.push((as_array(&s.fit), di.0, di.1, alpha_down(&s.fit)));
             }
         }
     }
@@ -722,7 +808,8 @@ pub fn fit_shape(tests: &[IntrusionTest], o: &ShapeOptions) -> Result<RftShapeFi
     let std_coeffs: [f64; 9] = std::array::from_fn(|c| jack(&|l| l.0[c]));
     let std_dev = from_array(std_coeffs);
     let depth_exponent_std = jack(&|l| l.1);
-    let alpha_down_std = jack(&|l| l.2);
+    let surface_offset_std = jack(&|l| l.2);
+    let alpha_down_std = jack(&|l| l.3);
     // Goodness of fit and each test's alphas.
     let (mut sse, mut sum, mut sum2, mut count) = ([0.0; 2], [0.0; 2], [0.0; 2], 0usize);
     for r in rows.iter().filter(|r| use_row(r)) {
@@ -778,8 +865,10 @@ pub fn fit_shape(tests: &[IntrusionTest], o: &ShapeOptions) -> Result<RftShapeFi
         reduced_because,
         coefficients: best.fit,
         std_dev,
-        depth_exponent: n,
+        depth_exponent: n.0,
         depth_exponent_std,
+        surface_offset_m: n.1,
+        surface_offset_std_m: surface_offset_std,
         alpha_z_down_n_cm3: [alpha_down(&best.fit), alpha_down_std],
         reference_speed_m_s: slowest,
         r2,
@@ -798,7 +887,7 @@ fn alpha_down(f: &RftFit) -> f64 {
 
 /// The least-squares stress per stressed depth of `rows`' measured and `fit`'s forces:
 /// `[alpha_x, alpha_z]` each.
-fn test_alphas(rows: &[&Prepared], fit: &RftFit, n: f64) -> ([f64; 2], [f64; 2]) {
+fn test_alphas(rows: &[&Prepared], fit: &RftFit, n: Depth) -> ([f64; 2], [f64; 2]) {
     let (mut gg, mut gx, mut gz, mut px, mut pz) = (0.0, 0.0, 0.0, 0.0, 0.0);
     for r in rows {
         let g = r.gain(n);
@@ -824,30 +913,43 @@ fn speed_law(
     shape: &RftFit,
     slowest: f64,
 ) -> Result<RftSpeedFit, String> {
-    // Tests alike but for their speed.
-    let key = |i: usize| {
-        let t = &tests[i];
+    // Where a test's plate was at time 0: its first row less its motion since (a faster test's
+    // first sample is further along).
+    let start = |i: usize| {
+        let (v, g, minus) = per_test[i];
+        let m = if minus { -1.0 } else { 1.0 };
+        let r = &tests[i].rows[0];
         (
-            (t.chord_m * 1e4).round() as i64,
-            (t.width_m * 1e4).round() as i64,
-            (t.chord_angle_rad.to_degrees() * 2.0).round() as i64,
-            (per_test[i].1.to_degrees() * 0.5).round() as i64,
-            per_test[i].2,
-            (t.rows[0].depth_m * 1e3).round() as i64,
+            r.x_m - m * v * g.cos() * r.t_s,
+            r.depth_m - v * g.sin() * r.t_s,
         )
     };
-    let mut groups: Vec<(_, Vec<usize>)> = Vec::new();
+    // Tests alike but for their speed: the same plate and chord angle, direction (within 3 deg)
+    // and start (within 1 mm).
+    let alike = |i: usize, j: usize| {
+        let (a, b) = (&tests[i], &tests[j]);
+        (a.chord_m - b.chord_m).abs() < 1e-4
+            && (a.width_m - b.width_m).abs() < 1e-4
+            && (a.chord_angle_rad - b.chord_angle_rad).abs() < 0.5f64.to_radians()
+            && (per_test[i].1 - per_test[j].1).abs() < 3f64.to_radians()
+            && per_test[i].2 == per_test[j].2
+            && {
+                let (sa, sb) = (start(i), start(j));
+                (sa.0 - sb.0).abs() < 1e-3 && (sa.1 - sb.1).abs() < 1e-3
+            }
+    };
+    let mut groups: Vec<((), Vec<usize>)> = Vec::new();
     for i in 0..tests.len() {
-        let k = key(i);
-        match groups.iter_mut().find(|g| g.0 == k) {
+        match groups.iter_mut().find(|g| alike(g.1[0], i)) {
             Some(g) => g.1.push(i),
-            None => groups.push((k, vec![i])),
+            None => groups.push(((), vec![i])),
         }
     }
     // A group serves where its slowest test is at the reference speed and another is faster.
     let mut table: Vec<[f64; 8]> = Vec::new();
-    let mut elements_seen: Vec<(i64, i64, i64, i64, bool)> = Vec::new();
-    for (k, members) in &groups {
+    // One start per element and direction: the speed table keys intrusions by them.
+    let mut elements_seen: Vec<usize> = Vec::new();
+    for (_, members) in &groups {
         let reference = members
             .iter()
             .copied()
@@ -859,12 +961,18 @@ fn speed_law(
             .copied()
             .filter(|&i| per_test[i].0 > 1.25 * slowest)
             .collect();
-        // One start per element and direction: the speed table keys intrusions by them.
-        let element = (k.0, k.1, k.2, k.3, k.4);
-        if faster.is_empty() || elements_seen.contains(&element) {
+        let same_element = |j: usize| {
+            let (a, b) = (&tests[reference], &tests[j]);
+            (a.chord_m - b.chord_m).abs() < 1e-4
+                && (a.width_m - b.width_m).abs() < 1e-4
+                && (a.chord_angle_rad - b.chord_angle_rad).abs() < 0.5f64.to_radians()
+                && (per_test[reference].1 - per_test[j].1).abs() < 3f64.to_radians()
+                && per_test[reference].2 == per_test[j].2
+        };
+        if faster.is_empty() || elements_seen.iter().any(|&j| same_element(j)) {
             continue;
         }
-        elements_seen.push(element);
+        elements_seen.push(reference);
         for &i in std::iter::once(&reference).chain(&faster) {
             let t = &tests[i];
             // Every row in the medium from the start of the motion, as the table compares them
@@ -918,8 +1026,8 @@ pub struct HeldOutIntrusion {
     pub test: TestSummary,
     /// Its `alpha_x, alpha_z` of the shape fitted to the other tests (N/cm^3).
     pub predicted_alpha_n_cm3: [f64; 2],
-    /// R^2 of its horizontal and vertical force under that shape.
-    pub r2: [f64; 2],
+    /// RMSE of its horizontal and vertical force under that shape (N).
+    pub rmse_n: [f64; 2],
     /// The form of the shape fitted without it.
     pub form: ShapeForm,
 }
@@ -946,11 +1054,11 @@ pub fn cross_validate_shape(
             continue;
         }
         let keep = |r: &Prepared| r.fitted && quasi[r.test] && r.test != i;
-        let n0 = full.depth_exponent;
-        let solved = near_exponent(&rows, &keep, ShapeForm::LiNine, &o.preset, n0)
+        let n0 = (full.depth_exponent, full.surface_offset_m);
+        let solved = near_depth(&rows, &keep, ShapeForm::LiNine, o, n0)
             .map(|b| (ShapeForm::LiNine, b))
             .or_else(|| {
-                near_exponent(&rows, &keep, ShapeForm::PresetScaled, &o.preset, n0)
+                near_depth(&rows, &keep, ShapeForm::PresetScaled, o, n0)
                     .map(|b| (ShapeForm::PresetScaled, b))
             });
         let Some((form, (n, s))) = solved else {
@@ -964,30 +1072,19 @@ pub fn cross_validate_shape(
         // Measured alphas at the held-out fit's exponent, as its prediction.
         let (measured, predicted) = test_alphas(&mine, &s.fit, n);
         let mut sse = [0.0; 2];
-        let mut ys: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
         for r in &mine {
             let (ax, az) = alpha_of(&s.fit, r);
             let g = r.gain(n);
             sse[0] += (r.y_x - ax * g).powi(2);
             sse[1] += (r.y_z - az * g).powi(2);
-            ys[0].push(r.y_x);
-            ys[1].push(r.y_z);
         }
-        let r2: [f64; 2] = std::array::from_fn(|k| {
-            let mean = ys[k].iter().sum::<f64>() / ys[k].len() as f64;
-            let sst: f64 = ys[k].iter().map(|y| (y - mean).powi(2)).sum();
-            if sst > 0.0 {
-                1.0 - sse[k] / sst
-            } else {
-                f64::NAN
-            }
-        });
+        let rmse_n: [f64; 2] = std::array::from_fn(|k| (sse[k] / mine.len().max(1) as f64).sqrt());
         let mut test = summary.clone();
         test.measured_alpha_n_cm3 = measured;
         held.push(HeldOutIntrusion {
             test,
             predicted_alpha_n_cm3: predicted,
-            r2,
+            rmse_n,
             form,
         });
     }

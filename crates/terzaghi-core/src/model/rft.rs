@@ -494,7 +494,7 @@ impl RftSpeedLaw {
         self.gains()
             .iter()
             .rev()
-            .map(|&(g, k)| format!("{k:.4} s at {:.0} deg", g.to_degrees()))
+            .map(|&(g, k)| format!("{k:.4} s at {:.0} deg", g.to_degrees() + 0.0))
             .collect::<Vec<_>>()
             .join(", ")
     }
@@ -822,15 +822,20 @@ pub struct RftModel {
 }
 
 /// A medium's stress in depth beyond RFT's linear one, calibrated on plate-sinkage tests (a
-/// medium file's `rft_depth_power` law): an element at depth `z` feels the stress RFT gives at
-/// the depth `scale z_ref (z / z_ref)^exponent`, `z_ref` 1 cm. With `scale` and `exponent` 1 it
-/// is RFT itself.
+/// medium file's `rft_depth_power` law) or intrusion tests (its measured shape): an element at
+/// depth `z` below the surface feels the stress RFT gives at the depth
+/// `scale z_ref ((z + z_0) / z_ref)^exponent`, `z_ref` 1 cm, `z_0` the law's surface offset (0
+/// unless intrusion tests measured one: a bed of coarse grains bears a plate from its first
+/// millimetre, as if its surface were `z_0` higher for the stress, not for the geometry). With
+/// `scale` and `exponent` 1 and no offset it is RFT itself.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RftDepthLaw {
     /// The factor on RFT's stress at 1 cm.
     pub scale: f64,
     /// The exponent of depth.
     pub exponent: f64,
+    /// The surface offset `z_0` (m, >= 0).
+    pub offset_m: f64,
 }
 
 impl RftDepthLaw {
@@ -851,13 +856,31 @@ impl RftDepthLaw {
                 });
             }
         }
-        Ok(RftDepthLaw { scale, exponent })
+        Ok(RftDepthLaw {
+            scale,
+            exponent,
+            offset_m: 0.0,
+        })
+    }
+
+    /// The law with the surface offset `offset_m` (m: finite, in `[0, 0.1]`).
+    pub fn with_offset(self, offset_m: f64) -> Result<Self, ModelError> {
+        if !(offset_m.is_finite() && (0.0..=0.1).contains(&offset_m)) {
+            return Err(ModelError::OutOfRange {
+                what: "RFT depth law's surface offset (m)",
+                value: offset_m,
+                range: "[0, 0.1]".into(),
+            });
+        }
+        Ok(RftDepthLaw { offset_m, ..self })
     }
 
     /// The depth (m) whose linear RFT stress an element at `depth_m` feels.
     #[inline]
     pub fn effective_depth_m(&self, depth_m: f64) -> f64 {
-        self.scale * Self::REF_DEPTH_M * (depth_m / Self::REF_DEPTH_M).powf(self.exponent)
+        self.scale
+            * Self::REF_DEPTH_M
+            * ((depth_m + self.offset_m) / Self::REF_DEPTH_M).powf(self.exponent)
     }
 }
 
