@@ -263,9 +263,21 @@ fn the_testbeds_legs_are_predicted_from_the_beds_own_intrusion_tests() {
         .arg("--cross-validate")
         .arg("-o")
         .arg(&remade)
+        .arg("--report")
+        .arg(dir.path().join("shape.html"))
         .output()
         .unwrap());
     assert!(printed.contains("form li_nine"), "{printed}");
+    // The report a lab reads: a plot per direction of motion, measured against fitted and
+    // held-out stresses over the attack angle.
+    let html = std::fs::read_to_string(dir.path().join("shape.html")).unwrap();
+    for d in [-90, -45, 0, 45, 90] {
+        assert!(
+            html.contains(&format!("<h2>Moving {d} deg below the horizontal</h2>")),
+            "{d} deg"
+        );
+    }
+    assert_eq!(html.matches("<svg").count(), 5);
     // The docs' two blocks of its output, line by line.
     let page = std::fs::read_to_string(repo().join("docs/calibration.md")).unwrap();
     let blocks: Vec<&str> = page
@@ -460,4 +472,63 @@ fn the_node_and_predict_read_a_measured_medium_alike() {
         loaded += usize::from(l.abs() > 1.0);
     }
     assert!(loaded > 50, "{loaded} angles with a force");
+}
+
+/// Upward motion is measured, not borrowed: each DEM test of the plate pulled straight up
+/// through the bed, predicted by the shape fitted to every other test (the other upward ones
+/// among them), against the shape fitted to the tests that do not move up at all. With upward
+/// tests in the fit, the held-out plate's vertical force is predicted with its sign (the bed
+/// holds it down) and a smaller error.
+#[test]
+fn a_plate_pulled_up_is_predicted_from_the_other_tests() {
+    use terzaghi::ident::rft_shape::{ShapeOptions, fit_shape, predict_test};
+    use terzaghi::session::intrusion_test::read_intrusion_test;
+    let tests: Vec<_> = dem_tests()
+        .iter()
+        .map(|p| read_intrusion_test(p).unwrap().test)
+        .collect();
+    let o = ShapeOptions::default();
+    let up = |t: &terzaghi::ident::rft_shape::IntrusionTest| t.name.ends_with("_g-90");
+    let slow = |t: &terzaghi::ident::rft_shape::IntrusionTest| t.name.contains("_v005_");
+    let without_up: Vec<_> = tests
+        .iter()
+        .filter(|t| !up(t) && !t.name.ends_with("_g-45"))
+        .cloned()
+        .collect();
+    let no_up_fit = fit_shape(&without_up, &o).unwrap();
+    let (mut with_sse, mut without_sse, mut rows, mut sign_right) = (0.0, 0.0, 0usize, 0usize);
+    let held: Vec<_> = tests.iter().filter(|t| up(t) && slow(t)).collect();
+    assert_eq!(held.len(), 9);
+    for t in &held {
+        let others: Vec<_> = tests.iter().filter(|o| o.name != t.name).cloned().collect();
+        let fit = fit_shape(&others, &o).unwrap();
+        let with = predict_test(&fit, t, &o);
+        let without = predict_test(&no_up_fit, t, &o);
+        let (mut measured_sum, mut predicted_sum) = (0.0, 0.0);
+        for ((i, _, fz), (_, _, fz0)) in with.iter().zip(&without) {
+            let m = t.rows[*i].fz_n;
+            with_sse += (fz - m).powi(2);
+            without_sse += (fz0 - m).powi(2);
+            measured_sum += m;
+            predicted_sum += fz;
+            rows += 1;
+        }
+        sign_right += usize::from(measured_sum < 0.0 && predicted_sum < 0.0);
+    }
+    let (with_rmse, without_rmse) = (
+        (with_sse / rows as f64).sqrt(),
+        (without_sse / rows as f64).sqrt(),
+    );
+    println!(
+        "plates pulled up, held out: fz RMSE {with_rmse:.3} N with the other upward tests, {without_rmse:.3} N without any ({rows} rows, {sign_right} of 9 pulled down)"
+    );
+    assert_eq!(sign_right, 9);
+    assert!(
+        with_rmse < without_rmse,
+        "{with_rmse} against {without_rmse}"
+    );
+    let line = format!(
+        "plates pulled up, held out: fz RMSE {with_rmse:.3} N with the other upward tests, {without_rmse:.3} N without any ({rows} rows, {sign_right} of 9 pulled down)"
+    );
+    assert!(common::docs_text().contains(&line), "the docs lack {line}");
 }

@@ -93,6 +93,11 @@ pub struct CalibrateArgs {
     /// grains ahead of it, which RFT does not describe).
     #[arg(long)]
     pub shape_from_buried: bool,
+    /// Write an HTML report of RFT's shape here: per direction of motion, each intrusion test's
+    /// measured alpha_x, alpha_z against the fitted shape over the attack angle (and, with
+    /// --cross-validate, each test as the shape fitted to the others predicts it).
+    #[arg(long, value_name = "FILE.html")]
+    pub report: Option<PathBuf>,
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
@@ -174,7 +179,7 @@ fn plate_part(a: &CalibrateArgs, files: &[PathBuf]) -> Result<PlatePart> {
 pub fn run(a: CalibrateArgs) -> Result<()> {
     let inputs: Vec<&std::path::Path> = a.tests.iter().map(|p| p.as_path()).collect();
     crate::session::files::refuse_stdout_over_input(&inputs)?;
-    if let Some(out) = &a.out {
+    for out in a.out.iter().chain(&a.report) {
         crate::session::files::refuse_output_over_input(out, &inputs)?;
     }
     if let Some(w) = a.unit_weight_n_m3
@@ -266,6 +271,17 @@ pub fn run(a: CalibrateArgs) -> Result<()> {
     if let Some(out) = &a.out {
         crate::session::files::write_text(out, &medium.to_yaml()?)
             .context(crate::session::files::cannot_write(out))?;
+    }
+    if let Some(report) = &a.report {
+        let Some(fit) = &shape else {
+            bail!("--report draws RFT's shape, and no intrusion test was given");
+        };
+        let html = crate::session::calibration_html::html(
+            fit,
+            shape_held.as_ref().map(|(h, _)| h.as_slice()),
+        )?;
+        crate::session::files::write_text(report, &html)
+            .context(crate::session::files::cannot_write(report))?;
     }
     if a.json {
         let mut v = serde_json::json!({ "medium": medium });

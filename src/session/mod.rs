@@ -52,6 +52,7 @@
 //! # }
 //! ```
 
+pub mod calibration_html;
 pub mod csv_rows;
 mod refusal;
 pub use crate::error::Failure;

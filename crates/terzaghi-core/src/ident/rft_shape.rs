@@ -289,6 +289,8 @@ struct Prepared {
     fitted: bool,
     /// Its gain under RFT's linear law ([`Prepared::gain`] at `n` 1 and no offset).
     ref_gain: f64,
+    /// Its index in its test.
+    row: usize,
     /// The depth of its centre, the velocity's direction (rad) and speed.
     centre_depth_m: f64,
     gamma_rad: f64,
@@ -353,6 +355,7 @@ fn prepare(tests: &[IntrusionTest], o: &ShapeOptions) -> (Vec<Prepared>, Vec<(f6
                 depths,
                 area_m2,
                 ref_gain,
+                row: i,
                 phi_z: [1.0, c2b, sin_plus, sg, sin_minus],
                 phi_x: [cos_plus, cg, cos_minus, s2b],
                 y_z: r.fz_n,
@@ -1017,6 +1020,26 @@ fn wrap_half_pi(a: f64) -> f64 {
         a += std::f64::consts::PI;
     }
     a
+}
+
+/// The forces `(fx, fz)` (N, the medium's on the plate along +x and up) that `fit`'s shape and
+/// law in depth (quasi-static: its speed law is not applied) give each row of `test` in the
+/// medium and moving, with the row's index; rows out of the medium or still are left out.
+pub fn predict_test(
+    fit: &RftShapeFit,
+    test: &IntrusionTest,
+    o: &ShapeOptions,
+) -> Vec<(usize, f64, f64)> {
+    let (rows, _) = prepare(std::slice::from_ref(test), o);
+    let d = (fit.depth_exponent, fit.surface_offset_m);
+    rows.iter()
+        .map(|r| {
+            let (ax, az) = alpha_of(&fit.coefficients, r);
+            let g = r.gain(d);
+            // y_x is -m fx: the force resisting the motion's horizontal part.
+            (r.row, -r.mirror * ax * g, az * g)
+        })
+        .collect()
 }
 
 /// One test predicted from the others: its measured and predicted stresses per depth.
