@@ -73,6 +73,34 @@ fn models(c: &mut Criterion) {
                 .drag_n
         })
     });
+    // The same leg with a medium calibrated from intrusion tests (the DEM bed's file: Li's nine
+    // coefficients measured, a law in depth with its surface offset, the speed law).
+    let measured = terzaghi::medium_file::MediumFile::read(std::path::Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/dem/campaign/medium_from_intrusions.yaml"
+    )))
+    .unwrap()
+    .rft_law(None)
+    .unwrap();
+    let c_leg_measured = ForceModel::Rft(
+        RftModel::with_profile(
+            Plate::new(0.1, 0.03, 0.04).unwrap(),
+            measured.coefficients,
+            100,
+            c_leg_profile(0.05, std::f64::consts::PI, 32),
+        )
+        .unwrap()
+        .with_depth_law(Some(measured.depth_law))
+        .with_speed_law(measured.speed_law),
+    );
+    c.bench_function("rft_c_leg_measured_medium_evaluate", |b| {
+        b.iter(|| {
+            c_leg_measured
+                .predict_moving(black_box(beta), &hip)
+                .unwrap()
+                .drag_n
+        })
+    });
 }
 
 /// One online-estimator update with a penetration sample, past the start-up.

@@ -104,6 +104,13 @@ pub struct MediumSpeedGain {
     pub direction_deg: f64,
     /// The depth the dynamic stress is worth per m/s (s).
     pub depth_per_speed_s: f64,
+    /// Its standard deviation (s; jackknife over the faster tests).
+    #[serde(default = "nan")]
+    pub std_depth_per_speed_s: f64,
+}
+
+fn nan() -> f64 {
+    f64::NAN
 }
 
 /// An intrusion test a medium file's shape was fitted to.
@@ -181,9 +188,15 @@ impl MediumRftShape {
                     .law
                     .gains()
                     .iter()
-                    .map(|&(g, k)| MediumSpeedGain {
-                        direction_deg: g.to_degrees(),
+                    .enumerate()
+                    .map(|(i, &(g, k))| MediumSpeedGain {
+                        direction_deg: g.to_degrees() + 0.0,
                         depth_per_speed_s: k,
+                        std_depth_per_speed_s: fit
+                            .speed_gain_std_s
+                            .get(i)
+                            .copied()
+                            .unwrap_or(f64::NAN),
                     })
                     .collect(),
                 explained: s.explained,

@@ -193,7 +193,9 @@ def test_a_medium_files_measured_rft_shape_reaches_predict_and_the_batch():
               "leg.width_m": 0.03, "leg.hip_height_m": 0.04, "leg.medium": str(DEM_MEDIUM),
               "leg.shape": "c_leg"}
     node = terzaghi.Node(params=params)
-    got = [node.joint_state(10**9 + k * 10**7, ["hip"], [b], [0.2]) for k, b in enumerate(beta)]
+    # 5 deg apart at 0.2 rad/s: the stamps agree with the rate given.
+    step_ns = int(round(np.radians(5.0) / 0.2 * 1e9))
+    got = [node.joint_state(10**9 + k * step_ns, ["hip"], [b], [0.2]) for k, b in enumerate(beta)]
     np.testing.assert_allclose([g["drag_n"][0] for g in got], mine["drag_n"], rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose([g["lift_n"][0] for g in got], mine["lift_n"], rtol=1e-12, atol=1e-12)
     # A coefficient set named beside a measured shape is refused, naming both.

@@ -474,11 +474,22 @@ pub fn render_shape(fit: &RftShapeFit, o: &ShapeOptions) -> String {
     );
     match (&fit.speed, &fit.no_speed_law_because) {
         (Some(sp), _) => {
+            let gains = sp
+                .law
+                .gains()
+                .iter()
+                .zip(&fit.speed_gain_std_s)
+                .rev()
+                .map(|(&(g, k), sd)| {
+                    format!("{k:.4} +- {sd:.4} s at {:.0} deg", g.to_degrees() + 0.0)
+                })
+                .collect::<Vec<_>>()
+                .join(", ");
             s += &format!(
                 "speed law: elements k (v - {:.3} m/s) deeper, up to {:.3} m/s; k {}; from {} faster tests ({:.0} % of the change with speed explained; one k for every direction {:.0} %)\n",
                 sp.law.ref_speed_m_s,
                 sp.law.max_speed_m_s,
-                sp.law.gains_text(),
+                gains,
                 sp.intrusions,
                 100.0 * sp.explained,
                 100.0 * sp.one_gain_explained

@@ -255,6 +255,9 @@ pub struct RftShapeFit {
     /// The speed law, where tests of one plate, angle, direction and start ran at two or more
     /// speeds.
     pub speed: Option<RftSpeedFit>,
+    /// The standard deviation of each direction's gain (s), in the law's order (jackknife over
+    /// the faster tests).
+    pub speed_gain_std_s: Vec<f64>,
     /// Why there is no speed law, where there is none.
     pub no_speed_law_because: Option<String>,
 }
@@ -858,11 +861,11 @@ pub fn fit_shape(tests: &[IntrusionTest], o: &ShapeOptions) -> Result<RftShapeFi
             }
         })
         .collect();
-    let (speed, no_speed_law_because) = match speed_law(tests, &rows, &per_test, &best.fit, slowest)
-    {
-        Ok(s) => (Some(s), None),
-        Err(e) => (None, Some(e)),
-    };
+    let (speed, speed_gain_std_s, no_speed_law_because) =
+        match speed_law(tests, &rows, &per_test, &best.fit, slowest) {
+            Ok((s, std)) => (Some(s), std, None),
+            Err(e) => (None, Vec::new(), Some(e)),
+        };
     Ok(RftShapeFit {
         form,
         reduced_because,
@@ -879,6 +882,7 @@ pub fn fit_shape(tests: &[IntrusionTest], o: &ShapeOptions) -> Result<RftShapeFi
         rows: count,
         tests: summaries,
         speed,
+        speed_gain_std_s,
         no_speed_law_because,
     })
 }
@@ -915,7 +919,7 @@ fn speed_law(
     per_test: &[(f64, f64, bool)],
     shape: &RftFit,
     slowest: f64,
-) -> Result<RftSpeedFit, String> {
+) -> Result<(RftSpeedFit, Vec<f64>), String> {
     // Where a test's plate was at time 0: its first row less its motion since (a faster test's
     // first sample is further along).
     let start = |i: usize| {
@@ -949,7 +953,8 @@ fn speed_law(
         }
     }
     // A group serves where its slowest test is at the reference speed and another is faster.
-    let mut table: Vec<[f64; 8]> = Vec::new();
+    // Each test's rows, and whether it is a faster one.
+    let mut table: Vec<(bool, Vec<[f64; 8]>)> = Vec::new();
     // One start per element and direction: the speed table keys intrusions by them.
     let mut elements_seen: Vec<usize> = Vec::new();
     for (_, members) in &groups {
@@ -987,18 +992,23 @@ fn speed_law(
             } else {
                 per_test[i].0
             };
-            for r in rows.iter().filter(|r| r.test == i) {
-                table.push([
-                    speed,
-                    beta,
-                    per_test[reference].1,
-                    t.chord_m,
-                    t.width_m,
-                    r.centre_depth_m,
-                    r.y_x,
-                    r.y_z,
-                ]);
-            }
+            let chunk: Vec<[f64; 8]> = rows
+                .iter()
+                .filter(|r| r.test == i)
+                .map(|r| {
+                    [
+                        speed,
+                        beta,
+                        per_test[reference].1,
+                        t.chord_m,
+                        t.width_m,
+                        r.centre_depth_m,
+                        r.y_x,
+                        r.y_z,
+                    ]
+                })
+                .collect();
+            table.push((i != reference, chunk));
         }
     }
     if table.is_empty() {
@@ -1007,7 +1017,42 @@ fn speed_law(
                 .into(),
         );
     }
-    RftSpeedTable::from_rows(table)?.fit(&RftCoefficients::Fit(*shape))
+    let coefficients = RftCoefficients::Fit(*shape);
+    let fit_without = |left_out: Option<usize>| {
+        let rows: Vec<[f64; 8]> = table
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| Some(*k) != left_out)
+            .flat_map(|(_, c)| c.1.iter().copied())
+            .collect();
+        RftSpeedTable::from_rows(rows)?.fit(&coefficients)
+    };
+    let full = fit_without(None)?;
+    // The jackknife over the faster tests: each direction's gain with each left out in turn.
+    let gains = full.law.gains().to_vec();
+    let mut samples: Vec<Vec<f64>> = vec![Vec::new(); gains.len()];
+    for (k, _) in table.iter().enumerate().filter(|(_, c)| c.0) {
+        let Ok(f) = fit_without(Some(k)) else {
+            continue;
+        };
+        for (slot, &(g, _)) in samples.iter_mut().zip(&gains) {
+            if let Some(&(_, v)) = f.law.gains().iter().find(|(x, _)| (x - g).abs() < 1e-6) {
+                slot.push(v);
+            }
+        }
+    }
+    let std: Vec<f64> = samples
+        .iter()
+        .map(|v| {
+            let n = v.len() as f64;
+            if v.len() < 2 {
+                return f64::NAN;
+            }
+            let mean = v.iter().sum::<f64>() / n;
+            ((n - 1.0) / n * v.iter().map(|x| (x - mean).powi(2)).sum::<f64>()).sqrt()
+        })
+        .collect();
+    Ok((full, std))
 }
 
 /// An angle folded into `[-pi/2, pi/2]` by half turns.
