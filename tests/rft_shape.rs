@@ -394,7 +394,7 @@ fn the_testbeds_legs_are_predicted_from_the_beds_own_intrusion_tests() {
 
 /// The same medium file read by the node (`replay --reevaluate` of a C-leg turning slower than
 /// the shape's reference speed, so that the speed law adds nothing) and by `predict`: equal to
-/// 1e-9 N at every angle. (The Python package's test compares its `predict`, `LegBatch` and
+/// 1e-12 N at every angle. (The Python package's test compares its `predict`, `LegBatch` and
 /// `Node` with `predict` to 1e-12.)
 #[test]
 fn the_node_and_predict_read_a_measured_medium_alike() {
@@ -466,7 +466,7 @@ fn the_node_and_predict_read_a_measured_medium_alike() {
     for (n, p) in node.iter().zip(&predicted) {
         let (d, l) = (p["drag_n"].as_f64().unwrap(), p["lift_n"].as_f64().unwrap());
         assert!(
-            (n.0 - d).abs() < 1e-9 && (n.1 - l).abs() < 1e-9,
+            (n.0 - d).abs() < 1e-12 && (n.1 - l).abs() < 1e-12,
             "node {n:?}, predict ({d}, {l})"
         );
         loaded += usize::from(l.abs() > 1.0);
