@@ -138,12 +138,6 @@ pub const RFT_COEFFICIENT_NAMES: [&str; 9] = [
     "A00", "A10", "B11", "B01", "B-11", "C11", "C01", "C-11", "D10",
 ];
 
-fn fit_values(f: &RftFit) -> [f64; 9] {
-    [
-        f.a00, f.a10, f.b11, f.b01, f.bm11, f.c11, f.c01, f.cm11, f.d10,
-    ]
-}
-
 /// What an RFT leg takes from a medium file: the coefficients, the law in depth and the speed
 /// law, and whether the shape was measured.
 #[derive(Debug, Clone, PartialEq)]
@@ -165,7 +159,7 @@ impl MediumRftShape {
         let named = |f: &RftFit| {
             RFT_COEFFICIENT_NAMES
                 .iter()
-                .zip(fit_values(f))
+                .zip(f.to_array())
                 .map(|(n, v)| (n.to_string(), v))
                 .collect()
         };
@@ -243,17 +237,7 @@ impl MediumRftShape {
                 RFT_COEFFICIENT_NAMES.join(", ")
             );
         }
-        let f = RftFit {
-            a00: v[0],
-            a10: v[1],
-            b11: v[2],
-            b01: v[3],
-            bm11: v[4],
-            c11: v[5],
-            c01: v[6],
-            cm11: v[7],
-            d10: v[8],
-        };
+        let f = RftFit::from_array(v);
         let down = f.alpha(0.0, std::f64::consts::FRAC_PI_2).1;
         if down.is_nan() || down <= 0.0 {
             bail!(

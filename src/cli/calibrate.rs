@@ -434,28 +434,7 @@ pub fn render_shape(fit: &RftShapeFit, o: &ShapeOptions) -> String {
         }
     }
     s += "coefficients (N/cm^3 at 1 cm, +- one standard deviation, jackknife over tests):\n";
-    let c = [
-        fit.coefficients.a00,
-        fit.coefficients.a10,
-        fit.coefficients.b11,
-        fit.coefficients.b01,
-        fit.coefficients.bm11,
-        fit.coefficients.c11,
-        fit.coefficients.c01,
-        fit.coefficients.cm11,
-        fit.coefficients.d10,
-    ];
-    let d = [
-        fit.std_dev.a00,
-        fit.std_dev.a10,
-        fit.std_dev.b11,
-        fit.std_dev.b01,
-        fit.std_dev.bm11,
-        fit.std_dev.c11,
-        fit.std_dev.c01,
-        fit.std_dev.cm11,
-        fit.std_dev.d10,
-    ];
+    let (c, d) = (fit.coefficients.to_array(), fit.std_dev.to_array());
     for (i, name) in RFT_COEFFICIENT_NAMES.iter().enumerate() {
         s += &format!("  {name:<5} {:>8.4} +- {:.4}\n", c[i], d[i]);
     }

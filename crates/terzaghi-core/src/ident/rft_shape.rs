@@ -530,17 +530,9 @@ fn solve(
                     &cx,
                 );
             Some(Solve {
-                fit: RftFit {
-                    a00: cz[0],
-                    a10: cz[1],
-                    b11: cz[2],
-                    b01: cz[3],
-                    bm11: cz[4],
-                    c11: cx[0],
-                    c01: cx[1],
-                    cm11: cx[2],
-                    d10: cx[3],
-                },
+                fit: RftFit::from_array([
+                    cz[0], cz[1], cz[2], cz[3], cz[4], cx[0], cx[1], cx[2], cx[3],
+                ]),
                 sse: sse.max(0.0),
             })
         }
@@ -550,7 +542,7 @@ fn solve(
             }
             let s = py / pp;
             Some(Solve {
-                fit: scaled(preset, s),
+                fit: preset.scaled(s),
                 sse: (yy - 2.0 * s * py + s * s * pp).max(0.0),
             })
         }
@@ -587,40 +579,6 @@ fn alpha_of(fit: &RftFit, p: &Prepared) -> (f64, f64) {
     let x =
         fit.c11 * p.phi_x[0] + fit.c01 * p.phi_x[1] + fit.cm11 * p.phi_x[2] + fit.d10 * p.phi_x[3];
     (x, z)
-}
-
-fn scaled(f: &RftFit, s: f64) -> RftFit {
-    RftFit {
-        a00: f.a00 * s,
-        a10: f.a10 * s,
-        b11: f.b11 * s,
-        b01: f.b01 * s,
-        bm11: f.bm11 * s,
-        c11: f.c11 * s,
-        c01: f.c01 * s,
-        cm11: f.cm11 * s,
-        d10: f.d10 * s,
-    }
-}
-
-fn as_array(f: &RftFit) -> [f64; 9] {
-    [
-        f.a00, f.a10, f.b11, f.b01, f.bm11, f.c11, f.c01, f.cm11, f.d10,
-    ]
-}
-
-fn from_array(a: [f64; 9]) -> RftFit {
-    RftFit {
-        a00: a[0],
-        a10: a[1],
-        b11: a[2],
-        b01: a[3],
-        bm11: a[4],
-        c11: a[5],
-        c01: a[6],
-        cm11: a[7],
-        d10: a[8],
-    }
 }
 
 /// The smallest singular value of the column-scaled design, relative to the largest, that
@@ -794,7 +752,7 @@ pub fn fit_shape(tests: &[IntrusionTest], o: &ShapeOptions) -> Result<RftShapeFi
         for &out in &carriers {
             let keep = |r: &Prepared| use_row(r) && r.test != out;
             if let Some((di, s)) = near_depth(&rows, &keep, form, o, n) {
-                leave_outs.push((as_array(&s.fit), di.0, di.1, alpha_down(&s.fit)));
+                leave_outs.push((s.fit.to_array(), di.0, di.1, alpha_down(&s.fit)));
             }
         }
     }
@@ -812,7 +770,7 @@ pub fn fit_shape(tests: &[IntrusionTest], o: &ShapeOptions) -> Result<RftShapeFi
         .sqrt()
     };
     let std_coeffs: [f64; 9] = std::array::from_fn(|c| jack(&|l| l.0[c]));
-    let std_dev = from_array(std_coeffs);
+    let std_dev = RftFit::from_array(std_coeffs);
     let depth_exponent_std = jack(&|l| l.1);
     let surface_offset_std = jack(&|l| l.2);
     let alpha_down_std = jack(&|l| l.3);
@@ -1243,7 +1201,7 @@ mod tests {
         let truth = RftFit::POPPY_CP;
         let fit = fit_shape(&campaign(&truth, 1.3), &ShapeOptions::default()).unwrap();
         assert_eq!(fit.form, ShapeForm::LiNine);
-        for (a, b) in as_array(&fit.coefficients).iter().zip(as_array(&truth)) {
+        for (a, b) in fit.coefficients.to_array().iter().zip(truth.to_array()) {
             assert!((a - b).abs() < 2e-3, "{:?}", fit.coefficients);
         }
         assert!(
@@ -1282,7 +1240,7 @@ mod tests {
 
     #[test]
     fn plates_pushed_straight_down_give_the_preset_scaled_and_say_so() {
-        let truth = scaled(&RftFit::POPPY_LP, 2.0);
+        let truth = RftFit::POPPY_LP.scaled(2.0);
         let tests: Vec<_> = (0..3)
             .map(|i| {
                 synthetic(

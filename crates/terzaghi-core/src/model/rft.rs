@@ -84,18 +84,36 @@ impl RftFit {
     /// The generic coefficients times a medium's scale factor `zeta` (N/cm^3, > 0).
     pub fn generic(zeta_n_cm3: f64) -> Result<RftFit, ModelError> {
         let z = positive("RFT scale factor zeta (N/cm^3)", zeta_n_cm3)?;
-        let g = Self::GENERIC_SHAPE;
-        Ok(RftFit {
-            a00: g.a00 * z,
-            a10: g.a10 * z,
-            b11: g.b11 * z,
-            b01: g.b01 * z,
-            bm11: g.bm11 * z,
-            c11: g.c11 * z,
-            c01: g.c01 * z,
-            cm11: g.cm11 * z,
-            d10: g.d10 * z,
-        })
+        Ok(Self::GENERIC_SHAPE.scaled(z))
+    }
+
+    /// The nine coefficients in the order of the struct (`A00, A10, B11, B01, B-11, C11, C01,
+    /// C-11, D10`).
+    pub fn to_array(&self) -> [f64; 9] {
+        [
+            self.a00, self.a10, self.b11, self.b01, self.bm11, self.c11, self.c01, self.cm11,
+            self.d10,
+        ]
+    }
+
+    /// The coefficients of [`Self::to_array`]'s order.
+    pub fn from_array(a: [f64; 9]) -> RftFit {
+        RftFit {
+            a00: a[0],
+            a10: a[1],
+            b11: a[2],
+            b01: a[3],
+            bm11: a[4],
+            c11: a[5],
+            c01: a[6],
+            cm11: a[7],
+            d10: a[8],
+        }
+    }
+
+    /// Every coefficient times `s`: the same shape, another scale.
+    pub fn scaled(&self, s: f64) -> RftFit {
+        Self::from_array(self.to_array().map(|v| v * s))
     }
 
     /// `(alpha_x, alpha_z)` in N/cm^3.
@@ -177,17 +195,9 @@ impl RftFit {
         };
         let cz = solve(z_rows, az)?;
         let cx = solve(x_rows, ax)?;
-        Some(RftFit {
-            a00: cz[0],
-            a10: cz[1],
-            b11: cz[2],
-            b01: cz[3],
-            bm11: cz[4],
-            c11: cx[0],
-            c01: cx[1],
-            cm11: cx[2],
-            d10: cx[3],
-        })
+        Some(RftFit::from_array([
+            cz[0], cz[1], cz[2], cz[3], cz[4], cx[0], cx[1], cx[2], cx[3],
+        ]))
     }
 }
 
