@@ -33,6 +33,24 @@ def _f64(name: str, x) -> np.ndarray:
         raise TerzaghiError(f"{name}: not an array of numbers ({e})") from None
 
 
+def _like(name: str, x, beta: np.ndarray) -> np.ndarray:
+    """``x`` as a C-contiguous float64 array of ``beta``'s shape: a scalar is broadcast (as
+    :func:`terzaghi.predict` does), any other shape is refused by name, even with as many
+    values (a transposed ``(6, 4096)`` against ``(4096, 6)`` would read the legs out of order)."""
+    if np.ndim(x) == 0:
+        try:
+            return np.full(beta.shape, float(x))
+        except (TypeError, ValueError) as e:
+            raise TerzaghiError(f"{name}: not a number ({e})") from None
+    a = _f64(name, x)
+    if a.shape != beta.shape:
+        hint = " (transposed?)" if a.shape == beta.shape[::-1] and a.ndim > 1 else ""
+        raise TerzaghiError(
+            f"{name} has shape {a.shape}, beta_rad {beta.shape}{hint}: give each input the "
+            "shape of beta_rad, or a scalar")
+    return a
+
+
 class LegBatch:
     """One leg model evaluated for arrays of legs.
 
@@ -93,18 +111,20 @@ class LegBatch:
 
         Args:
             beta_rad: each leg's joint angle (rad), any shape.
-            hip_height_m: each hip's height above the surface (m), the same shape.
+            hip_height_m: each hip's height above the surface (m), the same shape (a scalar is
+                broadcast).
             pitch_rad, omega_rad_s, forward_m_s, up_m_s: the body's pitch, the leg's rate and
                 the hip's horizontal (forward) and vertical (up) velocity; zero if left out.
                 RFT uses the velocities; the improved model uses the pitch and height.
             out: three C-contiguous float64 arrays of that shape to write into.
 
         Raises:
-            TerzaghiError: a non-finite input (its flat index named), or shapes that differ.
+            TerzaghiError: a non-finite input (its flat index named), or an input or output
+                array whose shape differs from ``beta_rad``'s (its name and both shapes).
         """
         beta = _f64("beta_rad", beta_rad)
-        arrays = [_f64("hip_height_m", hip_height_m)] + [
-            None if v is None else _f64(n, v)
+        arrays = [_like("hip_height_m", hip_height_m, beta)] + [
+            None if v is None else _like(n, v, beta)
             for n, v in [("pitch_rad", pitch_rad), ("omega_rad_s", omega_rad_s),
                          ("forward_m_s", forward_m_s), ("up_m_s", up_m_s)]
         ]

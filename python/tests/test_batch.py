@@ -54,8 +54,17 @@ def test_out_arrays_are_written_in_place_and_bad_inputs_are_named():
     bad[3, 2] = np.nan
     with pytest.raises(terzaghi.TerzaghiError, match="element 20"):
         legs.forces(bad, hip)
-    with pytest.raises(terzaghi.TerzaghiError, match="hip_height_m has 47 values"):
+    with pytest.raises(terzaghi.TerzaghiError, match=r"hip_height_m has shape \(47,\)"):
         legs.forces(beta, np.zeros(47))
+    # Shapes, not counts: as many values in another shape are refused, a transposed array named
+    # as such; a scalar is broadcast.
+    with pytest.raises(terzaghi.TerzaghiError, match=r"hip_height_m has shape \(48,\), beta_rad \(8, 6\)"):
+        legs.forces(beta, np.zeros(48))
+    with pytest.raises(terzaghi.TerzaghiError, match=r"omega_rad_s has shape \(6, 8\), beta_rad \(8, 6\) \(transposed\?\)"):
+        legs.forces(beta, hip, omega_rad_s=np.zeros((6, 8)))
+    varied = np.linspace(0.2, 1.4, 48).reshape(8, 6)
+    for k, (a, b) in enumerate(zip(legs.forces(varied, 0.01), legs.forces(varied, np.full((8, 6), 0.01)))):
+        np.testing.assert_array_equal(a, b, err_msg=f"output {k}")
     with pytest.raises(terzaghi.TerzaghiError, match="drag_n has shape"):
         legs.forces(beta, hip, out=(np.empty(48), out[1], out[2]))
     with pytest.raises(terzaghi.TerzaghiError, match="C-contiguous"):
