@@ -234,10 +234,9 @@ pub fn run(a: CalibrateArgs) -> Result<()> {
     } else {
         Some(calibrate_shape(&intrusions, &options)?)
     };
-    let shape_held = if a.cross_validate && !intrusions.is_empty() {
-        Some(cross_validate_tests(&intrusions, &options)?)
-    } else {
-        None
+    let shape_held = match &shape {
+        Some(fit) if a.cross_validate => Some(cross_validate_tests(&intrusions, &options, fit)?),
+        _ => None,
     };
     let command = std::iter::once("terzaghi".to_string())
         .chain(std::env::args().skip(1))

@@ -207,13 +207,15 @@ pub fn calibrate_shape(tests: &[IntrusionFile], o: &ShapeOptions) -> Result<RftS
     Ok(fit)
 }
 
-/// Each quasi-static test predicted from the others ([`cross_validate_shape`]).
+/// Each quasi-static test predicted from the others ([`cross_validate_shape`]), `fit` being
+/// [`calibrate_shape`] of the same tests and options.
 pub fn cross_validate_tests(
     tests: &[IntrusionFile],
     o: &ShapeOptions,
+    fit: &RftShapeFit,
 ) -> Result<(Vec<HeldOutIntrusion>, Vec<String>)> {
     let plain: Vec<IntrusionTest> = tests.iter().map(|t| t.test.clone()).collect();
-    cross_validate_shape(&plain, o).map_err(|e| anyhow::anyhow!(e))
+    cross_validate_shape(&plain, o, fit).map_err(|e| anyhow::anyhow!(e))
 }
 
 /// The tests' unit weight: `given`, or the one their JSONs agree on (within 1 %), with where it
