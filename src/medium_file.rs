@@ -528,7 +528,12 @@ impl MediumFile {
     pub fn read(file: &Path) -> Result<MediumFile> {
         let text = std::fs::read_to_string(file)
             .with_context(|| format!("cannot read {}", file.display()))?;
-        let m: MediumFile = serde_yaml_ng::from_str(&text)
+        MediumFile::parse(file, &text)
+    }
+
+    /// [`MediumFile::read`] on a text already read (`file` names it in messages).
+    pub fn parse(file: &Path, text: &str) -> Result<MediumFile> {
+        let m: MediumFile = serde_yaml_ng::from_str(text)
             .with_context(|| format!("{} is not a medium file", file.display()))?;
         m.model().with_context(|| format!("{}", file.display()))?;
         if m.rft_shape.is_some() {

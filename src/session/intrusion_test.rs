@@ -86,7 +86,6 @@ pub fn is_intrusion_test(file: &Path) -> bool {
 /// plate size that is not positive and a chord angle outside [-180, 180] deg are refused,
 /// naming the file, the line and the value.
 pub fn read_intrusion_test(file: &Path) -> Result<IntrusionFile> {
-    let name = file.display().to_string();
     let text =
         std::fs::read_to_string(file).with_context(|| format!("cannot read {}", file.display()))?;
     let json_file = file.with_extension("json");
@@ -96,7 +95,15 @@ pub fn read_intrusion_test(file: &Path) -> Result<IntrusionFile> {
             json_file.display()
         )
     })?;
-    let sidecar: IntrusionSidecar = serde_json::from_str(&json)
+    parse_intrusion_test(file, &text, &json)
+}
+
+/// [`read_intrusion_test`] on texts already read: the CSV `text` of the test named `file` and
+/// its JSON `json`. Nothing is read from disk.
+pub fn parse_intrusion_test(file: &Path, text: &str, json: &str) -> Result<IntrusionFile> {
+    let name = file.display().to_string();
+    let json_file = file.with_extension("json");
+    let sidecar: IntrusionSidecar = serde_json::from_str(json)
         .with_context(|| format!("{} is not an intrusion test's JSON", json_file.display()))?;
     if let Some(w) = sidecar.unit_weight_n_m3
         && !(w.is_finite() && w > 0.0)

@@ -152,6 +152,22 @@ pub fn read_test(
 ) -> Result<PlateTest> {
     let text =
         std::fs::read_to_string(file).with_context(|| format!("cannot read {}", file.display()))?;
+    // Read where it exists; whether the test needs it is known from its header.
+    let json = std::fs::read_to_string(file.with_extension("json")).ok();
+    parse_test(file, &text, json.as_deref(), plate, depth, regimes)
+}
+
+/// [`read_test`] on texts already read: the CSV `text` of the test named `file`, and the text of
+/// the JSON beside it, if there is one (a run in the shared layout needs it). Nothing is read
+/// from disk.
+pub fn parse_test(
+    file: &Path,
+    text: &str,
+    json: Option<&str>,
+    plate: Option<PlateShape>,
+    depth: DepthColumn,
+    regimes: &RegimeOptions,
+) -> Result<PlateTest> {
     let name = file.display().to_string();
     let mut rdr = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
@@ -207,22 +223,29 @@ pub fn read_test(
     } else {
         "depth_m"
     };
-    let sidecar = if shared {
-        Some(read_sidecar(&file.with_extension("json"))?)
-    } else {
-        None
+    let json_file = file.with_extension("json");
+    let json = match (shared, json) {
+        (false, _) => None,
+        (true, Some(text)) => Some(
+            serde_json::from_str::<serde_json::Value>(text)
+                .with_context(|| format!("{} is not JSON", json_file.display()))?,
+        ),
+        (true, None) => bail!(
+            "cannot read {} (a run in the shared layout has its JSON beside its CSV)",
+            json_file.display()
+        ),
     };
-    let plate = match (plate, &sidecar) {
-        (Some(p), _) => p,
-        (None, Some(s)) => {
-            let json = read_json(&s.file)?;
+    let sidecar = json.as_ref().map(|j| sidecar_of(&json_file, j));
+    let plate = match (plate, &sidecar, &json) {
+        (Some(p), _, _) => p,
+        (None, Some(s), Some(json)) => {
             let d = json
                 .get("plate_diameter_m")
                 .and_then(|v| v.as_f64())
                 .with_context(|| format!("{} has no plate_diameter_m", s.file.display()))?;
             PlateShape::disc(d).with_context(|| format!("{}", s.file.display()))?
         }
-        (None, None) => bail!(
+        (None, _, _) => bail!(
             "{name} is a plain log: give its plate (--plate-diameter-m, or --plate-width-m and --plate-length-m)"
         ),
     };
@@ -379,26 +402,15 @@ fn regimes_speed_mm_s(o: &RegimeOptions) -> f64 {
     o.min_speed_m_s * 1e3
 }
 
-fn read_json(file: &Path) -> Result<serde_json::Value> {
-    let text = std::fs::read_to_string(file).with_context(|| {
-        format!(
-            "cannot read {} (a run in the shared layout has its JSON beside its CSV)",
-            file.display()
-        )
-    })?;
-    serde_json::from_str(&text).with_context(|| format!("{} is not JSON", file.display()))
-}
-
-fn read_sidecar(file: &Path) -> Result<RunSidecar> {
-    let json = read_json(file)?;
+fn sidecar_of(file: &Path, json: &serde_json::Value) -> RunSidecar {
     let num = |ptr: &str| json.pointer(ptr).and_then(|v| v.as_f64());
-    Ok(RunSidecar {
+    RunSidecar {
         file: file.to_path_buf(),
         bulk_density_kg_m3: num("/medium/bulk_density_kg_m3"),
         zero_fz_n: num("/offsets/zero_bag_mean_F_N/2"),
         in_air_fz_n: num("/offsets/in_air_mean_F_N/2"),
         t_motion_start_s: num("/offsets/t_motion_start_s"),
-    })
+    }
 }
 
 /// RFT's `alpha_z` for a horizontal plate moving straight down (N/cm^3), from the `poppy_lp`
