@@ -49,6 +49,8 @@ pub mod dem;
 #[cfg(feature = "cli")]
 mod demo;
 pub mod error;
+#[doc(hidden)]
+pub mod fuzzing;
 pub mod medium_file;
 pub mod model_spec;
 pub mod msgs;

@@ -1,0 +1,654 @@
+//! What the fuzz targets (`fuzz/`, `cargo fuzz`) run on each input, and what
+//! `tests/fuzz_inputs.rs` replays from their committed corpora and regressions: one function per
+//! format that reaches the product from outside. Each takes any bytes, reads them as the product
+//! reads that format, and panics only where the product breaks a promise: a panic inside it, a
+//! non-finite number handed on as a value, a count that does not add up, a file written that
+//! does not read back. Not an API.
+
+use crate::config::{
+    NodeConfig, ParamMap, defaults, params_yaml, parse_params_yaml, parse_ros_args,
+};
+use crate::medium_file::MediumFile;
+use crate::model::HipMotion;
+use crate::msgs::{
+    self, Clock, DecodeInto, Header, JointState, PoseStamped, TfMessage, Time, Transform,
+    TransformStamped, Vector3, Wrench, WrenchStamped,
+};
+use crate::node::{Input, NodeCore, Outputs};
+use arbitrary::{Arbitrary, Unstructured};
+use std::path::Path;
+use std::sync::OnceLock;
+
+/// Splits `data` at its first zero byte: a text and what follows it (the second file of a
+/// two-file format, or the arguments).
+fn split_at_nul(data: &[u8]) -> (&[u8], Option<&[u8]>) {
+    match data.iter().position(|&b| b == 0) {
+        Some(i) => (&data[..i], Some(&data[i + 1..])),
+        None => (data, None),
+    }
+}
+
+fn text(bytes: &[u8]) -> Option<&str> {
+    std::str::from_utf8(bytes).ok()
+}
+
+fn finite(what: &str, v: f64) {
+    assert!(v.is_finite(), "{what} = {v} handed on");
+}
+
+// ----------------------------------------------------------------------------------------------
+// The node: CDR from any participant, through the node's own core.
+
+/// The two nodes the wire target runs: flat legs of the improved model with F/T, hips from
+/// `/tf`, and RFT C-legs with the body's pose on a topic.
+const NODE_YAML: [&str; 2] = [
+    "/**:\n  ros__parameters:\n    legs: [fl, fr]\n    model: improved\n    fl:\n      joint: hip_fl\n      length_m: 0.25\n      width_m: 0.06\n      hip_height_m: 0.15\n      medium: hit_sand\n      ft_topic: fl/ft\n      hip_frame: fl_hip\n    fr:\n      joint: hip_fr\n      length_m: 0.25\n      width_m: 0.06\n      hip_height_m: 0.15\n      medium: hit_sand\n      direction: -1\n      ft_topic: fr/ft\n",
+    "/**:\n  ros__parameters:\n    legs: [fl, fr]\n    model: rft\n    robot_state:\n      pose_topic: /body_pose\n    fl:\n      joint: hip_fl\n      length_m: 0.1\n      width_m: 0.03\n      hip_height_m: 0.04\n      unit_weight_n_m3: 14208.0\n      phi_deg: 23.0\n      delta_deg: 19.0\n      rft_coeffs: poppy_lp\n      shape: c_leg\n      ft_topic: fl/ft\n      hip_frame: fl_hip\n    fr:\n      joint: hip_fr\n      length_m: 0.1\n      width_m: 0.03\n      hip_height_m: 0.04\n      unit_weight_n_m3: 14208.0\n      phi_deg: 23.0\n      delta_deg: 19.0\n      rft_coeffs: poppy_lp\n      ft_topic: fr/ft\n",
+];
+
+fn node_config(which: usize) -> NodeConfig {
+    static CONFIGS: OnceLock<Vec<NodeConfig>> = OnceLock::new();
+    CONFIGS.get_or_init(|| {
+        NODE_YAML
+            .iter()
+            .map(|yaml| {
+                let mut p = defaults();
+                p.extend(parse_params_yaml(yaml, "fuzz.yaml", "terzaghi", "/").expect("params"));
+                NodeConfig::from_params(&p, "terzaghi", "/", &[]).expect("config")
+            })
+            .collect()
+    })[which % NODE_YAML.len()]
+    .clone()
+}
+
+const FRAMES: [&str; 6] = ["odom", "base_link", "fl_hip", "fr_hip", "", "map"];
+const JOINTS: [&str; 4] = ["hip_fl", "hip_fr", "knee", ""];
+
+/// A number as the wire may carry it: mostly of a robot's scale, sometimes any bits at all.
+#[derive(Debug, Clone, Copy)]
+pub struct Num(pub f64);
+
+impl<'a> Arbitrary<'a> for Num {
+    fn arbitrary(u: &mut Unstructured<'a>) -> arbitrary::Result<Self> {
+        Ok(Num(match u.int_in_range(0u8..=7)? {
+            0 => f64::arbitrary(u)?,
+            1 => {
+                [0.0, -0.0, f64::NAN, f64::INFINITY, f64::MIN_POSITIVE, 1e300][u.choose_index(6)?]
+            }
+            _ => f64::from(i16::arbitrary(u)?) * 1e-3,
+        }))
+    }
+}
+
+/// A stamp near the session's start, or any.
+#[derive(Debug, Clone, Copy)]
+pub struct Stamp(pub Time);
+
+impl<'a> Arbitrary<'a> for Stamp {
+    fn arbitrary(u: &mut Unstructured<'a>) -> arbitrary::Result<Self> {
+        Ok(Stamp(if u.ratio(1u8, 8)? {
+            Time {
+                sec: i32::arbitrary(u)?,
+                nanosec: u32::arbitrary(u)?,
+            }
+        } else {
+            Time {
+                sec: 100 + i32::from(u.int_in_range(0u8..=20)?),
+                nanosec: u.int_in_range(0u32..=999_999_999)?,
+            }
+        }))
+    }
+}
+
+/// One input on the node's wire: raw bytes on one of its topics, or a well-formed message of
+/// any values (encoded to CDR and decoded, as a peer's would be).
+#[derive(Debug, Arbitrary)]
+pub enum WireInput {
+    /// Bytes on topic `topic` (JointState, each leg's F/T, `/tf`, `/tf_static`, the body's pose,
+    /// `/clock`).
+    Raw {
+        /// Which topic.
+        topic: u8,
+        /// The sample's bytes, encapsulation header included.
+        bytes: Vec<u8>,
+    },
+    /// A JointState.
+    Joints {
+        /// Its stamp.
+        stamp: Stamp,
+        /// Name (an index into the joints), position, velocity (if given).
+        joints: Vec<(u8, Num, Option<Num>)>,
+    },
+    /// A leg's F/T.
+    Wrench {
+        /// The leg.
+        leg: u8,
+        /// Its stamp.
+        stamp: Stamp,
+        /// Force and torque.
+        values: [Num; 6],
+    },
+    /// `/tf` or `/tf_static`.
+    Tf {
+        /// `/tf_static`.
+        is_static: bool,
+        /// Parent, child (indices into the frames), stamp, translation, rotation.
+        transforms: Vec<(u8, u8, Stamp, [Num; 3], [Num; 4])>,
+    },
+    /// The body's pose.
+    Pose {
+        /// Its frame (an index).
+        frame: u8,
+        /// Its stamp.
+        stamp: Stamp,
+        /// Position and orientation.
+        values: [Num; 7],
+    },
+    /// A log's hip row.
+    Hip {
+        /// The leg.
+        leg: u8,
+        /// Stamp (ns).
+        t_ns: i64,
+        /// Height, pitch, rate, forward and up velocity, forward position.
+        values: [Num; 6],
+    },
+}
+
+fn header(stamp: Stamp, frame: &str) -> Header {
+    Header {
+        stamp: stamp.0,
+        frame_id: frame.into(),
+    }
+}
+
+fn v3(v: &[Num]) -> Vector3 {
+    Vector3 {
+        x: v[0].0,
+        y: v[1].0,
+        z: v[2].0,
+    }
+}
+
+/// Encodes `m`, decodes it as the node would, and checks that it comes back the same.
+fn through_cdr<M>(m: &M) -> M
+where
+    M: serde::Serialize + for<'de> serde::Deserialize<'de> + std::fmt::Debug,
+{
+    let bytes = msgs::to_cdr(m).expect("a message encodes");
+    let back: M = msgs::from_cdr(&bytes).expect("an encoded message decodes");
+    assert_eq!(
+        format!("{back:?}"),
+        format!("{m:?}"),
+        "a message changed through CDR"
+    );
+    back
+}
+
+/// The hand-written decoder agrees with serde's on any bytes.
+fn decoders_agree<M>(bytes: &[u8]) -> Option<M>
+where
+    M: DecodeInto + Default + serde::Serialize + for<'de> serde::Deserialize<'de> + std::fmt::Debug,
+{
+    let serde: Result<M, _> = msgs::from_cdr(bytes);
+    let mut reused = M::default();
+    let ours = reused.decode_into(bytes);
+    match (&serde, &ours) {
+        (Ok(a), Ok(())) => assert_eq!(
+            format!("{a:?}"),
+            format!("{reused:?}"),
+            "the decoders disagree"
+        ),
+        (Err(_), Err(_)) => {}
+        _ => panic!("one decoder takes what the other refuses: serde {serde:?}, ours {ours:?}"),
+    }
+    serde.ok()
+}
+
+fn check_outputs(out: &Outputs) {
+    for l in &out.legs {
+        let w = &l.wrench.wrench;
+        for (what, v) in [
+            ("force.x", w.force.x),
+            ("force.y", w.force.y),
+            ("force.z", w.force.z),
+            ("torque.x", w.torque.x),
+            ("torque.y", w.torque.y),
+            ("torque.z", w.torque.z),
+            ("drag_n", l.force.drag_n),
+            ("lift_n", l.force.lift_n),
+            ("hip_torque_nm", l.force.hip_torque_nm),
+            ("depth_m", l.force.depth_m),
+            ("submerged_length_m", l.force.submerged_length_m),
+            ("attack_angle_rad", l.force.attack_angle_rad),
+        ] {
+            finite(&format!("leg {} {what}", l.leg), v);
+        }
+        assert!(
+            l.wrench.header.stamp.is_valid(),
+            "leg {} published with an invalid stamp {:?}",
+            l.leg,
+            l.wrench.header.stamp
+        );
+    }
+    for (leg, p) in &out.params {
+        finite(&format!("leg {leg} b_k"), p.b_k);
+        finite(&format!("leg {leg} a"), p.a);
+    }
+}
+
+/// The node's core fed a sequence of wire inputs: every sample decodes or is refused (both
+/// decoders alike), and every force, wrench and parameter it hands on is finite.
+pub fn node_wire(data: &[u8]) {
+    let mut u = Unstructured::new(data);
+    let Ok(which) = u8::arbitrary(&mut u) else {
+        return;
+    };
+    let Ok(inputs) = Vec::<WireInput>::arbitrary_take_rest(u) else {
+        return;
+    };
+    let mut core = NodeCore::new(node_config(which as usize));
+    let legs = core.legs();
+    let mut out = Outputs::default();
+    for input in inputs {
+        match input {
+            WireInput::Raw { topic, bytes } => match topic % 7 {
+                0 => {
+                    if let Some(m) = decoders_agree::<JointState>(&bytes) {
+                        core.handle(Input::Joints(&m), &mut out);
+                    }
+                }
+                t @ (1 | 2) => {
+                    if let Some(m) = decoders_agree::<WrenchStamped>(&bytes) {
+                        core.handle(Input::Wrench(t as usize - 1, &m), &mut out);
+                    }
+                }
+                t @ (3 | 4) => {
+                    if let Ok(m) = msgs::from_cdr::<TfMessage>(&bytes) {
+                        core.handle(Input::Tf(&m, t == 4), &mut out);
+                    }
+                }
+                5 => {
+                    if let Ok(m) = msgs::from_cdr::<PoseStamped>(&bytes) {
+                        core.handle(Input::Pose(&m), &mut out);
+                    }
+                }
+                _ => {
+                    let _ = msgs::from_cdr::<Clock>(&bytes);
+                }
+            },
+            WireInput::Joints { stamp, joints } => {
+                let m = through_cdr(&JointState {
+                    header: header(stamp, ""),
+                    name: joints
+                        .iter()
+                        .map(|j| JOINTS[j.0 as usize % JOINTS.len()].to_string())
+                        .collect(),
+                    position: joints.iter().map(|j| j.1.0).collect(),
+                    velocity: if joints.iter().all(|j| j.2.is_some()) {
+                        joints.iter().filter_map(|j| j.2.map(|v| v.0)).collect()
+                    } else {
+                        Vec::new()
+                    },
+                    effort: Vec::new(),
+                });
+                core.handle(Input::Joints(&m), &mut out);
+            }
+            WireInput::Wrench { leg, stamp, values } => {
+                let m = through_cdr(&WrenchStamped {
+                    header: header(stamp, "ft"),
+                    wrench: Wrench {
+                        force: v3(&values[..3]),
+                        torque: v3(&values[3..]),
+                    },
+                });
+                core.handle(Input::Wrench(leg as usize % legs, &m), &mut out);
+            }
+            WireInput::Tf {
+                is_static,
+                transforms,
+            } => {
+                let m = through_cdr(&TfMessage {
+                    transforms: transforms
+                        .iter()
+                        .map(|(p, c, s, t, q)| TransformStamped {
+                            header: header(*s, FRAMES[*p as usize % FRAMES.len()]),
+                            child_frame_id: FRAMES[*c as usize % FRAMES.len()].into(),
+                            transform: Transform {
+                                translation: v3(t),
+                                rotation: msgs::Quaternion {
+                                    x: q[0].0,
+                                    y: q[1].0,
+                                    z: q[2].0,
+                                    w: q[3].0,
+                                },
+                            },
+                        })
+                        .collect(),
+                });
+                core.handle(Input::Tf(&m, is_static), &mut out);
+            }
+            WireInput::Pose {
+                frame,
+                stamp,
+                values: v,
+            } => {
+                let m = through_cdr(&PoseStamped {
+                    header: header(stamp, FRAMES[frame as usize % FRAMES.len()]),
+                    pose: msgs::Pose {
+                        position: msgs::Point {
+                            x: v[0].0,
+                            y: v[1].0,
+                            z: v[2].0,
+                        },
+                        orientation: msgs::Quaternion {
+                            x: v[3].0,
+                            y: v[4].0,
+                            z: v[5].0,
+                            w: v[6].0,
+                        },
+                    },
+                });
+                core.handle(Input::Pose(&m), &mut out);
+            }
+            WireInput::Hip {
+                leg,
+                t_ns,
+                values: v,
+            } => {
+                let hip = HipMotion {
+                    height_m: v[0].0,
+                    pitch_rad: v[1].0,
+                    omega_rad_s: v[2].0,
+                    forward_m_s: v[3].0,
+                    up_m_s: v[4].0,
+                    forward_position_m: v[5].0,
+                };
+                core.handle(Input::Hip(leg as usize % legs, t_ns, hip), &mut out);
+            }
+        }
+        check_outputs(&out);
+        out.clear();
+    }
+}
+
+// ----------------------------------------------------------------------------------------------
+// Parameters: a params file and `--ros-args`.
+
+/// A params file, then (after a zero byte) `--ros-args` and the rest of a command line, one
+/// argument per line: a node configured from them, or an error. A configuration written back
+/// as a params file reads as the same configuration, and the node it makes predicts finite
+/// forces for a sweep of angles.
+pub fn params(data: &[u8]) {
+    let (yaml, args) = split_at_nul(data);
+    let Some(yaml) = text(yaml) else { return };
+    let args: Vec<String> = match args.map(text) {
+        Some(Some(a)) => a.lines().map(str::to_string).collect(),
+        Some(None) => return,
+        None => Vec::new(),
+    };
+    let Ok((_, ros)) = parse_ros_args(&args) else {
+        return;
+    };
+    let name = ros.node_name.clone().unwrap_or_else(|| "terzaghi".into());
+    let namespace = ros.namespace.clone().unwrap_or_else(|| "/".into());
+    let mut p = defaults();
+    match parse_params_yaml(yaml, "fuzz.yaml", &name, &namespace) {
+        Ok(file) => p.extend(file),
+        Err(_) => return,
+    }
+    for (k, v) in &ros.params {
+        p.insert(k.clone(), v.clone());
+    }
+    let Ok(cfg) = NodeConfig::from_params(&p, &name, &namespace, &ros.remaps) else {
+        return;
+    };
+    // What `record` writes into a session and `replay` reads back.
+    let written = params_yaml(&cfg.effective_params(&p), "fuzz");
+    let mut again: ParamMap = defaults();
+    again.extend(
+        parse_params_yaml(&written, "written.yaml", &name, &namespace)
+            .unwrap_or_else(|e| panic!("a written params file does not read: {e}\n{written}")),
+    );
+    let cfg2 = NodeConfig::from_params(&again, &name, &namespace, &ros.remaps)
+        .unwrap_or_else(|e| panic!("a written params file is refused: {e}\n{written}"));
+    assert_eq!(
+        format!("{cfg2:?}"),
+        format!("{cfg:?}"),
+        "a configuration changed when written and read back:\n{written}"
+    );
+    let mut core = NodeCore::new(cfg);
+    let mut out = Outputs::default();
+    let names: Vec<String> = core.config().legs.iter().map(|l| l.joint.clone()).collect();
+    for (i, beta) in [-2.0, -0.5, 0.0, 0.3, 1.2, 3.0].iter().enumerate() {
+        let m = JointState {
+            header: Header {
+                stamp: Time {
+                    sec: 100,
+                    nanosec: i as u32 * 10_000_000,
+                },
+                frame_id: String::new(),
+            },
+            name: names.clone(),
+            position: vec![*beta; names.len()],
+            velocity: vec![1.0; names.len()],
+            effort: Vec::new(),
+        };
+        core.handle(Input::Joints(&m), &mut out);
+        check_outputs(&out);
+        out.clear();
+    }
+}
+
+// ----------------------------------------------------------------------------------------------
+// Files.
+
+/// A CSV force log: read (a non-finite cell is kept, to be counted where it is used) or
+/// refused; then fitted in batch and diagnosed as `fit` and `diagnose` do: finite values, or
+/// an error, and every sample counted as used or skipped.
+pub fn csv_log(data: &[u8]) {
+    use crate::diagnose::{DiagnoseOptions, diagnose};
+    use crate::ident::{BatchOptions, fit_batch};
+    use crate::model::{Medium, Plate, TerzaghiModel};
+    let Ok(log) = crate::dataset::read_log_from(data, "fuzz.csv") else {
+        return;
+    };
+    if let Some(h) = &log.hips {
+        assert_eq!(h.len(), log.samples.len(), "a hip row per sample");
+    }
+    let model = TerzaghiModel::conventional(
+        Plate::new(0.25, 0.06, 0.15).expect("a plate"),
+        Medium::new(16170.0, 32.0, 19.0).expect("a medium"),
+    );
+    for fit_delta in [false, true] {
+        let opts = BatchOptions {
+            fit_delta,
+            ..Default::default()
+        };
+        if let Ok(f) = fit_batch(&model, &log.samples, &opts) {
+            finite("b_k", f.b_k);
+            finite("a", f.a);
+            finite("delta_deg", f.delta_deg);
+            assert_eq!(
+                f.samples + f.skipped_non_finite + f.skipped_regime,
+                log.samples.len(),
+                "a sample neither used nor counted as skipped"
+            );
+        }
+    }
+    let opts = DiagnoseOptions {
+        max_points: 2_000,
+        forward_share: false,
+        ..Default::default()
+    };
+    if let Ok(d) = diagnose(&model, &log.samples, &opts) {
+        finite("baseline b_k", d.report.baseline.b_k);
+        finite("baseline a", d.report.baseline.a);
+        finite("gap", d.report.gap.heldout_mse_n2);
+        assert!(
+            d.report.analysed + d.report.skipped_non_finite <= d.report.samples,
+            "more samples analysed and skipped than given"
+        );
+    }
+}
+
+/// A plate-sinkage test: its CSV, then (after a zero byte) its JSON. The first byte picks a
+/// plain log's plate (a 60 mm disc, or none given) and the depth column. Read with finite rows
+/// and a regime per row, then calibrated (every law fitted, or left out with its reason).
+pub fn plate_test(data: &[u8]) {
+    use crate::model::sinkage::{PlateShape, RegimeOptions};
+    use crate::session::plate_test::{DepthColumn, calibrate, parse_test};
+    let Some((&first, rest)) = data.split_first() else {
+        return;
+    };
+    let (csv, json) = split_at_nul(rest);
+    let (Some(csv), json) = (text(csv), json.map(text)) else {
+        return;
+    };
+    let json = match json {
+        Some(None) => return,
+        Some(Some(j)) => Some(j),
+        None => None,
+    };
+    let plate = (first & 1 == 1).then(|| PlateShape::disc(0.06).expect("a disc"));
+    let depth = if first & 2 == 2 {
+        DepthColumn::Compensated
+    } else {
+        DepthColumn::AsLogged
+    };
+    let Ok(test) = parse_test(
+        Path::new("fuzz.csv"),
+        csv,
+        json,
+        plate,
+        depth,
+        &RegimeOptions::default(),
+    ) else {
+        return;
+    };
+    assert_eq!(test.regimes.len(), test.rows.len(), "a regime per row");
+    for r in &test.rows {
+        finite("t_s", r.t_s);
+        finite("depth_m", r.depth_m);
+        finite("force_n", r.force_n);
+    }
+    let (fits, _) = calibrate(std::slice::from_ref(&test), 16_000.0);
+    for f in &fits {
+        for (i, v) in f.model.params.iter().enumerate() {
+            finite(&format!("{} parameter {i}", f.model.law.name()), *v);
+        }
+        finite("R^2 of a fit", f.r2);
+    }
+}
+
+/// An intrusion test: its CSV, then (after a zero byte) its JSON. Read with finite rows, then
+/// RFT's shape fitted to it (or refused) with finite coefficients and predictions.
+pub fn intrusion_test(data: &[u8]) {
+    use crate::ident::rft_shape::{ShapeOptions, fit_shape, predict_test};
+    use crate::session::intrusion_test::parse_intrusion_test;
+    let (csv, json) = split_at_nul(data);
+    let (Some(csv), Some(Some(json))) = (text(csv), json.map(text)) else {
+        return;
+    };
+    let Ok(t) = parse_intrusion_test(Path::new("fuzz.csv"), csv, json) else {
+        return;
+    };
+    for r in &t.test.rows {
+        for v in [r.t_s, r.x_m, r.depth_m, r.fx_n, r.fz_n] {
+            finite("an intrusion row's value", v);
+        }
+    }
+    let o = ShapeOptions::default();
+    let Ok(fit) = fit_shape(std::slice::from_ref(&t.test), &o) else {
+        return;
+    };
+    for v in fit.coefficients.to_array() {
+        finite("a shape coefficient", v);
+    }
+    finite("depth exponent", fit.depth_exponent);
+    finite("surface offset", fit.surface_offset_m);
+    for (_, x, z) in predict_test(&fit, &t.test, &o) {
+        finite("predicted fx", x);
+        finite("predicted fz", z);
+    }
+}
+
+/// A medium file: read (checked), or refused; a medium read predicts finite forces on a plate
+/// at every depth, and finite RFT stresses in every direction.
+pub fn medium_file(data: &[u8]) {
+    use crate::model::sinkage::PlateShape;
+    let Some(t) = text(data) else { return };
+    let Ok(m) = MediumFile::parse(Path::new("fuzz.yaml"), t) else {
+        return;
+    };
+    let model = m.model().expect("a medium file read has a model");
+    for plate in [
+        PlateShape::disc(0.06).expect("a disc"),
+        PlateShape::rectangle(0.03, 0.1).expect("a rectangle"),
+    ] {
+        for depth in [0.0, 1e-4, 0.005, 0.03, 0.2] {
+            finite("pressure_pa", model.pressure_pa(&plate, depth));
+            finite("force_n", model.force_n(&plate, depth));
+        }
+    }
+    let law = m.rft_law(None).expect("a medium file read has an RFT law");
+    for beta in [-1.5, -0.4, 0.0, 0.7, 1.5] {
+        for gamma in [-1.5, -0.3, 0.0, 0.9, 1.5] {
+            let (ax, az) = law.coefficients.alpha(beta, gamma);
+            finite("alpha_x", ax);
+            finite("alpha_z", az);
+        }
+    }
+    for depth in [0.0, 0.001, 0.05] {
+        finite("effective depth", law.depth_law.effective_depth_m(depth));
+    }
+    let again = m.to_yaml().expect("a medium file writes");
+    let back = MediumFile::parse(Path::new("written.yaml"), &again)
+        .unwrap_or_else(|e| panic!("a written medium file does not read: {e:#}\n{again}"));
+    assert_eq!(
+        format!("{back:?}"),
+        format!("{m:?}"),
+        "a medium file changed when written and read back"
+    );
+}
+
+// ----------------------------------------------------------------------------------------------
+// Recordings.
+
+/// An MCAP file from anywhere: scanned, read as a session, and recovered. What `recover` writes
+/// reads back with every message it says it wrote, and recovering that again changes nothing.
+pub fn mcap(data: &[u8]) {
+    use crate::record::read::{read_session, scan, summary_head};
+    use crate::record::recover::recover;
+    let _ = summary_head(data);
+    let mut seen = 0u64;
+    let scanned = scan(data, |_, _| seen += 1);
+    if let Ok(s) = read_session(data) {
+        for m in &s.messages {
+            let _ = s.decode::<JointState>(m);
+            let _ = s.decode::<WrenchStamped>(m);
+            let _ = s.decode::<TfMessage>(m);
+        }
+    }
+    let _ = scanned;
+    let Ok((out, rec)) = recover(data, std::io::Cursor::new(Vec::new()), |_| {}) else {
+        return;
+    };
+    let bytes = out.into_inner();
+    let session = read_session(&bytes)
+        .unwrap_or_else(|e| panic!("a recovered file does not read: {e} ({rec:?})"));
+    assert_eq!(
+        session.messages.len() as u64,
+        rec.messages,
+        "a recovered file holds another count of messages than recover says"
+    );
+    let (out2, rec2) = recover(&bytes, std::io::Cursor::new(Vec::new()), |_| {})
+        .unwrap_or_else(|e| panic!("a recovered file does not recover: {e}"));
+    assert_eq!(
+        rec2.messages, rec.messages,
+        "recovering twice loses messages"
+    );
+    assert!(rec2.input_complete, "a recovered file is complete");
+    let again = read_session(&out2.into_inner()).expect("recovered twice reads");
+    assert_eq!(again.messages.len(), session.messages.len());
+}
