@@ -522,16 +522,16 @@ impl NodeCore {
         if hips.is_empty() {
             return None;
         }
-        let max_age_ns = (self.cfg.robot_state.max_age_s * 1e9) as i64;
+        let max_age_ns = (self.cfg.robot_state.max_age_s * 1e9) as u64;
         // Kept in stamp order: the nearest is at the first stamp not before `stamp_ns`, or
-        // the one before it.
+        // the one before it. Stamps are any i64 a log holds: their distance is taken unsigned.
         let i = hips.partition_point(|(t, _)| *t < stamp_ns);
         let nearest = [i.checked_sub(1), Some(i)]
             .into_iter()
             .flatten()
             .filter_map(|k| hips.get(k))
-            .min_by_key(|(t, _)| (t - stamp_ns).abs())
-            .filter(|(t, _)| (t - stamp_ns).abs() <= max_age_ns);
+            .min_by_key(|(t, _)| t.abs_diff(stamp_ns))
+            .filter(|(t, _)| t.abs_diff(stamp_ns) <= max_age_ns);
         Some(match nearest {
             Some((_, h)) => Ok(HipMotion { omega_rad_s, ..*h }),
             None => Err(NoState::Stale),
@@ -1121,6 +1121,7 @@ impl NodeCore {
             model: TerzaghiModel::conventional(lc.plate, lc.medium),
             stamp_ns: mt.t_ns,
             strokes: l.gap.strokes(),
+            min_gap_n: g.min_gap_n,
         };
         match self.gap_jobs.iter_mut().find(|j| j.leg == leg) {
             Some(waiting) => {

@@ -82,6 +82,14 @@ pub fn fit_batch(
     let (p, iterations) = solve(&used, delta0, opts);
     let (b_k, a) = (p[0].exp(), p[1].exp());
     let delta = if opts.fit_delta { p[2] } else { delta0 };
+    if !(b_k.is_finite() && b_k > 0.0 && a.is_finite() && a > 0.0 && delta.is_finite()) {
+        return Err(IdentError::NoFit {
+            b_k,
+            a,
+            delta_deg: delta.to_degrees(),
+            samples: used.len(),
+        });
+    }
 
     let meas: Vec<(f64, f64)> = used.iter().map(|s| (s.drag_n, s.lift_n)).collect();
     let improved: Vec<(f64, f64)> = used

@@ -63,6 +63,20 @@ pub enum IdentError {
     /// Every measured force is zero.
     #[error("the measured forces are all zero: nothing to fit")]
     NoForce,
+    /// The fit ran off to a value that is not a number: the samples do not determine it.
+    #[error(
+        "the fit does not converge (b_k = {b_k}, a = {a}, delta = {delta_deg} deg): the {samples} usable samples do not determine the width law; check the log's units (radians, newtons) and its attack angles"
+    )]
+    NoFit {
+        /// `b_k` where the fit stopped.
+        b_k: f64,
+        /// `a` where the fit stopped.
+        a: f64,
+        /// The plate friction angle where the fit stopped (deg).
+        delta_deg: f64,
+        /// Samples the fit used.
+        samples: usize,
+    },
     /// The model refused an input.
     #[error(transparent)]
     Model(#[from] ModelError),
