@@ -211,6 +211,9 @@ pub struct SinkageModel {
     pub rft_alpha_z_n_cm3: f64,
 }
 
+/// The largest exponent of depth or width a sinkage law may have.
+pub const MAX_EXPONENT: f64 = 5.0;
+
 impl SinkageModel {
     /// A model, checked: every value finite, the right count, positive exponents, unit weight
     /// and `alpha_z`, and a pressure that is not negative over the plates and depths a test
@@ -245,12 +248,26 @@ impl SinkageModel {
             unit_weight_n_m3,
             rft_alpha_z_n_cm3,
         };
+        // Exponents of depth (and width) within what any soil shows, with room: a law that
+        // rises as z^1e17 has a pressure that is no number a metre down.
+        let exponent = |name: &str, v: f64, lo: f64| {
+            if v > lo && v <= MAX_EXPONENT {
+                Ok(())
+            } else {
+                Err(ModelError::OutOfRange {
+                    what: param_label(name),
+                    value: v,
+                    range: format!("({lo}, {MAX_EXPONENT}]"),
+                })
+            }
+        };
         match law {
             SinkageLaw::Bekker | SinkageLaw::Reece | SinkageLaw::RftDepthPower => {
-                positive(param_label("n"), m.params[names.len() - 1])?;
+                exponent("n", m.params[names.len() - 1], 0.0)?;
             }
             SinkageLaw::DepthWidthPower => {
-                positive(param_label("n"), m.params[1])?;
+                exponent("n", m.params[1], 0.0)?;
+                exponent(names[2], m.params[2], -MAX_EXPONENT)?;
             }
             SinkageLaw::TerzaghiFooting => {}
         }
@@ -261,6 +278,19 @@ impl SinkageModel {
                 value: m.params[scale],
                 range: ">= 0".into(),
             });
+        }
+        // Finite at the deepest and widest a leg or plate of this crate reaches: 1 m down
+        // under a plate 1 m across, and at 1 mm under one of 1 mm.
+        for (b, z) in [(1.0, 1.0), (1e-3, 1e-3)] {
+            let plate = PlateShape::rectangle(b, b)?;
+            let p = m.pressure_pa(&plate, z);
+            if !p.is_finite() {
+                return Err(ModelError::OutOfRange {
+                    what: "sinkage pressure (Pa) of these parameters",
+                    value: p,
+                    range: format!("finite at {z} m under a plate {b} m wide"),
+                });
+            }
         }
         Ok(m)
     }
