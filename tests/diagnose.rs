@@ -451,6 +451,27 @@ fn the_node_reports_an_offset_that_appears_and_nothing_without_one() {
             "false warning: leg {leg} at {t:.1} s: {new:?}"
         );
     }
+    // The model's own forces without noise: thousandths of a newton of misfit, below the
+    // watch's floor (gap_check.min_gap_n), are no effect.
+    let noiseless = simulate(
+        &cfg,
+        &Truth {
+            noise_frac: 0.0,
+            ..truth.clone()
+        },
+        &Gait {
+            seconds: 30.0,
+            ..gait
+        },
+    );
+    let quiet = gaps(&noiseless);
+    assert!(quiet.len() >= 12, "{} diagnoses", quiet.len());
+    for (leg, t, new, error) in &quiet {
+        assert!(
+            error.is_empty() && new.is_empty(),
+            "noise-free leg {leg} at {t:.1} s: {new:?} {error}"
+        );
+    }
     let with = gaps(&offset);
     for leg in 0..cfg.legs.len() {
         let first = with
@@ -728,5 +749,78 @@ fn a_slow_sensors_lag_of_a_few_periods_is_found() {
     assert!(
         (s["update_rate_hz"].as_f64().unwrap() - 12.0).abs() < 0.5,
         "{s}"
+    );
+}
+
+/// A recording of the model's own forces, without noise (what `hexapod_walk.py --record` or
+/// `simulate-robot --noise-frac 0` writes): the held-out gap is thousandths of a newton of
+/// numerical misfit, and no effect is named for it. Every leg is `none`, "no gap to explain",
+/// with the floor it fell under; the floor is the user's to set, and at 0 the search runs on.
+#[test]
+fn a_noise_free_walk_has_no_gap_to_explain() {
+    let dir = tempfile::tempdir().unwrap();
+    let mcap = dir.path().join("walk.mcap");
+    ok(&terzaghi(&[
+        "simulate-robot",
+        "--seconds",
+        "20",
+        "--noise-frac",
+        "0",
+        "-o",
+        mcap.to_str().unwrap(),
+    ]));
+    let out = dir.path().join("diag");
+    let text = ok(&terzaghi(&[
+        "diagnose",
+        mcap.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]));
+    print!("{text}");
+    let verdicts: Vec<&str> = text.lines().filter(|l| l.starts_with("leg ")).collect();
+    assert_eq!(verdicts.len(), 6, "{text}");
+    for v in &verdicts {
+        assert!(
+            v.contains("verdict none (no gap to explain:")
+                && v.contains("within what the sensor resolves (0.010 N)"),
+            "{v}"
+        );
+    }
+    for leg in ["front_left", "rear_right"] {
+        let r = json(&out.join(leg).join("report.json"));
+        assert_eq!(r["gap"]["below_resolution"], true, "{leg}");
+        assert!(r["gap"]["gap_rms_n"].as_f64().unwrap() < 0.01, "{leg}");
+        assert!(r["steps"].as_array().unwrap().is_empty(), "{leg}");
+        assert!(
+            r["summary"].as_str().unwrap().contains("no gap to explain"),
+            "{}",
+            r["summary"]
+        );
+    }
+    // The floor decides: with none stated, the thousandths are searched for effects.
+    let none_floor = ok(&terzaghi(&[
+        "diagnose",
+        mcap.to_str().unwrap(),
+        "--out",
+        dir.path().join("diag0").to_str().unwrap(),
+        "--min-gap-n",
+        "0",
+    ]));
+    assert!(
+        none_floor
+            .lines()
+            .any(|l| l.starts_with("leg ") && !l.contains("verdict none")),
+        "{none_floor}"
+    );
+    refused(
+        &terzaghi(&[
+            "diagnose",
+            mcap.to_str().unwrap(),
+            "--out",
+            dir.path().join("d").to_str().unwrap(),
+            "--min-gap-n",
+            "-1",
+        ]),
+        &["--min-gap-n", "-1"],
     );
 }

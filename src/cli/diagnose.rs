@@ -57,6 +57,10 @@ pub struct DiagnoseArgs {
     /// alone is reported as cohesion, rather than as "cohesion, or the model's own misfit".
     #[arg(long)]
     pub cohesive: bool,
+    /// The smallest gap a verdict may explain (N, RMS beyond the noise): a smaller gap, or one
+    /// within the sensor's quantisation step, is "no gap to explain" (verdict none).
+    #[arg(long, value_name = "N", allow_negative_numbers = true, default_value_t = DiagnoseOptions::default().min_gap_n)]
+    pub min_gap_n: f64,
     /// Print the report(s) as JSON instead of a text summary.
     #[arg(long)]
     pub json: bool,
@@ -106,12 +110,16 @@ fn options(a: &DiagnoseArgs) -> Result<DiagnoseFileOptions> {
     if a.folds < 2 {
         bail!("--folds must be at least 2, got {}", a.folds);
     }
+    if !(a.min_gap_n.is_finite() && a.min_gap_n >= 0.0) {
+        bail!("--min-gap-n must be a number >= 0 (N), got {}", a.min_gap_n);
+    }
     let geometry_given = a.plate.any();
     let mut opts = DiagnoseFileOptions {
         leg: a.leg.clone(),
         analysis: DiagnoseOptions {
             folds: a.folds,
             cohesive_medium: a.cohesive,
+            min_gap_n: a.min_gap_n,
             ..Default::default()
         },
         ..Default::default()
@@ -181,7 +189,11 @@ fn render(leg: &str, r: &Report, dir: &Path) -> String {
         "leg {leg}: verdict {}{}\n",
         r.verdict.effect,
         if r.steps.is_empty() {
-            String::new()
+            if r.verdict.effect == crate::diagnose::VerdictEffect::None {
+                format!(" ({})", r.verdict.claim)
+            } else {
+                String::new()
+            }
         } else {
             format!(
                 " (closes {:.0} % of the gap; held-out Psi {:.3} -> {:.3})",

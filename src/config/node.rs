@@ -221,12 +221,15 @@ pub struct NodeConfig {
 }
 
 /// How the node diagnoses each leg's recent strokes while it runs (`gap_check.*`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GapCheck {
     /// A diagnosis every this many strokes of a leg (0: none).
     pub every_strokes: usize,
     /// Of the last this many strokes (at least 4).
     pub window_strokes: usize,
+    /// The smallest gap a verdict may explain (N; `DiagnoseOptions::min_gap_n`): below it the
+    /// leg's gap is `none`, "no gap to explain".
+    pub min_gap_n: f64,
 }
 
 impl Default for GapCheck {
@@ -234,6 +237,7 @@ impl Default for GapCheck {
         GapCheck {
             every_strokes: 3,
             window_strokes: 10,
+            min_gap_n: crate::diagnose::DiagnoseOptions::default().min_gap_n,
         }
     }
 }
@@ -441,6 +445,7 @@ pub fn defaults() -> ParamMap {
         "gap_check.window_strokes",
         ParamValue::Int(g.window_strokes as i64),
     );
+    put("gap_check.min_gap_n", ParamValue::Double(g.min_gap_n));
     m
 }
 
@@ -669,6 +674,18 @@ impl NodeConfig {
             gap_check: GapCheck {
                 every_strokes: g.count("gap_check.every_strokes", 0, 1_000_000)?,
                 window_strokes: g.count("gap_check.window_strokes", 4, 1000)?,
+                min_gap_n: {
+                    let v = g.need_f64("gap_check.min_gap_n", "no default")?;
+                    if v.is_finite() && v >= 0.0 {
+                        v
+                    } else {
+                        return Err(invalid(
+                            "gap_check.min_gap_n",
+                            &v,
+                            "must be a number >= 0 (N)",
+                        ));
+                    }
+                },
             },
             robot_state,
             remaps: remaps.to_vec(),

@@ -37,6 +37,8 @@ pub struct GapJob {
     pub stamp_ns: i64,
     /// Strokes in the job.
     pub strokes: usize,
+    /// The smallest gap a verdict may explain (N; `gap_check.min_gap_n`).
+    pub min_gap_n: f64,
 }
 
 impl GapJob {
@@ -74,6 +76,7 @@ impl GapJob {
             max_points: GAP_MAX_POINTS,
             max_fit_points: GAP_MAX_POINTS,
             forward_share: false,
+            min_gap_n: self.min_gap_n,
             ..Default::default()
         };
         let (samples, hips) = self.samples();

@@ -15,7 +15,9 @@
 //!    holds stroke by stroke, paired t over strokes, and pays for its parameters) and material
 //!    (it closes a set share of the gap, or a direct signature of [`signatures`] shows it).
 //! 6. A verdict: the significant effect with the largest share of the gap if that share is
-//!    material; `none` if the gap is at the noise level; `unexplained` otherwise. What no
+//!    material; `none` if the gap is at the noise level or smaller than the sensor resolves
+//!    (its quantisation step, or [`DiagnoseOptions::min_gap_n`]): no gap to explain;
+//!    `unexplained` otherwise. What no
 //!    significant effect explains is reported on its own: its share, where it lies, and what
 //!    it resembles.
 
@@ -53,6 +55,11 @@ pub struct DiagnoseOptions {
     /// A gap is real when the held-out mean squared residual exceeds the noise variance by this
     /// fraction (and the excess is significant).
     pub min_excess_ratio: f64,
+    /// The smallest gap a verdict may explain (N, RMS over drag and lift, in excess of the
+    /// noise): below it, or below the sensor's quantisation step where the log shows one, there
+    /// is no gap to explain, however well an effect would fit it. The default, 0.01 N, is about
+    /// the resolution of a small six-axis F/T sensor.
+    pub min_gap_n: f64,
     /// The verdict names an effect only if its step closes this share of the gap (%).
     pub accept_pct: f64,
     /// An effect is reported as a step if it closes this share (%) of the baseline's gap, or if
@@ -79,6 +86,7 @@ impl Default for DiagnoseOptions {
             max_points: 16_000,
             max_fit_points: 200_000,
             min_excess_ratio: 0.1,
+            min_gap_n: 0.01,
             accept_pct: 30.0,
             step_pct: 5.0,
             max_steps: 4,
@@ -401,6 +409,58 @@ mod tests {
                 "value {j}: spread {spread:.3e}, standard deviation said {said:.3e}"
             );
         }
+    }
+
+    /// An offset the diagnosis names at once is no finding where it is smaller than the sensor
+    /// resolves: under a stated floor above it, or a quantisation step above it (read from the
+    /// log's values), the verdict is `none`, "no gap to explain", and no step is searched.
+    #[test]
+    fn a_gap_below_what_the_sensor_resolves_is_not_explained() {
+        let s = session(20, |d, l| (d + 3.0, l - 2.0));
+        let named = diagnose(&unit(), &s, &DiagnoseOptions::default()).unwrap();
+        let gap = named.report.gap.gap_rms_n;
+        assert_eq!(
+            named.report.verdict.effect,
+            VerdictEffect::Effect(Effect::SensorBias)
+        );
+        assert!(gap > 1.0 && !named.report.gap.below_resolution, "{gap}");
+        let floored = diagnose(
+            &unit(),
+            &s,
+            &DiagnoseOptions {
+                min_gap_n: 1.2 * gap,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let r = &floored.report;
+        assert_eq!(r.verdict.effect, VerdictEffect::None);
+        assert!(r.gap.below_resolution && r.steps.is_empty());
+        assert!(
+            r.verdict.claim.starts_with("no gap to explain"),
+            "{}",
+            r.verdict.claim
+        );
+        assert!(r.summary.contains("the stated floor"), "{}", r.summary);
+        // A sensor that reports in steps coarser than the gap.
+        let step = 1.5 * gap;
+        let quantised: Vec<Sample> = s
+            .iter()
+            .map(|x| Sample {
+                drag_n: (x.drag_n / step).round() * step,
+                lift_n: (x.lift_n / step).round() * step,
+                ..*x
+            })
+            .collect();
+        let q = diagnose(&unit(), &quantised, &DiagnoseOptions::default()).unwrap();
+        let r = &q.report;
+        assert!(
+            (r.noise.quantum_n / step - 1.0).abs() < 1e-9,
+            "{} against {step}",
+            r.noise.quantum_n
+        );
+        assert_eq!(r.verdict.effect, VerdictEffect::None, "{}", r.summary);
+        assert!(r.summary.contains("its quantisation step"), "{}", r.summary);
     }
 
     #[test]

@@ -159,6 +159,9 @@ pub struct Noise {
     pub source: &'static str,
     /// Samples the noise was measured on.
     pub samples: usize,
+    /// The sensor's quantisation step (N): the smallest step between the distinct values it
+    /// reported, over drag and lift (as small as the log's digits where it is not quantised).
+    pub quantum_n: f64,
 }
 
 /// The improved model alone, fitted on every stroke.
@@ -189,6 +192,14 @@ pub struct Gap {
     pub excess_ratio: f64,
     /// Chi-square test of the residual against the noise, as a z score.
     pub z: f64,
+    /// The gap: the held-out RMS residual in excess of the noise (N).
+    pub gap_rms_n: f64,
+    /// The smallest gap the sensor resolves (N): the larger of the stated floor
+    /// ([`super::DiagnoseOptions::min_gap_n`]) and the sensor's quantisation step.
+    pub resolution_n: f64,
+    /// The gap is smaller than the sensor resolves: nothing to explain, however well an effect
+    /// would fit it.
+    pub below_resolution: bool,
 }
 
 /// A bin of one dimension of the session, with the residual in it.
@@ -460,7 +471,10 @@ pub(super) fn analyse(
     let mse_b = base.heldout_mse();
     let excess = mse_b - var;
     let z = (base.heldout_sse / var - residuals as f64) / (2.0 * residuals as f64).sqrt();
-    let real = excess > opts.min_excess_ratio * var && z > 5.0;
+    let gap_rms_n = excess.max(0.0).sqrt();
+    let resolution_n = opts.min_gap_n.max(noise.quantum_n);
+    let below_resolution = gap_rms_n <= resolution_n;
+    let real = excess > opts.min_excess_ratio * var && z > 5.0 && !below_resolution;
     let closed = |mse: f64| {
         if excess > 0.0 {
             100.0 * (mse_b - mse) / excess
@@ -684,8 +698,12 @@ pub(super) fn analyse(
             basis: None,
             claim: if real {
                 "an effect no candidate term explains, or the model's own misfit".into()
+            } else if below_resolution {
+                format!(
+                    "no gap to explain: {gap_rms_n:.3} N beyond the noise, within what the sensor resolves ({resolution_n:.3} N)"
+                )
             } else {
-                "the model fits to the noise level".into()
+                "no gap to explain: the model fits to the noise level".into()
             },
         },
     };
@@ -778,6 +796,9 @@ pub(super) fn analyse(
         noise_var_n2: var,
         excess_ratio: excess / var,
         z,
+        gap_rms_n,
+        resolution_n,
+        below_resolution,
     };
     let candidates: Vec<Candidate> = fits.into_iter().map(|(_, c)| c).collect();
     let summary = summary(
@@ -1068,6 +1089,7 @@ fn noise(ctx: &Context) -> Noise {
             lift_n: mad_sigma(&l),
             source: "out_of_medium",
             samples: out.len(),
+            quantum_n: quantum(ctx),
         };
     }
     let diff = |c: usize| -> Vec<f64> {
@@ -1081,7 +1103,25 @@ fn noise(ctx: &Context) -> Noise {
         lift_n: mad_sigma(&diff(1)),
         source: "successive_differences",
         samples: ctx.points.len(),
+        quantum_n: quantum(ctx),
     }
+}
+
+/// The sensor's quantisation step: the smallest step between distinct values of a component,
+/// the larger over drag and lift (0 with fewer than two distinct values).
+fn quantum(ctx: &Context) -> f64 {
+    let step = |c: usize| {
+        let mut v: Vec<f64> = ctx.points.iter().map(|p| p.y_n[c]).collect();
+        v.sort_by(f64::total_cmp);
+        v.windows(2)
+            .map(|w| w[1] - w[0])
+            .filter(|d| *d > 0.0)
+            .fold(f64::INFINITY, f64::min)
+    };
+    [step(0), step(1)]
+        .into_iter()
+        .filter(|q| q.is_finite())
+        .fold(0.0, f64::max)
 }
 
 fn mad_sigma(x: &[f64]) -> f64 {
@@ -1277,8 +1317,21 @@ fn summary(
             "from sample-to-sample differences"
         }
     );
+    if gap.below_resolution {
+        s += &format!(
+            "Beyond the noise that is {:.3} N, within what the sensor resolves ({:.3} N: {}): no gap to explain (verdict: none).",
+            gap.gap_rms_n,
+            gap.resolution_n,
+            if noise.quantum_n >= gap.resolution_n {
+                "its quantisation step"
+            } else {
+                "the stated floor, --min-gap-n"
+            }
+        );
+        return s;
+    }
     if !gap.real {
-        s += "That is at the noise level: no unmodelled effect is needed to explain this session (verdict: none).";
+        s += "That is at the noise level: no gap to explain, and no unmodelled effect is needed for this session (verdict: none).";
         return s;
     }
     let hot: Vec<&Bin> = where_
