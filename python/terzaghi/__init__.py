@@ -55,6 +55,30 @@ def _finite(name: str, value: Optional[float]) -> Optional[float]:
     return v
 
 
+def _vector(name: str, x, n: int, what: str) -> List[float]:
+    """``x`` as ``n`` floats, from an array of shape ``(n,)`` only: a ``(1, n)`` or an ``(n + 1,)``
+    is refused naming both shapes, as numpy refuses shapes that do not fit."""
+    try:
+        a = np.asarray(x, dtype=np.float64)
+    except (TypeError, ValueError) as e:
+        raise TerzaghiError(f"{name}: not an array of numbers ({e})") from None
+    if a.shape != (n,):
+        raise TerzaghiError(f"{name} has shape {a.shape}, expected ({n},): {what}")
+    return a.tolist()
+
+
+def _joints(names, position, velocity) -> tuple:
+    """A JointState's names, positions and velocities: one position (and velocity, if given)
+    per name, as arrays of shape ``(len(names),)``."""
+    if isinstance(names, str):
+        raise TerzaghiError(f"names must be a list of joint names, got the string {names!r}")
+    names = [str(n) for n in names]
+    what = f"one per name ({len(names)} names)"
+    pos = _vector("position", position, len(names), what)
+    vel = [] if velocity is None else _vector("velocity", velocity, len(names), what)
+    return names, pos, vel
+
+
 def _medium(medium, unit_weight_n_m3, phi_deg, delta_deg) -> tuple:
     """The medium as the native calls take it: a preset's name, or the three soil values."""
     return (medium, _finite("unit_weight_n_m3", unit_weight_n_m3), _finite("phi_deg", phi_deg),
@@ -148,9 +172,17 @@ def predict(
             *_model_tail(b_k, a, rft_coeffs, rft_zeta, rft_elements, shape, c_leg_radius_m,
                          c_leg_span_deg, profile, medium_file))
     if model == "sinkage" or np.ndim(hip_height_m) > 0 or up_m_s is not None:
-        b, h, u = np.broadcast_arrays(np.asarray(beta_rad, dtype=np.float64),
-                                      np.asarray(hip_height_m, dtype=np.float64),
-                                      np.asarray(0.0 if up_m_s is None else up_m_s, dtype=np.float64))
+        given = {"beta_rad": beta_rad, "hip_height_m": hip_height_m,
+                 "up_m_s": 0.0 if up_m_s is None else up_m_s}
+        try:
+            arrays = [np.asarray(v, dtype=np.float64) for v in given.values()]
+        except (TypeError, ValueError) as e:
+            raise TerzaghiError(f"beta_rad, hip_height_m and up_m_s must be numbers ({e})") from None
+        try:
+            b, h, u = np.broadcast_arrays(*arrays)
+        except ValueError:
+            shapes = ", ".join(f"{k} {a.shape}" for k, a in zip(given, arrays))
+            raise TerzaghiError(f"the inputs' shapes do not broadcast: {shapes}") from None
         cols, regime = _terzaghi.predict_moving(
             b.ravel().tolist(), h.ravel().tolist(), u.ravel().tolist(), model, float(length_m),
             float(width_m), *tail)
@@ -414,19 +446,18 @@ class Recorder:
     def joint_state(self, t_ns: int, names: List[str], position, velocity=None,
                     topic: str = "/joint_states") -> None:
         """A ``sensor_msgs/JointState`` stamped ``t_ns`` (ns since the Unix epoch)."""
-        pos = [float(v) for v in np.ravel(position)]
-        vel = [] if velocity is None else [float(v) for v in np.ravel(velocity)]
-        self._inner.joint_state(topic, int(t_ns), list(names), pos, vel)
+        names, pos, vel = _joints(names, position, velocity)
+        self._inner.joint_state(topic, int(t_ns), names, pos, vel)
 
     def wrench(self, topic: str, t_ns: int, force, torque=(0.0, 0.0, 0.0), frame_id: str = "") -> None:
         """A ``geometry_msgs/WrenchStamped`` (N, N m)."""
-        self._inner.wrench(topic, int(t_ns), frame_id, [float(v) for v in force],
-                           [float(v) for v in torque])
+        self._inner.wrench(topic, int(t_ns), frame_id, _vector("force", force, 3, "(x, y, z) in N"),
+                           _vector("torque", torque, 3, "(x, y, z) in N m"))
 
     def pose(self, topic: str, t_ns: int, position, orientation_xyzw, frame_id: str = "") -> None:
         """A ``geometry_msgs/PoseStamped`` (m; a unit quaternion x, y, z, w)."""
-        self._inner.pose(topic, int(t_ns), frame_id, [float(v) for v in position],
-                         [float(v) for v in orientation_xyzw])
+        self._inner.pose(topic, int(t_ns), frame_id, _vector("position", position, 3, "(x, y, z) in m"),
+                         _vector("orientation_xyzw", orientation_xyzw, 4, "a quaternion (x, y, z, w)"))
 
     def close(self) -> int:
         """Finishes the file; returns the messages written."""
@@ -470,8 +501,9 @@ class Node:
     def pose(self, t_ns: int, position, orientation_xyzw, frame_id: str = "") -> None:
         """The body's pose at ``t_ns`` (ns): position (m) and unit quaternion ``(x, y, z, w)``
         in ``frame_id`` (the world frame when empty)."""
-        self._inner.pose(int(t_ns), [float(v) for v in position],
-                         [float(v) for v in orientation_xyzw], frame_id)
+        self._inner.pose(int(t_ns), _vector("position", position, 3, "(x, y, z) in m"),
+                         _vector("orientation_xyzw", orientation_xyzw, 4, "a quaternion (x, y, z, w)"),
+                         frame_id)
 
     def wrench(self, leg: Union[int, str], t_ns: int, force, torque=(0.0, 0.0, 0.0),
                frame_id: str = "") -> None:
@@ -485,8 +517,8 @@ class Node:
             i = int(leg)
             if not 0 <= i < len(self.legs):
                 raise TerzaghiError(f"leg {leg!r}: the node has {len(self.legs)} legs (0 to {len(self.legs) - 1})")
-        self._inner.wrench(i, int(t_ns), [float(v) for v in force], [float(v) for v in torque],
-                           frame_id)
+        self._inner.wrench(i, int(t_ns), _vector("force", force, 3, "(x, y, z) in N"),
+                           _vector("torque", torque, 3, "(x, y, z) in N m"), frame_id)
 
     def joint_state(self, t_ns: int, names: List[str], position, velocity=None) -> Dict[str, np.ndarray]:
         """A JointState at ``t_ns``: returns each leg's prediction as arrays over
@@ -495,9 +527,8 @@ class Node:
         ``sensor_drag_n``, ``sensor_lift_n`` (what its F/T sensor is expected to read),
         ``bare_drag_n``, ``bare_lift_n`` (the bare model's), ``hip_height_m``,
         ``attack_angle_rad`` and ``regime`` (codes, :data:`REGIMES`)."""
-        pos = [float(v) for v in np.ravel(position)]
-        vel = [] if velocity is None else [float(v) for v in np.ravel(velocity)]
-        cols = self._inner.joint_state(int(t_ns), list(names), pos, vel)
+        names, pos, vel = _joints(names, position, velocity)
+        cols = self._inner.joint_state(int(t_ns), names, pos, vel)
         return {k: np.asarray(v) for k, v in zip(self._fields, cols)}
 
 

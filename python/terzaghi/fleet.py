@@ -36,6 +36,7 @@ __all__ = [
     "diagnose_recording",
     "diagnose_fleet",
     "flag_drifts",
+    "judge_drifts",
     "write_report",
     "main",
 ]
@@ -276,54 +277,81 @@ def _robust_sigma(x: np.ndarray) -> float:
     return 1.4826 * float(np.median(np.abs(x - np.median(x))))
 
 
-def flag_drifts(
+def judge_drifts(
     df,
     *,
-    min_before: int = 4,
+    min_before: int = 1,
     offset_floor_n: float = 0.05,
     strength_floor_rel: float = 0.05,
     z: float = 6.0,
-) -> List[Dict[str, Any]]:
+) -> Dict[str, List[Dict[str, Any]]]:
     """Drifts per robot, from its recordings in time order (the median over its legs of each):
 
     - ``offset_grows``: the sensor offset's size (out of the medium) leaves its level of the
-      recordings before, by more than ``z`` robust deviations and at least ``offset_floor_n``,
-      and stays out while growing; flagged at the first such recording.
+      recordings before, by more than ``z`` robust deviations of them and at least
+      ``offset_floor_n``, and stays out; flagged at the first such recording.
     - ``medium_changed``: the medium's strength ``b_k a^(-pi/4)`` steps to another level (the
       two-level split of its logarithm with the least squared deviation), by more than ``z``
       robust deviations of the levels and ``strength_floor_rel`` of the earlier one; flagged at
       the first recording after the step.
 
-    A robot needs ``min_before`` recordings before a change to be judged. Returns one dict per
-    flag: robot, kind, day (UTC date of that recording), start_unix_s, before, after.
+    A change is judged with ``min_before`` recordings (at least 1) before it and two from it on
+    (one to see it, one to see it stay): a robot with fewer than ``min_before + 2`` recordings is
+    too short to judge, and a change found with fewer before it than ``min_before`` is not
+    flagged. Neither is silent: each is a note.
+
+    Returns ``{"flags": [...], "notes": [...]}``. A flag: robot, kind, day (UTC date of the
+    recording it starts at), start_unix_s, before, after. A note: robot, kind (``too_short``
+    or ``too_early``), recordings, needed, day (of a change too early to judge, else None),
+    text.
     """
-    flags = []
+    if not (isinstance(min_before, int) and min_before >= 1):
+        raise ValueError(f"min_before must be a whole number >= 1, got {min_before!r}")
+    flags: List[Dict[str, Any]] = []
+    notes: List[Dict[str, Any]] = []
+    needed = min_before + 2
     for robot in sorted(set(df["robot"].dropna())):
         recs = _per_recording(df, robot)
-        if len(recs) < min_before + 2:
+        n = len(recs)
+        if n < needed:
+            notes.append(dict(
+                robot=robot, kind="too_short", recordings=n, needed=needed, day=None,
+                text=f"{robot}: {n} recording{'s' if n != 1 else ''}, too short to judge: a change "
+                f"needs {min_before} before it and 2 from it on ({needed} in all, --min-before {min_before})",
+            ))
             continue
         t = np.array([r[0] for r in recs])
         off = np.array([r[1] for r in recs])
         strength = np.array([r[2] for r in recs])
         day = lambda i: _dt.datetime.fromtimestamp(t[i], _dt.timezone.utc).date().isoformat()
+
+        def early(kind: str, i: int) -> None:
+            notes.append(dict(
+                robot=robot, kind="too_early", recordings=n, needed=needed, day=day(i),
+                text=f"{robot}: a {kind} from {day(i)} is not judged: {i} recording{'s' if i != 1 else ''} "
+                f"before it, --min-before {min_before}",
+            ))
+
         # An offset that grows: from the first recording that leaves the earlier level and
-        # never comes back to it.
-        for i in range(min_before, len(recs)):
+        # never comes back to it, with two recordings from it on.
+        for i in range(1, n - 1):
             base = off[:i]
             level = float(np.median(base))
             limit = max(z * _robust_sigma(base), offset_floor_n)
             after = off[i:]
-            if np.all(after - level > limit) and after[-1] >= after[0]:
-                flags.append(
-                    dict(robot=robot, kind="offset_grows", day=day(i), start_unix_s=float(t[i]),
-                         before=level, after=float(after[-1]))
-                )
+            if np.all(after - level > limit):
+                if i < min_before:
+                    early("offset_grows", i)
+                else:
+                    flags.append(dict(robot=robot, kind="offset_grows", day=day(i),
+                                      start_unix_s=float(t[i]), before=level, after=float(after[-1])))
                 break
         # A medium that changed: the two-level split of log strength that leaves the least
-        # squared deviation, judged by its contrast against the levels' own scatter.
+        # squared deviation (two recordings from it on), judged by its contrast against the
+        # levels' own scatter.
         ls = np.log(strength)
         best = None
-        for i in range(min_before, len(recs) - 1):
+        for i in range(1, n - 1):
             a, b = ls[:i], ls[i:]
             sse = float(((a - a.mean()) ** 2).sum() + ((b - b.mean()) ** 2).sum())
             if best is None or sse < best[0]:
@@ -334,11 +362,19 @@ def flag_drifts(
             spread = math.sqrt((_robust_sigma(a) ** 2 + _robust_sigma(b) ** 2) / 2) + 1e-12
             step = float(np.median(b) - np.median(a))
             if abs(step) / spread > z and abs(math.expm1(step)) > strength_floor_rel:
-                flags.append(
-                    dict(robot=robot, kind="medium_changed", day=day(i), start_unix_s=float(t[i]),
-                         before=float(np.exp(np.median(a))), after=float(np.exp(np.median(b))))
-                )
-    return flags
+                if i < min_before:
+                    early("medium_changed", i)
+                else:
+                    flags.append(dict(robot=robot, kind="medium_changed", day=day(i),
+                                      start_unix_s=float(t[i]), before=float(np.exp(np.median(a))),
+                                      after=float(np.exp(np.median(b)))))
+    return dict(flags=flags, notes=notes)
+
+
+def flag_drifts(df, **kwargs) -> List[Dict[str, Any]]:
+    """The flags of :func:`judge_drifts` (same arguments); its notes say what it could not
+    judge."""
+    return judge_drifts(df, **kwargs)["flags"]
 
 
 def _svg_series(points: List[Tuple[float, float]], flags_t: List[float], title: str, unit: str) -> str:
@@ -366,9 +402,11 @@ def _svg_series(points: List[Tuple[float, float]], flags_t: List[float], title: 
     )
 
 
-def write_report(df, flags: List[Dict[str, Any]], path: PathLike) -> Path:
-    """An HTML page: the flags, each robot's offset and medium over time (flags marked), each
-    leg's verdicts, and the recordings that failed."""
+def write_report(df, flags: List[Dict[str, Any]], path: PathLike,
+                 notes: Optional[List[Dict[str, Any]]] = None) -> Path:
+    """An HTML page: the flags, what could not be judged (``notes`` of :func:`judge_drifts`),
+    each robot's offset and medium over time (flags marked), each leg's verdicts, and the
+    recordings that failed."""
     path = Path(path)
     parts = ["<!doctype html><meta charset='utf-8'><title>terzaghi fleet report</title>",
              "<h1>Fleet report</h1>"]
@@ -388,6 +426,11 @@ def write_report(df, flags: List[Dict[str, Any]], path: PathLike) -> Path:
         parts.append("</table>")
     else:
         parts.append("<p>No drift.</p>")
+    if notes:
+        parts.append("<h2>Not judged</h2><ul>")
+        for note in notes:
+            parts.append(f"<li>{html.escape(note['text'])}</li>")
+        parts.append("</ul>")
     for robot in sorted(set(df["robot"].dropna())):
         recs = _per_recording(df, robot)
         parts.append(f"<h2>{html.escape(robot)}</h2>")
@@ -422,19 +465,27 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                    help="threads each local worker gives one recording's legs (default: every core)")
     p.add_argument("--table", default="fleet.parquet", help="Parquet table to append to (default fleet.parquet)")
     p.add_argument("--report", default="fleet.html", help="HTML report to write (default fleet.html)")
+    p.add_argument("--min-before", type=int, default=1,
+                   help="recordings a robot needs before a change to judge it (default 1; "
+                   "a robot needs this many plus 2)")
     a = p.parse_args(argv)
+    if a.min_before < 1:
+        p.error(f"--min-before must be at least 1, got {a.min_before}")
     try:
         df = diagnose_fleet(a.dir, scheduler=a.scheduler, workers=a.workers, table=a.table,
                             threads_per_recording=a.threads_per_recording)
     except (FileNotFoundError, ValueError, OSError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
-    flags = flag_drifts(df)
-    write_report(df, flags, a.report)
+    judged = judge_drifts(df, min_before=a.min_before)
+    flags, notes = judged["flags"], judged["notes"]
+    write_report(df, flags, a.report, notes)
     failed = int(df["error"].notna().sum())
     print(f"{df['recording'].nunique()} recordings, {len(df)} rows ({failed} failed) -> {a.table}; report {a.report}")
     for f in flags:
         print(f"flag: {f['robot']}: {f['kind']} from {f['day']} ({f['before']:.4g} -> {f['after']:.4g})")
+    for note in notes:
+        print(f"not judged: {note['text']}")
     return 0
 
 

@@ -171,3 +171,41 @@ def test_session_rows_equal_the_binarys_reevaluation(tmp_path):
         terzaghi.session_rows(tmp_path / "nothing.mcap")
     with pytest.raises(terzaghi.TerzaghiError, match="use_identified"):
         terzaghi.session_rows(rec, params={"use_identified": {"no": 1}})
+
+
+def test_every_array_call_checks_shapes_not_counts(tmp_path):
+    """Each call that takes arrays refuses a shape that does not fit, naming it, even where the
+    count of values would fit; scalars are broadcast where :func:`predict` broadcasts them."""
+    from terzaghi.batch import LegBatch
+
+    leg = dict(length_m=0.25, width_m=0.06, medium="hit_sand", b_k=30.0, a=2.3)
+    batch = LegBatch(**leg)
+    beta = np.full((4, 6), 0.8)
+    # The issue's two cases: a (24,) for a (4, 6), and a transposed (6, 4096) for a (4096, 6).
+    with pytest.raises(terzaghi.TerzaghiError, match=r"hip_height_m has shape \(24,\), beta_rad \(4, 6\)"):
+        batch.forces(beta, np.full(24, 0.15))
+    with pytest.raises(terzaghi.TerzaghiError,
+                       match=r"hip_height_m has shape \(6, 4096\), beta_rad \(4096, 6\) \(transposed\?\)"):
+        batch.forces(np.full((4096, 6), 0.8), np.full((6, 4096), 0.15))
+    # predict broadcasts as numpy does, and names every shape where numpy would not.
+    moving = terzaghi.predict(np.full((4, 6), 0.8), model="improved", hip_height_m=np.full(6, 0.15), **leg)
+    assert moving["drag_n"].shape == (4, 6)
+    with pytest.raises(terzaghi.TerzaghiError,
+                       match=r"do not broadcast: beta_rad \(4, 6\), hip_height_m \(24,\), up_m_s \(\)"):
+        terzaghi.predict(np.full((4, 6), 0.8), model="improved", hip_height_m=np.full(24, 0.15), **leg)
+    # A JointState's positions are one per name; a wrench and a pose are vectors of 3 and 4.
+    node = terzaghi.Node(params=terzaghi.rhex_params())
+    names = ["hip_" + l for l in ("fl", "fr")]
+    with pytest.raises(terzaghi.TerzaghiError, match=r"position has shape \(1, 2\), expected \(2,\)"):
+        node.joint_state(1, names, [[0.1, 0.2]])
+    with pytest.raises(terzaghi.TerzaghiError, match=r"velocity has shape \(3,\), expected \(2,\)"):
+        node.joint_state(1, names, [0.1, 0.2], velocity=[1.0, 1.0, 1.0])
+    with pytest.raises(terzaghi.TerzaghiError, match=r"force has shape \(1, 3\), expected \(3,\)"):
+        node.wrench(0, 1, [[1.0, 2.0, 3.0]])
+    with pytest.raises(terzaghi.TerzaghiError, match=r"orientation_xyzw has shape \(3,\), expected \(4,\)"):
+        node.pose(1, [0.0, 0.0, 0.2], [0.0, 0.0, 1.0])
+    with terzaghi.Recorder(tmp_path / "r.mcap", terzaghi.rhex_params()) as rec:
+        with pytest.raises(terzaghi.TerzaghiError, match=r"position has shape \(3,\), expected \(2,\)"):
+            rec.joint_state(1, names, [0.1, 0.2, 0.3])
+        with pytest.raises(terzaghi.TerzaghiError, match=r"torque has shape \(2,\), expected \(3,\)"):
+            rec.wrench("/ft", 1, [1.0, 2.0, 3.0], torque=[0.0, 0.0])

@@ -47,6 +47,60 @@ def generate(root: Path, days=range(1, 21)):
             run(*args)
 
 
+def generate_short(root: Path, days=8):
+    """A fleet of ``days`` days: alpha's F/T offset grows from zero from day 2 (0.15 N a day),
+    bravo's medium is 1.3 times as strong from day 3, charlie stays as it was."""
+    for k, robot in enumerate(ROBOTS):
+        (root / robot).mkdir(parents=True, exist_ok=True)
+        for day in range(1, days + 1):
+            args = ["simulate-robot", "--seconds", "20", "--seed", 1000 + 100 * k + day,
+                    "--start-unix-s", T0 + (day - 1) * 86400 + 3600 * k,
+                    "-o", root / robot / f"{robot}_day{day:02d}.mcap"]
+            if robot == "alpha" and day >= 2:
+                args += ["--offset-n", f"{0.15 * (day - 1):.2f}"]
+            if robot == "bravo" and day >= 3:
+                args += ["--medium-scale", "1.3"]
+            run(*args)
+
+
+@pytest.fixture(scope="module")
+def short_fleet(tmp_path_factory):
+    root = tmp_path_factory.mktemp("short")
+    generate_short(root)
+    return fleet.diagnose_fleet(root, scheduler="local", workers=2, table=root / "fleet.parquet")
+
+
+def test_fleets_of_four_and_eight_days_place_each_change_on_its_day(short_fleet):
+    df = short_fleet
+    assert df["error"].isna().all() and df["recording"].nunique() == 24
+    first = lambda n: df[df["start_unix_s"] < T0 + n * 86400]
+    for days in (4, 8):
+        judged = fleet.judge_drifts(first(days))
+        got = sorted((f["robot"], f["kind"], f["day"]) for f in judged["flags"])
+        assert got == [("alpha", "offset_grows", day_of(2)), ("bravo", "medium_changed", day_of(3))], (days, judged)
+        assert judged["notes"] == [], (days, judged["notes"])
+    # A history longer than the fleet's start allows: the changes are said to be too early to
+    # judge, on their days, and never flagged a day or two late.
+    judged = fleet.judge_drifts(df, min_before=3)
+    assert judged["flags"] == [], judged
+    early = sorted((n["robot"], n["kind"], n["day"]) for n in judged["notes"])
+    assert early == [("alpha", "too_early", day_of(2)), ("bravo", "too_early", day_of(3))], judged["notes"]
+    with pytest.raises(ValueError, match="min_before"):
+        fleet.judge_drifts(df, min_before=0)
+
+
+def test_a_fleet_of_two_days_is_too_short_and_says_so(short_fleet, tmp_path):
+    two = short_fleet[short_fleet["start_unix_s"] < T0 + 2 * 86400]
+    judged = fleet.judge_drifts(two)
+    assert judged["flags"] == []
+    assert [n["robot"] for n in judged["notes"]] == ROBOTS
+    for n in judged["notes"]:
+        assert n["kind"] == "too_short" and n["recordings"] == 2 and n["needed"] == 3, n
+        assert "2 recordings, too short to judge" in n["text"] and "3 in all" in n["text"], n
+    report = fleet.write_report(two, judged["flags"], tmp_path / "two.html", judged["notes"])
+    assert "too short to judge" in report.read_text()
+
+
 @pytest.fixture(scope="module")
 def recordings(tmp_path_factory):
     root = tmp_path_factory.mktemp("fleet")
@@ -152,6 +206,10 @@ def test_the_command_line_face_runs_the_same_code(recordings, tmp_path):
         capture_output=True, text=True)
     assert out.returncode == 0, out.stderr
     assert "2 recordings, 12 rows (0 failed)" in out.stdout
+    assert "not judged: charlie: 2 recordings, too short to judge" in out.stdout, out.stdout
+    bad = subprocess.run([sys.executable, "-m", "terzaghi.fleet", root, "--min-before", "0"],
+                         capture_output=True, text=True)
+    assert bad.returncode == 2 and "--min-before must be at least 1, got 0" in bad.stderr
     assert len(pd.read_parquet(tmp_path / "t.parquet")) == 12
     missing = subprocess.run([sys.executable, "-m", "terzaghi.fleet", tmp_path / "nowhere"],
                              capture_output=True, text=True)

@@ -36,12 +36,22 @@ pub struct SimulateRobotArgs {
     pub seed: u64,
     /// An effect the model leaves out, hidden in the sensors' readings as the generated cases
     /// hide it (repeatable): rate, inertia, surcharge, extraction, compaction, cohesion,
-    /// hip_height, sensor_bias or sensor_lag.
+    /// hip_height, sensor_bias or sensor_lag (an offset of a stated size: --offset-n).
     #[arg(long = "hidden", value_name = "EFFECT")]
     pub hidden: Vec<String>,
     /// Strength of the hidden effects, as the generated cases scale them.
     #[arg(long, default_value_t = 0.5)]
     pub magnitude: f64,
+    /// An F/T offset of this many newtons on every leg's drag and lift, of any size (0.001 N
+    /// or 50 N): a sensor whose zero has moved. Beside `--hidden sensor_bias`, it replaces the
+    /// generator's own offset (12-30 % of the RMS force).
+    #[arg(long, value_name = "N", allow_negative_numbers = true, default_value_t = 0.0)]
+    pub offset_n: f64,
+    /// The offset grows by this many newtons per second of the recording, from `--offset-n`
+    /// (0 by default) at its start: a zero drifting while the robot walks. A fleet's offset
+    /// that grows from day to day is `--offset-n` set per day's recording.
+    #[arg(long, value_name = "N_PER_S", allow_negative_numbers = true, default_value_t = 0.0)]
+    pub offset_growth_n_per_s: f64,
     /// The medium is this many times as strong as the robot is told (its b_k scaled): a fleet's
     /// robot on other ground.
     #[arg(long, value_name = "X", default_value_t = 1.0)]
@@ -96,11 +106,17 @@ pub fn run(a: SimulateRobotArgs) -> Result<()> {
             a.start_unix_s,
             (0.0..=4e9).contains(&a.start_unix_s),
         ),
+        ("--offset-n", a.offset_n, a.offset_n.abs() <= 1e4),
+        (
+            "--offset-growth-n-per-s",
+            a.offset_growth_n_per_s,
+            a.offset_growth_n_per_s.abs() <= 1e3,
+        ),
     ];
     for (flag, v, ok) in checks {
         if !(v.is_finite() && ok) {
             bail!(
-                "{flag} {v}: out of range (seconds in (0, 3600], |heave| < 0.05 m, |pitch| <= 30 deg, |forward| <= 5 m/s, speed in (0, 50] rad/s, noise in [0, 1], magnitude in [0, 2], medium scale in (0, 10], start in [0, 4e9] s)"
+                "{flag} {v}: out of range (seconds in (0, 3600], |heave| < 0.05 m, |pitch| <= 30 deg, |forward| <= 5 m/s, speed in (0, 50] rad/s, noise in [0, 1], magnitude in [0, 2], medium scale in (0, 10], start in [0, 4e9] s, |offset| <= 1e4 N, |offset growth| <= 1e3 N/s)"
             );
         }
     }
@@ -119,6 +135,11 @@ pub fn run(a: SimulateRobotArgs) -> Result<()> {
         if !effects.contains(&e) {
             effects.push(e);
         }
+    }
+    // An offset of a stated size replaces the generator's, which it scales with the force.
+    let offset_given = a.offset_n != 0.0 || a.offset_growth_n_per_s != 0.0;
+    if offset_given {
+        effects.retain(|e| *e != crate::sim::generator::Hidden::SensorBias);
     }
     let truth = Truth {
         b_k: w.b_k() * a.medium_scale,
@@ -139,7 +160,16 @@ pub fn run(a: SimulateRobotArgs) -> Result<()> {
         pitch_rad: a.pitch_deg.to_radians(),
         forward_m_s: a.forward_m_s,
     };
-    let walk = simulate_moving(&cfg, &truth, &gait, &body);
+    let mut walk = simulate_moving(&cfg, &truth, &gait, &body);
+    if offset_given {
+        for leg in &mut walk.legs {
+            for s in leg.iter_mut() {
+                let o = a.offset_n + a.offset_growth_n_per_s * s.t_s.unwrap_or(0.0);
+                s.drag_n += o;
+                s.lift_n += o;
+            }
+        }
+    }
     // The recorded node reads every hip from /tf, or places it in the body whose pose it reads.
     if !body.is_still() {
         let h0 = cfg.legs[0].plate.hip_height_m();
