@@ -252,13 +252,14 @@ pub fn summarize(
                     .collect()
             })
             .unwrap_or_default();
+        // The values corrected.yaml holds (the corrected model refitted on every sample), not
+        // the search's last step (fitted on the thinned points it searched on).
         let corrected = r
-            .and_then(|r| r["steps"].as_array())
-            .and_then(|s| s.last())
-            .map(|s| {
+            .filter(|r| r["steps"].as_array().is_some_and(|s| !s.is_empty()))
+            .map(|r| {
                 (
-                    s["params"]["b_k"].as_f64().unwrap_or(f64::NAN),
-                    s["params"]["a"].as_f64().unwrap_or(f64::NAN),
+                    r["corrected_model"]["b_k"].as_f64().unwrap_or(f64::NAN),
+                    r["corrected_model"]["a"].as_f64().unwrap_or(f64::NAN),
                 )
             });
         let on = online.get(i).copied().flatten();

@@ -29,7 +29,8 @@ pub struct ReplayArgs {
     #[arg(short = 'p', long = "param", value_name = "NAME:=VALUE")]
     pub params: Vec<String>,
     /// --reevaluate: write to this file, .mcap (inputs and new outputs) or .csv (predictions next
-    /// to measurements); default: CSV on standard output.
+    /// to measurements); default: CSV on standard output when it is a pipe or a file (a
+    /// terminal gets the summary alone).
     #[arg(short, long, value_name = "OUT")]
     pub output: Option<PathBuf>,
     /// --reevaluate -o OUT.mcap: replace OUT.mcap if it exists (an existing recording is
@@ -122,6 +123,7 @@ fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
         .and_then(|p| p.extension())
         .and_then(|e| e.to_str())
         .map(str::to_lowercase);
+    let mut rows_held = false;
     let done: Reevaluation = match (out_kind.as_deref(), &a.output) {
         (Some("mcap"), Some(path)) => reevaluate_to_mcap(&a.file, path, a.overwrite, opts())?,
         (Some("csv") | None, Some(path)) => {
@@ -131,6 +133,12 @@ fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
                 Ok(())
             })?;
             result.ok_or_else(|| anyhow!("nothing re-evaluated"))?
+        }
+        // A terminal gets the summary: a session's rows (hundreds of thousands) are for a file
+        // (-o) or a pipe.
+        (None, None) if std::io::IsTerminal::is_terminal(&std::io::stdout()) => {
+            rows_held = true;
+            reevaluate_to_csv(&a.file, opts(), &mut std::io::sink())?
         }
         (None, None) => {
             let mut stdout = std::io::BufWriter::new(std::io::stdout());
@@ -175,6 +183,11 @@ fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
         );
     }
     done.check_inputs_found(&a.file)?;
+    if rows_held {
+        eprintln!(
+            "note: the rows (one per prediction) are not printed to a terminal: -o OUT.csv or -o OUT.mcap writes them, or pipe the output"
+        );
+    }
     let est: Vec<String> = summary
         .estimates
         .iter()
