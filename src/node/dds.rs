@@ -59,6 +59,9 @@ pub struct RunSummary {
     pub predictions: u64,
     /// Messages dropped at the bounded input queue.
     pub dropped: u64,
+    /// Samples that did not decode as their topic's type (truncated, oversized for their
+    /// fields, garbage), skipped.
+    pub undecodable: u64,
     /// From taking a JointState off DDS to having published every leg's outputs.
     pub processing_p50_ns: u64,
     /// 99th percentile of the processing time (ns).
@@ -76,6 +79,8 @@ struct Shared {
     gap: Option<super::gap_worker::GapWorker>,
     hist: Mutex<Histogram>,
     dropped: AtomicU64,
+    /// Samples that did not decode, skipped.
+    undecodable: AtomicU64,
     log: Arc<NodeLog>,
     clock: Arc<NodeClock>,
 }
@@ -152,21 +157,21 @@ impl Publish for Pubs {
     }
 }
 
-/// The next sample of `sub`: one that does not decode is counted as dropped and skipped, and
-/// so are the samples missing before it (gaps in its writer's sequence numbers).
+/// The next sample of `sub`: one that does not decode is counted (`undecodable`) and skipped;
+/// the samples missing before it (gaps in its writer's sequence numbers) are counted as dropped.
 async fn next_sample<M: serde::de::DeserializeOwned + 'static>(
     sub: &Subscription<M>,
     gaps: &mut SequenceGaps,
-    dropped: &AtomicU64,
+    sh: &Shared,
 ) -> M {
     loop {
         match sub.async_take().await {
             Ok((msg, info)) => {
-                dropped.fetch_add(gaps.lost(&info), Ordering::Relaxed);
+                sh.dropped.fetch_add(gaps.lost(&info), Ordering::Relaxed);
                 return msg;
             }
             Err(_) => {
-                dropped.fetch_add(1, Ordering::Relaxed);
+                sh.undecodable.fetch_add(1, Ordering::Relaxed);
             }
         }
     }
@@ -510,6 +515,7 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
         },
         hist: Mutex::new(Histogram::default()),
         dropped: AtomicU64::new(0),
+        undecodable: AtomicU64::new(0),
         log: log.clone(),
         clock: clock.clone(),
     });
@@ -682,10 +688,11 @@ fn startup_line(setup: &NodeSetup) -> String {
 /// The last line the node logs: what it did.
 fn summary_line(s: &RunSummary) -> String {
     format!(
-        "terzaghi node stopped: {} joint states, {} predictions, {} inputs dropped; processing p50 {:.1} us, p99 {:.1} us, max {:.1} us",
+        "terzaghi node stopped: {} joint states, {} predictions, {} inputs dropped, {} samples that did not decode skipped; processing p50 {:.1} us, p99 {:.1} us, max {:.1} us",
         s.joint_states,
         s.predictions,
         s.dropped,
+        s.undecodable,
         s.processing_p50_ns as f64 / 1e3,
         s.processing_p99_ns as f64 / 1e3,
         s.processing_max_ns as f64 / 1e3
@@ -928,7 +935,7 @@ async fn joint_states_task(
     let mut gaps = SequenceGaps::default();
     let mut outputs = Outputs::default();
     loop {
-        let msg = next_sample(&sub, &mut gaps, &sh.dropped).await;
+        let msg = next_sample(&sub, &mut gaps, &sh).await;
         let received = Instant::now();
         if let Some(l) = &pubs.live {
             l.joints.log(&msg);
@@ -974,7 +981,7 @@ async fn tf_task(
     let mut gaps = SequenceGaps::default();
     let mut outputs = Outputs::default();
     loop {
-        let msg = next_sample(&sub, &mut gaps, &sh.dropped).await;
+        let msg = next_sample(&sub, &mut gaps, &sh).await;
         let log_ns = sh.clock.log_time_ns();
         // The robot's state gives no outputs of its own: it places the next predictions.
         sh.lock_core()
@@ -996,7 +1003,7 @@ async fn pose_task(
     let mut gaps = SequenceGaps::default();
     let mut outputs = Outputs::default();
     loop {
-        let msg = next_sample(&sub, &mut gaps, &sh.dropped).await;
+        let msg = next_sample(&sub, &mut gaps, &sh).await;
         let log_ns = sh.clock.log_time_ns();
         sh.lock_core().core.handle(Input::Pose(&msg), &mut outputs);
         outputs.clear();
@@ -1017,7 +1024,7 @@ async fn wrench_task(
     let mut gaps = SequenceGaps::default();
     let mut outputs = Outputs::default();
     loop {
-        let msg = next_sample(&sub, &mut gaps, &sh.dropped).await;
+        let msg = next_sample(&sub, &mut gaps, &sh).await;
         if let Some(ch) = pubs.live.as_ref().and_then(|l| l.ft[leg].as_ref()) {
             ch.log(&msg);
         }
@@ -1083,6 +1090,10 @@ fn node_status(
         "clock_jumps_back".to_string(),
         shared.clock.jumps_back().to_string(),
     ));
+    values.push((
+        "undecodable_samples".to_string(),
+        shared.undecodable.load(Ordering::Relaxed).to_string(),
+    ));
     let mut d = shared.lock_core().core.diagnostics(
         shared.clock.now_ns(),
         shared.dropped.load(Ordering::Relaxed),
@@ -1107,6 +1118,7 @@ fn run_summary(shared: &Shared, legs: usize) -> RunSummary {
             .map(|c| c.predictions)
             .sum(),
         dropped: shared.dropped.load(Ordering::Relaxed),
+        undecodable: shared.undecodable.load(Ordering::Relaxed),
         processing_p50_ns: hist.quantile_ns(0.5),
         processing_p99_ns: hist.quantile_ns(0.99),
         processing_max_ns: hist.max_ns(),
