@@ -25,6 +25,8 @@
 //!   diagnose its legs, identify a leg's medium, record and replay topics; with the writers of
 //!   their results.
 //! - [`dem`]: runs of the DEM testbed: reading, checking, writing as sessions.
+//! - `fuzzing`: what each fuzz target (`fuzz/`) runs on its input, which `cargo test` replays
+//!   over the committed corpora and regressions (not an API).
 //! - `demo`: the six-legged robot walking through the node, for `terzaghi demo`.
 //! - `cli`: the `terzaghi` command line, over all of the above.
 //!

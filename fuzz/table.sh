@@ -1,0 +1,18 @@
+#!/usr/bin/env bash
+# The table of docs/benchmarks.md's fuzzing section, from the logs fuzz/run_all.sh left in
+# $FUZZ_WORK (default /tmp/terzaghi-fuzz): per target, its last run's executions, time, speed,
+# the corpus it grew and whether it ended on a crash.
+set -u
+work=${FUZZ_WORK:-/tmp/terzaghi-fuzz}
+echo "| target | executions | time (s) | executions/s | corpus (inputs) | ended |"
+echo "|---|---:|---:|---:|---:|---|"
+for log in "$work"/*.log; do
+  t=$(basename "$log" .log)
+  stat() { grep -E "^stat::$1:" "$log" | awk '{print $2}'; }
+  n=$(stat number_of_executed_units)
+  rate=$(stat average_exec_per_sec)
+  secs=$(grep -E "^$t rc=" "$work/summary" | tail -n 1 | sed 's/.*seconds=//')
+  corpus=$(find "$work/$t" -type f | wc -l)
+  if grep -q "Test unit written" "$log"; then ended="crash"; else ended="no crash"; fi
+  echo "| \`$t\` | ${n:-?} | ${secs:-?} | ${rate:-?} | $corpus | $ended |"
+done
