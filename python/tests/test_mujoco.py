@@ -139,6 +139,14 @@ def test_the_walk_recorded_in_the_nodes_topics_is_read_by_the_binary(tmp_path):
         noise = max(r["noise"]["drag_n"], r["noise"]["lift_n"])
         assert r["baseline"]["rmse_n"] < 1.05 * noise, (r["leg"], r["baseline"], r["noise"])
         assert r["verdict"]["effect"] == "none", (r["leg"], r["verdict"])
+    # The walk recorded without noise (what `hexapod_walk.py --record` writes): thousandths of a
+    # newton of misfit are no finding. Every leg: none, no gap to explain.
+    clean = json.loads(run("diagnose", path, "--out", tmp_path / "clean", "--json"))
+    assert len(clean) == 6
+    for r in clean:
+        assert r["verdict"]["effect"] == "none", (r["leg"], r["verdict"])
+        assert r["verdict"]["claim"].startswith("no gap to explain"), (r["leg"], r["verdict"])
+        assert r["gap"]["below_resolution"] and not r["steps"], (r["leg"], r["gap"])
 
 
 def _stroke_forces():
