@@ -920,13 +920,14 @@ fn stop_line(log: &str) -> Option<RunSummary> {
         .filter_map(|w| w.trim_matches('.').parse().ok())
         .collect();
     // "p50" and "p99" carry numbers of their own.
-    let [js, pred, dropped, _, p50, _, p99, max] = numbers[..] else {
+    let [js, pred, dropped, undecodable, _, p50, _, p99, max] = numbers[..] else {
         return None;
     };
     Some(RunSummary {
         joint_states: js as u64,
         predictions: pred as u64,
         dropped: dropped as u64,
+        undecodable: undecodable as u64,
         processing_p50_ns: (p50 * 1e3) as u64,
         processing_p99_ns: (p99 * 1e3) as u64,
         processing_max_ns: (max * 1e3) as u64,
