@@ -45,12 +45,22 @@ pub struct SimulateRobotArgs {
     /// An F/T offset of this many newtons on every leg's drag and lift, of any size (0.001 N
     /// or 50 N): a sensor whose zero has moved. Beside `--hidden sensor_bias`, it replaces the
     /// generator's own offset (12-30 % of the RMS force).
-    #[arg(long, value_name = "N", allow_negative_numbers = true, default_value_t = 0.0)]
+    #[arg(
+        long,
+        value_name = "N",
+        allow_negative_numbers = true,
+        default_value_t = 0.0
+    )]
     pub offset_n: f64,
     /// The offset grows by this many newtons per second of the recording, from `--offset-n`
     /// (0 by default) at its start: a zero drifting while the robot walks. A fleet's offset
     /// that grows from day to day is `--offset-n` set per day's recording.
-    #[arg(long, value_name = "N_PER_S", allow_negative_numbers = true, default_value_t = 0.0)]
+    #[arg(
+        long,
+        value_name = "N_PER_S",
+        allow_negative_numbers = true,
+        default_value_t = 0.0
+    )]
     pub offset_growth_n_per_s: f64,
     /// The medium is this many times as strong as the robot is told (its b_k scaled): a fleet's
     /// robot on other ground.
