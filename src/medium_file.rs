@@ -519,7 +519,8 @@ impl MediumFile {
     pub fn to_yaml(&self) -> Result<String> {
         Ok(format!(
             "# A terzaghi medium file: a plate-sinkage law calibrated from measurements.\n# Written by: {}\n{}",
-            self.source.command,
+            // One comment line, whatever the command held (the field below keeps it as it was).
+            self.source.command.replace(['\n', '\r'], " "),
             serde_yaml_ng::to_string(self)?
         ))
     }

@@ -166,7 +166,11 @@ pub fn scan(bytes: &[u8], mut visit: impl FnMut(&Scan, MessageView)) -> Result<S
             _ => Ok(()),
         }
     };
-    let reader = mcap::read::LinearReader::new_with_options(bytes, opts)?;
+    // The mcap crate (0.26) panics on an attachment record too short for its own fields: such a
+    // record ends the file here, as damage does.
+    let bad_attachment = malformed_attachment(&bytes[mcap::MAGIC.len()..]);
+    let readable = bad_attachment.map_or(bytes, |at| &bytes[..mcap::MAGIC.len() + at]);
+    let reader = mcap::read::LinearReader::new_with_options(readable, opts)?;
     let mut footer = false;
     'records: for rec in reader {
         let rec = match rec {
@@ -194,7 +198,9 @@ pub fn scan(bytes: &[u8], mut visit: impl FnMut(&Scan, MessageView)) -> Result<S
                     break;
                 }
             };
-            for r in mcap::read::LinearReader::sans_magic(&records) {
+            let bad = malformed_attachment(&records);
+            for r in mcap::read::LinearReader::sans_magic(&records[..bad.unwrap_or(records.len())])
+            {
                 match r.map_err(|e| e.to_string()).and_then(|r| handle(r, &mut s)) {
                     Ok(()) => {}
                     Err(e) => {
@@ -203,14 +209,62 @@ pub fn scan(bytes: &[u8], mut visit: impl FnMut(&Scan, MessageView)) -> Result<S
                     }
                 }
             }
+            if let Some(at) = bad {
+                s.stopped = Some(format!(
+                    "a chunk holds a malformed attachment record at byte {at} of its records"
+                ));
+                break;
+            }
         } else if let Err(e) = handle(rec, &mut s) {
             s.stopped = Some(e);
             break;
         }
     }
+    if let (Some(at), None) = (bad_attachment, &s.stopped) {
+        s.stopped = Some(format!(
+            "a malformed attachment record at byte {}",
+            mcap::MAGIC.len() + at
+        ));
+    }
     // Not mcap::Summary::read: it trusts the offsets in the footer, which may be damaged.
     s.complete = s.stopped.is_none() && footer && bytes.ends_with(mcap::MAGIC);
     Ok(s)
+}
+
+/// The offset in `records` (a stream of MCAP records: opcode, u64 length, body) of the first
+/// attachment record whose body is too short for its own fields (times, name, media type,
+/// data length, data and CRC), if any before the stream ends or is cut off.
+fn malformed_attachment(records: &[u8]) -> Option<usize> {
+    const ATTACHMENT: u8 = 0x09;
+    let u32_at = |b: &[u8], i: usize| -> Option<u64> {
+        Some(u32::from_le_bytes(b.get(i..i + 4)?.try_into().ok()?) as u64)
+    };
+    let u64_at = |b: &[u8], i: usize| -> Option<u64> {
+        Some(u64::from_le_bytes(b.get(i..i + 8)?.try_into().ok()?))
+    };
+    let fits = |body: &[u8]| -> Option<()> {
+        // log_time, create_time, then two strings, then the data's length and the data, and a CRC.
+        let mut at = 16u64;
+        for _ in 0..2 {
+            at = at.checked_add(4 + u32_at(body, at as usize)?)?;
+        }
+        let data_len = u64_at(body, at as usize)?;
+        let end = at.checked_add(8)?.checked_add(data_len)?.checked_add(4)?;
+        (end <= body.len() as u64).then_some(())
+    };
+    let mut at = 0usize;
+    while let (Some(&op), Some(len)) = (records.get(at), u64_at(records, at + 1)) {
+        let start = at + 9;
+        let end = usize::try_from(len)
+            .ok()
+            .and_then(|l| start.checked_add(l))?;
+        let body = records.get(start..end)?;
+        if op == ATTACHMENT && fits(body).is_none() {
+            return Some(at);
+        }
+        at = end;
+    }
+    None
 }
 
 /// The records of a chunk, decompressed into a buffer of the declared size (already checked to

@@ -496,8 +496,7 @@ impl NodeCore {
         let Some(l) = self.legs.get_mut(leg) else {
             return;
         };
-        let values = [hip.height_m, hip.pitch_rad, hip.forward_m_s, hip.up_m_s];
-        if values.iter().any(|v| !v.is_finite()) {
+        if !robot_state::plausible_hip(&hip) {
             l.counters.state_missing += 1;
             return;
         }
@@ -1010,6 +1009,23 @@ impl NodeCore {
                 );
                 [force.sensor_drag_n, force.sensor_lift_n] = held;
                 keep_recent(&mut leg.held, RECENT_PREDICTIONS, stamp_ns, held);
+            }
+            // The last guard: a force that is no number is never published (an input the
+            // checks above let through, at the edge of what the model can evaluate).
+            let values = [
+                force.drag_n,
+                force.lift_n,
+                force.hip_torque_nm,
+                force.depth_m,
+                force.submerged_length_m,
+                force.sensor_drag_n,
+                force.sensor_lift_n,
+                force.bare_drag_n,
+                force.bare_lift_n,
+            ];
+            if values.iter().any(|v| !v.is_finite()) {
+                leg.counters.invalid_position += 1;
+                continue;
             }
             leg.counters.predictions += 1;
             out.push(LegOutput {

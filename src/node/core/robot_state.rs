@@ -76,6 +76,19 @@ struct MemoEntry {
     pose: Isometry3<f64>,
 }
 
+/// A hip a robot can have: every value finite, its height within a kilometre of the surface,
+/// its speeds under 1 km/s, its pitch within a thousand radians and its place within a million
+/// kilometres. A pose or transform far outside (a hip 1e304 m below the surface) would give
+/// forces that are no number; it is invalid input instead, counted and skipped.
+pub fn plausible_hip(h: &HipMotion) -> bool {
+    let within = |v: f64, limit: f64| v.is_finite() && v.abs() <= limit;
+    within(h.height_m, 1e3)
+        && within(h.pitch_rad, 1e3)
+        && within(h.forward_m_s, 1e3)
+        && within(h.up_m_s, 1e3)
+        && within(h.forward_position_m, 1e9)
+}
+
 /// Frames remembered: two stamps (the sample's and the one the hip's velocity is taken from)
 /// of a few bodies.
 const MEMO_ENTRIES: usize = 8;
@@ -515,14 +528,7 @@ impl TfTree {
             up_m_s: velocity.z,
             forward_position_m: p.dot(&forward),
         };
-        let values = [
-            hip.height_m,
-            hip.pitch_rad,
-            hip.forward_m_s,
-            hip.up_m_s,
-            hip.forward_position_m,
-        ];
-        if values.iter().all(|v| v.is_finite()) {
+        if plausible_hip(&hip) {
             Ok(hip)
         } else {
             Err(NoState::Invalid)

@@ -819,6 +819,14 @@ pub fn fit_shape(tests: &[IntrusionTest], o: &ShapeOptions) -> Result<RftShapeFi
             }
         })
         .collect();
+    // A fit that ran off to values that are no number (rows of absurd depth or force) is no
+    // shape: say so rather than hand it on.
+    let fitted = best.fit.to_array();
+    if let Some(v) = fitted.iter().chain([&n.0, &n.1]).find(|v| !v.is_finite()) {
+        return Err(format!(
+            "the fit does not converge (a value {v}): check the tests' units (metres, newtons) and their rows"
+        ));
+    }
     let (speed, speed_gain_std_s, no_speed_law_because) =
         match speed_law(tests, &rows, &per_test, &best.fit, slowest) {
             Ok((s, std)) => (Some(s), std, None),

@@ -246,8 +246,17 @@ pub fn fit_sinkage(
     let measured: Vec<f64> = all.iter().map(|r| r.2).collect();
     let predicted: Vec<f64> = all.iter().map(|r| model.force_n(&r.0, r.1)).collect();
     let fit = component_fit(&predicted, &measured);
+    // Rows of absurd size (forces of 1e300 N) leave a fit whose score is no number.
+    let tests_judged = judge(&model, tests);
+    let scores = tests_judged
+        .iter()
+        .flat_map(|t| [t.r2, t.rmse_n])
+        .chain([fit.r2, fit.rmse]);
+    if scores.into_iter().any(|v| !v.is_finite()) {
+        return Err(SinkageFitError::NotConverged { law: law.name() });
+    }
     Ok(SinkageFit {
-        tests: judge(&model, tests),
+        tests: tests_judged,
         model,
         std_dev,
         width_held: held.is_some(),
