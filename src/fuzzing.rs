@@ -100,6 +100,10 @@ impl<'a> Arbitrary<'a> for Stamp {
     }
 }
 
+/// A transform of `/tf`: parent and child (indices into the frames), stamp, translation,
+/// rotation.
+pub type WireTransform = (u8, u8, Stamp, [Num; 3], [Num; 4]);
+
 /// One input on the node's wire: raw bytes on one of its topics, or a well-formed message of
 /// any values (encoded to CDR and decoded, as a peer's would be).
 #[derive(Debug, Arbitrary)]
@@ -132,8 +136,8 @@ pub enum WireInput {
     Tf {
         /// `/tf_static`.
         is_static: bool,
-        /// Parent, child (indices into the frames), stamp, translation, rotation.
-        transforms: Vec<(u8, u8, Stamp, [Num; 3], [Num; 4])>,
+        /// The transforms.
+        transforms: Vec<WireTransform>,
     },
     /// The body's pose.
     Pose {

@@ -6,7 +6,10 @@
 
 use std::path::{Path, PathBuf};
 
-const TARGETS: [(&str, fn(&[u8])); 7] = [
+/// A target's name and what it runs on an input.
+type Target = (&'static str, fn(&[u8]));
+
+const TARGETS: [Target; 7] = [
     ("node_wire", terzaghi::fuzzing::node_wire),
     ("params", terzaghi::fuzzing::params),
     ("csv_log", terzaghi::fuzzing::csv_log),
