@@ -11,7 +11,7 @@ for log in "$work"/*.log; do
   stat() { grep -E "^stat::$1:" "$log" | awk '{print $2}'; }
   n=$(stat number_of_executed_units)
   rate=$(stat average_exec_per_sec)
-  secs=$(grep -E "^$t rc=" "$work/summary" | tail -n 1 | sed 's/.*seconds=//')
+  secs=$(grep -oE "^Done [0-9]+ runs in [0-9]+ second" "$log" | awk '{print $5}')
   corpus=$(find "$work/$t" -type f | wc -l)
   if grep -q "Test unit written" "$log"; then ended="crash"; else ended="no crash"; fi
   echo "| \`$t\` | ${n:-?} | ${secs:-?} | ${rate:-?} | $corpus | $ended |"

@@ -973,12 +973,12 @@ mod tests {
     #[test]
     fn the_node_stop_line_reads_back() {
         let s = super::stop_line(
-            "noise\n[INFO] [1795445050.756860069] [robot.terzaghi]: terzaghi node stopped: 10000 joint states, 60000 predictions, 3 inputs dropped; processing p50 16.4 us, p99 45.1 us, max 120.0 us\n",
+            "noise\n[INFO] [1795445050.756860069] [robot.terzaghi]: terzaghi node stopped: 10000 joint states, 60000 predictions, 3 inputs dropped, 7 samples that did not decode skipped; processing p50 16.4 us, p99 45.1 us, max 120.0 us\n",
         )
         .unwrap();
         assert_eq!(
-            (s.joint_states, s.predictions, s.dropped),
-            (10_000, 60_000, 3)
+            (s.joint_states, s.predictions, s.dropped, s.undecodable),
+            (10_000, 60_000, 3, 7)
         );
         assert_eq!(
             (
