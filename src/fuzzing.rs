@@ -595,7 +595,19 @@ pub fn medium_file(data: &[u8]) {
             finite("force_n", model.force_n(&plate, depth));
         }
     }
-    let law = m.rft_law(None).expect("a medium file read has an RFT law");
+    let again = m.to_yaml().expect("a medium file writes");
+    let back = MediumFile::parse(Path::new("written.yaml"), &again)
+        .unwrap_or_else(|e| panic!("a written medium file does not read: {e:#}\n{again}"));
+    assert_eq!(
+        format!("{back:?}"),
+        format!("{m:?}"),
+        "a medium file changed when written and read back"
+    );
+    // An RFT leg takes the file's law or is refused by name (a sinkage law of another kind, a
+    // scale of 0); a law it takes gives finite stresses.
+    let Ok(law) = m.rft_law(None) else {
+        return;
+    };
     for beta in [-1.5, -0.4, 0.0, 0.7, 1.5] {
         for gamma in [-1.5, -0.3, 0.0, 0.9, 1.5] {
             let (ax, az) = law.coefficients.alpha(beta, gamma);
@@ -606,14 +618,6 @@ pub fn medium_file(data: &[u8]) {
     for depth in [0.0, 0.001, 0.05] {
         finite("effective depth", law.depth_law.effective_depth_m(depth));
     }
-    let again = m.to_yaml().expect("a medium file writes");
-    let back = MediumFile::parse(Path::new("written.yaml"), &again)
-        .unwrap_or_else(|e| panic!("a written medium file does not read: {e:#}\n{again}"));
-    assert_eq!(
-        format!("{back:?}"),
-        format!("{m:?}"),
-        "a medium file changed when written and read back"
-    );
 }
 
 // ----------------------------------------------------------------------------------------------
