@@ -149,6 +149,10 @@ pub fn fit_sinkage(
         _ => (logs[i].2 / REF_LENGTH_M).ln(),
     });
     let y = DVector::from_iterator(logs.len(), logs.iter().map(|l| l.0.ln()));
+    // nalgebra's SVD panics on a matrix that is no number: rows of absurd size fit nothing.
+    if a.iter().chain(y.iter()).any(|v| !v.is_finite()) {
+        return Err(SinkageFitError::NotConverged { law: law.name() });
+    }
     let c = a
         .clone()
         .svd(true, true)
@@ -163,6 +167,9 @@ pub fn fit_sinkage(
             basis(&rows[i].0, rows[i].1)[j] * rows[i].0.area_m2()
         });
         let f = DVector::from_iterator(rows.len(), rows.iter().map(|r| r.2));
+        if x.iter().chain(f.iter()).any(|v| !v.is_finite()) {
+            return vec![1.0; k];
+        }
         x.svd(true, true)
             .solve(&f, 1e-12)
             .map(|v| v.iter().cloned().collect())

@@ -852,17 +852,22 @@ impl RftDepthLaw {
     /// The reference depth (m).
     pub const REF_DEPTH_M: f64 = 0.01;
 
-    /// The law, checked: both values finite and positive.
+    /// The law, checked: a scale in (0, 1e6] and an exponent in (0, 5] (as a sinkage law's,
+    /// [`super::sinkage::MAX_EXPONENT`]): beyond them the stress a metre down is no number.
     pub fn new(scale: f64, exponent: f64) -> Result<Self, ModelError> {
-        for (what, v) in [
-            ("RFT depth law's scale", scale),
-            ("RFT depth law's exponent", exponent),
+        for (what, v, max) in [
+            ("RFT depth law's scale", scale, 1e6),
+            (
+                "RFT depth law's exponent",
+                exponent,
+                super::sinkage::MAX_EXPONENT,
+            ),
         ] {
-            if !(v.is_finite() && v > 0.0) {
+            if !(v.is_finite() && v > 0.0 && v <= max) {
                 return Err(ModelError::OutOfRange {
                     what,
                     value: v,
-                    range: "> 0".into(),
+                    range: format!("(0, {max}]"),
                 });
             }
         }
