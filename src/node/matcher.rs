@@ -9,6 +9,9 @@ use crate::model::wrap_beta_rad;
 use crate::msgs::{JointState, WrenchStamped};
 use std::collections::VecDeque;
 
+/// The largest force an F/T reading may have (N); beyond it the sample is invalid, counted.
+pub const MAX_FORCE_N: f64 = 1e6;
+
 /// Joint angles kept per leg for matching F/T samples by time.
 const ANGLE_HISTORY: usize = 1024;
 /// F/T samples held per leg until a joint angle at or after their stamp arrives.
@@ -188,7 +191,10 @@ impl FtMatcher {
         mut matched: impl FnMut(Match),
     ) -> bool {
         let f = &msg.wrench.force;
-        if !(msg.header.stamp.is_valid() && f.x.is_finite() && f.z.is_finite()) {
+        // A reading beyond a meganewton is a broken sensor or message, not a leg in sand: its
+        // square would overflow the estimator's sums.
+        let plausible = |v: f64| v.is_finite() && v.abs() <= MAX_FORCE_N;
+        if !(msg.header.stamp.is_valid() && plausible(f.x) && plausible(f.z)) {
             return false;
         }
         let max_dt_ns = self.max_dt_ns;

@@ -1097,7 +1097,12 @@ impl NodeCore {
                 // Where the robot's state put the hip at the matched angle, once for both.
                 let state_hip = self.hip_at(leg, mt.angle_t_ns, mt.beta_rad);
                 self.watch_gap(leg, &mt, state_hip);
-                if let Some(p) = self.learn(leg, &mt, state_hip) {
+                // An estimate that is no number is never published (the estimator's own guard
+                // is its reset; this is the last one).
+                if let Some(p) = self.learn(leg, &mt, state_hip)
+                    && p.b_k.is_finite()
+                    && p.a.is_finite()
+                {
                     self.params_out.push((leg, p));
                 }
             }
