@@ -4,8 +4,8 @@
 # the corpus it grew and whether it ended on a crash.
 set -u
 work=${FUZZ_WORK:-/tmp/terzaghi-fuzz}
-echo "| target | executions | time (s) | executions/s | corpus (inputs) | ended |"
-echo "|---|---:|---:|---:|---:|---|"
+echo "| target | executions | time (s) | executions/s | corpus (inputs) | ended | earlier runs, each ended by a finding since fixed (s) |"
+echo "|---|---:|---:|---:|---:|---|---|"
 for log in "$work"/*.log; do
   t=$(basename "$log" .log)
   stat() { grep -E "^stat::$1:" "$log" | awk '{print $2}'; }
@@ -14,5 +14,6 @@ for log in "$work"/*.log; do
   secs=$(grep -oE "^Done [0-9]+ runs in [0-9]+ second" "$log" | awk '{print $5}')
   corpus=$(find "$work/$t" -type f | wc -l)
   if grep -q "Test unit written" "$log"; then ended="crash"; else ended="no crash"; fi
-  echo "| \`$t\` | ${n:-?} | ${secs:-?} | ${rate:-?} | $corpus | $ended |"
+  earlier=$(grep -E "^$t rc=" "$work/summary" | head -n -1 | sed 's/.*seconds=//' | paste -sd, - | sed 's/,/, /g')
+  echo "| \`$t\` | ${n:-?} | ${secs:-?} | ${rate:-?} | $corpus | $ended | ${earlier:--} |"
 done
