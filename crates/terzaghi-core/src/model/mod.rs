@@ -19,6 +19,7 @@
 //! rotation. [`HipMotion`] places a hip the robot's state gives (height, pitch, velocity).
 //! Everything here is pure: no I/O, no clock.
 
+pub mod body;
 pub mod corrections;
 pub mod medium;
 pub mod plate;
@@ -26,6 +27,7 @@ pub mod rft;
 pub mod sinkage;
 pub mod terzaghi;
 
+pub use body::{Body, BodyForce, Grousers, HubMotion, Steady, SteadyError, steady_sinkage};
 pub use corrections::{CorrectedModel, CorrectedPrediction, Corrections, Effect};
 pub use medium::{FittingWidth, Medium, MediumPreset, Provenance};
 pub use plate::{Plate, wrap_beta_rad};
@@ -139,6 +141,12 @@ pub enum ModelError {
     /// or segments that cross.
     #[error("leg profile: {problem}")]
     BadProfile {
+        /// What is wrong with it.
+        problem: String,
+    },
+    /// A body's outline that is no closed body about its hub (see [`body::Body::prism`]).
+    #[error("body outline: {problem}")]
+    BadBody {
         /// What is wrong with it.
         problem: String,
     },

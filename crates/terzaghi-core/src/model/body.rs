@@ -1,0 +1,658 @@
+//! Closed bodies that carry a load: a wheel (smooth or with grousers) driven through sand, by
+//! resistive force theory over its outline, and the depth at which the sand bears a given load.
+//!
+//! A body here is a prism: a closed outline in the plane of travel (`x` along the hub's heading,
+//! `z` up, both from the hub), extruded over its width. Unlike a leg's mid-line (a thin plate
+//! whose two faces both meet sand), only the outline's *leading* elements bear stress: those
+//! whose velocity has a component along their outward normal, as Li, Zhang & Goldman (2013)
+//! integrate a closed intruder. The sand is level ahead of the body; behind the body's lowest
+//! point it is the body's own rut, at the depth the body has reached (a rigid body leaves no sand
+//! above its lowest point behind it).
+//!
+//! [`Body::forces`] gives the sand's force and moment on the body at a given hub height and
+//! motion; [`steady_sinkage`] finds the sinkage at which the sand bears a given load.
+
+use super::ModelError;
+use super::rft::{RftCoefficients, RftDepthLaw, RftSpeedLaw};
+
+const N_CM3_TO_N_M3: f64 = 1e6;
+
+/// A wheel's grousers (lugs): straight plates standing out of the rim, evenly spaced.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Grousers {
+    /// How many, evenly spaced around the rim.
+    pub count: usize,
+    /// How far each stands out of the rim (m).
+    pub height_m: f64,
+    /// Each one's thickness along the rim (m).
+    pub thickness_m: f64,
+}
+
+/// One surface element of a body: its centre from the hub `p` (m, body frame: `x` the heading,
+/// `y` the axle to the left, `z` up), its outward unit normal `n`, and its area (m^2).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Element {
+    p: [f64; 3],
+    n: [f64; 3],
+    area: f64,
+}
+
+/// A rigid body's surface, cut into elements, in its own frame about its hub: `x` its heading,
+/// `y` its axle (to the left), `z` up, as ROS orders a body's axes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Body {
+    elements: Vec<Element>,
+    /// The lowest point's depth below the hub (m): the body's reach.
+    reach_m: f64,
+    /// The highest point's height above the hub (m).
+    top_m: f64,
+}
+
+/// How a body's hub moves: its height above the undisturbed surface, its velocity, and the
+/// body's rotation rate about its axle.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct HubMotion {
+    /// The hub's height above the undisturbed surface (m).
+    pub height_m: f64,
+    /// The hub's velocity in the body's frame (m/s: `x` along the heading, `y` along the axle
+    /// to the left, `z` up).
+    pub velocity_m_s: [f64; 3],
+    /// The rotation rate about the axle (rad/s, + rolling forward: the lowest point moves
+    /// backward).
+    pub omega_rad_s: f64,
+}
+
+/// The sand's force and moment on a body, at its hub, in the body's frame.
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
+pub struct BodyForce {
+    /// The force (N): `x` along the heading (+ forward, the drawbar pull), `y` along the axle
+    /// (+ left), `z` up (the load the sand bears).
+    pub force_n: [f64; 3],
+    /// The moment about the hub (N m), about the same axes.
+    pub moment_nm: [f64; 3],
+    /// The lowest point's depth below the undisturbed surface (m).
+    pub sinkage_m: f64,
+}
+
+impl BodyForce {
+    /// The torque a drive applies to keep the rotation against the sand (N m, + along a
+    /// forward roll): the sand's moment about the axle, reversed.
+    pub fn drive_torque_nm(&self) -> f64 {
+        -self.moment_nm[1]
+    }
+}
+
+/// A body in steady motion under a load, in the terms of a wheel test.
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
+pub struct Steady {
+    /// The lowest point's depth below the undisturbed surface at which the sand bears the load
+    /// (m).
+    pub sinkage_m: f64,
+    /// The force along the heading (N, + forward: propulsive).
+    pub drawbar_n: f64,
+    /// The force along the axle (N, + opposing the hub's sideways motion; + toward the right
+    /// where it has none).
+    pub side_n: f64,
+    /// The drive torque (N m, + along a forward roll).
+    pub torque_nm: f64,
+    /// The load the sand bears there (N): the load asked, to the bisection's tolerance.
+    pub load_n: f64,
+}
+
+impl Body {
+    /// Elements of a wheel's rim, at the least.
+    const MIN_RIM_ELEMENTS: usize = 360;
+    /// Rings of each side face.
+    const SIDE_RINGS: usize = 8;
+
+    /// A wheel of `radius_m` and `width_m`, smooth or with `grousers`, its rim cut into about
+    /// `rim_elements` elements (at least 360), its two side faces into rings.
+    pub fn wheel(
+        radius_m: f64,
+        width_m: f64,
+        grousers: Option<Grousers>,
+        rim_elements: usize,
+    ) -> Result<Body, ModelError> {
+        positive("wheel radius (m)", radius_m, 10.0)?;
+        positive("wheel width (m)", width_m, 10.0)?;
+        let n = rim_elements.clamp(Self::MIN_RIM_ELEMENTS, 100_000);
+        let mut outline: Vec<(f64, f64)> = Vec::new();
+        let at = |r: f64, a: f64| (r * a.sin(), -r * a.cos());
+        match grousers {
+            None => {
+                for i in 0..n {
+                    outline.push(at(radius_m, std::f64::consts::TAU * i as f64 / n as f64));
+                }
+            }
+            Some(g) => {
+                if g.count == 0 || g.count > 360 {
+                    return Err(ModelError::OutOfRange {
+                        what: "grouser count",
+                        value: g.count as f64,
+                        range: "[1, 360]".into(),
+                    });
+                }
+                positive("grouser height (m)", g.height_m, radius_m)?;
+                let pitch = std::f64::consts::TAU / g.count as f64;
+                let half = g.thickness_m / (2.0 * radius_m);
+                if !(g.thickness_m.is_finite() && g.thickness_m > 0.0 && 2.0 * half < pitch) {
+                    return Err(ModelError::OutOfRange {
+                        what: "grouser thickness (m)",
+                        value: g.thickness_m,
+                        range: format!("(0, {:.4}) (the rim between grousers)", pitch * radius_m),
+                    });
+                }
+                // Each pitch: the grouser's trailing face out, its tip, its leading face in,
+                // then the rim to the next one.
+                let rim_points = (n / g.count).max(4);
+                let tip = radius_m + g.height_m;
+                for k in 0..g.count {
+                    let c = pitch * k as f64;
+                    outline.push(at(radius_m, c - half));
+                    outline.push(at(tip, c - half));
+                    outline.push(at(tip, c + half));
+                    outline.push(at(radius_m, c + half));
+                    for j in 1..rim_points {
+                        let a = c + half + (pitch - 2.0 * half) * j as f64 / rim_points as f64;
+                        outline.push(at(radius_m, a));
+                    }
+                }
+            }
+        }
+        Body::prism(&outline, width_m, 4)
+    }
+
+    /// A prism: the closed polygon `outline` (points `(x, z)` from the hub, counter-clockwise
+    /// seen with `x` right and `z` up, every point seen from the hub without crossing an edge:
+    /// a wheel, with or without grousers) extruded over `width_m` about the hub, its edges cut
+    /// into `per_edge` elements each and its two side faces into rings.
+    pub fn prism(
+        outline: &[(f64, f64)],
+        width_m: f64,
+        per_edge: usize,
+    ) -> Result<Body, ModelError> {
+        positive("body width (m)", width_m, 10.0)?;
+        if outline.len() < 3 {
+            return Err(ModelError::BadBody {
+                problem: format!("needs 3 points or more, not {}", outline.len()),
+            });
+        }
+        let per_edge = per_edge.max(1);
+        let mut elements = Vec::with_capacity(outline.len() * (per_edge + 2 * Self::SIDE_RINGS));
+        let (mut reach, mut top) = (f64::INFINITY, f64::NEG_INFINITY);
+        let half_width = width_m / 2.0;
+        for (i, &(x, z)) in outline.iter().enumerate() {
+            for (what, v) in [("x", x), ("z", z)] {
+                if !v.is_finite() {
+                    return Err(ModelError::BadBody {
+                        problem: format!("point {i}'s {what} is {v}"),
+                    });
+                }
+            }
+        }
+        for (i, &(x0, z0)) in outline.iter().enumerate() {
+            let (x1, z1) = outline[(i + 1) % outline.len()];
+            let (dx, dz) = (x1 - x0, z1 - z0);
+            let len = dx.hypot(dz);
+            // Twice the area the edge spans about the hub: > 0 where the hub sees the edge
+            // counter-clockwise.
+            let twice_fan = x0 * z1 - x1 * z0;
+            // A radial edge (a grouser's face) spans none; rounding may make it a hair below.
+            let radius = x0.hypot(z0).max(x1.hypot(z1));
+            if len <= 0.0 || !len.is_finite() || twice_fan < -1e-9 * len * radius {
+                return Err(ModelError::BadBody {
+                    problem: format!(
+                        "edge {i} from ({x0}, {z0}) to ({x1}, {z1}) {}",
+                        if len > 0.0 {
+                            "turns clockwise about the hub (an outline runs counter-clockwise, x right and z up, and the hub sees all of it)"
+                        } else {
+                            "has no length"
+                        }
+                    ),
+                });
+            }
+            // Counter-clockwise: the outside is on the right of the direction of travel.
+            let (nx, nz) = (dz / len, -dx / len);
+            for j in 0..per_edge {
+                let f = (j as f64 + 0.5) / per_edge as f64;
+                elements.push(Element {
+                    p: [x0 + f * dx, 0.0, z0 + f * dz],
+                    n: [nx, 0.0, nz],
+                    area: width_m * len / per_edge as f64,
+                });
+            }
+            // The side faces: the fan triangle (hub, p0, p1) in rings of the radius fraction.
+            let fan = twice_fan / 2.0;
+            for k in (0..Self::SIDE_RINGS).filter(|_| fan > 0.0) {
+                let (t0, t1) = (
+                    k as f64 / Self::SIDE_RINGS as f64,
+                    (k + 1) as f64 / Self::SIDE_RINGS as f64,
+                );
+                // The centroid of the trapezoid between t0 and t1 of the triangle.
+                let tc = 2.0 / 3.0 * (t1.powi(3) - t0.powi(3)) / (t1 * t1 - t0 * t0);
+                let (cx, cz) = (tc * (x0 + x1) / 2.0, tc * (z0 + z1) / 2.0);
+                let area = fan * (t1 * t1 - t0 * t0);
+                for side in [1.0, -1.0] {
+                    elements.push(Element {
+                        p: [cx, side * half_width, cz],
+                        n: [0.0, side, 0.0],
+                        area,
+                    });
+                }
+            }
+            reach = reach.min(z0);
+            top = top.max(z0);
+        }
+        Ok(Body {
+            elements,
+            reach_m: -reach,
+            top_m: top,
+        })
+    }
+
+    /// The lowest point's depth below the hub (m).
+    pub fn reach_m(&self) -> f64 {
+        self.reach_m
+    }
+
+    /// The body's height from its lowest point to its highest (m).
+    pub fn height_m(&self) -> f64 {
+        self.reach_m + self.top_m
+    }
+
+    /// How many surface elements the body has.
+    pub fn element_count(&self) -> usize {
+        self.elements.len()
+    }
+
+    /// The sand's force and moment on the body with its hub moving as `hub`: RFT's stress of
+    /// `coefficients` through `depth_law` (and `speed_law`'s dynamic part, where given) on every
+    /// leading element below the sand's surface.
+    ///
+    /// In three dimensions each element's stress is the medium's two-dimensional law in the
+    /// vertical plane of its normal (Treers et al., RA-L 2021): the part of its velocity in that
+    /// plane meets the element at its attack and intrusion angles there; the part across it
+    /// (along the element's surface, horizontal) shears it as a horizontal plate dragged along
+    /// itself is sheared. Each part is weighted by its share of the element's speed. An element
+    /// whose normal and velocity lie in the `x`-`z` plane (a planar body) feels the planar law
+    /// alone.
+    pub fn forces(
+        &self,
+        coefficients: &RftCoefficients,
+        depth_law: Option<&RftDepthLaw>,
+        speed_law: Option<&RftSpeedLaw>,
+        hub: &HubMotion,
+    ) -> BodyForce {
+        let sinkage = self.reach_m - hub.height_m;
+        let rut = -sinkage.max(0.0);
+        let [hx, hy, hz] = hub.velocity_m_s;
+        let w = hub.omega_rad_s;
+        // Behind the body along its travel the sand is its rut (where it travels at all).
+        let travel = hx.hypot(hy);
+        let (tx, ty) = if travel > 0.0 {
+            (hx / travel, hy / travel)
+        } else {
+            (0.0, 0.0)
+        };
+        // A horizontal plate dragged along itself: the shear across an element's plane.
+        let shear = coefficients.alpha_along((1.0, 0.0), (1.0, 0.0)).0;
+        let (mut f, mut m) = ([0.0; 3], [0.0; 3]);
+        for e in &self.elements {
+            let [px, py, pz] = e.p;
+            let [nx, ny, nz] = e.n;
+            let behind = travel > 0.0 && px * tx + py * ty < 0.0;
+            let depth = if behind { rut } else { 0.0 } - (hub.height_m + pz);
+            if depth <= 0.0 {
+                continue;
+            }
+            // The hub's velocity plus the rotation's about y: (w z, 0, -w x).
+            let v = [hx + w * pz, hy, hz - w * px];
+            // Only a leading element pushes on sand.
+            if v[0] * nx + v[1] * ny + v[2] * nz <= 0.0 {
+                continue;
+            }
+            let speed = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+            // The vertical plane of the normal: e2 its horizontal part (the horizontal velocity
+            // for a horizontal element), e1 = e2 x z across it.
+            let nh = nx.hypot(ny);
+            let (e2x, e2y) = if nh > 1e-12 {
+                (nx / nh, ny / nh)
+            } else {
+                let vh = v[0].hypot(v[1]);
+                if vh > 0.0 {
+                    (v[0] / vh, v[1] / vh)
+                } else {
+                    (1.0, 0.0)
+                }
+            };
+            let (e1x, e1y) = (e2y, -e2x);
+            let v1 = v[0] * e1x + v[1] * e1y;
+            let v2 = (v[0] * e2x + v[1] * e2y, v[2]);
+            let stressed = depth_law.map_or(depth, |l| l.effective_depth_m(depth));
+            let extra = speed_law.map_or(0.0, |law| {
+                law.extra_depth_of_velocity_m(v[0].hypot(v[1]), v[2])
+            });
+            let k = N_CM3_TO_N_M3 * (stressed + extra) * e.area / speed;
+            let (mut fx, mut fy, mut fz) = (0.0, 0.0, 0.0);
+            let in_plane = v2.0.hypot(v2.1);
+            if in_plane > 0.0 {
+                // The element in its plane: normal (n.e2, nz), tangent along it.
+                let n2 = (nx * e2x + ny * e2y, nz);
+                let mirror = if v2.0 < 0.0 { -1.0 } else { 1.0 };
+                let (ax, az) =
+                    coefficients.alpha_along((mirror * -n2.1, n2.0), (mirror * v2.0, v2.1));
+                let (f2, fv) = (-mirror * ax * k * in_plane, az * k * in_plane);
+                fx += f2 * e2x;
+                fy += f2 * e2y;
+                fz += fv;
+            }
+            if v1 != 0.0 {
+                let f1 = -v1.signum() * shear * k * v1.abs();
+                fx += f1 * e1x;
+                fy += f1 * e1y;
+            }
+            f[0] += fx;
+            f[1] += fy;
+            f[2] += fz;
+            m[0] += py * fz - pz * fy;
+            m[1] += pz * fx - px * fz;
+            m[2] += px * fy - py * fx;
+        }
+        BodyForce {
+            force_n: f,
+            moment_nm: m,
+            sinkage_m: sinkage,
+        }
+    }
+}
+
+/// Why no depth bears a load.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SteadyError {
+    /// A load, speed or rate that is no number, or a load that is not positive.
+    #[error("{what} is {value}: {why}")]
+    BadInput {
+        /// The input.
+        what: &'static str,
+        /// Its value.
+        value: f64,
+        /// What it must be.
+        why: &'static str,
+    },
+    /// The sand does not bear the load before the body is buried to its top.
+    #[error(
+        "the sand bears at most {max_load_n:.1} N of this body, buried to its top ({height_m:.4} m): a load of {load_n} N sinks it"
+    )]
+    TooHeavy {
+        /// The load (N).
+        load_n: f64,
+        /// The most the sand bears within the body's height (N).
+        max_load_n: f64,
+        /// The body's height (m).
+        height_m: f64,
+    },
+}
+
+/// The sinkage at which the sand bears `load_n` (N, > 0) of `body` travelling at
+/// `speed_m_s` (the hub's speed over the ground) with its heading `slip_angle_rad` from its
+/// travel (+ the travel toward the body's left) and turning at `omega_rad_s` (+ rolling
+/// forward); found by bisection on the sinkage to 1 um, with the forces there.
+#[allow(clippy::too_many_arguments)]
+pub fn steady_sinkage(
+    body: &Body,
+    coefficients: &RftCoefficients,
+    depth_law: Option<&RftDepthLaw>,
+    speed_law: Option<&RftSpeedLaw>,
+    load_n: f64,
+    speed_m_s: f64,
+    omega_rad_s: f64,
+    slip_angle_rad: f64,
+) -> Result<Steady, SteadyError> {
+    for (what, value) in [
+        ("load (N)", load_n),
+        ("hub speed (m/s)", speed_m_s),
+        ("rotation rate (rad/s)", omega_rad_s),
+        ("slip angle (rad)", slip_angle_rad),
+    ] {
+        if !value.is_finite() {
+            return Err(SteadyError::BadInput {
+                what,
+                value,
+                why: "a finite number is needed",
+            });
+        }
+    }
+    if load_n <= 0.0 {
+        return Err(SteadyError::BadInput {
+            what: "load (N)",
+            value: load_n,
+            why: "a body on sand carries a load > 0 N",
+        });
+    }
+    if slip_angle_rad.abs() > std::f64::consts::FRAC_PI_2 {
+        return Err(SteadyError::BadInput {
+            what: "slip angle (rad)",
+            value: slip_angle_rad,
+            why: "a slip angle is in [-pi/2, pi/2] (a body travelling backward has a negative speed)",
+        });
+    }
+    let (sin_a, cos_a) = slip_angle_rad.sin_cos();
+    let velocity = [speed_m_s * cos_a, speed_m_s * sin_a, 0.0];
+    let at = |sinkage: f64| {
+        body.forces(
+            coefficients,
+            depth_law,
+            speed_law,
+            &HubMotion {
+                height_m: body.reach_m - sinkage,
+                velocity_m_s: velocity,
+                omega_rad_s,
+            },
+        )
+    };
+    let deepest = body.height_m();
+    let bottom = at(deepest);
+    if !(bottom.force_n[2] >= load_n) {
+        return Err(SteadyError::TooHeavy {
+            load_n,
+            max_load_n: bottom.force_n[2],
+            height_m: deepest,
+        });
+    }
+    let (mut lo, mut hi) = (0.0, deepest);
+    while hi - lo > 1e-6 {
+        let mid = 0.5 * (lo + hi);
+        if at(mid).force_n[2] >= load_n {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    let f = at(hi);
+    // Side: + opposing the hub's sideways motion, toward the right (-y) where it has none.
+    let side = if velocity[1] < 0.0 {
+        f.force_n[1]
+    } else {
+        -f.force_n[1]
+    };
+    Ok(Steady {
+        sinkage_m: f.sinkage_m,
+        drawbar_n: f.force_n[0],
+        side_n: side,
+        torque_nm: f.drive_torque_nm(),
+        load_n: f.force_n[2],
+    })
+}
+
+fn positive(what: &'static str, v: f64, max: f64) -> Result<(), ModelError> {
+    if v.is_finite() && v > 0.0 && v <= max {
+        Ok(())
+    } else {
+        Err(ModelError::OutOfRange {
+            what,
+            value: v,
+            range: format!("(0, {max}]"),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::RftFit;
+
+    fn sand() -> (RftCoefficients, RftDepthLaw) {
+        // The real-plate-sinkage runs' rft_depth_power law on poppy_lp's shape.
+        (
+            RftCoefficients::Fit(RftFit::POPPY_LP),
+            RftDepthLaw::new(4.546, 1.219).unwrap(),
+        )
+    }
+
+    fn steady(body: &Body, load: f64, omega: f64, slip_deg: f64) -> Result<Steady, SteadyError> {
+        let (c, law) = sand();
+        steady_sinkage(
+            body,
+            &c,
+            Some(&law),
+            None,
+            load,
+            0.01,
+            omega,
+            slip_deg.to_radians(),
+        )
+    }
+
+    #[test]
+    fn a_wheel_going_straight_has_no_side_force_roll_or_yaw() {
+        let (c, law) = sand();
+        let wheel = Body::wheel(0.058, 0.05, None, 720).unwrap();
+        for omega in [0.0, 0.17, 1.7] {
+            let f = wheel.forces(
+                &c,
+                Some(&law),
+                None,
+                &HubMotion {
+                    height_m: 0.04,
+                    velocity_m_s: [0.01, 0.0, 0.0],
+                    omega_rad_s: omega,
+                },
+            );
+            assert!(f.force_n[2] > 1.0, "{f:?}");
+            for v in [f.force_n[1], f.moment_nm[0], f.moment_nm[2]] {
+                assert!(v.abs() < 1e-12, "{f:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_yawed_wheel_is_pushed_against_its_sideways_motion_the_same_either_way() {
+        let wheel = Body::wheel(0.058, 0.05, None, 720).unwrap();
+        let straight = steady(&wheel, 20.0, 0.172, 0.0).unwrap();
+        let mut last = 0.0;
+        for deg in [5.0, 10.0, 20.0, 30.0] {
+            let left = steady(&wheel, 20.0, 0.172, deg).unwrap();
+            let right = steady(&wheel, 20.0, 0.172, -deg).unwrap();
+            // + opposing the sideways motion, growing with the angle, mirrored exactly.
+            assert!(left.side_n > last, "{deg}: {left:?}");
+            assert!(
+                (left.side_n - right.side_n).abs() < 1e-9,
+                "{left:?} {right:?}"
+            );
+            assert!((left.sinkage_m - right.sinkage_m).abs() < 1e-12);
+            last = left.side_n;
+        }
+        assert!(straight.side_n.abs() < 1e-12);
+        // The hub moving toward the left (+y): the sand pushes it toward the right (-y).
+        let (c, law) = sand();
+        let f = wheel.forces(
+            &c,
+            Some(&law),
+            None,
+            &HubMotion {
+                height_m: 0.058 - straight.sinkage_m,
+                velocity_m_s: [0.0098, 0.0017, 0.0],
+                omega_rad_s: 0.172,
+            },
+        );
+        assert!(f.force_n[1] < 0.0, "{f:?}");
+    }
+
+    #[test]
+    fn a_heavier_load_sinks_deeper_and_too_heavy_a_load_is_refused_by_name() {
+        let wheel = Body::wheel(0.058, 0.05, None, 720).unwrap();
+        let mut last = 0.0;
+        for load in [5.0, 10.0, 20.0, 40.0, 80.0] {
+            let s = steady(&wheel, load, 0.172, 0.0).unwrap();
+            assert!(s.sinkage_m > last, "{load} N: {s:?}");
+            assert!((s.load_n - load).abs() < 0.01 * load, "{s:?}");
+            last = s.sinkage_m;
+        }
+        let e = steady(&wheel, 1e7, 0.172, 0.0).unwrap_err();
+        assert!(
+            matches!(e, SteadyError::TooHeavy { load_n, .. } if load_n == 1e7),
+            "{e}"
+        );
+        assert!(e.to_string().contains("10000000 N"), "{e}");
+        for (load, omega, slip) in [
+            (f64::NAN, 0.1, 0.0),
+            (10.0, f64::INFINITY, 0.0),
+            (-1.0, 0.1, 0.0),
+            (10.0, 0.1, 100.0),
+        ] {
+            let e = steady(&wheel, load, omega, slip).unwrap_err();
+            assert!(matches!(e, SteadyError::BadInput { .. }), "{e}");
+        }
+    }
+
+    #[test]
+    fn grousers_drive_a_slipping_wheel_harder_than_a_smooth_rim() {
+        let smooth = Body::wheel(0.058, 0.05, None, 720).unwrap();
+        let lugs = Body::wheel(
+            0.058,
+            0.05,
+            Some(Grousers {
+                count: 12,
+                height_m: 0.005,
+                thickness_m: 0.002,
+            }),
+            720,
+        )
+        .unwrap();
+        let (a, b) = (
+            steady(&smooth, 20.0, 0.69, 0.0).unwrap(),
+            steady(&lugs, 20.0, 0.69, 0.0).unwrap(),
+        );
+        assert!(b.drawbar_n > a.drawbar_n, "{a:?} {b:?}");
+    }
+
+    #[test]
+    fn an_outline_that_is_no_body_is_refused_naming_the_edge() {
+        let square = [(-0.01, -0.01), (0.01, -0.01), (0.01, 0.01), (-0.01, 0.01)];
+        assert!(Body::prism(&square, 0.02, 4).is_ok());
+        let mut clockwise = square;
+        clockwise.reverse();
+        let e = Body::prism(&clockwise, 0.02, 4).unwrap_err().to_string();
+        assert!(e.contains("edge 0") && e.contains("clockwise"), "{e}");
+        let mut nan = square;
+        nan[2].1 = f64::NAN;
+        let e = Body::prism(&nan, 0.02, 4).unwrap_err().to_string();
+        assert!(e.contains("point 2") && e.contains("NaN"), "{e}");
+        let e = Body::prism(&square[..2], 0.02, 4).unwrap_err().to_string();
+        assert!(e.contains("3 points"), "{e}");
+        assert!(Body::wheel(0.058, f64::NAN, None, 10).is_err());
+        let e = Body::wheel(
+            0.058,
+            0.05,
+            Some(Grousers {
+                count: 12,
+                height_m: 0.005,
+                thickness_m: 0.05,
+            }),
+            10,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("grouser thickness"), "{e}");
+    }
+}
