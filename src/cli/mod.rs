@@ -17,6 +17,7 @@ mod record;
 mod replay;
 mod simulate;
 mod simulate_robot;
+mod steady;
 
 use crate::model::{FittingWidth, Plate};
 use anyhow::{Context, Result};
@@ -65,6 +66,9 @@ pub enum Command {
     /// Fit a medium's plate-sinkage laws (Terzaghi's footing, Bekker, Reece, RFT with a depth
     /// exponent, a power law in depth and width) to plate-sinkage tests and write a medium file.
     Calibrate(calibrate::CalibrateArgs),
+    /// A wheel's steady sinkage, drawbar pull, side force and drive torque under each run's load,
+    /// hub speed, rotation rate and slip angle (CSV in, CSV out).
+    Steady(steady::SteadyArgs),
     /// Write a synthetic session (one leg in continuous rotation, with sensor noise) as CSV.
     Simulate(simulate::SimulateArgs),
     /// Write a recording (MCAP) of the simulated six-legged robot walking with a heaving,
@@ -239,6 +243,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Replay(a) => replay::run(a),
         Command::Media(a) => media::run(a),
         Command::Calibrate(a) => calibrate::run(a),
+        Command::Steady(a) => steady::run(a),
         Command::Node(a) => node::run(a),
         Command::Param(a) => param::run(a),
         Command::Simulate(a) => simulate::run(a),

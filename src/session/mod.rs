@@ -70,6 +70,7 @@ pub mod reevaluate;
 #[cfg(feature = "node")]
 pub mod replay;
 pub(crate) mod report_html;
+pub mod steady;
 pub mod topics;
 
 use crate::record::read::{IndexedFile, Scan, Source, scan};

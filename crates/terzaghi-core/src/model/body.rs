@@ -103,7 +103,7 @@ impl Body {
     /// Elements of a wheel's rim, at the least.
     const MIN_RIM_ELEMENTS: usize = 360;
     /// Rings of each side face.
-    const SIDE_RINGS: usize = 8;
+    const SIDE_RINGS: usize = 4;
 
     /// A wheel of `radius_m` and `width_m`, smooth or with `grousers`, its rim cut into about
     /// `rim_elements` elements (at least 360), its two side faces into rings.
@@ -159,26 +159,30 @@ impl Body {
                 }
             }
         }
-        Body::prism(&outline, width_m, 4)
+        // One element per edge of the rim: a rim turning about its hub moves along each chord at
+        // the chord's middle, and along no sub-element of it (whose velocity would have a
+        // spurious part along the normal, which a spinning wheel's nearly tangential motion
+        // feels).
+        Body::prism(
+            &outline,
+            width_m,
+            std::f64::consts::TAU * radius_m / n as f64,
+        )
     }
 
     /// A prism: the closed polygon `outline` (points `(x, z)` from the hub, counter-clockwise
     /// seen with `x` right and `z` up, every point seen from the hub without crossing an edge:
     /// a wheel, with or without grousers) extruded over `width_m` about the hub, its edges cut
-    /// into `per_edge` elements each and its two side faces into rings.
-    pub fn prism(
-        outline: &[(f64, f64)],
-        width_m: f64,
-        per_edge: usize,
-    ) -> Result<Body, ModelError> {
+    /// into elements no longer than `element_m` (m) and its two side faces into rings.
+    pub fn prism(outline: &[(f64, f64)], width_m: f64, element_m: f64) -> Result<Body, ModelError> {
+        positive("body element length (m)", element_m, 10.0)?;
         positive("body width (m)", width_m, 10.0)?;
         if outline.len() < 3 {
             return Err(ModelError::BadBody {
                 problem: format!("needs 3 points or more, not {}", outline.len()),
             });
         }
-        let per_edge = per_edge.max(1);
-        let mut elements = Vec::with_capacity(outline.len() * (per_edge + 2 * Self::SIDE_RINGS));
+        let mut elements = Vec::with_capacity(outline.len() * (1 + 2 * Self::SIDE_RINGS));
         let (mut reach, mut top) = (f64::INFINITY, f64::NEG_INFINITY);
         let half_width = width_m / 2.0;
         for (i, &(x, z)) in outline.iter().enumerate() {
@@ -213,6 +217,8 @@ impl Body {
             }
             // Counter-clockwise: the outside is on the right of the direction of travel.
             let (nx, nz) = (dz / len, -dx / len);
+            // At most 10^5 elements along any edge.
+            let per_edge = (len / element_m).ceil().clamp(1.0, 1e5) as usize;
             for j in 0..per_edge {
                 let f = (j as f64 + 0.5) / per_edge as f64;
                 elements.push(Element {
@@ -393,95 +399,138 @@ pub enum SteadyError {
     },
 }
 
-/// The sinkage at which the sand bears `load_n` (N, > 0) of `body` travelling at
-/// `speed_m_s` (the hub's speed over the ground) with its heading `slip_angle_rad` from its
-/// travel (+ the travel toward the body's left) and turning at `omega_rad_s` (+ rolling
-/// forward); found by bisection on the sinkage to 1 um, with the forces there.
-#[allow(clippy::too_many_arguments)]
-pub fn steady_sinkage(
-    body: &Body,
-    coefficients: &RftCoefficients,
-    depth_law: Option<&RftDepthLaw>,
-    speed_law: Option<&RftSpeedLaw>,
-    load_n: f64,
-    speed_m_s: f64,
-    omega_rad_s: f64,
-    slip_angle_rad: f64,
-) -> Result<Steady, SteadyError> {
-    for (what, value) in [
-        ("load (N)", load_n),
-        ("hub speed (m/s)", speed_m_s),
-        ("rotation rate (rad/s)", omega_rad_s),
-        ("slip angle (rad)", slip_angle_rad),
-    ] {
-        if !value.is_finite() {
+/// How a body is driven in a wheel test: its hub's speed over the ground, its rotation rate,
+/// and its heading's angle from its travel.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Drive {
+    /// The hub's speed over the ground along its travel (m/s).
+    pub speed_m_s: f64,
+    /// The rotation rate about the axle (rad/s, + rolling forward).
+    pub omega_rad_s: f64,
+    /// The heading's angle from the travel (rad, in [-pi/2, pi/2]; + the travel toward the
+    /// body's left).
+    pub slip_angle_rad: f64,
+}
+
+impl Drive {
+    /// The hub's velocity in the body's frame, checked.
+    fn velocity(&self) -> Result<[f64; 3], SteadyError> {
+        for (what, value) in [
+            ("hub speed (m/s)", self.speed_m_s),
+            ("rotation rate (rad/s)", self.omega_rad_s),
+            ("slip angle (rad)", self.slip_angle_rad),
+        ] {
+            if !value.is_finite() {
+                return Err(SteadyError::BadInput {
+                    what,
+                    value,
+                    why: "a finite number is needed",
+                });
+            }
+        }
+        if self.slip_angle_rad.abs() > std::f64::consts::FRAC_PI_2 {
             return Err(SteadyError::BadInput {
-                what,
-                value,
-                why: "a finite number is needed",
+                what: "slip angle (rad)",
+                value: self.slip_angle_rad,
+                why: "a slip angle is in [-pi/2, pi/2] (a body travelling backward has a negative speed)",
             });
         }
+        let (sin_a, cos_a) = self.slip_angle_rad.sin_cos();
+        Ok([self.speed_m_s * cos_a, self.speed_m_s * sin_a, 0.0])
     }
-    if load_n <= 0.0 {
+}
+
+/// A medium's RFT stress: its coefficients, its law in depth and its speed law, where it has
+/// them.
+#[derive(Debug, Clone, Copy)]
+pub struct Stress<'a> {
+    /// The angular shape and scale.
+    pub coefficients: &'a RftCoefficients,
+    /// The law in depth, where it is not RFT's linear one.
+    pub depth_law: Option<&'a RftDepthLaw>,
+    /// The dynamic stress of speed, if any.
+    pub speed_law: Option<&'a RftSpeedLaw>,
+}
+
+/// `body` driven as `drive` with its lowest point `sinkage_m` below the undisturbed surface: the
+/// forces there, in a wheel test's terms (the load the sand bears there as `load_n`).
+pub fn state_at_sinkage(
+    body: &Body,
+    stress: &Stress,
+    sinkage_m: f64,
+    drive: &Drive,
+) -> Result<Steady, SteadyError> {
+    let velocity = drive.velocity()?;
+    if !sinkage_m.is_finite() || sinkage_m > body.height_m() {
+        return Err(SteadyError::BadInput {
+            what: "sinkage (m)",
+            value: sinkage_m,
+            why: "a sinkage is a number no deeper than the body's height",
+        });
+    }
+    let f = body.forces(
+        stress.coefficients,
+        stress.depth_law,
+        stress.speed_law,
+        &HubMotion {
+            height_m: body.reach_m - sinkage_m,
+            velocity_m_s: velocity,
+            omega_rad_s: drive.omega_rad_s,
+        },
+    );
+    // Side: + opposing the hub's sideways motion, toward the right (-y) where it has none.
+    // (+ 0.0: no side force is 0, not -0.)
+    let side = if velocity[1] < 0.0 {
+        f.force_n[1]
+    } else {
+        -f.force_n[1]
+    } + 0.0;
+    Ok(Steady {
+        sinkage_m,
+        drawbar_n: f.force_n[0],
+        side_n: side,
+        torque_nm: f.drive_torque_nm(),
+        load_n: f.force_n[2],
+    })
+}
+
+/// The sinkage at which the sand bears `load_n` (N, > 0) of `body` driven as `drive`, found by
+/// bisection on the sinkage to 1 um, with the forces there.
+pub fn steady_sinkage(
+    body: &Body,
+    stress: &Stress,
+    load_n: f64,
+    drive: &Drive,
+) -> Result<Steady, SteadyError> {
+    drive.velocity()?;
+    if !(load_n.is_finite() && load_n > 0.0) {
         return Err(SteadyError::BadInput {
             what: "load (N)",
             value: load_n,
             why: "a body on sand carries a load > 0 N",
         });
     }
-    if slip_angle_rad.abs() > std::f64::consts::FRAC_PI_2 {
-        return Err(SteadyError::BadInput {
-            what: "slip angle (rad)",
-            value: slip_angle_rad,
-            why: "a slip angle is in [-pi/2, pi/2] (a body travelling backward has a negative speed)",
-        });
-    }
-    let (sin_a, cos_a) = slip_angle_rad.sin_cos();
-    let velocity = [speed_m_s * cos_a, speed_m_s * sin_a, 0.0];
-    let at = |sinkage: f64| {
-        body.forces(
-            coefficients,
-            depth_law,
-            speed_law,
-            &HubMotion {
-                height_m: body.reach_m - sinkage,
-                velocity_m_s: velocity,
-                omega_rad_s,
-            },
-        )
-    };
+    let at = |sinkage: f64| state_at_sinkage(body, stress, sinkage, drive);
     let deepest = body.height_m();
-    let bottom = at(deepest);
-    if !(bottom.force_n[2] >= load_n) {
+    let bottom = at(deepest)?;
+    // (A load borne that is no number is no bearing either.)
+    if bottom.load_n.is_nan() || bottom.load_n < load_n {
         return Err(SteadyError::TooHeavy {
             load_n,
-            max_load_n: bottom.force_n[2],
+            max_load_n: bottom.load_n,
             height_m: deepest,
         });
     }
     let (mut lo, mut hi) = (0.0, deepest);
     while hi - lo > 1e-6 {
         let mid = 0.5 * (lo + hi);
-        if at(mid).force_n[2] >= load_n {
+        if at(mid)?.load_n >= load_n {
             hi = mid;
         } else {
             lo = mid;
         }
     }
-    let f = at(hi);
-    // Side: + opposing the hub's sideways motion, toward the right (-y) where it has none.
-    let side = if velocity[1] < 0.0 {
-        f.force_n[1]
-    } else {
-        -f.force_n[1]
-    };
-    Ok(Steady {
-        sinkage_m: f.sinkage_m,
-        drawbar_n: f.force_n[0],
-        side_n: side,
-        torque_nm: f.drive_torque_nm(),
-        load_n: f.force_n[2],
-    })
+    at(hi)
 }
 
 fn positive(what: &'static str, v: f64, max: f64) -> Result<(), ModelError> {
@@ -511,16 +560,17 @@ mod tests {
 
     fn steady(body: &Body, load: f64, omega: f64, slip_deg: f64) -> Result<Steady, SteadyError> {
         let (c, law) = sand();
-        steady_sinkage(
-            body,
-            &c,
-            Some(&law),
-            None,
-            load,
-            0.01,
-            omega,
-            slip_deg.to_radians(),
-        )
+        let stress = Stress {
+            coefficients: &c,
+            depth_law: Some(&law),
+            speed_law: None,
+        };
+        let drive = Drive {
+            speed_m_s: 0.01,
+            omega_rad_s: omega,
+            slip_angle_rad: slip_deg.to_radians(),
+        };
+        steady_sinkage(body, &stress, load, &drive)
     }
 
     #[test]
@@ -629,16 +679,20 @@ mod tests {
     #[test]
     fn an_outline_that_is_no_body_is_refused_naming_the_edge() {
         let square = [(-0.01, -0.01), (0.01, -0.01), (0.01, 0.01), (-0.01, 0.01)];
-        assert!(Body::prism(&square, 0.02, 4).is_ok());
+        assert!(Body::prism(&square, 0.02, 0.002).is_ok());
         let mut clockwise = square;
         clockwise.reverse();
-        let e = Body::prism(&clockwise, 0.02, 4).unwrap_err().to_string();
+        let e = Body::prism(&clockwise, 0.02, 0.002)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("edge 0") && e.contains("clockwise"), "{e}");
         let mut nan = square;
         nan[2].1 = f64::NAN;
-        let e = Body::prism(&nan, 0.02, 4).unwrap_err().to_string();
+        let e = Body::prism(&nan, 0.02, 0.002).unwrap_err().to_string();
         assert!(e.contains("point 2") && e.contains("NaN"), "{e}");
-        let e = Body::prism(&square[..2], 0.02, 4).unwrap_err().to_string();
+        let e = Body::prism(&square[..2], 0.02, 0.002)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("3 points"), "{e}");
         assert!(Body::wheel(0.058, f64::NAN, None, 10).is_err());
         let e = Body::wheel(

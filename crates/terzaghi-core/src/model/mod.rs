@@ -1,5 +1,6 @@
 //! Force models for a leg rotating about a hip axis through a granular medium: a flat plate,
-//! and (by RFT) a leg of any profile in the plane of rotation, a C-leg say.
+//! and (by RFT) a leg of any profile in the plane of rotation, a C-leg say; and for a closed body
+//! that carries a load, a wheel.
 //!
 //! - [`terzaghi`]: the improved Terzaghi model of Yang et al. (2020), Eqs. (1)–(25), with the
 //!   fitting width of Eq. (11); the conventional model is the same with `b_e = b`.
@@ -9,6 +10,8 @@
 //! - [`plate`]: the leg's geometry, the attack angle and the submerged length.
 //! - [`sinkage`]: a horizontal plate pushed straight down (the plate-sinkage test): Terzaghi's
 //!   footing, Bekker, Reece, RFT with a depth exponent, and a power law in depth and width.
+//! - [`body`]: a closed body (a wheel, smooth or with grousers) by RFT on its leading elements
+//!   in three dimensions, and the sinkage at which the sand bears its load.
 //! - [`corrections`]: the corrected model: the improved model plus terms for what it leaves out
 //!   (speed, added mass, surcharge, extraction, compaction, cohesion, surface level, and the F/T
 //!   sensor's offset and lag), fitted by the diagnosis and evaluated by the node.
@@ -27,7 +30,10 @@ pub mod rft;
 pub mod sinkage;
 pub mod terzaghi;
 
-pub use body::{Body, BodyForce, Grousers, HubMotion, Steady, SteadyError, steady_sinkage};
+pub use body::{
+    Body, BodyForce, Drive, Grousers, HubMotion, Steady, SteadyError, Stress, state_at_sinkage,
+    steady_sinkage,
+};
 pub use corrections::{CorrectedModel, CorrectedPrediction, Corrections, Effect};
 pub use medium::{FittingWidth, Medium, MediumPreset, Provenance};
 pub use plate::{Plate, wrap_beta_rad};

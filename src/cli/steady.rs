@@ -1,0 +1,154 @@
+//! `terzaghi steady`: a wheel's steady sinkage, drawbar pull, side force and drive torque under
+//! each run's load, speed, rotation rate and slip angle (the work is
+//! [`crate::session::steady`]).
+
+use super::print_out;
+use crate::medium_file::MediumFile;
+use crate::model::{Body, Grousers};
+use crate::session::steady::{INPUT_COLUMNS, OUTPUT_COLUMNS, Solve, steady_runs};
+use anyhow::{Context, Result};
+use clap::{Args, ValueEnum};
+use std::path::PathBuf;
+
+/// The body's shape.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum BodyShape {
+    /// A wheel: --radius-m, --width-m, and grousers if --grouser-count is given.
+    Wheel,
+}
+
+#[derive(Debug, Args)]
+pub struct SteadyArgs {
+    /// The runs: a CSV with columns load_n (N, the load the sand bears), hub_vx_m_s (the hub's
+    /// speed over the ground along its travel), omega_rad_s (+ rolling forward) and
+    /// slip_angle_deg (the heading's angle from the travel, + the travel toward the wheel's
+    /// left); other columns are passed through, a measured sinkage_m, drawbar_n, side_n or
+    /// torque_nm as measured_<name>, and compared.
+    #[arg(value_name = "RUNS.csv")]
+    pub runs: PathBuf,
+    /// The body.
+    #[arg(long, value_enum, default_value = "wheel")]
+    pub shape: BodyShape,
+    /// The wheel's rim radius (m).
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
+    pub radius_m: f64,
+    /// The wheel's width (m).
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
+    pub width_m: f64,
+    /// Grousers (lugs): how many, evenly spaced around the rim.
+    #[arg(long, value_name = "N", requires_all = ["grouser_height_m", "grouser_thickness_m"])]
+    pub grouser_count: Option<usize>,
+    /// How far each grouser stands out of the rim (m).
+    #[arg(
+        long,
+        value_name = "M",
+        requires = "grouser_count",
+        allow_negative_numbers = true
+    )]
+    pub grouser_height_m: Option<f64>,
+    /// Each grouser's thickness along the rim (m).
+    #[arg(
+        long,
+        value_name = "M",
+        requires = "grouser_count",
+        allow_negative_numbers = true
+    )]
+    pub grouser_thickness_m: Option<f64>,
+    /// The medium: a medium file (terzaghi calibrate): its RFT shape, law in depth and speed
+    /// law where it was calibrated on intrusion tests, else poppy_lp's shape under its
+    /// rft_depth_power law.
+    #[arg(long, value_name = "FILE")]
+    pub medium_file: PathBuf,
+    /// Elements of the rim (at least 360).
+    #[arg(long, value_name = "N", default_value_t = 720)]
+    pub rim_elements: usize,
+    /// Hold each run at the sinkage (m) of this column instead of solving for it (a measured
+    /// sinkage_m, say): the load the sand bears there is the outcome (load_borne_n, compared
+    /// with the run's load_n where it has one), to tell which force the model misses.
+    #[arg(long, value_name = "COLUMN")]
+    pub at_sinkage: Option<String>,
+    /// Also print, per value of this column of the runs (a slip, say), the measured and
+    /// predicted means of each output the runs measured.
+    #[arg(long, value_name = "COLUMN")]
+    pub group_by: Option<String>,
+    /// Write the runs with their steady states here (CSV); without, to standard output.
+    #[arg(short = 'o', long, value_name = "OUT.csv")]
+    pub out: Option<PathBuf>,
+}
+
+pub fn run(a: SteadyArgs) -> Result<()> {
+    let medium = MediumFile::read(&a.medium_file)?;
+    let law = medium.rft_law(None)?;
+    let grousers = match (a.grouser_count, a.grouser_height_m, a.grouser_thickness_m) {
+        (Some(count), Some(height_m), Some(thickness_m)) => Some(Grousers {
+            count,
+            height_m,
+            thickness_m,
+        }),
+        _ => None,
+    };
+    let body = match a.shape {
+        BodyShape::Wheel => Body::wheel(a.radius_m, a.width_m, grousers, a.rim_elements)?,
+    };
+    let text = std::fs::read_to_string(&a.runs)
+        .with_context(|| format!("cannot read {}", a.runs.display()))?;
+    let solve = match &a.at_sinkage {
+        Some(c) => Solve::AtSinkage(c.clone()),
+        None => Solve::Sinkage,
+    };
+    let table = steady_runs(&a.runs, &text, &body, &law, &solve)?;
+    let csv = table.to_csv()?;
+    match &a.out {
+        Some(out) => {
+            std::fs::write(out, &csv).with_context(|| format!("cannot write {}", out.display()))?
+        }
+        None => print_out(std::str::from_utf8(&csv)?)?,
+    }
+    let mut summary = format!(
+        "{} runs of {}: {} from {}; medium {:?}, RFT's shape {}\n",
+        table.runs.len(),
+        a.runs.display(),
+        OUTPUT_COLUMNS.join(", "),
+        match &a.at_sinkage {
+            None => INPUT_COLUMNS.join(", "),
+            Some(c) => format!("{c} (held there), {}", INPUT_COLUMNS[1..].join(", ")),
+        },
+        medium.name,
+        medium.rft_shape_text()
+    );
+    for g in table.agreement() {
+        summary += &format!(
+            "  {:<12} R^2 {:8.3}   RMSE {:.4}   against {} over {} runs\n",
+            g.column, g.r2, g.rmse, g.measured, g.runs
+        );
+    }
+    if let Some(column) = &a.group_by {
+        let groups = table.groups(column)?;
+        let w = column.len().max(10);
+        // Lengths in mm, forces in N.
+        let shown = |c: &str| {
+            c.strip_suffix("_m")
+                .map_or(c.to_string(), |s| format!("{s}_mm"))
+        };
+        if let Some(first) = groups.first() {
+            summary += &format!("{column:>w$}  runs");
+            for (c, _, _) in &first.means {
+                summary += &format!("  {:>23}", format!("{} meas / pred", shown(c)));
+            }
+            summary += "\n";
+        }
+        for g in &groups {
+            summary += &format!("{:>w$}  {:>4}", g.value, g.runs);
+            for (c, m, p) in &g.means {
+                let k = if c.ends_with("_m") { 1e3 } else { 1.0 };
+                summary += &format!("  {:>11.2} / {:>9.2}", m * k, p * k);
+            }
+            summary += "\n";
+        }
+    }
+    if let Some(out) = &a.out {
+        summary += &format!("written: {}\n", out.display());
+    }
+    eprint!("{summary}");
+    Ok(())
+}

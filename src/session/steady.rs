@@ -1,0 +1,350 @@
+//! Wheel tests as a terramechanics lab runs them: a body under a given load, travelling at a hub
+//! speed, turning at a rate and yawed by a slip angle, sinks until the sand bears it. Each row of
+//! a CSV of runs (`load_n, hub_vx_m_s, omega_rad_s, slip_angle_deg`, other columns passed
+//! through) gets its steady sinkage, drawbar pull, side force and drive torque
+//! ([`crate::model::steady_sinkage`]); where the runs carry measured values under the same
+//! names, they are kept beside the predictions as `measured_<name>` and compared.
+
+use crate::medium_file::RftLaw;
+use crate::model::{Body, Drive, Stress, state_at_sinkage, steady_sinkage};
+use anyhow::{Context as _, Result, bail};
+use std::path::Path;
+
+/// The columns a run must have.
+pub const INPUT_COLUMNS: [&str; 4] = ["load_n", "hub_vx_m_s", "omega_rad_s", "slip_angle_deg"];
+
+/// The columns the steady state adds to each run: the sinkage, drawbar pull, side force and
+/// drive torque, and the load the sand bears there (the run's own `load_n` where the sinkage is
+/// solved for; the outcome where the sinkage is given, [`Solve::AtSinkage`]).
+pub const OUTPUT_COLUMNS: [&str; 5] = [
+    "sinkage_m",
+    "drawbar_n",
+    "side_n",
+    "torque_nm",
+    "load_borne_n",
+];
+
+/// What a run's state is solved for.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub enum Solve {
+    /// The sinkage at which the sand bears the run's `load_n` (a wheel test).
+    #[default]
+    Sinkage,
+    /// Nothing: the body is held at the sinkage (m) of this column (a measured one, say), and
+    /// the load the sand bears there is the outcome; `load_n` may be left out.
+    AtSinkage(String),
+}
+
+/// Most rows a file of runs may hold (each is a bisection of some thousand RFT evaluations).
+pub const MAX_RUNS: usize = 100_000;
+
+/// One run: what it asks, and the steady state.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SteadyRun {
+    /// The run's fields as read (measured outputs renamed, see [`SteadyTable::headers`]).
+    pub fields: Vec<String>,
+    /// The load (N, + up: what the sand must bear); `None` where the sinkage was given.
+    pub load_n: Option<f64>,
+    /// The hub's speed over the ground along its travel (m/s).
+    pub hub_vx_m_s: f64,
+    /// The rotation rate (rad/s, + rolling forward).
+    pub omega_rad_s: f64,
+    /// The heading's angle from the travel (deg, + the travel toward the body's left).
+    pub slip_angle_deg: f64,
+    /// The steady state.
+    pub steady: crate::model::Steady,
+}
+
+/// A file of runs with each run's steady state.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SteadyTable {
+    /// The input's columns, in order; one named as an output is `measured_<name>` here.
+    pub headers: Vec<String>,
+    /// What the runs were solved for.
+    pub solve: Solve,
+    /// The runs, in the file's order.
+    pub runs: Vec<SteadyRun>,
+}
+
+/// How well a predicted column follows a measured one over the runs that have it.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Agreement {
+    /// The output column.
+    pub column: &'static str,
+    /// The runs' column it is compared with.
+    pub measured: String,
+    /// Runs with a measured value.
+    pub runs: usize,
+    /// R^2 of the prediction against the measurement.
+    pub r2: f64,
+    /// RMS error, in the column's unit.
+    pub rmse: f64,
+}
+
+/// The runs that share one value of a column, their measured and predicted means.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Group {
+    /// The column's value, as written.
+    pub value: String,
+    /// How many runs have it.
+    pub runs: usize,
+    /// Per output the runs also measured: the column, the measured mean and the predicted mean.
+    pub means: Vec<(&'static str, f64, f64)>,
+}
+
+/// Every run of `text` (the CSV of runs named `file`) brought to its steady state for `body` in
+/// the medium `law`. A run with a value missing or no number, or one whose load the body cannot
+/// bear within its height, is an error naming the run and the value: a table of runs is a
+/// test's record, and a run left out would be lost without a word.
+pub fn steady_runs(
+    file: &Path,
+    text: &str,
+    body: &Body,
+    law: &RftLaw,
+    solve: &Solve,
+) -> Result<SteadyTable> {
+    let name = file.display();
+    let mut rdr = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .comment(Some(b'#'))
+        .from_reader(text.as_bytes());
+    let mut headers: Vec<String> = rdr
+        .headers()
+        .with_context(|| format!("{name}: no CSV header"))?
+        .iter()
+        .map(str::to_string)
+        .collect();
+    let col = |c: &str| headers.iter().position(|h| h == c);
+    let mut index = [None; 4];
+    for (i, c) in INPUT_COLUMNS.iter().enumerate() {
+        index[i] = col(c);
+        if index[i].is_none() && !(i == 0 && *solve != Solve::Sinkage) {
+            bail!(
+                "{name}: header lacks column {c:?} (a run has {}; found: {})",
+                INPUT_COLUMNS.join(", "),
+                headers.join(",")
+            );
+        }
+    }
+    for h in headers.iter_mut() {
+        if OUTPUT_COLUMNS.contains(&h.as_str()) {
+            *h = format!("measured_{h}");
+        }
+    }
+    for (i, h) in headers.iter().enumerate() {
+        if headers[..i].contains(h) {
+            bail!(
+                "{name}: column {h:?} appears twice (a measured column named as an output, sinkage_m say, is kept as measured_sinkage_m)"
+            );
+        }
+    }
+    let at_column = match solve {
+        Solve::Sinkage => None,
+        Solve::AtSinkage(c) => {
+            let renamed = format!("measured_{c}");
+            let c = if OUTPUT_COLUMNS.contains(&c.as_str()) {
+                &renamed
+            } else {
+                c
+            };
+            Some((
+                c.clone(),
+                headers.iter().position(|h| h == c).with_context(|| {
+                    format!(
+                        "{name}: no column {c:?} to take the sinkage from (found: {})",
+                        headers.join(",")
+                    )
+                })?,
+            ))
+        }
+    };
+    let stress = Stress {
+        coefficients: &law.coefficients,
+        depth_law: Some(&law.depth_law),
+        speed_law: law.speed_law.as_ref(),
+    };
+    let mut runs = Vec::new();
+    for (row, record) in rdr.records().enumerate() {
+        let record = record.with_context(|| format!("{name}: run {} is not CSV", row + 1))?;
+        if runs.len() == MAX_RUNS {
+            bail!("{name}: more than {MAX_RUNS} runs");
+        }
+        let line = record.position().map_or(row + 2, |p| p.line() as usize);
+        let parse = |what: &str, i: usize| -> Result<f64> {
+            let text = record.get(i).unwrap_or("");
+            let v: f64 = text.parse().map_err(|_| {
+                anyhow::anyhow!("{name} line {line}: {what} is {text:?}, not a number")
+            })?;
+            if !v.is_finite() {
+                bail!("{name} line {line}: {what} is {v}");
+            }
+            Ok(v)
+        };
+        let value = |i: usize| parse(INPUT_COLUMNS[i], index[i].unwrap_or(usize::MAX));
+        let (hub_vx_m_s, omega_rad_s, slip_angle_deg) = (value(1)?, value(2)?, value(3)?);
+        let drive = Drive {
+            speed_m_s: hub_vx_m_s,
+            omega_rad_s,
+            slip_angle_rad: slip_angle_deg.to_radians(),
+        };
+        let (load_n, steady) = match &at_column {
+            None => {
+                let load_n = value(0)?;
+                let s = steady_sinkage(body, &stress, load_n, &drive);
+                (Some(load_n), s)
+            }
+            Some((c, i)) => {
+                let sinkage_m = parse(c, *i)?;
+                (None, state_at_sinkage(body, &stress, sinkage_m, &drive))
+            }
+        };
+        let steady = steady.with_context(|| format!("{name} line {line}"))?;
+        runs.push(SteadyRun {
+            fields: record.iter().map(str::to_string).collect(),
+            load_n,
+            hub_vx_m_s,
+            omega_rad_s,
+            slip_angle_deg,
+            steady,
+        });
+    }
+    if runs.is_empty() {
+        bail!("{name}: no runs (a header and no rows)");
+    }
+    Ok(SteadyTable {
+        headers,
+        runs,
+        solve: solve.clone(),
+    })
+}
+
+/// A run's outputs, in the order of [`OUTPUT_COLUMNS`].
+fn outputs(s: &crate::model::Steady) -> [f64; 5] {
+    [s.sinkage_m, s.drawbar_n, s.side_n, s.torque_nm, s.load_n]
+}
+
+impl SteadyTable {
+    /// Each output with a measured counterpart in the runs that is not the run's own input:
+    /// its index in [`OUTPUT_COLUMNS`], the measured column's index, and its name.
+    fn measured(&self) -> Vec<(usize, usize, &'static str)> {
+        OUTPUT_COLUMNS
+            .iter()
+            .enumerate()
+            .filter_map(|(k, c)| {
+                let name = match (&self.solve, *c) {
+                    // Given: the sinkage where it is held, the load where it is solved for.
+                    (Solve::AtSinkage(_), "sinkage_m") | (Solve::Sinkage, "load_borne_n") => {
+                        return None;
+                    }
+                    (Solve::AtSinkage(_), "load_borne_n") => "load_n".to_string(),
+                    _ => format!("measured_{c}"),
+                };
+                self.headers
+                    .iter()
+                    .position(|h| *h == name)
+                    .map(|j| (k, j, *c))
+            })
+            .collect()
+    }
+
+    /// The table as CSV: the runs' columns, then [`OUTPUT_COLUMNS`].
+    pub fn to_csv(&self) -> Result<Vec<u8>> {
+        let mut w = csv::Writer::from_writer(Vec::new());
+        let mut head = self.headers.clone();
+        head.extend(OUTPUT_COLUMNS.iter().map(|s| s.to_string()));
+        w.write_record(&head)?;
+        for r in &self.runs {
+            let s = &r.steady;
+            let mut rec = r.fields.clone();
+            rec.extend(outputs(s).iter().map(|v| v.to_string()));
+            w.write_record(&rec)?;
+        }
+        w.into_inner().map_err(|e| anyhow::anyhow!("{e}"))
+    }
+
+    /// The runs grouped by the value of `column` (numeric order where every value is a number,
+    /// else the order of first appearance), with the means of each output they measured.
+    pub fn groups(&self, column: &str) -> Result<Vec<Group>> {
+        let Some(i) = self.headers.iter().position(|h| h == column) else {
+            bail!(
+                "no column {column:?} to group by (the runs have: {})",
+                self.headers.join(",")
+            );
+        };
+        let measured = self.measured();
+        let mut values: Vec<&str> = Vec::new();
+        for r in &self.runs {
+            if !values.contains(&r.fields[i].as_str()) {
+                values.push(&r.fields[i]);
+            }
+        }
+        if let Ok(mut numbers) = values
+            .iter()
+            .map(|v| v.parse::<f64>().map(|x| (x, *v)))
+            .collect::<Result<Vec<_>, _>>()
+        {
+            numbers.sort_by(|a, b| a.0.total_cmp(&b.0));
+            values = numbers.into_iter().map(|(_, v)| v).collect();
+        }
+        Ok(values
+            .into_iter()
+            .map(|value| {
+                let runs: Vec<&SteadyRun> =
+                    self.runs.iter().filter(|r| r.fields[i] == value).collect();
+                let means = measured
+                    .iter()
+                    .map(|&(k, j, c)| {
+                        let pairs: Vec<(f64, f64)> = runs
+                            .iter()
+                            .filter_map(|r| {
+                                let m =
+                                    r.fields[j].parse::<f64>().ok().filter(|v| v.is_finite())?;
+                                let s = &r.steady;
+                                Some((m, outputs(s)[k]))
+                            })
+                            .collect();
+                        let n = pairs.len().max(1) as f64;
+                        (
+                            c,
+                            pairs.iter().map(|p| p.0).sum::<f64>() / n,
+                            pairs.iter().map(|p| p.1).sum::<f64>() / n,
+                        )
+                    })
+                    .collect();
+                Group {
+                    value: value.to_string(),
+                    runs: runs.len(),
+                    means,
+                }
+            })
+            .collect())
+    }
+
+    /// R^2 and RMS error of each output the runs also measured (`measured_<name>`, numbers
+    /// only: a run with the field empty is left out of that column's figure).
+    pub fn agreement(&self) -> Vec<Agreement> {
+        let mut out = Vec::new();
+        for (k, i, column) in self.measured() {
+            let (mut pred, mut meas) = (Vec::new(), Vec::new());
+            for r in &self.runs {
+                if let Some(m) = r.fields[i].parse::<f64>().ok().filter(|v| v.is_finite()) {
+                    let s = &r.steady;
+                    pred.push(outputs(s)[k]);
+                    meas.push(m);
+                }
+            }
+            if pred.len() < 2 {
+                continue;
+            }
+            let fit = crate::ident::metrics::component_fit(&pred, &meas);
+            out.push(Agreement {
+                column,
+                measured: self.headers[i].clone(),
+                runs: pred.len(),
+                r2: fit.r2,
+                rmse: fit.rmse,
+            });
+        }
+        out
+    }
+}
