@@ -496,6 +496,70 @@ pub fn csv_log(data: &[u8]) {
     }
 }
 
+/// A wheel test's runs for `terzaghi steady`: its CSV. The first byte picks the wheel (smooth,
+/// or with grousers) and what is solved for (the sinkage under each run's load, or the load
+/// borne at its `sinkage_m`). Every run brought to a steady state has finite outputs no deeper
+/// than the wheel, the table written reads back run for run, and its figures are numbers.
+pub fn steady_runs(data: &[u8]) {
+    use crate::medium_file::RftLaw;
+    use crate::model::{Body, Grousers, RftCoefficients, RftDepthLaw, RftFit};
+    use crate::session::steady::{Solve, steady_runs};
+    let Some((&first, rest)) = data.split_first() else {
+        return;
+    };
+    let Some(csv) = text(rest) else {
+        return;
+    };
+    // Each run is a bisection over the body: a few dozen runs per input keep a run fast.
+    if csv.lines().count() > 40 {
+        return;
+    }
+    let grousers = (first & 1 == 1).then_some(Grousers {
+        count: 12,
+        height_m: 0.005,
+        thickness_m: 0.003,
+    });
+    let body = Body::wheel(0.058, 0.05, grousers, 360).expect("a wheel");
+    let law = RftLaw {
+        coefficients: RftCoefficients::Fit(RftFit::POPPY_LP),
+        depth_law: RftDepthLaw::new(4.546, 1.219).expect("the plate runs' law"),
+        speed_law: None,
+        shape_measured: false,
+    };
+    let solve = if first & 2 == 0 {
+        Solve::Sinkage
+    } else {
+        Solve::AtSinkage("sinkage_m".into())
+    };
+    let Ok(table) = steady_runs(Path::new("fuzz.csv"), csv, &body, &law, &solve) else {
+        return;
+    };
+    for r in &table.runs {
+        assert_eq!(r.fields.len(), table.headers.len(), "a field per column");
+        let s = &r.steady;
+        finite("sinkage_m", s.sinkage_m);
+        finite("drawbar_n", s.drawbar_n);
+        finite("side_n", s.side_n);
+        finite("torque_nm", s.torque_nm);
+        finite("load_borne_n", s.load_n);
+        assert!(
+            s.sinkage_m <= body.height_m() + 1e-9,
+            "a sinkage below the body's top: {s:?}"
+        );
+    }
+    // The table written reads back, run for run.
+    let out = table.to_csv().expect("the table as CSV");
+    let back = csv::Reader::from_reader(&out[..]).records().count();
+    assert_eq!(back, table.runs.len(), "runs written and read back");
+    for a in table.agreement() {
+        finite("R^2", a.r2);
+        finite("RMSE", a.rmse);
+    }
+    if let Some(h) = table.headers.first() {
+        let _ = table.groups(h).expect("a column of the runs groups them");
+    }
+}
+
 /// A plate-sinkage test: its CSV, then (after a zero byte) its JSON. The first byte picks a
 /// plain log's plate (a 60 mm disc, or none given) and the depth column. Read with finite rows
 /// and a regime per row, then calibrated (every law fitted, or left out with its reason).

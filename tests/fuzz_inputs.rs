@@ -9,11 +9,12 @@ use std::path::{Path, PathBuf};
 /// A target's name and what it runs on an input.
 type Target = (&'static str, fn(&[u8]));
 
-const TARGETS: [Target; 7] = [
+const TARGETS: [Target; 8] = [
     ("node_wire", terzaghi::fuzzing::node_wire),
     ("params", terzaghi::fuzzing::params),
     ("csv_log", terzaghi::fuzzing::csv_log),
     ("plate_test", terzaghi::fuzzing::plate_test),
+    ("steady_runs", terzaghi::fuzzing::steady_runs),
     ("intrusion_test", terzaghi::fuzzing::intrusion_test),
     ("medium_file", terzaghi::fuzzing::medium_file),
     ("mcap", terzaghi::fuzzing::mcap),

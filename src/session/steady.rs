@@ -337,6 +337,10 @@ impl SteadyTable {
                 continue;
             }
             let fit = crate::ident::metrics::component_fit(&pred, &meas);
+            // Measured values so large that their squares overflow give no figure.
+            if !(fit.r2.is_finite() && fit.rmse.is_finite()) {
+                continue;
+            }
             out.push(Agreement {
                 column,
                 measured: self.headers[i].clone(),
