@@ -29,6 +29,7 @@ __all__ = [
     "TerzaghiError",
     "REGIMES",
     "predict",
+    "steady",
     "fit",
     "OnlineEstimator",
     "diagnose",
@@ -199,6 +200,84 @@ def predict(
         "depth_m": depth,
         "regime": regime,
     }
+
+
+def steady(
+    load_n: ArrayLike = None,
+    hub_vx_m_s: ArrayLike = 0.01,
+    omega_rad_s: ArrayLike = 0.0,
+    slip_angle_deg: ArrayLike = 0.0,
+    *,
+    radius_m: float,
+    width_m: float,
+    medium_file: PathLike,
+    grouser_count: Optional[int] = None,
+    grouser_height_m: Optional[float] = None,
+    grouser_thickness_m: Optional[float] = None,
+    rim_elements: int = 720,
+    sinkage_m: Optional[ArrayLike] = None,
+) -> Dict[str, np.ndarray]:
+    """A wheel's steady state under each run's load, as ``terzaghi steady`` gives it.
+
+    Args:
+        load_n: the load the sand must bear (N), an array of any shape (or a number); leave it
+            out with ``sinkage_m``.
+        hub_vx_m_s: the hub's speed over the ground along its travel (m/s).
+        omega_rad_s: the rotation rate (rad/s, + rolling forward).
+        slip_angle_deg: the heading's angle from the travel (deg, + the travel toward the
+            wheel's left).
+        radius_m, width_m: the wheel's rim radius and width (m).
+        medium_file: a medium file (``terzaghi calibrate``).
+        grouser_count, grouser_height_m, grouser_thickness_m: grousers, all three or none.
+        rim_elements: elements of the rim (at least 360).
+        sinkage_m: hold each run at this sinkage (m) instead of solving for it; the load the
+            sand bears there is then ``load_borne_n``.
+
+    The arrays broadcast together (as numpy broadcasts); a shape that does not is refused
+    naming every shape.
+
+    Returns:
+        A dict of float64 arrays of the broadcast shape: ``sinkage_m``, ``drawbar_n`` (+
+        forward), ``side_n`` (+ opposing the sideways motion), ``torque_nm`` (the drive torque,
+        + along a forward roll), ``load_borne_n``.
+
+    Raises:
+        TerzaghiError: a value the model refuses (a NaN, a load the wheel cannot carry within
+            its height, a bad wheel or medium file), named with the run's flat index.
+    """
+    given = {"hub_vx_m_s": hub_vx_m_s, "omega_rad_s": omega_rad_s,
+             "slip_angle_deg": slip_angle_deg}
+    if sinkage_m is None:
+        if load_n is None:
+            raise TerzaghiError("load_n is needed (or sinkage_m, to hold each run at a depth)")
+        given["load_n"] = load_n
+    else:
+        if load_n is not None:
+            raise TerzaghiError("give load_n (the sinkage is solved for) or sinkage_m, not both")
+        given["sinkage_m"] = sinkage_m
+    try:
+        arrays = [np.asarray(v, dtype=np.float64) for v in given.values()]
+    except (TypeError, ValueError) as e:
+        raise TerzaghiError(f"{', '.join(given)} must be numbers ({e})") from None
+    try:
+        b = np.broadcast_arrays(*arrays)
+    except ValueError:
+        shapes = ", ".join(f"{k} {a.shape}" for k, a in zip(given, arrays))
+        raise TerzaghiError(f"the inputs' shapes do not broadcast: {shapes}") from None
+    flat = {k: a.ravel().tolist() for k, a in zip(given, b)}
+    grousers = (grouser_count, grouser_height_m, grouser_thickness_m)
+    if any(g is not None for g in grousers) and not all(g is not None for g in grousers):
+        raise TerzaghiError("grousers need grouser_count, grouser_height_m and grouser_thickness_m")
+    n = len(flat["hub_vx_m_s"])
+    cols = _terzaghi.steady(
+        flat.get("load_n", [0.0] * n), flat["hub_vx_m_s"], flat["omega_rad_s"],
+        flat["slip_angle_deg"], flat.get("sinkage_m"), float(radius_m), float(width_m),
+        None if grouser_count is None else (int(grouser_count), float(grouser_height_m),
+                                            float(grouser_thickness_m)),
+        int(rim_elements), os.fspath(medium_file))
+    shape = b[0].shape
+    names = ("sinkage_m", "drawbar_n", "side_n", "torque_nm", "load_borne_n")
+    return {k: np.asarray(c, dtype=np.float64).reshape(shape) for k, c in zip(names, cols)}
 
 
 def fit(

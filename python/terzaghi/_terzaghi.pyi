@@ -10,6 +10,19 @@ REGIMES: List[str]
 class TerzaghiError(ValueError):
     """A value terzaghi refuses, with the words of its reason."""
 
+def steady(
+    load_n: List[float],
+    hub_vx_m_s: List[float],
+    omega_rad_s: List[float],
+    slip_angle_deg: List[float],
+    sinkage_m: Optional[List[float]],
+    radius_m: float,
+    width_m: float,
+    grousers: Optional[Tuple[int, float, float]],
+    rim_elements: int,
+    medium_file: str,
+) -> List[List[float]]: ...
+
 def predict(
     beta_rad: npt.ArrayLike,
     model: str,

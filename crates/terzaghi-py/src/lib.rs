@@ -124,6 +124,73 @@ fn base_model(
     Ok(terzaghi::model_spec::terzaghi_model(plate, &chosen, None))
 }
 
+/// A wheel's steady state for each run of flat arrays of one length (`load_n`, `hub_vx_m_s`,
+/// `omega_rad_s`, `slip_angle_deg`; or, with `sinkage_m`, held there): sinkage, drawbar, side
+/// force, drive torque and the load borne, as `terzaghi steady` gives them.
+#[pyfunction]
+#[pyo3(signature = (load_n, hub_vx_m_s, omega_rad_s, slip_angle_deg, sinkage_m, radius_m, width_m, grousers, rim_elements, medium_file))]
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+fn steady(
+    py: Python<'_>,
+    load_n: Vec<f64>,
+    hub_vx_m_s: Vec<f64>,
+    omega_rad_s: Vec<f64>,
+    slip_angle_deg: Vec<f64>,
+    sinkage_m: Option<Vec<f64>>,
+    radius_m: f64,
+    width_m: f64,
+    grousers: Option<(usize, f64, f64)>,
+    rim_elements: usize,
+    medium_file: std::path::PathBuf,
+) -> PyResult<[Vec<f64>; 5]> {
+    use terzaghi::model::{Body, Drive, Grousers, Stress, state_at_sinkage, steady_sinkage};
+    let medium = terzaghi::medium_file::MediumFile::read(&medium_file).map_err(err)?;
+    let law = medium.rft_law(None).map_err(err)?;
+    let grousers = grousers.map(|(count, height_m, thickness_m)| Grousers {
+        count,
+        height_m,
+        thickness_m,
+    });
+    let body = Body::wheel(radius_m, width_m, grousers, rim_elements).map_err(err)?;
+    let n = hub_vx_m_s.len();
+    if [load_n.len(), omega_rad_s.len(), slip_angle_deg.len()]
+        .iter()
+        .chain(sinkage_m.as_ref().map(Vec::len).as_ref())
+        .any(|&l| l != n)
+    {
+        return Err(TerzaghiError::new_err(
+            "load_n, hub_vx_m_s, omega_rad_s, slip_angle_deg (and sinkage_m) must be of one length",
+        ));
+    }
+    py.detach(move || {
+        let stress = Stress {
+            coefficients: &law.coefficients,
+            depth_law: Some(&law.depth_law),
+            speed_law: law.speed_law.as_ref(),
+        };
+        let mut out: [Vec<f64>; 5] = std::array::from_fn(|_| Vec::with_capacity(n));
+        for i in 0..n {
+            let drive = Drive {
+                speed_m_s: hub_vx_m_s[i],
+                omega_rad_s: omega_rad_s[i],
+                slip_angle_rad: slip_angle_deg[i].to_radians(),
+            };
+            let s = match &sinkage_m {
+                None => steady_sinkage(&body, &stress, load_n[i], &drive),
+                Some(z) => state_at_sinkage(&body, &stress, z[i], &drive),
+            }
+            .map_err(|e| TerzaghiError::new_err(format!("run {i} (flat index): {e}")))?;
+            for (c, v) in
+                out.iter_mut()
+                    .zip([s.sinkage_m, s.drawbar_n, s.side_n, s.torque_nm, s.load_n])
+            {
+                c.push(v);
+            }
+        }
+        Ok(out)
+    })
+}
+
 /// The model's forces at every angle of `beta_rad` (any shape): drag, lift, hip torque,
 /// submerged length, depth (each the shape of `beta_rad`) and the regime's code.
 #[pyfunction]
@@ -1203,6 +1270,7 @@ fn rhex_params() -> PyResult<Vec<(String, String)>> {
 fn _terzaghi(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("TerzaghiError", m.py().get_type::<TerzaghiError>())?;
     m.add_function(wrap_pyfunction!(predict, m)?)?;
+    m.add_function(wrap_pyfunction!(steady, m)?)?;
     m.add_function(wrap_pyfunction!(predict_moving, m)?)?;
     m.add_function(wrap_pyfunction!(read_topics, m)?)?;
     m.add_function(wrap_pyfunction!(fit_json, m)?)?;
