@@ -14,6 +14,8 @@ for log in "$work"/*.log; do
   secs=$(grep -oE "^Done [0-9]+ runs in [0-9]+ second" "$log" | awk '{print $5}')
   corpus=$(find "$work/$t" -type f | wc -l)
   if grep -q "Test unit written" "$log"; then ended="crash"; else ended="no crash"; fi
-  earlier=$(grep -E "^$t rc=" "$work/summary" | head -n -1 | sed 's/.*seconds=//' | paste -sd, - | sed 's/,/, /g')
+  # Earlier runs of the target that a finding ended (not the last run, whose log this is;
+  # shorter clean runs before it are left out).
+  earlier=$(grep -E "^$t rc=" "$work/summary" | head -n -1 | grep -v " rc=0 " | sed 's/.*seconds=//' | paste -sd, - | sed 's/,/, /g')
   echo "| \`$t\` | ${n:-?} | ${secs:-?} | ${rate:-?} | $corpus | $ended | ${earlier:--} |"
 done
