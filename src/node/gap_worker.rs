@@ -80,12 +80,27 @@ impl GapWorker {
     }
 }
 
+impl GapWorker {
+    /// How long dropping the worker waits for a diagnosis under way before leaving it.
+    const STOP_WAIT: std::time::Duration = std::time::Duration::from_millis(500);
+}
+
 impl Drop for GapWorker {
-    /// Stops the thread once its current diagnosis (if any) is done.
+    /// Stops the thread: it ends once its current diagnosis (if any) is done. That is waited
+    /// for up to [`Self::STOP_WAIT`], no longer: the thread runs at the lowest priority, and on
+    /// a busy machine a diagnosis under way could hold a node that was asked to stop for as
+    /// long as the CPUs stay busy. Past the wait the thread is left to finish (or to end with
+    /// the process); its result has nowhere to go.
     fn drop(&mut self) {
         self.tx = None;
         if let Some(t) = self.thread.take() {
-            let _ = t.join();
+            let until = std::time::Instant::now() + Self::STOP_WAIT;
+            while !t.is_finished() && std::time::Instant::now() < until {
+                std::thread::sleep(std::time::Duration::from_millis(5));
+            }
+            if t.is_finished() {
+                let _ = t.join();
+            }
         }
     }
 }
