@@ -5,7 +5,7 @@
 #[path = "common/mod.rs"]
 mod common;
 
-use common::{ok, repo, terzaghi};
+use common::{ok, refused, repo, terzaghi};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -341,16 +341,6 @@ fn the_runs_of_one_plate_joined_are_diagnosed_together() {
             shift * 1e3
         );
     }
-}
-
-fn refused(args: &[&std::ffi::OsStr], words: &[&str]) {
-    let out = Command::new(terzaghi()).args(args).output().unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{err}");
-    for w in words {
-        assert!(err.contains(w), "{w:?} not in: {err}");
-    }
-    assert!(!err.contains("panicked"), "{err}");
 }
 
 #[test]

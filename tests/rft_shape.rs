@@ -7,7 +7,7 @@
 #[path = "common/mod.rs"]
 mod common;
 
-use common::{ok, repo, terzaghi};
+use common::{ok, refused, repo, terzaghi};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -30,16 +30,6 @@ fn dem_tests() -> Vec<PathBuf> {
 
 /// The committed medium file the docs' figures use.
 const DEM_MEDIUM: &str = "tests/dem/campaign/medium_from_intrusions.yaml";
-
-fn refused(args: &[&std::ffi::OsStr], words: &[&str]) {
-    let out = Command::new(terzaghi()).args(args).output().unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{err}");
-    for w in words {
-        assert!(err.contains(w), "{w:?} not in: {err}");
-    }
-    assert!(!err.contains("panicked"), "{err}");
-}
 
 /// A plate 25 mm square at `chord_deg` pushed at 0.05 m/s in the direction `gamma_deg` below
 /// the horizontal from `depth0` (m), with a force that grows with depth.

@@ -5,7 +5,7 @@
 #[path = "common/mod.rs"]
 mod common;
 
-use common::{ok, repo};
+use common::{ok, refused, repo};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -200,16 +200,6 @@ fn the_docs_table_is_the_commands_output() {
             );
         }
     }
-}
-
-fn refused(args: &[&std::ffi::OsStr], words: &[&str]) {
-    let out = Command::new(terzaghi()).args(args).output().unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{err}");
-    for w in words {
-        assert!(err.contains(w), "{w:?} not in: {err}");
-    }
-    assert!(!err.contains("panicked"), "{err}");
 }
 
 #[test]

@@ -68,6 +68,21 @@ def _vector(name: str, x, n: int, what: str) -> List[float]:
     return a.tolist()
 
 
+def _broadcast(given: Dict[str, Any]) -> List[np.ndarray]:
+    """The named inputs as float64 arrays broadcast together, as numpy broadcasts; inputs that
+    are not numbers, or shapes that do not broadcast, are refused naming every input's shape."""
+    try:
+        arrays = [np.asarray(v, dtype=np.float64) for v in given.values()]
+    except (TypeError, ValueError) as e:
+        names = ", ".join(given)
+        raise TerzaghiError(f"{names} must be numbers ({e})") from None
+    try:
+        return np.broadcast_arrays(*arrays)
+    except ValueError:
+        shapes = ", ".join(f"{k} {a.shape}" for k, a in zip(given, arrays))
+        raise TerzaghiError(f"the inputs' shapes do not broadcast: {shapes}") from None
+
+
 def _joints(names, position, velocity) -> tuple:
     """A JointState's names, positions and velocities: one position (and velocity, if given)
     per name, as arrays of shape ``(len(names),)``."""
@@ -175,15 +190,7 @@ def predict(
     if model == "sinkage" or np.ndim(hip_height_m) > 0 or up_m_s is not None:
         given = {"beta_rad": beta_rad, "hip_height_m": hip_height_m,
                  "up_m_s": 0.0 if up_m_s is None else up_m_s}
-        try:
-            arrays = [np.asarray(v, dtype=np.float64) for v in given.values()]
-        except (TypeError, ValueError) as e:
-            raise TerzaghiError(f"beta_rad, hip_height_m and up_m_s must be numbers ({e})") from None
-        try:
-            b, h, u = np.broadcast_arrays(*arrays)
-        except ValueError:
-            shapes = ", ".join(f"{k} {a.shape}" for k, a in zip(given, arrays))
-            raise TerzaghiError(f"the inputs' shapes do not broadcast: {shapes}") from None
+        b, h, u = _broadcast(given)
         cols, regime = _terzaghi.predict_moving(
             b.ravel().tolist(), h.ravel().tolist(), u.ravel().tolist(), model, float(length_m),
             float(width_m), *tail)
@@ -255,15 +262,7 @@ def steady(
         if load_n is not None:
             raise TerzaghiError("give load_n (the sinkage is solved for) or sinkage_m, not both")
         given["sinkage_m"] = sinkage_m
-    try:
-        arrays = [np.asarray(v, dtype=np.float64) for v in given.values()]
-    except (TypeError, ValueError) as e:
-        raise TerzaghiError(f"{', '.join(given)} must be numbers ({e})") from None
-    try:
-        b = np.broadcast_arrays(*arrays)
-    except ValueError:
-        shapes = ", ".join(f"{k} {a.shape}" for k, a in zip(given, arrays))
-        raise TerzaghiError(f"the inputs' shapes do not broadcast: {shapes}") from None
+    b = _broadcast(given)
     flat = {k: a.ravel().tolist() for k, a in zip(given, b)}
     grousers = (grouser_count, grouser_height_m, grouser_thickness_m)
     if any(g is not None for g in grousers) and not all(g is not None for g in grousers):

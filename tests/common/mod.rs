@@ -350,3 +350,15 @@ pub fn docs_text() -> String {
         .collect::<Vec<_>>()
         .join("\n")
 }
+
+/// Runs `terzaghi` with `args` and asserts that it refused them as a user error (exit code 2),
+/// its message holding each of `words`, without a panic.
+pub fn refused(args: &[&std::ffi::OsStr], words: &[&str]) {
+    let out = Command::new(terzaghi()).args(args).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    for w in words {
+        assert!(err.contains(w), "{w:?} not in: {err}");
+    }
+    assert!(!err.contains("panicked"), "{err}");
+}
