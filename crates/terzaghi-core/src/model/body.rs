@@ -12,8 +12,8 @@
 //! [`Body::forces`] gives the sand's force and moment on the body at a given hub height and
 //! motion; [`steady_sinkage`] finds the sinkage at which the sand bears a given load.
 
-use super::ModelError;
 use super::rft::{RftCoefficients, RftDepthLaw, RftSpeedLaw};
+use super::{HipMotion, ModelError, Plate, Prediction, Regime};
 
 const N_CM3_TO_N_M3: f64 = 1e6;
 
@@ -46,6 +46,11 @@ pub struct Body {
     reach_m: f64,
     /// The highest point's height above the hub (m).
     top_m: f64,
+    /// The outline (`(x, z)` from the hub), where turning the body moves its lowest point.
+    outline: Vec<(f64, f64)>,
+    /// Every point of the outline at one distance from the hub (a smooth wheel): turning it
+    /// changes nothing.
+    round: bool,
 }
 
 /// How a body's hub moves: its height above the undisturbed surface, its velocity, and the
@@ -60,6 +65,9 @@ pub struct HubMotion {
     /// The rotation rate about the axle (rad/s, + rolling forward: the lowest point moves
     /// backward).
     pub omega_rad_s: f64,
+    /// How far the body has turned about its axle from its outline as built (rad, + rolling
+    /// forward): where a wheel's grousers are. A round body is the same at every angle.
+    pub angle_rad: f64,
 }
 
 /// The sand's force and moment on a body, at its hub, in the body's frame.
@@ -249,16 +257,36 @@ impl Body {
             reach = reach.min(z0);
             top = top.max(z0);
         }
+        let r0 = outline[0].0.hypot(outline[0].1);
+        let round = outline
+            .iter()
+            .all(|&(x, z)| (x.hypot(z) - r0).abs() <= 1e-9 * r0);
         Ok(Body {
             elements,
             reach_m: -reach,
             top_m: top,
+            outline: outline.to_vec(),
+            round,
         })
     }
 
     /// The lowest point's depth below the hub (m).
     pub fn reach_m(&self) -> f64 {
         self.reach_m
+    }
+
+    /// The lowest point's depth below the hub with the body turned by `angle_rad` (+ rolling
+    /// forward) from its outline as built (m).
+    pub fn reach_at_m(&self, angle_rad: f64) -> f64 {
+        if self.round || angle_rad == 0.0 || !angle_rad.is_finite() {
+            return self.reach_m;
+        }
+        let (s, c) = angle_rad.sin_cos();
+        -self
+            .outline
+            .iter()
+            .map(|&(x, z)| -x * s + z * c)
+            .fold(f64::INFINITY, f64::min)
     }
 
     /// The body's height from its lowest point to its highest (m).
@@ -289,7 +317,17 @@ impl Body {
         speed_law: Option<&RftSpeedLaw>,
         hub: &HubMotion,
     ) -> BodyForce {
-        let sinkage = self.reach_m - hub.height_m;
+        // Turned by the angle (a round body is the same at every angle): a point (x, z) of the
+        // outline as built is at (x c + z s, -x s + z c), as rolling forward carries it.
+        let turned = !self.round && hub.angle_rad != 0.0 && hub.angle_rad.is_finite();
+        let (sin_a, cos_a) = if turned {
+            hub.angle_rad.sin_cos()
+        } else {
+            (0.0, 1.0)
+        };
+        let turn = |x: f64, z: f64| (x * cos_a + z * sin_a, -x * sin_a + z * cos_a);
+        let reach = self.reach_at_m(if turned { hub.angle_rad } else { 0.0 });
+        let sinkage = reach - hub.height_m;
         let rut = -sinkage.max(0.0);
         let [hx, hy, hz] = hub.velocity_m_s;
         let w = hub.omega_rad_s;
@@ -304,8 +342,13 @@ impl Body {
         let shear = coefficients.alpha_along((1.0, 0.0), (1.0, 0.0)).0;
         let (mut f, mut m) = ([0.0; 3], [0.0; 3]);
         for e in &self.elements {
-            let [px, py, pz] = e.p;
-            let [nx, ny, nz] = e.n;
+            let ([px, py, pz], [nx, ny, nz]) = if turned {
+                let (px, pz) = turn(e.p[0], e.p[2]);
+                let (nx, nz) = turn(e.n[0], e.n[2]);
+                ([px, e.p[1], pz], [nx, e.n[1], nz])
+            } else {
+                (e.p, e.n)
+            };
             let behind = travel > 0.0 && px * tx + py * ty < 0.0;
             let depth = if behind { rut } else { 0.0 } - (hub.height_m + pz);
             if depth <= 0.0 {
@@ -476,6 +519,7 @@ pub fn state_at_sinkage(
             height_m: body.reach_m - sinkage_m,
             velocity_m_s: velocity,
             omega_rad_s: drive.omega_rad_s,
+            angle_rad: 0.0,
         },
     );
     // Side: + opposing the hub's sideways motion, toward the right (-y) where it has none.
@@ -545,6 +589,161 @@ fn positive(what: &'static str, v: f64, max: f64) -> Result<(), ModelError> {
     }
 }
 
+/// A body as a robot's leg: a [`Body`] on the hip's motion, in the medium's stress, as the node,
+/// `replay --reevaluate` and `predict` evaluate a leg.
+///
+/// The hub is the hip; its height, its velocity (forward and up) and the joint's rotation rate
+/// drive the body. A body that moves into sand (down, along, or turning, at
+/// [`BodyLeg::MIN_SPEED_M_S`] or faster at its reach) feels RFT's stress on its leading
+/// elements ([`Regime::Penetration`]). A body that holds still or is lifted without moving along
+/// ([`Regime::Unloading`]) has no leading element, yet the sand still bears it until it leaves:
+/// it is given the sand's reaction as it would be pressed straight down at that depth, the most
+/// the sand bears there, upward and with no drag (as the sinkage leg's unloading regime).
+#[derive(Debug, Clone)]
+pub struct BodyLeg {
+    body: Body,
+    coefficients: RftCoefficients,
+    depth_law: Option<RftDepthLaw>,
+    speed_law: Option<RftSpeedLaw>,
+    plate: Plate,
+}
+
+impl BodyLeg {
+    /// A body moving slower than this at its reach (m/s) holds still, as a plate does
+    /// ([`super::sinkage::RegimeOptions`]'s speed).
+    pub const MIN_SPEED_M_S: f64 = 0.5e-3;
+
+    /// `body` in a medium of `coefficients`, `depth_law` and `speed_law`; `plate` is the leg's
+    /// configured geometry (its length the body's reach, its hip height where it stands).
+    pub fn new(
+        body: Body,
+        coefficients: RftCoefficients,
+        depth_law: Option<RftDepthLaw>,
+        speed_law: Option<RftSpeedLaw>,
+        plate: Plate,
+    ) -> BodyLeg {
+        BodyLeg {
+            body,
+            coefficients,
+            depth_law,
+            speed_law,
+            plate,
+        }
+    }
+
+    /// The body.
+    pub fn body(&self) -> &Body {
+        &self.body
+    }
+
+    /// The configured geometry.
+    pub fn plate(&self) -> &Plate {
+        &self.plate
+    }
+
+    /// The medium's speed law, where it has one.
+    pub fn speed_law(&self) -> Option<&RftSpeedLaw> {
+        self.speed_law.as_ref()
+    }
+
+    /// The medium's stress.
+    pub fn stress(&self) -> Stress<'_> {
+        Stress {
+            coefficients: &self.coefficients,
+            depth_law: self.depth_law.as_ref(),
+            speed_law: self.speed_law.as_ref(),
+        }
+    }
+
+    /// The sand's force and moment on the body turned by `angle_rad` (the joint's angle, +
+    /// rolling forward: where its grousers are) at the hip `hip` (its height that of the hub
+    /// above the surface; `forward_m_s` along the body's heading, `up_m_s` up, `omega_rad_s` +
+    /// rolling forward), with the regime: the full wrench at the hub, in the body's frame. An
+    /// angle, height, velocity or rate that is no number is an error naming it.
+    pub fn wrench(
+        &self,
+        angle_rad: f64,
+        hip: &HipMotion,
+    ) -> Result<(BodyForce, Regime), ModelError> {
+        for (name, v) in [
+            ("joint angle (rad)", angle_rad),
+            ("hip height (m)", hip.height_m),
+            ("hip forward velocity (m/s)", hip.forward_m_s),
+            ("hip vertical velocity (m/s)", hip.up_m_s),
+            ("leg rotation rate (rad/s)", hip.omega_rad_s),
+        ] {
+            if !v.is_finite() {
+                return Err(ModelError::NotFinite { name, value: v });
+            }
+        }
+        let sinkage = self.body.reach_at_m(angle_rad) - hip.height_m;
+        if sinkage <= 0.0 {
+            return Ok((
+                BodyForce {
+                    sinkage_m: sinkage,
+                    ..BodyForce::default()
+                },
+                Regime::OutOfMedium,
+            ));
+        }
+        // The fastest a point of the body moves along or into the sand.
+        let along = (hip.forward_m_s.abs()).max((hip.omega_rad_s * self.body.reach_m).abs());
+        let moving = along >= Self::MIN_SPEED_M_S || -hip.up_m_s >= Self::MIN_SPEED_M_S;
+        if moving {
+            let f = self.body.forces(
+                &self.coefficients,
+                self.depth_law.as_ref(),
+                self.speed_law.as_ref(),
+                &HubMotion {
+                    height_m: hip.height_m,
+                    velocity_m_s: [hip.forward_m_s, 0.0, hip.up_m_s],
+                    omega_rad_s: hip.omega_rad_s,
+                    angle_rad,
+                },
+            );
+            return Ok((f, Regime::Penetration));
+        }
+        // Held or lifted: the sand's reaction pressed straight down there, upward only.
+        let pressed = self.body.forces(
+            &self.coefficients,
+            self.depth_law.as_ref(),
+            None,
+            &HubMotion {
+                height_m: hip.height_m,
+                velocity_m_s: [0.0, 0.0, -1.0],
+                omega_rad_s: 0.0,
+                angle_rad,
+            },
+        );
+        Ok((
+            BodyForce {
+                force_n: [0.0, 0.0, pressed.force_n[2].max(0.0)],
+                moment_nm: [0.0; 3],
+                sinkage_m: sinkage,
+            },
+            Regime::Unloading,
+        ))
+    }
+
+    /// The leg's prediction at the hip `hip`: [`BodyLeg::wrench`] in a leg's terms, `drag_n` the
+    /// force along the body's heading (+ forward, as a leg's drag pushes the robot forward),
+    /// `lift_n` up, `hip_torque_nm` the drive torque (+ along a forward roll), `depth_m` the
+    /// sinkage. The joint angle turns the body (a smooth wheel is the same at every angle).
+    pub fn predict(&self, beta_rad: f64, hip: &HipMotion) -> Result<Prediction, ModelError> {
+        let (f, regime) = self.wrench(beta_rad, hip)?;
+        let depth_m = f.sinkage_m.max(0.0);
+        Ok(Prediction {
+            beta_rad,
+            submerged_m: depth_m.min(self.body.height_m()),
+            depth_m,
+            drag_n: f.force_n[0] + 0.0,
+            lift_n: f.force_n[2] + 0.0,
+            hip_torque_nm: f.drive_torque_nm() + 0.0,
+            regime,
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -586,6 +785,7 @@ mod tests {
                     height_m: 0.04,
                     velocity_m_s: [0.01, 0.0, 0.0],
                     omega_rad_s: omega,
+                    angle_rad: 0.0,
                 },
             );
             assert!(f.force_n[2] > 1.0, "{f:?}");
@@ -623,6 +823,7 @@ mod tests {
                 height_m: 0.058 - straight.sinkage_m,
                 velocity_m_s: [0.0098, 0.0017, 0.0],
                 omega_rad_s: 0.172,
+                angle_rad: 0.0,
             },
         );
         assert!(f.force_n[1] < 0.0, "{f:?}");
@@ -708,5 +909,109 @@ mod tests {
         .unwrap_err()
         .to_string();
         assert!(e.contains("grouser thickness"), "{e}");
+    }
+
+    fn wheel_leg() -> BodyLeg {
+        let (c, law) = sand();
+        BodyLeg::new(
+            Body::wheel(0.058, 0.05, None, 720).unwrap(),
+            c,
+            Some(law),
+            None,
+            Plate::new(0.058, 0.05, 0.03).unwrap(),
+        )
+    }
+
+    #[test]
+    fn a_wheel_leg_pressed_held_lifted_and_out_of_the_sand() {
+        let leg = wheel_leg();
+        let hip = |height_m: f64, forward_m_s: f64, up_m_s: f64, omega_rad_s: f64| HipMotion {
+            height_m,
+            forward_m_s,
+            up_m_s,
+            omega_rad_s,
+            ..HipMotion::default()
+        };
+        // Pressed straight down 30 mm: the sand pushes it up, and no more one way than the other.
+        let pressed = leg.predict(0.0, &hip(0.028, 0.0, -0.002, 0.0)).unwrap();
+        assert_eq!(pressed.regime, Regime::Penetration);
+        assert!(pressed.lift_n > 50.0, "{pressed:?}");
+        assert!(pressed.drag_n.abs() < 1e-6 * pressed.lift_n, "{pressed:?}");
+        assert!((pressed.depth_m - 0.030).abs() < 1e-12);
+        // Held there, or backing off: the same reaction upward, no drag, no torque.
+        for up in [0.0, 0.0004, 0.002] {
+            let held = leg.predict(0.0, &hip(0.028, 0.0, up, 0.0)).unwrap();
+            assert_eq!(held.regime, Regime::Unloading, "up {up}");
+            assert_eq!((held.drag_n, held.hip_torque_nm), (0.0, 0.0));
+            assert!((held.lift_n - pressed.lift_n).abs() < 1e-9 * pressed.lift_n);
+        }
+        // Dragged forward locked at the same depth: a drag against the travel, and lift.
+        let locked = leg.predict(0.0, &hip(0.028, 0.01, 0.0, 0.0)).unwrap();
+        assert_eq!(locked.regime, Regime::Penetration);
+        assert!(locked.drag_n < -1.0 && locked.lift_n > 0.0, "{locked:?}");
+        // Spinning in place: the sand pushes it forward, and the drive works against the sand.
+        let spinning = leg.predict(0.0, &hip(0.028, 0.0, 0.0, 1.0)).unwrap();
+        assert!(
+            spinning.drag_n > 1.0 && spinning.hip_torque_nm > 0.0,
+            "{spinning:?}"
+        );
+        // Out of the sand: nothing.
+        let out = leg.predict(0.0, &hip(0.06, 0.0, 0.01, 0.0)).unwrap();
+        assert_eq!(out.regime, Regime::OutOfMedium);
+        assert_eq!((out.drag_n, out.lift_n, out.hip_torque_nm), (0.0, 0.0, 0.0));
+        // A hip that is no number is refused by name.
+        let e = leg
+            .predict(0.0, &hip(0.03, f64::NAN, 0.0, 0.0))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("hip forward velocity"), "{e}");
+    }
+
+    #[test]
+    fn grousers_turn_with_the_joint_and_a_smooth_wheel_is_the_same_at_every_angle() {
+        let (c, law) = sand();
+        let leg = |g: Option<Grousers>| {
+            BodyLeg::new(
+                Body::wheel(0.058, 0.05, g, 720).unwrap(),
+                c.clone(),
+                Some(law),
+                None,
+                Plate::new(0.058, 0.05, 0.03).unwrap(),
+            )
+        };
+        let hip = HipMotion {
+            height_m: 0.045,
+            forward_m_s: 0.01,
+            omega_rad_s: 0.3,
+            ..HipMotion::default()
+        };
+        let grousers = leg(Some(Grousers {
+            count: 8,
+            height_m: 0.01,
+            thickness_m: 0.004,
+        }));
+        let pitch = std::f64::consts::TAU / 8.0;
+        let at = |l: &BodyLeg, a: f64| l.predict(a, &hip).unwrap();
+        let (g0, g_half, g_full) = (
+            at(&grousers, 0.0),
+            at(&grousers, pitch / 2.0),
+            at(&grousers, pitch),
+        );
+        // A grouser straight down digs deeper than two astride the bottom.
+        assert!(g0.depth_m > g_half.depth_m + 1e-3, "{g0:?} {g_half:?}");
+        assert!(
+            (g0.drag_n - g_half.drag_n).abs() > 0.01,
+            "{g0:?} {g_half:?}"
+        );
+        for (a, b) in [
+            (g0.drag_n, g_full.drag_n),
+            (g0.lift_n, g_full.lift_n),
+            (g0.depth_m, g_full.depth_m),
+        ] {
+            assert!((a - b).abs() <= 1e-9 * (1.0 + a.abs()), "{a} {b}");
+        }
+        let smooth = leg(None);
+        let (s0, s1) = (at(&smooth, 0.0), at(&smooth, 1.234));
+        assert_eq!((s0.drag_n, s0.lift_n), (s1.drag_n, s1.lift_n));
     }
 }

@@ -31,8 +31,8 @@ pub mod sinkage;
 pub mod terzaghi;
 
 pub use body::{
-    Body, BodyForce, Drive, Grousers, HubMotion, Steady, SteadyError, Stress, state_at_sinkage,
-    steady_sinkage,
+    Body, BodyForce, BodyLeg, Drive, Grousers, HubMotion, Steady, SteadyError, Stress,
+    state_at_sinkage, steady_sinkage,
 };
 pub use corrections::{CorrectedModel, CorrectedPrediction, Corrections, Effect};
 pub use medium::{FittingWidth, Medium, MediumPreset, Provenance};
@@ -273,6 +273,8 @@ pub enum ForceModel {
     Rft(RftModel),
     /// A horizontal plate pushed straight down, by a calibrated plate-sinkage law.
     Sinkage(sinkage::SinkageLeg),
+    /// A closed body in three dimensions (a wheel), by RFT over its surface.
+    Body(Box<body::BodyLeg>),
 }
 
 /// Where a leg's hip is and how it moves at one sample, as the robot's state tells it (the
@@ -320,6 +322,7 @@ impl ForceModel {
             ForceModel::Sinkage(m) => {
                 m.predict(beta_rad, &HipMotion::still(m.plate().hip_height_m()))
             }
+            ForceModel::Body(m) => m.predict(beta_rad, &HipMotion::still(m.plate().hip_height_m())),
         }
     }
 
@@ -337,6 +340,7 @@ impl ForceModel {
                 .map(|f| f.prediction()),
             ForceModel::Rft(m) => m.evaluate_moving(beta_rad, hip),
             ForceModel::Sinkage(m) => m.predict(beta_rad, hip),
+            ForceModel::Body(m) => m.predict(beta_rad, hip),
         }
     }
 
@@ -345,6 +349,7 @@ impl ForceModel {
         match self {
             ForceModel::Terzaghi(_) | ForceModel::Sinkage(_) => None,
             ForceModel::Rft(m) => m.speed_law(),
+            ForceModel::Body(m) => m.speed_law(),
         }
     }
 
@@ -354,6 +359,7 @@ impl ForceModel {
             ForceModel::Terzaghi(m) => m.plate(),
             ForceModel::Rft(m) => m.plate(),
             ForceModel::Sinkage(m) => m.plate(),
+            ForceModel::Body(m) => m.plate(),
         }
     }
 }
