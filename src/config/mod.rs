@@ -214,6 +214,27 @@ other_node:
     }
 
     #[test]
+    fn a_wheel_leg_is_a_body_predicted_by_rft_over_its_surface() {
+        let c = load(
+            "-p model:=rft -p left.rft_coeffs:=poppy_lp -p right.rft_coeffs:=poppy_lp -p left.shape:=wheel -p left.wheel.radius_m:=0.05 -p left.length_m:=0.05 -p left.hip_height_m:=0.03 -p left.wheel.grouser_count:=12 -p left.wheel.grouser_height_m:=0.005 -p left.wheel.grouser_thickness_m:=0.003",
+        )
+        .unwrap();
+        let body = c.legs[0].body.as_ref().unwrap();
+        // Its reach is the rim's radius and the grousers' height (to a grouser tip's corner).
+        assert!((body.reach_m() - 0.055).abs() < 1e-4, "{}", body.reach_m());
+        assert!(c.legs[1].body.is_none());
+        let m = c.leg_model(0, c.legs[0].width, None).unwrap();
+        let crate::model::ForceModel::Body(b) = &m else {
+            panic!("{m:?}")
+        };
+        // Held 25 mm deep, the sand bears it.
+        let p = b
+            .predict(0.0, &crate::model::HipMotion::still(0.03))
+            .unwrap();
+        assert!(p.lift_n > 0.0 && p.drag_n == 0.0, "{p:?}");
+    }
+
+    #[test]
     fn a_leg_of_another_shape_is_predicted_by_rft_over_its_profile() {
         let c = load(
             "-p model:=rft -p left.rft_coeffs:=poppy_lp -p right.rft_coeffs:=poppy_lp -p left.shape:=c_leg -p left.length_m:=0.1 -p left.hip_height_m:=0.04",
@@ -315,6 +336,40 @@ other_node:
             // leg's length; a profile needs pairs of coordinates; a grid file must be read.
             ("-p left.shape:=c_leg", "set model to rft"),
             ("-p left.shape:=wheel", "wheel"),
+            // A wheel needs its radius, all three grouser values or none, whole numbers where
+            // it counts, and its reach as its length; a wheel's value on another shape is refused.
+            (
+                "-p model:=rft -p left.rft_coeffs:=poppy_lp -p right.rft_coeffs:=poppy_lp -p left.shape:=wheel",
+                "left.wheel.radius_m",
+            ),
+            (
+                "-p model:=rft -p left.rft_coeffs:=poppy_lp -p right.rft_coeffs:=poppy_lp -p left.shape:=wheel -p left.wheel.radius_m:=-0.05",
+                "left.wheel.radius_m",
+            ),
+            (
+                "-p model:=rft -p left.rft_coeffs:=poppy_lp -p right.rft_coeffs:=poppy_lp -p left.shape:=wheel -p left.wheel.radius_m:=0.05 -p left.wheel.grouser_count:=6",
+                "left.wheel.grouser_count",
+            ),
+            (
+                "-p model:=rft -p left.rft_coeffs:=poppy_lp -p right.rft_coeffs:=poppy_lp -p left.shape:=wheel -p left.wheel.radius_m:=0.05 -p left.wheel.grouser_count:=2.5 -p left.wheel.grouser_height_m:=0.005 -p left.wheel.grouser_thickness_m:=0.003",
+                "left.wheel.grouser_count",
+            ),
+            (
+                "-p model:=rft -p left.rft_coeffs:=poppy_lp -p right.rft_coeffs:=poppy_lp -p left.shape:=wheel -p left.wheel.radius_m:=0.05 -p left.wheel.grouser_count:=6 -p left.wheel.grouser_height_m:=0.005 -p left.wheel.grouser_thickness_m:=0.1",
+                "left.wheel.grouser_thickness_m",
+            ),
+            (
+                "-p model:=rft -p left.rft_coeffs:=poppy_lp -p right.rft_coeffs:=poppy_lp -p left.shape:=wheel -p left.wheel.radius_m:=0.05 -p left.wheel.rim_elements:=10",
+                "left.wheel.rim_elements",
+            ),
+            (
+                "-p model:=rft -p left.rft_coeffs:=poppy_lp -p right.rft_coeffs:=poppy_lp -p left.shape:=wheel -p left.wheel.radius_m:=0.05",
+                "left.length_m",
+            ),
+            (
+                "-p model:=rft -p left.rft_coeffs:=poppy_lp -p right.rft_coeffs:=poppy_lp -p left.wheel.radius_m:=0.05",
+                "left.wheel.radius_m",
+            ),
             (
                 "-p model:=rft -p left.rft_coeffs:=poppy_lp -p right.rft_coeffs:=poppy_lp -p left.shape:=c_leg -p left.c_leg.radius_m:=0.5",
                 "left.c_leg.radius_m",

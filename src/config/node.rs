@@ -129,6 +129,9 @@ pub struct LegConfig {
     /// For model `sinkage`: the plate (a disc of diameter `width_m`, or a `width_m` by
     /// `length_m` rectangle) and the law of its medium file (`<leg>.medium`).
     pub sinkage: Option<crate::model::sinkage::SinkageLeg>,
+    /// A closed body in three dimensions (`<leg>.shape: wheel`), which RFT predicts over its
+    /// surface: its hub is the hip, its reach the leg's length.
+    pub body: Option<crate::model::Body>,
 }
 
 impl LegConfig {
@@ -160,6 +163,7 @@ impl LegConfig {
             profile: None,
             corrections: None,
             sinkage: None,
+            body: None,
         }
     }
 }
@@ -282,7 +286,7 @@ pub const STARTUP_ONLY: [&str; 5] = [
 ];
 
 /// Names of the per-leg parameters (`<leg>.<name>`).
-pub const LEG_KEYS: [&str; 27] = [
+pub const LEG_KEYS: [&str; 32] = [
     "joint",
     "direction",
     "angle_offset_rad",
@@ -305,6 +309,11 @@ pub const LEG_KEYS: [&str; 27] = [
     "profile",
     "c_leg.radius_m",
     "c_leg.span_deg",
+    "wheel.radius_m",
+    "wheel.grouser_count",
+    "wheel.grouser_height_m",
+    "wheel.grouser_thickness_m",
+    "wheel.rim_elements",
     "hip_frame",
     "hip_offset_m",
     "trough_depth_m",
@@ -783,6 +792,15 @@ impl NodeConfig {
                 ForceModel::Terzaghi(TerzaghiModel::conventional(leg.plate, medium))
             }
             ModelKind::Rft => match (&leg.rft, &leg.profile) {
+                (Some(c), _) if leg.body.is_some() => {
+                    ForceModel::Body(Box::new(crate::model::BodyLeg::new(
+                        leg.body.clone().expect("checked"),
+                        c.clone(),
+                        leg.rft_depth,
+                        leg.rft_speed.map(|f| f.law),
+                        leg.plate,
+                    )))
+                }
                 (Some(c), Some(p)) => ForceModel::Rft(
                     RftModel::with_profile(
                         leg.plate,
@@ -826,9 +844,12 @@ fn leg_config(
     let k = |s: &str| format!("{leg}.{s}");
     let geom_hint = "each leg needs length_m, width_m and hip_height_m";
     let width = g.need_f64(&k("width_m"), geom_hint)?;
-    // A sinkage leg is a disc of diameter width_m unless a length makes it a rectangle.
-    let length = match model {
-        ModelKind::Sinkage => g.f64(&k("length_m"))?.unwrap_or(width),
+    let body = leg_wheel(g, leg, model, width)?;
+    // A sinkage leg is a disc of diameter width_m unless a length makes it a rectangle; a
+    // wheel's length is its rim's radius.
+    let length = match (model, &body) {
+        (_, Some((_, radius_m))) => *radius_m,
+        (ModelKind::Sinkage, None) => g.f64(&k("length_m"))?.unwrap_or(width),
         _ => g.need_f64(&k("length_m"), geom_hint)?,
     };
     let height = g.need_f64(&k("hip_height_m"), geom_hint)?;
@@ -1157,6 +1178,7 @@ fn leg_config(
         hip_frame,
         hip_offset_m,
         sinkage: sinkage_file.map(|(_, s)| s),
+        body: body.map(|(b, _)| b),
     })
 }
 
@@ -1236,6 +1258,112 @@ fn rft_speed_from_file(
         .map_err(|e| invalid(name, &path, format!("no RFT speed law: {e}")))
 }
 
+/// A wheel leg (`<leg>.shape: wheel`): `wheel.radius_m` (its rim), `width_m`, optional grousers
+/// (`wheel.grouser_count`, `wheel.grouser_height_m`, `wheel.grouser_thickness_m`, all three or
+/// none) and `wheel.rim_elements` (default 720). RFT predicts it (model rft); its length is its
+/// rim's radius (a `length_m` given must be that). Returns the body and the radius.
+fn leg_wheel(
+    g: &Get,
+    leg: &str,
+    model: ModelKind,
+    width_m: f64,
+) -> Result<Option<(crate::model::Body, f64)>, ConfigError> {
+    let k = |s: &str| format!("{leg}.{s}");
+    if g.str(&k("shape"))?.as_deref() != Some("wheel") {
+        for key in [
+            "wheel.radius_m",
+            "wheel.grouser_count",
+            "wheel.grouser_height_m",
+            "wheel.grouser_thickness_m",
+            "wheel.rim_elements",
+        ] {
+            if g.0.contains_key(&k(key)) {
+                return Err(invalid(
+                    &k(key),
+                    &"(given)",
+                    format!("only a wheel has it: set {} to wheel", k("shape")),
+                ));
+            }
+        }
+        return Ok(None);
+    }
+    if model != ModelKind::Rft {
+        return Err(invalid(
+            &k("shape"),
+            &"wheel",
+            format!(
+                "a wheel is a body that RFT predicts over its surface, not the {} model's flat plate: set model to rft",
+                model.as_str()
+            ),
+        ));
+    }
+    let radius_m = g.need_f64(
+        &k("wheel.radius_m"),
+        "shape wheel needs the rim's radius in metres",
+    )?;
+    let count = g.f64(&k("wheel.grouser_count"))?;
+    let height = g.f64(&k("wheel.grouser_height_m"))?;
+    let thickness = g.f64(&k("wheel.grouser_thickness_m"))?;
+    let grousers = match (count, height, thickness) {
+        (None, None, None) => None,
+        (Some(c), Some(h), Some(t)) => {
+            if !(c >= 1.0 && c.fract() == 0.0 && c <= 360.0) {
+                return Err(invalid(
+                    &k("wheel.grouser_count"),
+                    &c,
+                    "expected a whole number of grousers from 1 to 360",
+                ));
+            }
+            Some(crate::model::Grousers {
+                count: c as usize,
+                height_m: h,
+                thickness_m: t,
+            })
+        }
+        _ => {
+            return Err(ConfigError::Missing {
+                name: k("wheel.grouser_count"),
+                hint: "grousers need all three of wheel.grouser_count, wheel.grouser_height_m and wheel.grouser_thickness_m".into(),
+            });
+        }
+    };
+    let rim = g.f64(&k("wheel.rim_elements"))?.unwrap_or(720.0);
+    if !(rim.fract() == 0.0 && (360.0..=100_000.0).contains(&rim)) {
+        return Err(invalid(
+            &k("wheel.rim_elements"),
+            &rim,
+            "expected a whole number of rim elements from 360 to 100000",
+        ));
+    }
+    let body =
+        crate::model::Body::wheel(radius_m, width_m, grousers, rim as usize).map_err(|e| {
+            let which = match &e {
+                ModelError::OutOfRange { what, .. } if what.contains("grouser count") => {
+                    "wheel.grouser_count"
+                }
+                ModelError::OutOfRange { what, .. } if what.contains("grouser thickness") => {
+                    "wheel.grouser_thickness_m"
+                }
+                e if e.to_string().contains("grouser height") => "wheel.grouser_height_m",
+                e if e.to_string().contains("width") => "width_m",
+                _ => "wheel.radius_m",
+            };
+            model_err(&k(which))(e)
+        })?;
+    if let Some(given) = g.f64(&k("length_m"))?
+        && (given - radius_m).abs() > 1e-9
+    {
+        return Err(invalid(
+            &k("length_m"),
+            &given,
+            format!(
+                "a wheel's length is its rim's radius, wheel.radius_m = {radius_m} m: leave length_m out"
+            ),
+        ));
+    }
+    Ok(Some((body, radius_m)))
+}
+
 /// `<leg>.shape` and what it needs: `plate` (the default), `c_leg` (`c_leg.radius_m`, default
 /// half of `length_m`, and `c_leg.span_deg`, default 180: an arc whose chord must be `length_m`),
 /// or `polyline` (`profile`: `[s0, q0, s1, q1, ...]` in metres).
@@ -1243,7 +1371,8 @@ fn leg_profile(g: &Get, leg: &str, plate: &Plate) -> Result<Option<LegProfile>, 
     let k = |s: &str| format!("{leg}.{s}");
     let shape = g.str(&k("shape"))?.unwrap_or_else(|| "plate".into());
     match shape.as_str() {
-        "plate" => Ok(None),
+        // A wheel is a body, not a mid-line: `leg_wheel` reads it.
+        "plate" | "wheel" => Ok(None),
         "c_leg" => {
             let line = crate::model_spec::c_leg_line(
                 plate.length_m(),
@@ -1291,7 +1420,7 @@ fn leg_profile(g: &Get, leg: &str, plate: &Plate) -> Result<Option<LegProfile>, 
         other => Err(invalid(
             &k("shape"),
             &other,
-            "expected plate, c_leg or polyline",
+            "expected plate, c_leg, polyline or wheel",
         )),
     }
 }
