@@ -1260,7 +1260,7 @@ fn rft_speed_from_file(
 
 /// A wheel leg (`<leg>.shape: wheel`): `wheel.radius_m` (its rim), `width_m`, optional grousers
 /// (`wheel.grouser_count`, `wheel.grouser_height_m`, `wheel.grouser_thickness_m`, all three or
-/// none) and `wheel.rim_elements` (default 720). RFT predicts it (model rft); its length is its
+/// none) and `wheel.rim_elements` (default 360). RFT predicts it (model rft); its length is its
 /// rim's radius (a `length_m` given must be that). Returns the body and the radius.
 fn leg_wheel(
     g: &Get,
@@ -1327,7 +1327,7 @@ fn leg_wheel(
             });
         }
     };
-    let rim = g.f64(&k("wheel.rim_elements"))?.unwrap_or(720.0);
+    let rim = g.f64(&k("wheel.rim_elements"))?.unwrap_or(360.0);
     if !(rim.fract() == 0.0 && (360.0..=100_000.0).contains(&rim)) {
         return Err(invalid(
             &k("wheel.rim_elements"),

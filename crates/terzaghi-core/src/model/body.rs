@@ -41,7 +41,11 @@ struct Element {
 /// `y` its axle (to the left), `z` up, as ROS orders a body's axes.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Body {
+    /// The outline's elements first (`rim` of them), then the side faces'.
     elements: Vec<Element>,
+    /// How many of `elements` are the outline's: the side faces' normals lie along the axle, so
+    /// a body moving in its own plane presses none of them.
+    rim: usize,
     /// The lowest point's depth below the hub (m): the body's reach.
     reach_m: f64,
     /// The highest point's height above the hub (m).
@@ -190,7 +194,8 @@ impl Body {
                 problem: format!("needs 3 points or more, not {}", outline.len()),
             });
         }
-        let mut elements = Vec::with_capacity(outline.len() * (1 + 2 * Self::SIDE_RINGS));
+        let mut elements = Vec::with_capacity(outline.len());
+        let mut sides = Vec::with_capacity(outline.len() * 2 * Self::SIDE_RINGS);
         let (mut reach, mut top) = (f64::INFINITY, f64::NEG_INFINITY);
         let half_width = width_m / 2.0;
         for (i, &(x, z)) in outline.iter().enumerate() {
@@ -247,7 +252,7 @@ impl Body {
                 let (cx, cz) = (tc * (x0 + x1) / 2.0, tc * (z0 + z1) / 2.0);
                 let area = fan * (t1 * t1 - t0 * t0);
                 for side in [1.0, -1.0] {
-                    elements.push(Element {
+                    sides.push(Element {
                         p: [cx, side * half_width, cz],
                         n: [0.0, side, 0.0],
                         area,
@@ -261,8 +266,11 @@ impl Body {
         let round = outline
             .iter()
             .all(|&(x, z)| (x.hypot(z) - r0).abs() <= 1e-9 * r0);
+        let rim = elements.len();
+        elements.append(&mut sides);
         Ok(Body {
             elements,
+            rim,
             reach_m: -reach,
             top_m: top,
             outline: outline.to_vec(),
@@ -341,7 +349,13 @@ impl Body {
         // A horizontal plate dragged along itself: the shear across an element's plane.
         let shear = coefficients.alpha_along((1.0, 0.0), (1.0, 0.0)).0;
         let (mut f, mut m) = ([0.0; 3], [0.0; 3]);
-        for e in &self.elements {
+        // A body moving in its own plane (no velocity along the axle) presses no side face.
+        let pressed = if hy == 0.0 {
+            &self.elements[..self.rim]
+        } else {
+            &self.elements[..]
+        };
+        for e in pressed {
             let ([px, py, pz], [nx, ny, nz]) = if turned {
                 let (px, pz) = turn(e.p[0], e.p[2]);
                 let (nx, nz) = turn(e.n[0], e.n[2]);
@@ -363,11 +377,11 @@ impl Body {
             let speed = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
             // The vertical plane of the normal: e2 its horizontal part (the horizontal velocity
             // for a horizontal element), e1 = e2 x z across it.
-            let nh = nx.hypot(ny);
+            let nh = (nx * nx + ny * ny).sqrt();
             let (e2x, e2y) = if nh > 1e-12 {
                 (nx / nh, ny / nh)
             } else {
-                let vh = v[0].hypot(v[1]);
+                let vh = (v[0] * v[0] + v[1] * v[1]).sqrt();
                 if vh > 0.0 {
                     (v[0] / vh, v[1] / vh)
                 } else {
@@ -379,11 +393,11 @@ impl Body {
             let v2 = (v[0] * e2x + v[1] * e2y, v[2]);
             let stressed = depth_law.map_or(depth, |l| l.effective_depth_m(depth));
             let extra = speed_law.map_or(0.0, |law| {
-                law.extra_depth_of_velocity_m(v[0].hypot(v[1]), v[2])
+                law.extra_depth_of_velocity_m((v[0] * v[0] + v[1] * v[1]).sqrt(), v[2])
             });
             let k = N_CM3_TO_N_M3 * (stressed + extra) * e.area / speed;
             let (mut fx, mut fy, mut fz) = (0.0, 0.0, 0.0);
-            let in_plane = v2.0.hypot(v2.1);
+            let in_plane = (v2.0 * v2.0 + v2.1 * v2.1).sqrt();
             if in_plane > 0.0 {
                 // The element in its plane: normal (n.e2, nz), tangent along it.
                 let n2 = (nx * e2x + ny * e2y, nz);

@@ -802,7 +802,7 @@ impl RftCoefficients {
         match self {
             RftCoefficients::Fit(f) => {
                 let l2 = tx * tx + tz * tz;
-                let v = vx.hypot(vz);
+                let v = (vx * vx + vz * vz).sqrt();
                 f.alpha_trig(
                     ((tx * tx - tz * tz) / l2, 2.0 * tx * tz / l2),
                     (vx / v, -vz / v),
