@@ -3,8 +3,8 @@
 use criterion::{Criterion, black_box, criterion_group, criterion_main};
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_4};
 use terzaghi::model::{
-    FittingWidth, ForceModel, HipMotion, Medium, Plate, RftCoefficients, RftFit, RftModel,
-    RftSpeedLaw, TerzaghiModel, c_leg_profile,
+    Body, BodyLeg, FittingWidth, ForceModel, Grousers, HipMotion, Medium, Plate, RftCoefficients,
+    RftFit, RftModel, RftSpeedLaw, TerzaghiModel, c_leg_profile,
 };
 
 fn models(c: &mut Criterion) {
@@ -97,6 +97,66 @@ fn models(c: &mut Criterion) {
         b.iter(|| {
             c_leg_measured
                 .predict_moving(black_box(beta), &hip)
+                .unwrap()
+                .drag_n
+        })
+    });
+    // A wheel leg (`<leg>.shape: wheel`): the shared real wheel (radius 58 mm, width 50 mm,
+    // 360 rim elements, the node's default) in the plate runs' medium, 25 mm deep, rolling
+    // with slip 0.5; pressed straight down; and with 8 grousers 10 mm high, turned.
+    let plate_runs = terzaghi::medium_file::MediumFile::read(std::path::Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/data/medium_without_shape.yaml"
+    )))
+    .unwrap()
+    .rft_law(None)
+    .unwrap();
+    let wheel = |g: Option<Grousers>| {
+        ForceModel::Body(Box::new(BodyLeg::new(
+            Body::wheel(0.058, 0.05, g, 360).unwrap(),
+            plate_runs.coefficients.clone(),
+            Some(plate_runs.depth_law),
+            None,
+            Plate::new(0.058, 0.05, 0.033).unwrap(),
+        )))
+    };
+    let rolling = HipMotion {
+        height_m: 0.033,
+        omega_rad_s: 0.345,
+        forward_m_s: 0.01,
+        ..HipMotion::default()
+    };
+    let pressed = HipMotion {
+        height_m: 0.033,
+        up_m_s: -0.003,
+        ..HipMotion::default()
+    };
+    let smooth = wheel(None);
+    let grousered = wheel(Some(Grousers {
+        count: 8,
+        height_m: 0.01,
+        thickness_m: 0.004,
+    }));
+    c.bench_function("body_wheel_rolling_evaluate", |b| {
+        b.iter(|| {
+            smooth
+                .predict_moving(black_box(0.3), &rolling)
+                .unwrap()
+                .drag_n
+        })
+    });
+    c.bench_function("body_wheel_pressed_evaluate", |b| {
+        b.iter(|| {
+            smooth
+                .predict_moving(black_box(0.3), &pressed)
+                .unwrap()
+                .lift_n
+        })
+    });
+    c.bench_function("body_wheel_grousers_rolling_evaluate", |b| {
+        b.iter(|| {
+            grousered
+                .predict_moving(black_box(0.3), &rolling)
                 .unwrap()
                 .drag_n
         })
@@ -250,6 +310,27 @@ fn node_core(c: &mut Criterion) {
         rhex_corrected_config(),
     );
     node_core_with_tf(c);
+    // Six wheel legs (the real wheel of tests/data/real-wheel, 360 rim elements) in the plate
+    // runs' medium, at the configured hip height.
+    let mut wheels = String::from("-p model:=rft ");
+    for leg in [
+        "front_left",
+        "middle_left",
+        "rear_left",
+        "front_right",
+        "middle_right",
+        "rear_right",
+    ] {
+        wheels += &format!(
+            "-p {leg}.shape:=wheel -p {leg}.wheel.radius_m:=0.058 -p {leg}.length_m:=0.058 -p {leg}.width_m:=0.05 -p {leg}.hip_height_m:=0.033 -p {leg}.medium:={}/tests/data/medium_without_shape.yaml ",
+            env!("CARGO_MANIFEST_DIR")
+        );
+    }
+    node_core_with(
+        c,
+        "node_core_joint_state_6_wheel_legs",
+        rhex_config_with(&wheels),
+    );
 }
 
 /// The same with every hip placed by the robot's state: each leg's `hip_frame` under

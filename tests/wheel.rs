@@ -376,11 +376,10 @@ fn the_shared_presses_replayed_as_a_wheel_leg() {
             held.len()
         );
         let r2_lift = r2(&loading);
-        let peak =
-            loading
-                .iter()
-                .copied()
-                .fold((0.0f64, 0.0f64), |a, b| if b.0 > a.0 { b } else { a });
+        let peak = loading
+            .iter()
+            .copied()
+            .fold((0.0f64, 0.0f64), |a, b| if b.0 > a.0 { b } else { a });
         let largest_drag = held
             .iter()
             .map(|r| num(r, "predicted_drag_n").abs())

@@ -67,6 +67,11 @@ pub struct BenchNodeArgs {
     /// An argument for `terzaghi node` (repeatable), e.g. --node-arg=--foxglove=127.0.0.1:8765.
     #[arg(long, value_name = "ARG", allow_hyphen_values = true)]
     pub node_arg: Vec<String>,
+    /// A further parameters file for the node, read after the RHex configuration's, whose
+    /// values it overrides (repeatable): `launch_configs/rhex_wheels.yaml` makes the six legs
+    /// wheels.
+    #[arg(long, value_name = "PATH")]
+    pub params_file: Vec<std::path::PathBuf>,
     /// Also publish every leg's F/T with each JointState to the node (the model's force at the
     /// leg's angle, in its sensor's frame, with noise), so that the node identifies and watches
     /// its gap as on a robot with sensors.
@@ -310,6 +315,11 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
                 .args(&a.node_arg)
                 .args(["--ros-args", "--params-file"])
                 .arg(&params)
+                .args(
+                    a.params_file
+                        .iter()
+                        .flat_map(|f| [std::ffi::OsStr::new("--params-file"), f.as_os_str()]),
+                )
                 .args(
                     a.gap_check_every
                         .map(|n| ["-p".to_string(), format!("gap_check.every_strokes:={n}")])
