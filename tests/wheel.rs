@@ -341,9 +341,7 @@ fn the_shared_presses_replayed_as_a_wheel_leg() {
     )
     .unwrap();
     let mut r2s = Vec::new();
-    eprintln!(
-        "press                      loading rows  lift R^2  peak lift meas / pred (N)  held or backing off: rows, largest |drag| (N), least lift in sand (N)"
-    );
+    let mut table = vec!["press                      loading rows  lift R^2  peak lift meas / pred (N)  held or backing off: rows, largest |drag| (N), least lift in sand (N)".to_string()];
     for n in 6..=11 {
         let name = format!("press_old2021_smooth_{n}");
         let log = dir.path().join(format!("{name}_log.csv"));
@@ -388,13 +386,13 @@ fn the_shared_presses_replayed_as_a_wheel_leg() {
             .iter()
             .map(|r| num(r, "predicted_lift_n"))
             .fold(f64::INFINITY, f64::min);
-        eprintln!(
+        table.push(format!(
             "{name:26} {:>12}  {r2_lift:>8.3}  {:>12.0} / {:<12.0} {:>6}, {largest_drag:.3}, {least_lift:.1}",
             loading.len(),
             peak.0,
             peak.1,
             held.len(),
-        );
+        ));
         // Held or backing off (a row of that regime is in the sand): no drag from a turning it
         // does not do, and the sand's reaction, upward.
         assert_eq!(
@@ -406,10 +404,19 @@ fn the_shared_presses_replayed_as_a_wheel_leg() {
     }
     r2s.sort_by(f64::total_cmp);
     let median = (r2s[2] + r2s[3]) / 2.0;
-    eprintln!(
+    table.push(format!(
         "loading rows' lift R^2: median {median:.3}, least {:.3}",
         r2s[0]
-    );
+    ));
+    eprintln!("{}", table.join("\n"));
+    // docs/bodies.md shows this table as the test prints it.
+    let docs = std::fs::read_to_string(repo().join("docs/bodies.md")).unwrap();
+    for line in &table {
+        assert!(
+            docs.contains(line.as_str()),
+            "docs/bodies.md lacks the line\n{line}"
+        );
+    }
     assert!(
         r2s[0] >= 0.8 && median >= 0.85,
         "lift R^2 of the loading rows {r2s:?}"
