@@ -137,31 +137,26 @@ fn models(c: &mut Criterion) {
         height_m: 0.01,
         thickness_m: 0.004,
     }));
-    c.bench_function("body_wheel_rolling_evaluate", |b| {
-        b.iter(|| {
-            smooth
-                .predict_moving(black_box(0.3), &rolling)
-                .unwrap()
-                .drag_n
-        })
-    });
-    c.bench_function("body_wheel_pressed_evaluate", |b| {
-        b.iter(|| {
-            smooth
-                .predict_moving(black_box(0.3), &pressed)
-                .unwrap()
-                .lift_n
-        })
-    });
-    c.bench_function("body_wheel_grousers_rolling_evaluate", |b| {
-        b.iter(|| {
-            grousered
-                .predict_moving(black_box(0.3), &rolling)
-                .unwrap()
-                .drag_n
-        })
-    });
+    for (name, model, hip) in [
+        ("body_wheel_rolling_evaluate", &smooth, &rolling),
+        ("body_wheel_pressed_evaluate", &smooth, &pressed),
+        ("body_wheel_grousers_rolling_evaluate", &grousered, &rolling),
+    ] {
+        c.bench_function(name, |b| {
+            b.iter(|| model.predict_moving(black_box(0.3), hip).unwrap())
+        });
+    }
 }
+
+/// The legs of `launch_configs/rhex.yaml`.
+const RHEX_LEGS: [&str; 6] = [
+    "front_left",
+    "middle_left",
+    "rear_left",
+    "front_right",
+    "middle_right",
+    "rear_right",
+];
 
 /// One online-estimator update with a penetration sample, past the start-up.
 fn online_update(c: &mut Criterion) {
@@ -257,14 +252,7 @@ fn rhex_config() -> terzaghi::config::NodeConfig {
 /// extraction, rate and the sensor's lag (coefficients of the demo's size).
 fn rhex_corrected_config() -> terzaghi::config::NodeConfig {
     let mut extra = String::new();
-    for leg in [
-        "front_left",
-        "middle_left",
-        "rear_left",
-        "front_right",
-        "middle_right",
-        "rear_right",
-    ] {
+    for leg in RHEX_LEGS {
         extra += &format!(
             "-p {leg}.corrections.effects:=[surcharge,extraction,rate,sensor_lag] \
              -p {leg}.corrections.surcharge.normal_n_m4:=22500.0 -p {leg}.corrections.surcharge.tangential_n_m4:=500.0 \
@@ -313,14 +301,7 @@ fn node_core(c: &mut Criterion) {
     // Six wheel legs (the real wheel of tests/data/real-wheel, 360 rim elements) in the plate
     // runs' medium, at the configured hip height.
     let mut wheels = String::from("-p model:=rft ");
-    for leg in [
-        "front_left",
-        "middle_left",
-        "rear_left",
-        "front_right",
-        "middle_right",
-        "rear_right",
-    ] {
+    for leg in RHEX_LEGS {
         wheels += &format!(
             "-p {leg}.shape:=wheel -p {leg}.wheel.radius_m:=0.058 -p {leg}.length_m:=0.058 -p {leg}.width_m:=0.05 -p {leg}.hip_height_m:=0.033 -p {leg}.medium:={}/tests/data/medium_without_shape.yaml ",
             env!("CARGO_MANIFEST_DIR")
@@ -341,14 +322,7 @@ fn node_core_with_tf(c: &mut Criterion) {
         Header, JointState, Quaternion, TfMessage, Time, Transform, TransformStamped, Vector3,
     };
     use terzaghi::node::{Input, NodeCore, Outputs};
-    let legs = [
-        "front_left",
-        "middle_left",
-        "rear_left",
-        "front_right",
-        "middle_right",
-        "rear_right",
-    ];
+    let legs = RHEX_LEGS;
     let args: String = legs
         .iter()
         .map(|l| format!("-p {l}.hip_frame:={l}_hip "))
