@@ -267,6 +267,10 @@ def steady(
     grousers = (grouser_count, grouser_height_m, grouser_thickness_m)
     if any(g is not None for g in grousers) and not all(g is not None for g in grousers):
         raise TerzaghiError("grousers need grouser_count, grouser_height_m and grouser_thickness_m")
+    if grouser_count is not None and (
+            isinstance(grouser_count, bool) or not float(grouser_count).is_integer()
+            or grouser_count < 1):
+        raise TerzaghiError(f"grouser_count {grouser_count!r} is not a whole number of grousers >= 1")
     n = len(flat["hub_vx_m_s"])
     cols = _terzaghi.steady(
         flat.get("load_n", [0.0] * n), flat["hub_vx_m_s"], flat["omega_rad_s"],

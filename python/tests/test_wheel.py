@@ -58,6 +58,10 @@ def test_what_is_no_run_is_refused_by_name():
         terzaghi.steady(20.0, sinkage_m=0.02, **WHEEL)
     with pytest.raises(terzaghi.TerzaghiError, match="grouser_count, grouser_height_m"):
         terzaghi.steady(20.0, grouser_count=12, **WHEEL)
+    # A count that is no whole number is refused, not cut to one.
+    with pytest.raises(terzaghi.TerzaghiError, match="grouser_count 2.5"):
+        terzaghi.steady(20.0, grouser_count=2.5, grouser_height_m=0.005,
+                        grouser_thickness_m=0.003, **WHEEL)
     with pytest.raises(terzaghi.TerzaghiError, match=r"wheel radius \(m\)"):
         terzaghi.steady(20.0, radius_m=-1.0, width_m=0.05, medium_file=MEDIUM)
     with pytest.raises(terzaghi.TerzaghiError, match="must be numbers"):

@@ -1356,8 +1356,12 @@ impl NodeCore {
             let c = c.model.corrections();
             return Some((c.b_k, c.a, false));
         }
-        // An RFT or sinkage leg's estimate is its scale: 1 until learnt, never a Terzaghi b_k.
-        let scale_only = matches!(l.model, ForceModel::Rft(_) | ForceModel::Sinkage(_));
+        // An RFT, sinkage or body leg's estimate is its scale: 1 until learnt, never a Terzaghi
+        // b_k.
+        let scale_only = matches!(
+            l.model,
+            ForceModel::Rft(_) | ForceModel::Sinkage(_) | ForceModel::Body(_)
+        );
         Some(match (&l.identified, self.cfg.use_identified) {
             (Some(e), true) => (e.b_k, e.a, true),
             _ if scale_only => (1.0, 1.0, false),
@@ -1430,6 +1434,18 @@ mod tests {
             velocity: vec![],
             effort: vec![],
         }
+    }
+
+    #[test]
+    fn a_wheel_legs_estimate_is_its_scale_not_its_mediums_b_k() {
+        // hit_sand has a fitted b_k for a 60 mm plate, which a wheel 60 mm wide must not show.
+        let yaml = "/**:\n  ros__parameters:\n    model: rft\n    legs: [w]\n    w:\n      shape: wheel\n      wheel:\n        radius_m: 0.058\n      width_m: 0.06\n      hip_height_m: 0.033\n      medium: hit_sand\n      rft_coeffs: poppy_lp\n      ft_topic: w/ft\n";
+        let mut p = defaults();
+        p.extend(parse_params_yaml(yaml, "t", "terzaghi", "/").unwrap());
+        let cfg = NodeConfig::from_params(&p, "terzaghi", "/", &[]).unwrap();
+        assert_ne!(cfg.legs[0].width.b_k(), 1.0);
+        let core = NodeCore::new(cfg);
+        assert_eq!(core.width_in_use(0), Some((1.0, 1.0, false)));
     }
 
     #[test]

@@ -660,15 +660,6 @@ impl BodyLeg {
         self.speed_law.as_ref()
     }
 
-    /// The medium's stress.
-    pub fn stress(&self) -> Stress<'_> {
-        Stress {
-            coefficients: &self.coefficients,
-            depth_law: self.depth_law.as_ref(),
-            speed_law: self.speed_law.as_ref(),
-        }
-    }
-
     /// The sand's force and moment on the body turned by `angle_rad` (the joint's angle, +
     /// rolling forward: where its grousers are) at the hip `hip` (its height that of the hub
     /// above the surface; `forward_m_s` along the body's heading, `up_m_s` up, `omega_rad_s` +
