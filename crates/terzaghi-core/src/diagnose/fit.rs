@@ -11,7 +11,9 @@
 use super::context::Context;
 use super::effects::{Effect, nonlinear_grid};
 pub use crate::model::corrections::Nonlinear;
-use crate::model::corrections::{LN_A_GRID, lag_step, ln_a_grid};
+#[cfg(doc)]
+use crate::model::corrections::lag_step;
+use crate::model::corrections::{LN_A_GRID, ln_a_grid};
 use nalgebra::{DMatrix, DVector};
 
 /// A design: the effects added to the baseline, and the nonlinear values of the ones already
@@ -311,10 +313,11 @@ fn fit_ln_a(ctx: &Context, effects: &[Effect], nl: &[Nonlinear]) -> Vec<Candidat
     let mut out = Vec::new();
     for (setting, ks) in groups {
         let unit = ctx.unit_forces_with_hip_offset(setting.surface_drop_m);
+        let parts = Parts::new(ctx, effects, &setting, &unit);
         // sse[k][grid index]
         let mut sse = vec![vec![f64::INFINITY; grid.len()]; k_all + 1];
         for (gi, &ln_a) in grid.iter().enumerate() {
-            let sums = fold_sums(ctx, effects, ln_a.exp(), &setting, &unit, &mut cols);
+            let sums = fold_sums(ctx, &parts, ln_a, &setting, &mut cols);
             for &k in &ks {
                 sse[k][gi] = train(&sums, k, k_all).solve().1;
             }
@@ -348,7 +351,7 @@ fn fit_ln_a(ctx: &Context, effects: &[Effect], nl: &[Nonlinear]) -> Vec<Candidat
                 if x <= lo || x >= hi {
                     continue;
                 }
-                let sums = fold_sums(ctx, effects, x.exp(), &setting, &unit, &mut cols);
+                let sums = fold_sums(ctx, &parts, x, &setting, &mut cols);
                 xs.push(x);
                 for (k, y) in ys.iter_mut().enumerate() {
                     y.push(if ks.contains(&k) {
@@ -364,7 +367,7 @@ fn fit_ln_a(ctx: &Context, effects: &[Effect], nl: &[Nonlinear]) -> Vec<Candidat
         for &k in &ks {
             let y: Vec<f64> = order.iter().map(|&i| ys[k][i]).collect();
             let ln_a = refine(&xs, &y);
-            let sums = fold_sums(ctx, effects, ln_a.exp(), &setting, &unit, &mut cols);
+            let sums = fold_sums(ctx, &parts, ln_a, &setting, &mut cols);
             let (coef, train_sse) = train(&sums, k, k_all).solve();
             out.push(Candidate {
                 k,
@@ -406,20 +409,17 @@ fn refine(x: &[f64], y: &[f64]) -> f64 {
     (x1 - 0.5 * num / den).clamp(x0, x2)
 }
 
-/// Per-fold sums (index `folds`: the total) of the design at `a`.
+/// Per-fold sums (index `folds`: the total) of the design at `ln_a` (its columns from
+/// `parts`).
 fn fold_sums(
     ctx: &Context,
-    effects: &[Effect],
-    a: f64,
+    parts: &Parts,
+    ln_a: f64,
     nl: &Nonlinear,
-    unit: &[[f64; 2]],
     cols: &mut Vec<f64>,
 ) -> Vec<Sums> {
-    build(ctx, effects, a, nl, unit, cols);
-    let p = 1 + effects
-        .iter()
-        .map(|e| e.linear_params().len())
-        .sum::<usize>();
+    parts.columns(ctx, ln_a, nl, cols);
+    let p = parts.p;
     let mut sums = vec![Sums::zero(p); ctx.folds + 1];
     // Accumulate the upper triangles in flat buffers (nalgebra indexing per element is slow).
     let mut xtx = vec![vec![0.0; p * p]; ctx.folds];
@@ -430,16 +430,16 @@ fn fold_sums(
         for c in 0..2 {
             let row = &cols[(2 * i + c) * p..(2 * i + c + 1) * p];
             let y = pt.y_n[c];
-            let m = &mut xtx[f];
+            let (m, v) = (&mut xtx[f], &mut xty[f]);
             for r in 0..p {
                 let xr = row[r];
                 if xr == 0.0 {
                     continue;
                 }
-                for s in r..p {
-                    m[r * p + s] += xr * row[s];
+                for (acc, x) in m[r * p + r..(r + 1) * p].iter_mut().zip(&row[r..]) {
+                    *acc += xr * x;
                 }
-                xty[f][r] += xr * y;
+                v[r] += xr * y;
             }
             yty[f] += y * y;
         }
@@ -474,6 +474,30 @@ fn build(
     unit: &[[f64; 2]],
     cols: &mut Vec<f64>,
 ) {
+    let ln_a = a.ln();
+    let p = columns_at(
+        ctx,
+        effects,
+        nl,
+        unit,
+        |pt| (-ln_a * pt.beta_rad).exp(),
+        cols,
+    );
+    if nl.lag_s > 0.0 {
+        lag(ctx, nl.lag_s, p, cols);
+    }
+}
+
+/// The columns, before the sensor's lag, with the factor `a^(-beta)` given per point by `w`;
+/// returns how many columns a component has.
+fn columns_at(
+    ctx: &Context,
+    effects: &[Effect],
+    nl: &Nonlinear,
+    unit: &[[f64; 2]],
+    w: impl Fn(&super::context::Point) -> f64,
+    cols: &mut Vec<f64>,
+) -> usize {
     let p = 1 + effects
         .iter()
         .map(|e| e.linear_params().len())
@@ -481,10 +505,9 @@ fn build(
     let n = ctx.points.len();
     cols.clear();
     cols.resize(2 * n * p, 0.0);
-    let ln_a = a.ln();
     let mut row: Vec<[f64; 2]> = Vec::with_capacity(p);
     for (i, pt) in ctx.points.iter().enumerate() {
-        let w = (-ln_a * pt.beta_rad).exp();
+        let w = w(pt);
         let base = [w * unit[i][0], w * unit[i][1]];
         row.clear();
         row.push(base);
@@ -496,8 +519,50 @@ fn build(
             cols[(2 * i + 1) * p + j] = v[1];
         }
     }
-    if nl.lag_s > 0.0 {
-        lag(ctx, nl.lag_s, p, cols);
+    p
+}
+
+/// A design's columns at one nonlinear setting, split by how they depend on `a`: every column
+/// is `fixed + scaled a^(-beta)` at each point (the baseline and every term built on it scale
+/// with `a^(-beta)`; the others do not see `a`). The search over `a` then costs one
+/// exponential and a multiply-add per column and point, instead of the terms' evaluation.
+struct Parts {
+    p: usize,
+    fixed: Vec<f64>,
+    scaled: Vec<f64>,
+}
+
+impl Parts {
+    fn new(ctx: &Context, effects: &[Effect], nl: &Nonlinear, unit: &[[f64; 2]]) -> Parts {
+        let mut fixed = Vec::new();
+        let mut scaled = Vec::new();
+        let p = columns_at(ctx, effects, nl, unit, |_| 0.0, &mut fixed);
+        columns_at(ctx, effects, nl, unit, |_| 1.0, &mut scaled);
+        for (s, f) in scaled.iter_mut().zip(&fixed) {
+            *s -= f;
+        }
+        Parts { p, fixed, scaled }
+    }
+
+    /// The columns at `ln_a`, the sensor's lag of `nl` applied.
+    fn columns(&self, ctx: &Context, ln_a: f64, nl: &Nonlinear, cols: &mut Vec<f64>) {
+        let q = 2 * self.p;
+        cols.clear();
+        cols.resize(self.fixed.len(), 0.0);
+        for (i, pt) in ctx.points.iter().enumerate() {
+            let w = (-ln_a * pt.beta_rad).exp();
+            let r = i * q..(i + 1) * q;
+            for ((c, f), s) in cols[r.clone()]
+                .iter_mut()
+                .zip(&self.fixed[r.clone()])
+                .zip(&self.scaled[r])
+            {
+                *c = f + s * w;
+            }
+        }
+        if nl.lag_s > 0.0 {
+            lag(ctx, nl.lag_s, self.p, cols);
+        }
     }
 }
 
@@ -511,10 +576,18 @@ fn lag(ctx: &Context, tau: f64, p: usize, cols: &mut [f64]) {
     let mut raw_prev: Vec<f64> = cols[..2 * p].to_vec();
     for i in 1..n {
         let dt = ctx.points[i].t_s - ctx.points[i - 1].t_s;
+        // lag_step's, its exponential once per point.
+        let decay = (-dt / tau).exp();
+        let forward = dt > 0.0 && dt.is_finite();
         for q in 0..2 * p {
             let (x0, x1, y0) = (raw_prev[q], cols[2 * i * p + q], cols[2 * (i - 1) * p + q]);
             raw_prev[q] = x1;
-            cols[2 * i * p + q] = lag_step(x0, x1, y0, dt, tau);
+            cols[2 * i * p + q] = if forward {
+                let g = (x1 - x0) / dt;
+                x1 - g * tau + (y0 - x0 + g * tau) * decay
+            } else {
+                y0
+            };
         }
     }
 }
@@ -561,6 +634,74 @@ mod tests {
                 cols[2 * i],
                 p.t_s
             );
+        }
+    }
+
+    /// The search's columns, split into a part that does not see `a` and one scaled by
+    /// `a^(-beta)`, are the columns built directly at every `a`, every effect in the design and
+    /// the sensor's lag applied (whose exponential is taken once per point: it is `lag_step`'s).
+    #[test]
+    fn the_split_columns_are_the_columns_built_at_each_a() {
+        let samples: Vec<Sample> = (0..600)
+            .map(|i| {
+                let t = i as f64 * 0.004;
+                Sample {
+                    t_s: Some(t),
+                    beta_rad: 1.2 * (2.0 * t).sin() + 1.6,
+                    drag_n: 0.0,
+                    lift_n: 0.0,
+                }
+            })
+            .collect();
+        let model = TerzaghiModel::conventional(
+            Plate::new(0.25, 0.06, 0.15).unwrap(),
+            Medium::new(16170.0, 32.0, 19.0).unwrap(),
+        );
+        let ctx = Context::new(&model, &samples, &[], &kinematics(&samples, 5), 3, 1);
+        let effects = [
+            Effect::Rate,
+            Effect::Inertia,
+            Effect::Surcharge,
+            Effect::Extraction,
+            Effect::Compaction,
+            Effect::Cohesion,
+            Effect::SensorBias,
+        ];
+        let nl = Nonlinear {
+            surface_drop_m: 0.004,
+            lag_s: 0.015,
+            speed_exponent: 1.5,
+            change_at_session_frac: 0.4,
+        };
+        let unit = ctx.unit_forces_with_hip_offset(nl.surface_drop_m);
+        let parts = Parts::new(&ctx, &effects, &nl, &unit);
+        let (mut direct, mut split) = (Vec::new(), Vec::new());
+        for ln_a in [-2.0, 0.0, 0.7, 3.1] {
+            build(&ctx, &effects, f64::exp(ln_a), &nl, &unit, &mut direct);
+            parts.columns(&ctx, ln_a, &nl, &mut split);
+            assert_eq!(direct.len(), split.len());
+            let scale = direct.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            assert!(scale > 0.0);
+            for (j, (d, s)) in direct.iter().zip(&split).enumerate() {
+                assert!(
+                    (d - s).abs() <= 1e-12 * scale,
+                    "column {j} at ln a {ln_a}: {d} against {s}"
+                );
+            }
+        }
+        // The lag as lag_step gives it, on a ramp of uneven steps.
+        let mut cols: Vec<f64> = ctx
+            .points
+            .iter()
+            .flat_map(|p| [p.t_s.sin(), p.t_s])
+            .collect();
+        let raw = cols.clone();
+        lag(&ctx, 0.01, 1, &mut cols);
+        let mut y = raw[0];
+        for i in 1..ctx.points.len() {
+            let dt = ctx.points[i].t_s - ctx.points[i - 1].t_s;
+            y = crate::model::corrections::lag_step(raw[2 * (i - 1)], raw[2 * i], y, dt, 0.01);
+            assert_eq!(cols[2 * i], y, "point {i}");
         }
     }
 }
