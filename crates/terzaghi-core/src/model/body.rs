@@ -1,11 +1,13 @@
 //! Closed bodies that carry a load: a wheel (smooth or with grousers) driven through sand, by
 //! resistive force theory over its outline, and the depth at which the sand bears a given load.
 //!
-//! A body here is a prism: a closed outline in the plane of travel (`x` along the hub's heading,
-//! `z` up, both from the hub), extruded over its width. Unlike a leg's mid-line (a thin plate
-//! whose two faces both meet sand), only the outline's *leading* elements bear stress: those
-//! whose velocity has a component along their outward normal, as Li, Zhang & Goldman (2013)
-//! integrate a closed intruder. The sand is level ahead of the body; behind the body's lowest
+//! A body here is a prism (a closed outline in the plane of travel, `x` along the hub's heading,
+//! `z` up, both from the hub, extruded over its width) or a closed triangle mesh ([`mesh`]: a
+//! foot, any part). Unlike a leg's mid-line (a thin plate whose two faces both meet sand), only
+//! a body's *leading* elements bear stress: those whose velocity has a component along their
+//! outward normal, as Li, Zhang & Goldman (2013) integrate a closed intruder; and a face that
+//! slides along itself with sand beneath it (a flat sole dragged level), which bears on that
+//! sand as a plate dragged along itself does. The sand is level ahead of the body; behind the body's lowest
 //! point it is the body's own rut, at the depth the body has reached (a rigid body leaves no sand
 //! above its lowest point behind it).
 //!
@@ -14,6 +16,9 @@
 
 use super::rft::{RftCoefficients, RftDepthLaw, RftSpeedLaw};
 use super::{HipMotion, ModelError, Plate, Prediction, Regime};
+
+mod mesh;
+pub use mesh::{Triangle, place};
 
 const N_CM3_TO_N_M3: f64 = 1e6;
 
@@ -41,17 +46,21 @@ struct Element {
 /// `y` its axle (to the left), `z` up, as ROS orders a body's axes.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Body {
-    /// The outline's elements first (`rim` of them), then the side faces'.
-    elements: Vec<Element>,
-    /// How many of `elements` are the outline's: the side faces' normals lie along the axle, so
-    /// a body moving in its own plane presses none of them.
-    rim: usize,
+    /// The elements of a body moving in its own plane (no velocity along its axle): a prism's
+    /// outline, each element across its whole width (its side faces' normals lie along the
+    /// axle, so such a motion presses none of them); a mesh's every element.
+    planar: Vec<Element>,
+    /// The elements of a body moving in any direction: a prism's outline cut across its width
+    /// too (a yawed body's rut begins along a slanted line, which cuts an element across), and
+    /// its side faces; a mesh's every element.
+    spatial: Vec<Element>,
     /// The lowest point's depth below the hub (m): the body's reach.
     reach_m: f64,
     /// The highest point's height above the hub (m).
     top_m: f64,
-    /// The outline (`(x, z)` from the hub), where turning the body moves its lowest point.
-    outline: Vec<(f64, f64)>,
+    /// The body's corners (`x, y, z` from the hub: a prism's outline, a mesh's vertices), where
+    /// turning the body moves its lowest point.
+    points: Vec<[f64; 3]>,
     /// Every point of the outline at one distance from the hub (a smooth wheel): turning it
     /// changes nothing.
     round: bool,
@@ -115,7 +124,9 @@ impl Body {
     /// Elements of a wheel's rim, at the least.
     const MIN_RIM_ELEMENTS: usize = 360;
     /// Rings of each side face.
-    const SIDE_RINGS: usize = 4;
+    const SIDE_RINGS: usize = 8;
+    /// Strips across a prism's width, for motion out of its plane.
+    const STRIPS: usize = 8;
 
     /// A wheel of `radius_m` and `width_m`, smooth or with `grousers`, its rim cut into about
     /// `rim_elements` elements (at least 360), its two side faces into rings.
@@ -191,7 +202,7 @@ impl Body {
         positive("body width (m)", width_m, 10.0)?;
         if outline.len() < 3 {
             return Err(ModelError::BadBody {
-                problem: format!("needs 3 points or more, not {}", outline.len()),
+                problem: format!("an outline needs 3 points or more, not {}", outline.len()),
             });
         }
         let mut elements = Vec::with_capacity(outline.len());
@@ -202,7 +213,7 @@ impl Body {
             for (what, v) in [("x", x), ("z", z)] {
                 if !v.is_finite() {
                     return Err(ModelError::BadBody {
-                        problem: format!("point {i}'s {what} is {v}"),
+                        problem: format!("outline point {i}'s {what} is {v}"),
                     });
                 }
             }
@@ -219,7 +230,7 @@ impl Body {
             if len <= 0.0 || !len.is_finite() || twice_fan < -1e-9 * len * radius {
                 return Err(ModelError::BadBody {
                     problem: format!(
-                        "edge {i} from ({x0}, {z0}) to ({x1}, {z1}) {}",
+                        "outline edge {i} from ({x0}, {z0}) to ({x1}, {z1}) {}",
                         if len > 0.0 {
                             "turns clockwise about the hub (an outline runs counter-clockwise, x right and z up, and the hub sees all of it)"
                         } else {
@@ -266,14 +277,24 @@ impl Body {
         let round = outline
             .iter()
             .all(|&(x, z)| (x.hypot(z) - r0).abs() <= 1e-9 * r0);
-        let rim = elements.len();
-        elements.append(&mut sides);
+        let mut spatial = Vec::with_capacity(Self::STRIPS * elements.len() + sides.len());
+        for e in &elements {
+            for j in 0..Self::STRIPS {
+                let f = (j as f64 + 0.5) / Self::STRIPS as f64;
+                spatial.push(Element {
+                    p: [e.p[0], (f - 0.5) * width_m, e.p[2]],
+                    n: e.n,
+                    area: e.area / Self::STRIPS as f64,
+                });
+            }
+        }
+        spatial.append(&mut sides);
         Ok(Body {
-            elements,
-            rim,
+            planar: elements,
+            spatial,
             reach_m: -reach,
             top_m: top,
-            outline: outline.to_vec(),
+            points: outline.iter().map(|&(x, z)| [x, 0.0, z]).collect(),
             round,
         })
     }
@@ -291,10 +312,38 @@ impl Body {
         }
         let (s, c) = angle_rad.sin_cos();
         -self
-            .outline
+            .points
             .iter()
-            .map(|&(x, z)| -x * s + z * c)
+            .map(|&[x, _, z]| -x * s + z * c)
             .fold(f64::INFINITY, f64::min)
+    }
+
+    /// The lowest point's horizontal place from the hub (`x`, `y`, m) with the body turned by
+    /// `angle_rad`: where its rut begins. A round body's is under its hub.
+    fn lowest_xy_at(&self, angle_rad: f64) -> (f64, f64) {
+        if self.round {
+            return (0.0, 0.0);
+        }
+        let (s, c) = if angle_rad.is_finite() {
+            angle_rad.sin_cos()
+        } else {
+            (0.0, 1.0)
+        };
+        // The middle of the lowest points (a box's bottom face, a wheel's bottom line).
+        let low = self
+            .points
+            .iter()
+            .map(|&[x, _, z]| -x * s + z * c)
+            .fold(f64::INFINITY, f64::min);
+        let (mut sx, mut sy, mut n) = (0.0, 0.0, 0.0);
+        for &[x, y, z] in &self.points {
+            if -x * s + z * c <= low + 1e-9 {
+                sx += x * c + z * s;
+                sy += y;
+                n += 1.0;
+            }
+        }
+        (sx / n, sy / n)
     }
 
     /// The body's height from its lowest point to its highest (m).
@@ -304,7 +353,7 @@ impl Body {
 
     /// How many surface elements the body has.
     pub fn element_count(&self) -> usize {
-        self.elements.len()
+        self.spatial.len()
     }
 
     /// The sand's force and moment on the body with its hub moving as `hub`: RFT's stress of
@@ -335,6 +384,8 @@ impl Body {
         };
         let turn = |x: f64, z: f64| (x * cos_a + z * sin_a, -x * sin_a + z * cos_a);
         let reach = self.reach_at_m(if turned { hub.angle_rad } else { 0.0 });
+        // The rut begins behind the lowest point.
+        let (lx, ly) = self.lowest_xy_at(if turned { hub.angle_rad } else { 0.0 });
         let sinkage = reach - hub.height_m;
         let rut = -sinkage.max(0.0);
         let [hx, hy, hz] = hub.velocity_m_s;
@@ -349,11 +400,10 @@ impl Body {
         // A horizontal plate dragged along itself: the shear across an element's plane.
         let shear = coefficients.alpha_along((1.0, 0.0), (1.0, 0.0)).0;
         let (mut f, mut m) = ([0.0; 3], [0.0; 3]);
-        // A body moving in its own plane (no velocity along the axle) presses no side face.
         let pressed = if hy == 0.0 {
-            &self.elements[..self.rim]
+            &self.planar
         } else {
-            &self.elements[..]
+            &self.spatial
         };
         for e in pressed {
             let ([px, py, pz], [nx, ny, nz]) = if turned {
@@ -363,18 +413,23 @@ impl Body {
             } else {
                 (e.p, e.n)
             };
-            let behind = travel > 0.0 && px * tx + py * ty < 0.0;
+            let behind = travel > 0.0 && (px - lx) * tx + (py - ly) * ty < 0.0;
             let depth = if behind { rut } else { 0.0 } - (hub.height_m + pz);
             if depth <= 0.0 {
                 continue;
             }
             // The hub's velocity plus the rotation's about y: (w z, 0, -w x).
             let v = [hx + w * pz, hy, hz - w * px];
-            // Only a leading element pushes on sand.
-            if v[0] * nx + v[1] * ny + v[2] * nz <= 0.0 {
+            // Only a leading element pushes on sand; one sliding along itself with sand beneath
+            // it (a flat sole dragged level) bears on that sand as a plate dragged along itself.
+            let vn = v[0] * nx + v[1] * ny + v[2] * nz;
+            if vn <= 0.0 && nz >= 0.0 {
                 continue;
             }
             let speed = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+            if vn <= 0.0 && !(speed > 0.0 && -vn <= 1e-9 * speed) {
+                continue;
+            }
             // The vertical plane of the normal: e2 its horizontal part (the horizontal velocity
             // for a horizontal element), e1 = e2 x z across it.
             let nh = (nx * nx + ny * ny).sqrt();

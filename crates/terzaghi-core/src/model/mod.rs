@@ -31,8 +31,8 @@ pub mod sinkage;
 pub mod terzaghi;
 
 pub use body::{
-    Body, BodyForce, BodyLeg, Drive, Grousers, HubMotion, Steady, SteadyError, Stress,
-    state_at_sinkage, steady_sinkage,
+    Body, BodyForce, BodyLeg, Drive, Grousers, HubMotion, Steady, SteadyError, Stress, Triangle,
+    place, state_at_sinkage, steady_sinkage,
 };
 pub use corrections::{CorrectedModel, CorrectedPrediction, Corrections, Effect};
 pub use medium::{FittingWidth, Medium, MediumPreset, Provenance};
@@ -150,8 +150,9 @@ pub enum ModelError {
         /// What is wrong with it.
         problem: String,
     },
-    /// A body's outline that is no closed body about its hub (see [`body::Body::prism`]).
-    #[error("body outline: {problem}")]
+    /// A body's outline or mesh that is no closed body (see [`body::Body::prism`] and
+    /// [`body::Body::mesh`]).
+    #[error("{problem}")]
     BadBody {
         /// What is wrong with it.
         problem: String,
