@@ -137,6 +137,31 @@ fn models(c: &mut Criterion) {
         height_m: 0.01,
         thickness_m: 0.004,
     }));
+    // A mesh body's cost per triangle: a sphere foot (radius 30 mm, 15 mm deep, dragged and
+    // sinking) of 4 m (m - 1) triangles for m rings, one element per triangle: 224, 960 and
+    // 3,968 triangles.
+    for rings in [8, 16, 32] {
+        let sphere = Body::sphere(0.03, [0.0; 3], rings, 1.0).unwrap();
+        let hub = terzaghi::model::HubMotion {
+            height_m: 0.015,
+            velocity_m_s: [0.01, 0.0, -0.002],
+            ..Default::default()
+        };
+        let name = format!(
+            "body_mesh_sphere_{}_triangles_forces",
+            sphere.element_count()
+        );
+        c.bench_function(&name, |b| {
+            b.iter(|| {
+                black_box(&sphere).forces(
+                    &plate_runs.coefficients,
+                    Some(&plate_runs.depth_law),
+                    None,
+                    black_box(&hub),
+                )
+            })
+        });
+    }
     for (name, model, hip) in [
         ("body_wheel_rolling_evaluate", &smooth, &rolling),
         ("body_wheel_pressed_evaluate", &smooth, &pressed),

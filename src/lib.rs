@@ -11,6 +11,8 @@
 //! - [`msgs`]: the ROS 2 messages the node reads and writes, and their CDR encoding.
 //! - [`medium_file`]: medium files, a plate-sinkage law calibrated from measurements with where
 //!   each value came from.
+//! - [`mesh_file`]: a body's surface from an STL file (binary or ASCII), for feet and any part
+//!   drawn in CAD.
 //! - [`model_spec`]: a leg's force model from plain values (kind, plate, medium, fitting width,
 //!   RFT coefficients), as the command line and the Python package name it.
 //! - [`config`]: node parameters as ROS gives them (params files, `--ros-args`, environment)
@@ -54,6 +56,7 @@ pub mod error;
 #[doc(hidden)]
 pub mod fuzzing;
 pub mod medium_file;
+pub mod mesh_file;
 pub mod model_spec;
 pub mod msgs;
 pub mod node;

@@ -66,8 +66,8 @@ pub enum Command {
     /// Fit a medium's plate-sinkage laws (Terzaghi's footing, Bekker, Reece, RFT with a depth
     /// exponent, a power law in depth and width) to plate-sinkage tests and write a medium file.
     Calibrate(calibrate::CalibrateArgs),
-    /// A wheel's steady sinkage, drawbar pull, side force and drive torque under each run's load,
-    /// hub speed, rotation rate and slip angle (CSV in, CSV out).
+    /// A wheel's or a foot's steady sinkage, drawbar pull, side force and drive torque under
+    /// each run's load, hub speed, rotation rate and slip angle (CSV in, CSV out).
     Steady(steady::SteadyArgs),
     /// Write a synthetic session (one leg in continuous rotation, with sensor noise) as CSV.
     Simulate(simulate::SimulateArgs),

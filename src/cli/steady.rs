@@ -1,5 +1,5 @@
-//! `terzaghi steady`: a wheel's steady sinkage, drawbar pull, side force and drive torque under
-//! each run's load, speed, rotation rate and slip angle (the work is
+//! `terzaghi steady`: a wheel's or a foot's steady sinkage, drawbar pull, side force and drive
+//! torque under each run's load, speed, rotation rate and slip angle (the work is
 //! [`crate::session::steady`]).
 
 use super::print_out;
@@ -15,6 +15,14 @@ use std::path::PathBuf;
 pub enum BodyShape {
     /// A wheel: --radius-m, --width-m, and grousers if --grouser-count is given.
     Wheel,
+    /// A disc foot, its axis vertical: --radius-m, --thickness-m.
+    Disc,
+    /// A sphere foot: --radius-m.
+    Sphere,
+    /// A box foot: --size-m X,Y,Z (along the heading, across it, up).
+    Box,
+    /// A closed triangle mesh: --mesh-file (STL, binary or ASCII), --mesh-scale.
+    Mesh,
 }
 
 #[derive(Debug, Args)]
@@ -29,12 +37,44 @@ pub struct SteadyArgs {
     /// The body.
     #[arg(long, value_enum, default_value = "wheel")]
     pub shape: BodyShape,
-    /// The wheel's rim radius (m).
+    /// The wheel's rim radius, or the disc's or sphere's (m).
     #[arg(long, value_name = "M", allow_negative_numbers = true)]
-    pub radius_m: f64,
+    pub radius_m: Option<f64>,
     /// The wheel's width (m).
     #[arg(long, value_name = "M", allow_negative_numbers = true)]
-    pub width_m: f64,
+    pub width_m: Option<f64>,
+    /// The disc's thickness (m).
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
+    pub thickness_m: Option<f64>,
+    /// The box's size along the heading, across it and up (m).
+    #[arg(
+        long,
+        value_name = "X,Y,Z",
+        value_delimiter = ',',
+        allow_negative_numbers = true
+    )]
+    pub size_m: Option<Vec<f64>>,
+    /// The STL file of a closed mesh, its hub at the file's origin, x the heading, y to the
+    /// left, z up.
+    #[arg(long, value_name = "FILE.stl")]
+    pub mesh_file: Option<PathBuf>,
+    /// Metres per unit of the mesh file (1 for metres, as ROS gives meshes; 0.001 for a CAD part
+    /// in millimetres).
+    #[arg(
+        long,
+        value_name = "M",
+        default_value_t = 1.0,
+        allow_negative_numbers = true
+    )]
+    pub mesh_scale: f64,
+    /// A foot's or a mesh's elements: their longest edge (m).
+    #[arg(
+        long,
+        value_name = "M",
+        default_value_t = 0.002,
+        allow_negative_numbers = true
+    )]
+    pub element_m: f64,
     /// Grousers (lugs): how many, evenly spaced around the rim.
     #[arg(long, value_name = "N", requires_all = ["grouser_height_m", "grouser_thickness_m"])]
     pub grouser_count: Option<usize>,
@@ -76,6 +116,82 @@ pub struct SteadyArgs {
     pub out: Option<PathBuf>,
 }
 
+/// The value of a flag the shape needs, or an error naming it.
+fn needed<T: Copy>(v: Option<T>, flag: &str, shape: &str) -> Result<T> {
+    v.ok_or_else(|| anyhow::anyhow!("--shape {shape} needs {flag}"))
+}
+
+/// The body the flags describe; a flag of another shape is an error naming it.
+fn body(a: &SteadyArgs, grousers: Option<Grousers>) -> Result<Body> {
+    let shape = a
+        .shape
+        .to_possible_value()
+        .map_or(String::new(), |v| v.get_name().to_string());
+    let given = [
+        ("--radius-m", a.radius_m.is_some()),
+        ("--width-m", a.width_m.is_some()),
+        ("--thickness-m", a.thickness_m.is_some()),
+        ("--size-m", a.size_m.is_some()),
+        ("--mesh-file", a.mesh_file.is_some()),
+        ("--grouser-count", a.grouser_count.is_some()),
+    ];
+    let takes: &[&str] = match a.shape {
+        BodyShape::Wheel => &["--radius-m", "--width-m", "--grouser-count"],
+        BodyShape::Disc => &["--radius-m", "--thickness-m"],
+        BodyShape::Sphere => &["--radius-m"],
+        BodyShape::Box => &["--size-m"],
+        BodyShape::Mesh => &["--mesh-file"],
+    };
+    if let Some((flag, _)) = given.iter().find(|(f, g)| *g && !takes.contains(f)) {
+        anyhow::bail!(
+            "--shape {shape} takes no {flag} (it takes {})",
+            takes.join(", ")
+        );
+    }
+    // A foot's rim: segments (rings of a sphere) about as long as its elements.
+    let around =
+        |r: f64| ((std::f64::consts::TAU * r / a.element_m).ceil() as usize).clamp(12, 4096);
+    Ok(match a.shape {
+        BodyShape::Wheel => Body::wheel(
+            needed(a.radius_m, "--radius-m", &shape)?,
+            needed(a.width_m, "--width-m", &shape)?,
+            grousers,
+            a.rim_elements,
+        )?,
+        BodyShape::Disc => {
+            let r = needed(a.radius_m, "--radius-m", &shape)?;
+            Body::disc(
+                r,
+                needed(a.thickness_m, "--thickness-m", &shape)?,
+                [0.0; 3],
+                around(r.abs().min(10.0)),
+                a.element_m,
+            )?
+        }
+        BodyShape::Sphere => {
+            let r = needed(a.radius_m, "--radius-m", &shape)?;
+            Body::sphere(r, [0.0; 3], around(r.abs().min(10.0)) / 2, a.element_m)?
+        }
+        BodyShape::Box => {
+            let s = a.size_m.as_deref().unwrap_or_default();
+            let s = <[f64; 3]>::try_from(s).map_err(|_| {
+                anyhow::anyhow!(
+                    "--shape box needs --size-m X,Y,Z: three sizes (m), not {}",
+                    s.len()
+                )
+            })?;
+            Body::cuboid(s, [0.0; 3], a.element_m)?
+        }
+        BodyShape::Mesh => crate::mesh_file::read_body(
+            needed(a.mesh_file.as_deref(), "--mesh-file", &shape)?,
+            a.mesh_scale,
+            [0.0; 3],
+            [0.0; 3],
+            a.element_m,
+        )?,
+    })
+}
+
 pub fn run(a: SteadyArgs) -> Result<()> {
     let medium = MediumFile::read(&a.medium_file)?;
     let law = medium.rft_law(None)?;
@@ -87,9 +203,7 @@ pub fn run(a: SteadyArgs) -> Result<()> {
         }),
         _ => None,
     };
-    let body = match a.shape {
-        BodyShape::Wheel => Body::wheel(a.radius_m, a.width_m, grousers, a.rim_elements)?,
-    };
+    let body = body(&a, grousers)?;
     let text = std::fs::read_to_string(&a.runs)
         .with_context(|| format!("cannot read {}", a.runs.display()))?;
     let solve = match &a.at_sinkage {
