@@ -48,7 +48,7 @@ struct Element {
 pub struct Body {
     /// The elements of a body moving in its own plane (no velocity along its axle): a prism's
     /// outline, each element across its whole width (its side faces' normals lie along the
-    /// axle, so such a motion presses none of them); a mesh's every element.
+    /// axle, so such a motion presses none of them); none for a mesh, which takes `spatial`.
     planar: Vec<Element>,
     /// The elements of a body moving in any direction: a prism's outline cut across its width
     /// too (a yawed body's rut begins along a slanted line, which cuts an element across), and
@@ -400,7 +400,7 @@ impl Body {
         // A horizontal plate dragged along itself: the shear across an element's plane.
         let shear = coefficients.alpha_along((1.0, 0.0), (1.0, 0.0)).0;
         let (mut f, mut m) = ([0.0; 3], [0.0; 3]);
-        let pressed = if hy == 0.0 {
+        let pressed = if hy == 0.0 && !self.planar.is_empty() {
             &self.planar
         } else {
             &self.spatial

@@ -216,7 +216,7 @@ impl Body {
             }
         }
         Ok(Body {
-            planar: elements.clone(),
+            planar: Vec::new(),
             spatial: elements,
             reach_m: -lo[2],
             top_m: hi[2],
