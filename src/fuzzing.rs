@@ -724,3 +724,76 @@ pub fn mcap(data: &[u8]) {
     let again = read_session(&out2.into_inner()).expect("recovered twice reads");
     assert_eq!(again.messages.len(), session.messages.len());
 }
+
+/// An STL file (`fuzz/corpus/mesh_file`): read as `terzaghi steady --shape mesh` reads it (its
+/// first byte picks metres or millimetres); a mesh that makes a body has a finite reach and
+/// height, and finite forces wherever it is and however it moves; a load is borne at a finite
+/// sinkage no deeper than the body, or refused.
+pub fn mesh_file(data: &[u8]) {
+    use crate::model::{
+        Body, Drive, HubMotion, RftCoefficients, RftDepthLaw, RftFit, Stress, place, steady_sinkage,
+    };
+    let Some((&first, rest)) = data.split_first() else {
+        return;
+    };
+    let scale = if first & 1 == 0 { 1.0 } else { 0.001 };
+    let Ok(mut triangles) = crate::mesh_file::parse_stl(Path::new("fuzz.stl"), rest, scale) else {
+        return;
+    };
+    // Each triangle is at least one element: a few thousand keep a run fast.
+    if triangles.len() > 4000 {
+        return;
+    }
+    place(
+        &mut triangles,
+        [0.0, 0.0, 0.0],
+        [0.0, f64::from(first >> 1) * 0.1, 0.0],
+    );
+    let Ok(body) = Body::mesh(&triangles, 0.5) else {
+        return;
+    };
+    finite("reach_m", body.reach_m());
+    finite("height_m", body.height_m());
+    assert!(body.element_count() > 0, "a body has elements");
+    let c = RftCoefficients::Fit(RftFit::POPPY_LP);
+    let law = RftDepthLaw::new(4.546, 1.219).expect("the plate runs' law");
+    for (height, v, omega, angle) in [
+        (0.0, [0.01, 0.0, 0.0], 0.0, 0.0),
+        (body.reach_m() * 0.5, [0.01, 0.004, -0.002], 0.3, 0.7),
+        (-body.height_m(), [0.0, 0.0, -0.01], 0.0, -2.0),
+    ] {
+        let f = body.forces(
+            &c,
+            Some(&law),
+            None,
+            &HubMotion {
+                height_m: height,
+                velocity_m_s: v,
+                omega_rad_s: omega,
+                angle_rad: angle,
+            },
+        );
+        for x in f.force_n.iter().chain(&f.moment_nm) {
+            finite("body force or moment", *x);
+        }
+    }
+    let stress = Stress {
+        coefficients: &c,
+        depth_law: Some(&law),
+        speed_law: None,
+    };
+    let drive = Drive {
+        speed_m_s: 0.01,
+        omega_rad_s: 0.0,
+        slip_angle_rad: 0.2,
+    };
+    if let Ok(s) = steady_sinkage(&body, &stress, 1.0, &drive) {
+        finite("sinkage_m", s.sinkage_m);
+        finite("drawbar_n", s.drawbar_n);
+        finite("side_n", s.side_n);
+        assert!(
+            s.sinkage_m <= body.height_m() + 1e-9,
+            "sinkage within the body"
+        );
+    }
+}

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 /// A target's name and what it runs on an input.
 type Target = (&'static str, fn(&[u8]));
 
-const TARGETS: [Target; 8] = [
+const TARGETS: [Target; 9] = [
     ("node_wire", terzaghi::fuzzing::node_wire),
     ("params", terzaghi::fuzzing::params),
     ("csv_log", terzaghi::fuzzing::csv_log),
@@ -18,6 +18,7 @@ const TARGETS: [Target; 8] = [
     ("intrusion_test", terzaghi::fuzzing::intrusion_test),
     ("medium_file", terzaghi::fuzzing::medium_file),
     ("mcap", terzaghi::fuzzing::mcap),
+    ("mesh_file", terzaghi::fuzzing::mesh_file),
 ];
 
 fn inputs(dir: &Path) -> Vec<PathBuf> {
