@@ -2,7 +2,7 @@
 //! resistive force theory over its outline, and the depth at which the sand bears a given load.
 //!
 //! A body here is a prism (a closed outline in the plane of travel, `x` along the hub's heading,
-//! `z` up, both from the hub, extruded over its width) or a closed triangle mesh ([`mesh`]: a
+//! `z` up, both from the hub, extruded over its width) or a closed triangle mesh ([`Body::mesh`]: a
 //! foot, any part). Unlike a leg's mid-line (a thin plate whose two faces both meet sand), only
 //! a body's *leading* elements bear stress: those whose velocity has a component along their
 //! outward normal, as Li, Zhang & Goldman (2013) integrate a closed intruder; and a face that
