@@ -320,7 +320,8 @@ impl Body {
 
     /// The lowest point's horizontal place from the hub (`x`, `y`, m) with the body turned by
     /// `angle_rad`: where its rut begins. A round body's is under its hub.
-    fn lowest_xy_at(&self, angle_rad: f64) -> (f64, f64) {
+    /// `reach_m` is [`Body::reach_at_m`] at that angle (the lowest point's depth, found once).
+    fn lowest_xy_at(&self, angle_rad: f64, reach_m: f64) -> (f64, f64) {
         if self.round {
             return (0.0, 0.0);
         }
@@ -330,11 +331,7 @@ impl Body {
             (0.0, 1.0)
         };
         // The middle of the lowest points (a box's bottom face, a wheel's bottom line).
-        let low = self
-            .points
-            .iter()
-            .map(|&[x, _, z]| -x * s + z * c)
-            .fold(f64::INFINITY, f64::min);
+        let low = -reach_m;
         let (mut sx, mut sy, mut n) = (0.0, 0.0, 0.0);
         for &[x, y, z] in &self.points {
             if -x * s + z * c <= low + 1e-9 {
@@ -385,7 +382,7 @@ impl Body {
         let turn = |x: f64, z: f64| (x * cos_a + z * sin_a, -x * sin_a + z * cos_a);
         let reach = self.reach_at_m(if turned { hub.angle_rad } else { 0.0 });
         // The rut begins behind the lowest point.
-        let (lx, ly) = self.lowest_xy_at(if turned { hub.angle_rad } else { 0.0 });
+        let (lx, ly) = self.lowest_xy_at(if turned { hub.angle_rad } else { 0.0 }, reach);
         let sinkage = reach - hub.height_m;
         let rut = -sinkage.max(0.0);
         let [hx, hy, hz] = hub.velocity_m_s;

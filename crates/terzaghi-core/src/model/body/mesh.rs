@@ -260,7 +260,7 @@ impl Body {
     }
 
     /// A sphere foot of `radius_m` centred at `centre_m` from the hub (m): a sphere of
-    /// `rings` bands of latitude (at least 6) and twice as many of longitude.
+    /// `rings` bands of latitude (6 to 256) and twice as many of longitude.
     pub fn sphere(
         radius_m: f64,
         centre_m: [f64; 3],
@@ -268,7 +268,9 @@ impl Body {
         element_m: f64,
     ) -> Result<Body, ModelError> {
         dimension("sphere radius (m)", radius_m)?;
-        let (m, n) = (rings.clamp(6, 1024), 2 * rings.clamp(6, 1024));
+        // At most 256 rings (260,100 triangles): a finer sphere is refused by the element
+        // count anyway, after its triangles were built.
+        let (m, n) = (rings.clamp(6, 256), 2 * rings.clamp(6, 256));
         let c = centre_m;
         let at = |i: usize, k: usize| {
             let (st, ct) = (std::f64::consts::PI * i as f64 / m as f64).sin_cos();
