@@ -6,24 +6,6 @@ mod common;
 
 use terzaghi_eval::closed_loop::STEP_CASES;
 
-/// The README's tables of the corrections learnt online are what the command prints.
-#[test]
-fn the_readme_tables_are_what_diagnose_eval_online_prints() {
-    let printed = eval_stdout(&["diagnose-eval", "--online"]);
-    let readme = common::docs_text();
-    let rows: Vec<&str> = printed
-        .lines()
-        .filter(|l| {
-            l.strip_prefix("| case ")
-                .is_some_and(|r| r.starts_with(|c: char| c.is_ascii_digit()))
-        })
-        .collect();
-    assert_eq!(rows.len(), 9 + STEP_CASES.len(), "{printed}");
-    for row in rows {
-        assert!(readme.contains(row), "the README lacks the row\n{row}");
-    }
-}
-
 /// `diagnose-eval --online --json` gives every value behind the table: each case's batch and
 /// online values with the online standard deviation, its largest difference the table's.
 #[test]
@@ -66,19 +48,26 @@ fn diagnose_eval_online_json_holds_the_values_behind_the_table() {
     }
 }
 
-/// The docs' table of the stroke jackknife is what `diagnose-eval --online --jackknife` prints:
-/// for each session that does not hold, how far leaving one stroke out moves its batch value.
+/// The README's tables of the corrections learnt online, and the docs' table of the stroke
+/// jackknife, are what `diagnose-eval --online --jackknife` prints (one run: the jackknife's
+/// output begins with the online tables `--online` alone prints). The jackknife: for each
+/// session that does not hold, how far leaving one stroke out moves its batch value.
 #[test]
-fn the_jackknife_table_is_what_diagnose_eval_online_jackknife_prints() {
+fn the_online_and_jackknife_tables_are_what_diagnose_eval_online_prints() {
     let printed = eval_stdout(&["diagnose-eval", "--online", "--jackknife"]);
-    let jackknife = printed
+    let (online, jackknife) = printed
         .split_once("Stroke jackknife")
-        .expect("a jackknife table")
-        .1;
+        .expect("a jackknife table");
     let is_row = |l: &&str| {
         l.strip_prefix("| case ")
             .is_some_and(|r| r.starts_with(|c: char| c.is_ascii_digit()))
     };
+    let docs = common::docs_text();
+    let online_rows: Vec<&str> = online.lines().filter(is_row).collect();
+    assert_eq!(online_rows.len(), 9 + STEP_CASES.len(), "{printed}");
+    for row in online_rows {
+        assert!(docs.contains(row), "the README lacks the row\n{row}");
+    }
     let rows: Vec<&str> = jackknife.lines().filter(is_row).collect();
     // The sessions that do not hold, in the first table (before its count); where all hold,
     // the one nearest the bound.
@@ -88,7 +77,6 @@ fn the_jackknife_table_is_what_diagnose_eval_online_jackknife_prints() {
         .filter(|l| is_row(l) && l.ends_with("| no |"))
         .count();
     assert!(rows.len() == misses.max(1), "{printed}");
-    let docs = common::docs_text();
     for row in rows {
         assert!(docs.contains(row), "the docs lack the row\n{row}");
     }
