@@ -14,49 +14,9 @@ const MEDIUM: &str = "tests/data/medium_without_shape.yaml";
 
 /// A box of `size` (mm) centred at the origin, as binary STL triangles in mm.
 fn box_triangles(size: [f32; 3]) -> Vec<[[f32; 3]; 3]> {
-    let h = size.map(|v| v / 2.0);
-    let c = |sx: f32, sy: f32, sz: f32| [sx * h[0], sy * h[1], sz * h[2]];
-    let faces = [
-        [
-            c(-1., -1., -1.),
-            c(-1., 1., -1.),
-            c(1., 1., -1.),
-            c(1., -1., -1.),
-        ],
-        [
-            c(-1., -1., 1.),
-            c(1., -1., 1.),
-            c(1., 1., 1.),
-            c(-1., 1., 1.),
-        ],
-        [
-            c(-1., -1., -1.),
-            c(1., -1., -1.),
-            c(1., -1., 1.),
-            c(-1., -1., 1.),
-        ],
-        [
-            c(-1., 1., -1.),
-            c(-1., 1., 1.),
-            c(1., 1., 1.),
-            c(1., 1., -1.),
-        ],
-        [
-            c(-1., -1., -1.),
-            c(-1., -1., 1.),
-            c(-1., 1., 1.),
-            c(-1., 1., -1.),
-        ],
-        [
-            c(1., -1., -1.),
-            c(1., 1., -1.),
-            c(1., 1., 1.),
-            c(1., -1., 1.),
-        ],
-    ];
-    faces
+    terzaghi::model::box_triangles(size.map(f64::from), [0.0; 3])
         .iter()
-        .flat_map(|f| [[f[0], f[1], f[2]], [f[0], f[2], f[3]]])
+        .map(|t| t.map(|v| v.map(|x| x as f32)))
         .collect()
 }
 

@@ -18,7 +18,7 @@ use super::rft::{RftCoefficients, RftDepthLaw, RftSpeedLaw};
 use super::{HipMotion, ModelError, Plate, Prediction, Regime};
 
 mod mesh;
-pub use mesh::{Triangle, place};
+pub use mesh::{Triangle, box_triangles, place};
 
 const N_CM3_TO_N_M3: f64 = 1e6;
 

@@ -32,7 +32,7 @@ pub mod terzaghi;
 
 pub use body::{
     Body, BodyForce, BodyLeg, Drive, Grousers, HubMotion, Steady, SteadyError, Stress, Triangle,
-    place, state_at_sinkage, steady_sinkage,
+    box_triangles, place, state_at_sinkage, steady_sinkage,
 };
 pub use corrections::{CorrectedModel, CorrectedPrediction, Corrections, Effect};
 pub use medium::{FittingWidth, Medium, MediumPreset, Provenance};

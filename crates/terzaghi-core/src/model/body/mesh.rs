@@ -307,28 +307,39 @@ impl Body {
         ] {
             dimension(what, v)?;
         }
-        let corner = |i: usize| {
-            let s = |bit: usize, j: usize| {
-                centre_m[j] + if i >> bit & 1 == 1 { 0.5 } else { -0.5 } * size_m[j]
-            };
-            [s(0, 0), s(1, 1), s(2, 2)]
-        };
-        // Each face as two triangles, counter-clockwise seen from outside (corner bits: x, y, z).
-        let faces = [
-            [0, 2, 3, 1], // bottom, z-
-            [4, 5, 7, 6], // top, z+
-            [0, 1, 5, 4], // y-
-            [2, 6, 7, 3], // y+
-            [0, 4, 6, 2], // x-
-            [1, 3, 7, 5], // x+
-        ];
-        let mut t = Vec::with_capacity(12);
-        for f in faces {
-            t.push([corner(f[0]), corner(f[1]), corner(f[2])]);
-            t.push([corner(f[0]), corner(f[2]), corner(f[3])]);
-        }
+        let t = box_triangles(size_m, centre_m);
         Body::mesh(&t, element_m)
     }
+}
+
+/// A box's twelve triangles (two a face, counter-clockwise seen from outside: a closed mesh for
+/// [`Body::mesh`]), of `size_m` along `x`, `y`, `z` centred at `centre_m`. The faces in the order
+/// bottom (`z-`), top, `y-`, `y+`, `x-`, `x+`.
+pub fn box_triangles(size_m: [f64; 3], centre_m: [f64; 3]) -> Vec<Triangle> {
+    let corner = |i: usize| {
+        let s = |bit: usize, j: usize| {
+            centre_m[j] + if i >> bit & 1 == 1 { 0.5 } else { -0.5 } * size_m[j]
+        };
+        [s(0, 0), s(1, 1), s(2, 2)]
+    };
+    // Corner bits: x, y, z.
+    let faces = [
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+    ];
+    faces
+        .iter()
+        .flat_map(|f| {
+            [
+                [corner(f[0]), corner(f[1]), corner(f[2])],
+                [corner(f[0]), corner(f[2]), corner(f[3])],
+            ]
+        })
+        .collect()
 }
 
 fn dimension(what: &'static str, v: f64) -> Result<(), ModelError> {
@@ -491,53 +502,8 @@ mod tests {
         assert!(deeper.force_n[2] > 1.5 * b.force_n[2]);
 
         let wide = Body::cuboid([0.05, 0.08, 0.03], [0.0; 3], 0.005).unwrap();
-        let mut t = Vec::new();
-        let long = [0.08, 0.05, 0.03];
         // The long box's triangles, turned a quarter about z.
-        let h = long.map(|v| v / 2.0);
-        let c = |sx: f64, sy: f64, sz: f64| [sx * h[0], sy * h[1], sz * h[2]];
-        let faces = [
-            [
-                c(-1., -1., -1.),
-                c(-1., 1., -1.),
-                c(1., 1., -1.),
-                c(1., -1., -1.),
-            ],
-            [
-                c(-1., -1., 1.),
-                c(1., -1., 1.),
-                c(1., 1., 1.),
-                c(-1., 1., 1.),
-            ],
-            [
-                c(-1., -1., -1.),
-                c(1., -1., -1.),
-                c(1., -1., 1.),
-                c(-1., -1., 1.),
-            ],
-            [
-                c(-1., 1., -1.),
-                c(-1., 1., 1.),
-                c(1., 1., 1.),
-                c(1., 1., -1.),
-            ],
-            [
-                c(-1., -1., -1.),
-                c(-1., -1., 1.),
-                c(-1., 1., 1.),
-                c(-1., 1., -1.),
-            ],
-            [
-                c(1., -1., -1.),
-                c(1., 1., -1.),
-                c(1., 1., 1.),
-                c(1., -1., 1.),
-            ],
-        ];
-        for f in faces {
-            t.push([f[0], f[1], f[2]]);
-            t.push([f[0], f[2], f[3]]);
-        }
+        let mut t = box_triangles([0.08, 0.05, 0.03], [0.0; 3]);
         place(&mut t, [0.0; 3], [0.0, 0.0, std::f64::consts::FRAC_PI_2]);
         let turned = Body::mesh(&t, 0.005).unwrap();
         let (p, q) = (
@@ -555,54 +521,7 @@ mod tests {
     /// Every way a mesh can fail to be a body is refused, naming the triangle, edge or value.
     #[test]
     fn a_mesh_that_is_no_closed_body_is_refused_naming_what_is_wrong() {
-        let cube = |t: &mut Vec<Triangle>| {
-            let h = 0.01;
-            let c = |sx: f64, sy: f64, sz: f64| [sx * h, sy * h, sz * h];
-            let faces = [
-                [
-                    c(-1., -1., -1.),
-                    c(-1., 1., -1.),
-                    c(1., 1., -1.),
-                    c(1., -1., -1.),
-                ],
-                [
-                    c(-1., -1., 1.),
-                    c(1., -1., 1.),
-                    c(1., 1., 1.),
-                    c(-1., 1., 1.),
-                ],
-                [
-                    c(-1., -1., -1.),
-                    c(1., -1., -1.),
-                    c(1., -1., 1.),
-                    c(-1., -1., 1.),
-                ],
-                [
-                    c(-1., 1., -1.),
-                    c(-1., 1., 1.),
-                    c(1., 1., 1.),
-                    c(1., 1., -1.),
-                ],
-                [
-                    c(-1., -1., -1.),
-                    c(-1., -1., 1.),
-                    c(-1., 1., 1.),
-                    c(-1., 1., -1.),
-                ],
-                [
-                    c(1., -1., -1.),
-                    c(1., 1., -1.),
-                    c(1., 1., 1.),
-                    c(1., -1., 1.),
-                ],
-            ];
-            for f in faces {
-                t.push([f[0], f[1], f[2]]);
-                t.push([f[0], f[2], f[3]]);
-            }
-        };
-        let mut good = Vec::new();
-        cube(&mut good);
+        let good = box_triangles([0.02; 3], [0.0; 3]);
         assert!(Body::mesh(&good, 0.005).is_ok());
         let err = |t: &[Triangle]| Body::mesh(t, 0.005).unwrap_err().to_string();
 
