@@ -34,7 +34,7 @@ def day_of(k_day):
     return dt.datetime.fromtimestamp(T0 + (k_day - 1) * 86400, dt.timezone.utc).date().isoformat()
 
 
-def generate_short(root: Path, days=8):
+def generate(root: Path, days=8):
     """A fleet of ``days`` days: alpha's F/T offset grows from zero from day 2 (0.15 N a day),
     bravo's medium is 1.3 times as strong from day 3, charlie stays as it was."""
     for k, robot in enumerate(ROBOTS):
@@ -53,18 +53,18 @@ def generate_short(root: Path, days=8):
 @pytest.fixture(scope="module")
 def recordings(tmp_path_factory):
     root = tmp_path_factory.mktemp("fleet")
-    generate_short(root)
+    generate(root)
     return root
 
 
 @pytest.fixture(scope="module")
-def short_fleet(recordings):
+def fleet_rows(recordings):
     return fleet.diagnose_fleet(recordings, scheduler="local", workers=2,
                                 table=recordings / "fleet.parquet")
 
 
-def test_fleets_of_four_and_eight_days_place_each_change_on_its_day(short_fleet):
-    df = short_fleet
+def test_fleets_of_four_and_eight_days_place_each_change_on_its_day(fleet_rows):
+    df = fleet_rows
     assert df["error"].isna().all() and df["recording"].nunique() == 24
     first = lambda n: df[df["start_unix_s"] < T0 + n * 86400]
     for days in (4, 8):
@@ -82,8 +82,8 @@ def test_fleets_of_four_and_eight_days_place_each_change_on_its_day(short_fleet)
         fleet.judge_drifts(df, min_before=0)
 
 
-def test_a_fleet_of_two_days_is_too_short_and_says_so(short_fleet, tmp_path):
-    two = short_fleet[short_fleet["start_unix_s"] < T0 + 2 * 86400]
+def test_a_fleet_of_two_days_is_too_short_and_says_so(fleet_rows, tmp_path):
+    two = fleet_rows[fleet_rows["start_unix_s"] < T0 + 2 * 86400]
     judged = fleet.judge_drifts(two)
     assert judged["flags"] == []
     assert [n["robot"] for n in judged["notes"]] == ROBOTS
@@ -94,8 +94,8 @@ def test_a_fleet_of_two_days_is_too_short_and_says_so(short_fleet, tmp_path):
     assert "too short to judge" in report.read_text()
 
 
-def test_the_report_and_the_table_on_disk(short_fleet, recordings, tmp_path):
-    df = short_fleet
+def test_the_report_and_the_table_on_disk(fleet_rows, recordings, tmp_path):
+    df = fleet_rows
     assert len(df) == 24 * 6
     flags = fleet.flag_drifts(df)
     got = sorted((f["robot"], f["kind"], f["day"]) for f in flags)
@@ -112,10 +112,10 @@ def test_the_report_and_the_table_on_disk(short_fleet, recordings, tmp_path):
     assert len(again) == len(df)
 
 
-def test_the_table_matches_terzaghi_diagnose_per_file(short_fleet, recordings, tmp_path):
+def test_the_table_matches_terzaghi_diagnose_per_file(fleet_rows, recordings, tmp_path):
     # One recording a robot, after its change where it has one.
     picks = [sorted((recordings / r).glob("*.mcap"))[i] for r, i in zip(ROBOTS, (4, 5, 1))]
-    df = short_fleet
+    df = fleet_rows
     for p in picks:
         cli = json.loads(run("diagnose", p, "--out", tmp_path / p.stem, "--json"))
         rows = df[df["recording"] == str(p)].set_index("leg")
