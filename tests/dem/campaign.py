@@ -14,6 +14,7 @@ and hip torque in the hip frame, the attack angle beta) as one CSV per run, whic
     python3 tests/dem/campaign.py --out tests/dem/campaign --rft-speed  # its intrusions at speed
     python3 tests/dem/campaign.py --out tests/dem/campaign --rft-entry  # ... into, across and out of the bed
     python3 tests/dem/campaign.py --out tests/dem/campaign --intrusion-tests  # the same as calibration tests
+    python3 tests/dem/campaign.py --out tests/dem/campaign --side-force  # a box foot at slip angles
 
 Needs `liggghts` (Debian: apt-get install liggghts) and, for the sessions, the terzaghi binary
 (--terzaghi, default target/release/terzaghi). Standard library only.
@@ -751,6 +752,65 @@ def out_start(gamma_r, travel=RFT_ENTRY_TRAVEL_M):
     return travel * math.sin(-gamma_r) + 0.002, -dx / 2
 
 
+# A foot yawed to its travel, for the side force of a body (docs/bodies.md): a box foot
+# (FOOT_SIZE_M: along its heading, across it, up) in the RFT bed, its bottom at each of
+# FOOT_DEPTHS_M below the surface and its top above it, dragged FOOT_TRAVEL_M along +x at the
+# grid's speed with its heading at each of FOOT_SLIPS_DEG from the travel (+: the travel toward
+# the foot's left, as `terzaghi steady` counts a slip angle). Its steady force is the mean past
+# FOOT_MEAN_FROM of the travel.
+FOOT_SIZE_M = (0.05, 0.02, 0.05)
+FOOT_DEPTHS_M = (0.02, 0.03, 0.04)
+FOOT_SLIPS_DEG = (20, 40)
+FOOT_TRAVEL_M = 0.07
+FOOT_MEAN_FROM = 0.5
+
+
+def yawed_box(size, centre, slip_r):
+    """The 12 triangles of a box of `size` (along its heading, across it, up) about `centre`,
+    its heading at slip_r from +x toward -y (so that motion along +x is toward its left)."""
+    c, s = math.cos(slip_r), math.sin(slip_r)
+    hx, hy, hz = (v / 2 for v in size)
+
+    def world(bx, by, bz):
+        return (centre[0] + bx * c + by * s, centre[1] - bx * s + by * c, centre[2] + bz)
+
+    v = [world(sx * hx, sy * hy, sz * hz) for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]
+    # v index: 4 * (x > 0) + 2 * (y > 0) + (z > 0)
+    quads = [(0, 2, 6, 4), (1, 5, 7, 3), (0, 4, 5, 1), (2, 3, 7, 6), (0, 1, 3, 2), (4, 6, 7, 5)]
+    tris = []
+    for q in quads:
+        tris.append((v[q[0]], v[q[1]], v[q[2]]))
+        tris.append((v[q[0]], v[q[2]], v[q[3]]))
+    return tris
+
+
+def drag_foot(cfg, name, workdir, bed, depth, slip_r, size=FOOT_SIZE_M, travel=FOOT_TRAVEL_M,
+              speed=RFT_SPEED_M_S):
+    """The box foot of FOOT_SIZE_M, its bottom `depth` below the surface, its heading at slip_r
+    from the travel, dragged `travel` along +x at `speed` (its centre from -travel/2 to
+    +travel/2). Returns its force as rows (travel m, F_x, F_y, F_z N: the grains' force on the
+    foot in the bed's frame)."""
+    dt = cfg["dt"]
+    surface = bed["surface_z_m"]
+    cx, cz = -travel / 2, surface - depth + size[2] / 2
+    write_stl(os.path.join(workdir, name + ".stl"), yawed_box(size, (cx, 0.0, cz), slip_r))
+    # The hole: grains within a radius of the box, in its own frame.
+    rmax = 1.2 * cfg["r"]
+    c, s = math.cos(slip_r), math.sin(slip_r)
+    u = "((x-%.9g)*%.9g-y*%.9g)" % (cx, c, s)
+    w = "((x-%.9g)*%.9g+y*%.9g)" % (cx, s, c)
+    hole = "(abs(%s)<%.9g)*(abs(%s)<%.9g)*(abs(z-%.9g)<%.9g)" % (
+        u, size[0] / 2 + rmax, w, size[1] / 2 + rmax, cz, size[2] / 2 + rmax)
+    nav = max(1, round(1.0 / SAMPLE_HZ / dt))
+    v = engine_vars(cfg, dt=dt, bed=bed["restart"], hx=bed["hx"], hy=bed["hy"], stl=name + ".stl",
+                    cx=cx, cz=cz, vx=speed, vz=0.0, relax_steps=round(0.05 / dt),
+                    move_steps=round(travel / speed / dt), nav=nav, out=name)
+    printed = run_engine("intrude.in", v, workdir, name, raw_lines=['variable inhole atom "%s"' % hole])
+    start_step = int(printed["START_STEP"])
+    return [((row[0] - start_step - nav / 2.0) * dt * speed, row[1], row[2], row[3])
+            for row in read_ave_time(os.path.join(workdir, name + ".forces"))]
+
+
 # ---------------------------------------------------------------------------------------------
 # The campaign
 
@@ -896,6 +956,40 @@ class Campaign:
             out = list(pool.map(one, plan))
         self.log("RFT from the surface: %d intrusions" % len(out))
         return out
+
+    def side_force(self, jobs):
+        """The box foot dragged through the RFT bed at each depth and slip angle (`jobs` engine
+        processes at once). Returns one row per drag: its depth, slip angle and steady force in
+        the foot's frame, as `terzaghi steady` names them."""
+        bd = self.rft_bed()
+        plan = [("foot_d%02d_s%+03d" % (round(d * 1e3), a), d, a) for d in FOOT_DEPTHS_M for a in FOOT_SLIPS_DEG]
+
+        def one(p):
+            name, depth, slip = p
+            slip_r = math.radians(slip)
+            rows = [r for r in drag_foot(self.cfg, name, self.work, bd, depth, slip_r)
+                    if r[0] >= FOOT_TRAVEL_M * FOOT_MEAN_FROM]
+            fx, fy, fz = (sum(r[i] for r in rows) / len(rows) for i in (1, 2, 3))
+            c, s = math.cos(slip_r), math.sin(slip_r)
+            # Heading (c, -s), left (s, c); the foot moves toward its left, the side force is +
+            # against that motion.
+            return {"name": name, "sinkage_m": depth, "slip_angle_deg": slip, "samples": len(rows),
+                    "drawbar_n": fx * c - fy * s, "side_n": -(fx * s + fy * c), "load_n": fz}
+
+        with cf.ThreadPoolExecutor(max_workers=jobs) as pool:
+            out = list(pool.map(one, plan))
+        self.log("side force: %d drags" % len(out))
+        return out
+
+    def write_side_force(self, drags):
+        """side_force_runs.csv: each drag's steady force, as the runs file of `terzaghi steady`
+        (load_n is the vertical force the bed bore, hub_vx_m_s the drag's speed)."""
+        with open(os.path.join(self.out, "side_force_runs.csv"), "w") as f:
+            f.write("name,load_n,hub_vx_m_s,omega_rad_s,slip_angle_deg,sinkage_m,drawbar_n,side_n,samples\n")
+            for d in sorted(drags, key=lambda d: (d["slip_angle_deg"], d["sinkage_m"])):
+                f.write("%s,%.6g,%.3f,0,%g,%.4f,%.6g,%.6g,%d\n" % (
+                    d["name"], d["load_n"], RFT_SPEED_M_S, d["slip_angle_deg"], d["sinkage_m"], d["drawbar_n"],
+                    d["side_n"], d["samples"]))
 
     def write_rft_entry(self, intrusions):
         """rft_entry.csv: every sample of the intrusions from the surface."""
@@ -1377,6 +1471,18 @@ def run_intrusion_tests_part(args):
                 bed={k: v for k, v in camp.beds["bed_rft"].items() if k != "restart"})
 
 
+def run_side_force_part(args):
+    """Drags the box foot at two slip angles in an existing campaign: side_force_runs.csv
+    written, and the drags recorded in the manifest under `side_force`."""
+    out, path, manifest, camp = open_part(args, "--side-force", "a box foot dragged at slip angles")
+    drags = camp.side_force(args.jobs)
+    camp.write_side_force(drags)
+    finish_part(camp, args, out, path, manifest, "side_force", "--side-force", "side force", len(drags),
+                foot_size_m=list(FOOT_SIZE_M), depths_m=list(FOOT_DEPTHS_M), slips_deg=list(FOOT_SLIPS_DEG),
+                travel_m=FOOT_TRAVEL_M, speed_m_s=RFT_SPEED_M_S, mean_from_travel_m=FOOT_TRAVEL_M * FOOT_MEAN_FROM,
+                bed={k: v for k, v in camp.beds["bed_rft"].items() if k != "restart"})
+
+
 def import_sessions(out, terzaghi, log=print, only=None):
     """Writes every run's CSV in out/runs (or those named in `only`) as a ROS 2 MCAP session
     beside it, through `terzaghi import-dem`, which refuses a run that made no contact, has a
@@ -1427,6 +1533,9 @@ def main():
     ap.add_argument("--intrusion-tests", action="store_true",
                     help="run a medium's calibration tests (a plate element buried and pushed in 30 directions, and "
                          "into, across and out of the bed at four speeds) in the campaign in --out, writing intrusions/")
+    ap.add_argument("--side-force", action="store_true",
+                    help="drag a box foot through the RFT bed at two slip angles and three depths in the campaign in "
+                         "--out, writing side_force_runs.csv (the runs file of `terzaghi steady`)")
     ap.add_argument("--import-only", action="store_true",
                     help="only write the sessions of the CSV runs already in --out (no engine)")
     args = ap.parse_args()
@@ -1456,6 +1565,9 @@ def main():
         return
     if args.intrusion_tests:
         run_intrusion_tests_part(args)
+        return
+    if args.side_force:
+        run_side_force_part(args)
         return
     Campaign(args).run()
 
