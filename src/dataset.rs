@@ -2,7 +2,7 @@
 //! (optionally `t_s`). A `beta_deg` column stands in for `beta_rad`, so that the output of
 //! `terzaghi predict` reads back (its other columns, and a DEM log's `hip_torque_nm`, are
 //! read past). A leg's hip may move: `hip_height_m` (negative below the surface), and
-//! optionally `hip_vx_m_s`, `hip_vz_m_s` and `pitch_rad` ([`read_log`]). Any other column is
+//! optionally `hip_vx_m_s`, `hip_vy_m_s`, `hip_vz_m_s` and `pitch_rad` ([`read_log`]). Any other column is
 //! refused by name, never ignored. Cells `nan`/`inf` are kept as samples for the
 //! identification to count and skip; a cell that is not a number is an error naming its line.
 
@@ -51,7 +51,7 @@ pub enum DatasetError {
     },
     /// A column the log may not have, refused rather than ignored.
     #[error(
-        "{path}: unknown column {column:?} (a force log has t_s, beta_rad or beta_deg, drag_n, lift_n, and for a moving hip hip_height_m, hip_vx_m_s, hip_vz_m_s, pitch_rad){hint}"
+        "{path}: unknown column {column:?} (a force log has t_s, beta_rad or beta_deg, drag_n, lift_n, and for a moving hip hip_height_m, hip_vx_m_s, hip_vy_m_s, hip_vz_m_s, pitch_rad){hint}"
     )]
     UnknownColumn {
         /// The file.
@@ -95,7 +95,13 @@ pub enum DatasetError {
 /// predict` writes, and a DEM log's torque; they are read past.
 const READ_PAST: [&str; 4] = ["submerged_m", "depth_m", "hip_torque_nm", "regime"];
 /// The hip's columns.
-const HIP_COLUMNS: [&str; 4] = ["hip_height_m", "hip_vx_m_s", "hip_vz_m_s", "pitch_rad"];
+const HIP_COLUMNS: [&str; 5] = [
+    "hip_height_m",
+    "hip_vx_m_s",
+    "hip_vy_m_s",
+    "hip_vz_m_s",
+    "pitch_rad",
+];
 
 /// The hip of one row of a log: its height above the surface (m, negative below it) and, where
 /// the log gives them, its horizontal and vertical velocity (m/s) and the body's pitch (rad).
@@ -105,6 +111,9 @@ pub struct HipRow {
     pub height_m: f64,
     /// The hip's horizontal velocity (m/s), where the log gives it.
     pub vx_m_s: Option<f64>,
+    /// The hip's horizontal velocity across the robot's forward, toward its left (m/s), where
+    /// the log gives it.
+    pub vy_m_s: Option<f64>,
     /// The hip's vertical velocity, up (m/s), where the log gives it.
     pub vz_m_s: Option<f64>,
     /// The body's pitch (rad), where the log gives it.
@@ -219,13 +228,19 @@ pub fn read_log_from<R: Read>(input: R, name: &str) -> Result<ForceLog, DatasetE
     }
     let hip_col = |c: &str| headers.iter().position(|h| h == c);
     let ih = hip_col("hip_height_m");
-    let (ivx, ivz, ip) = (
+    let (ivx, ivy, ivz, ip) = (
         hip_col("hip_vx_m_s"),
+        hip_col("hip_vy_m_s"),
         hip_col("hip_vz_m_s"),
         hip_col("pitch_rad"),
     );
     if ih.is_none() {
-        for (i, c) in [(ivx, "hip_vx_m_s"), (ivz, "hip_vz_m_s"), (ip, "pitch_rad")] {
+        for (i, c) in [
+            (ivx, "hip_vx_m_s"),
+            (ivy, "hip_vy_m_s"),
+            (ivz, "hip_vz_m_s"),
+            (ip, "pitch_rad"),
+        ] {
             if i.is_some() {
                 return Err(DatasetError::HipWithoutHeight {
                     path: name.to_string(),
@@ -258,6 +273,7 @@ pub fn read_log_from<R: Read>(input: R, name: &str) -> Result<ForceLog, DatasetE
             hips.push(HipRow {
                 height_m: cell(ih, "hip_height_m")?,
                 vx_m_s: ivx.map(|i| cell(i, "hip_vx_m_s")).transpose()?,
+                vy_m_s: ivy.map(|i| cell(i, "hip_vy_m_s")).transpose()?,
                 vz_m_s: ivz.map(|i| cell(i, "hip_vz_m_s")).transpose()?,
                 pitch_rad: ip.map(|i| cell(i, "pitch_rad")).transpose()?,
             });

@@ -154,8 +154,8 @@ pub enum WireInput {
         leg: u8,
         /// Stamp (ns).
         t_ns: i64,
-        /// Height, pitch, rate, forward and up velocity, forward position.
-        values: [Num; 6],
+        /// Height, pitch, rate, forward and up velocity, forward position, lateral velocity.
+        values: [Num; 7],
     },
 }
 
@@ -367,6 +367,7 @@ pub fn node_wire(data: &[u8]) {
                     forward_m_s: v[3].0,
                     up_m_s: v[4].0,
                     forward_position_m: v[5].0,
+                    lateral_m_s: v[6].0,
                 };
                 core.handle(Input::Hip(leg as usize % legs, t_ns, hip), &mut out);
             }

@@ -296,6 +296,15 @@ pub struct LegForce {
     pub robot_state: bool,
     /// The scale RFT's stresses were multiplied by; 1 for the improved or conventional model.
     pub rft_scale: f64,
+    /// Horizontal force across the travel, along the hip frame's `y` (N; the frame is
+    /// right-handed, `x` along the tip's travel and `z` up, so `y` is the robot's right).
+    pub side_n: f64,
+    /// The medium's moment about the hip frame's `x` (N m).
+    pub roll_moment_nm: f64,
+    /// The medium's moment about the hip frame's `z`, up (N m).
+    pub yaw_moment_nm: f64,
+    /// The hip's horizontal velocity across the robot's forward, toward its left (m/s).
+    pub hip_lateral_m_s: f64,
 }
 
 /// `terzaghi_msgs/Gap` (msgs/msg/Gap.msg)

@@ -233,3 +233,57 @@ fn the_docs_sphere_foot_is_what_the_command_prints() {
         "docs/bodies.md's sphere foot is stale; the command prints:\n{csv}"
     );
 }
+
+/// The testbed's LIGGGHTS: a box foot 50 x 20 x 50 mm dragged through its bed at slip angles
+/// of 20 and 40 degrees, its bottom 20, 30 and 40 mm deep (`tests/dem/campaign.py
+/// --side-force`), against `terzaghi steady` held at each drag's depth in the medium the bed's
+/// own intrusion tests calibrated (nothing fitted to the foot): the side force at R^2 >= 0.8,
+/// pushing against the sideways motion in every drag, as docs/bodies.md shows it.
+#[test]
+fn a_box_foot_at_two_slip_angles_meets_the_dem_side_force() {
+    let out = Command::new(terzaghi())
+        .current_dir(repo())
+        .args([
+            "steady",
+            "tests/dem/campaign/side_force_runs.csv",
+            "--shape",
+            "box",
+            "--size-m",
+            "0.05,0.02,0.05",
+            "--medium-file",
+            "tests/dem/campaign/medium_from_intrusions.yaml",
+            "--at-sinkage",
+            "sinkage_m",
+            "--group-by",
+            "slip_angle_deg",
+        ])
+        .output()
+        .unwrap();
+    let csv = ok(&out);
+    let summary = String::from_utf8_lossy(&out.stderr).to_string();
+    let r2 = |column: &str| -> f64 {
+        let line = summary
+            .lines()
+            .find(|l| l.trim_start().starts_with(column))
+            .unwrap_or_else(|| panic!("no {column} in:\n{summary}"));
+        line.split_whitespace().nth(2).unwrap().parse().unwrap()
+    };
+    assert!(r2("side_n") >= 0.8, "{summary}");
+    let mut lines = csv.lines();
+    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |n: &str| head.iter().position(|h| *h == n).unwrap();
+    let (measured, predicted) = (col("measured_side_n"), col("side_n"));
+    let mut drags = 0;
+    for l in lines {
+        let v: Vec<f64> = l.split(',').skip(1).map(|x| x.parse().unwrap()).collect();
+        // (the name column is skipped)
+        assert!(v[measured - 1] > 0.0 && v[predicted - 1] > 0.0, "{l}");
+        drags += 1;
+    }
+    assert_eq!(drags, 6);
+    let doc = std::fs::read_to_string(repo().join("docs/bodies.md")).unwrap();
+    assert!(
+        doc.contains(summary.trim_end()),
+        "docs/bodies.md's DEM foot is stale; the command prints:\n{summary}"
+    );
+}

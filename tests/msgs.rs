@@ -126,6 +126,10 @@ fn every_message_decodes_with_its_definition_in_mcap_ros2() {
             hip_up_m_s: -0.03125,
             robot_state: true,
             rft_scale: 0.875,
+            side_n: -2.5,
+            roll_moment_nm: 0.1875,
+            yaw_moment_nm: -0.3125,
+            hip_lateral_m_s: 0.0625,
         }),
         item(&PoseStamped {
             header: header.clone(),

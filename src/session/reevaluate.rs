@@ -454,6 +454,7 @@ pub fn hip_motions(samples: &[Sample], rows: &[crate::dataset::HipRow]) -> Vec<H
                 height_m: r.height_m,
                 pitch_rad: r.pitch_rad.unwrap_or(0.0),
                 forward_m_s: r.vx_m_s.unwrap_or(0.0),
+                lateral_m_s: r.vy_m_s.unwrap_or(0.0),
                 up_m_s,
                 ..HipMotion::default()
             }

@@ -181,6 +181,10 @@ fn add(t: &mut Builder, kind: Kind, scan: &Scan, topic: usize, data: &[u8], log_
                 ("hip_up_m_s", m.hip_up_m_s),
                 ("robot_state", b(m.robot_state)),
                 ("rft_scale", m.rft_scale),
+                ("side_n", m.side_n),
+                ("roll_moment_nm", m.roll_moment_nm),
+                ("yaw_moment_nm", m.yaw_moment_nm),
+                ("hip_lateral_m_s", m.hip_lateral_m_s),
             ] {
                 t.set(n, v);
             }

@@ -283,6 +283,7 @@ fn measure_curved(
                 forward_m_s,
                 up_m_s,
                 forward_position_m: 0.0,
+                lateral_m_s: 0.0,
             };
             model
                 .predict_moving(m.beta_rad, &hip)

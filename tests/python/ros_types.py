@@ -123,6 +123,10 @@ class LegForce(IdlStruct, typename="terzaghi_msgs::msg::dds_::LegForce_"):
     hip_up_m_s: float64 = 0.0
     robot_state: bool = False
     rft_scale: float64 = 0.0
+    side_n: float64 = 0.0
+    roll_moment_nm: float64 = 0.0
+    yaw_moment_nm: float64 = 0.0
+    hip_lateral_m_s: float64 = 0.0
 
 
 def stamp(t_s):

@@ -158,6 +158,9 @@ fn scaled(p: Prediction, scale: f64) -> Prediction {
         drag_n: p.drag_n * scale,
         lift_n: p.lift_n * scale,
         hip_torque_nm: p.hip_torque_nm * scale,
+        side_n: p.side_n * scale,
+        roll_moment_nm: p.roll_moment_nm * scale,
+        yaw_moment_nm: p.yaw_moment_nm * scale,
         ..p
     }
 }
@@ -274,6 +277,9 @@ impl RowPrediction {
                 drag_n: p.drag_n,
                 lift_n: p.lift_n,
                 hip_torque_nm: p.hip_torque_nm,
+                side_n: 0.0,
+                roll_moment_nm: 0.0,
+                yaw_moment_nm: 0.0,
                 regime: p.regime,
             },
             bare_n: [p.bare.drag_n, p.bare.lift_n],
@@ -327,6 +333,10 @@ fn leg_force(
         hip_up_m_s: 0.0,
         robot_state: false,
         rft_scale: 1.0,
+        side_n: p.side_n,
+        roll_moment_nm: p.roll_moment_nm,
+        yaw_moment_nm: p.yaw_moment_nm,
+        hip_lateral_m_s: 0.0,
     }
 }
 
@@ -935,6 +945,7 @@ impl NodeCore {
                         body_pitch_rad: h.pitch_rad,
                         hip_forward_m_s: h.forward_m_s,
                         hip_up_m_s: h.up_m_s,
+                        hip_lateral_m_s: h.lateral_m_s,
                         ..leg_force(
                             header,
                             &medium,
@@ -996,6 +1007,7 @@ impl NodeCore {
                     f.body_pitch_rad = h.pitch_rad;
                     f.hip_forward_m_s = h.forward_m_s;
                     f.hip_up_m_s = h.up_m_s;
+                    f.hip_lateral_m_s = h.lateral_m_s;
                     f
                 }
             };
@@ -1022,6 +1034,9 @@ impl NodeCore {
                 force.sensor_lift_n,
                 force.bare_drag_n,
                 force.bare_lift_n,
+                force.side_n,
+                force.roll_moment_nm,
+                force.yaw_moment_nm,
             ];
             if values.iter().any(|v| !v.is_finite()) {
                 leg.counters.invalid_position += 1;
@@ -1035,13 +1050,13 @@ impl NodeCore {
                     wrench: Wrench {
                         force: Vector3 {
                             x: -force.drag_n,
-                            y: 0.0,
+                            y: force.side_n,
                             z: force.lift_n,
                         },
                         torque: Vector3 {
-                            x: 0.0,
+                            x: force.roll_moment_nm,
                             y: force.hip_torque_nm,
-                            z: 0.0,
+                            z: force.yaw_moment_nm,
                         },
                     },
                 },
@@ -1446,6 +1461,50 @@ mod tests {
         assert_ne!(cfg.legs[0].width.b_k(), 1.0);
         let core = NodeCore::new(cfg);
         assert_eq!(core.width_in_use(0), Some((1.0, 1.0, false)));
+    }
+
+    /// A hip moving across the robot's forward (a log's hip_vy_m_s, or /tf) gives an RFT leg and
+    /// a wheel their side force, roll and yaw moments, published as the wrench's y force and x
+    /// and z torques in the hip frame (+y the robot's right: moving left, a leg is pushed right).
+    #[test]
+    fn a_hip_moving_sideways_publishes_the_full_wrench() {
+        let yaml = "/**:\n  ros__parameters:\n    model: rft\n    legs: [p, w]\n    p:\n      length_m: 0.25\n      width_m: 0.06\n      hip_height_m: 0.15\n      medium: poppy_lp\n      rft_coeffs: poppy_lp\n    w:\n      shape: wheel\n      wheel:\n        radius_m: 0.058\n      width_m: 0.05\n      hip_height_m: 0.033\n      medium: poppy_lp\n      rft_coeffs: poppy_lp\n";
+        let mut p = defaults();
+        p.extend(parse_params_yaml(yaml, "t", "terzaghi", "/").unwrap());
+        let cfg = NodeConfig::from_params(&p, "terzaghi", "/", &[]).unwrap();
+        for lateral_m_s in [0.0, 0.05, -0.05] {
+            let mut core = NodeCore::new(cfg.clone());
+            let mut out = Outputs::default();
+            for (leg, height_m) in [(0, 0.15), (1, 0.033)] {
+                let hip = HipMotion {
+                    height_m,
+                    forward_m_s: 0.02,
+                    lateral_m_s,
+                    ..HipMotion::default()
+                };
+                core.handle(Input::Hip(leg, 1_000, hip), &mut out);
+            }
+            let angles = [60f64.to_radians(), 0.0];
+            core.handle(Input::Joints(&js(1_000, &["p", "w"], &angles)), &mut out);
+            assert_eq!(out.legs.len(), 2, "{lateral_m_s}");
+            for o in &out.legs {
+                let (f, w) = (&o.force, &o.wrench.wrench);
+                let case = format!("leg {} moving {lateral_m_s} m/s left: {f:?}", o.leg);
+                assert_eq!(f.hip_lateral_m_s, lateral_m_s, "{case}");
+                assert!(f.drag_n.hypot(f.lift_n) > 0.5, "{case}");
+                assert_eq!(
+                    [w.force.y, w.torque.x, w.torque.z],
+                    [f.side_n, f.roll_moment_nm, f.yaw_moment_nm],
+                    "{case}"
+                );
+                if lateral_m_s == 0.0 {
+                    assert_eq!(f.side_n, 0.0, "{case}");
+                } else {
+                    assert_eq!(f.side_n.signum(), lateral_m_s.signum(), "{case}");
+                    assert!(f.side_n.abs() > 0.01 * f.drag_n.hypot(f.lift_n), "{case}");
+                }
+            }
+        }
     }
 
     #[test]

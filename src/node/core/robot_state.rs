@@ -86,6 +86,7 @@ pub fn plausible_hip(h: &HipMotion) -> bool {
         && within(h.pitch_rad, 1e3)
         && within(h.forward_m_s, 1e3)
         && within(h.up_m_s, 1e3)
+        && within(h.lateral_m_s, 1e3)
         && within(h.forward_position_m, 1e9)
 }
 
@@ -486,8 +487,9 @@ impl TfTree {
 
     /// The hip of frame `hip` at `stamp` as the model takes it: its height above the surface
     /// plane (`cfg.surface_height_m` in `world`, which is `cfg.world_frame`'s number), the
-    /// body's pitch, its forward and vertical velocity (from its pose 20 ms before, when the
-    /// tree has it; else zero), and the leg's rotation rate `omega_rad_s` passed through.
+    /// body's pitch, its forward, lateral (to the left of the forward) and vertical velocity
+    /// (from its pose 20 ms before, when the tree has it; else zero), and the leg's rotation rate
+    /// `omega_rad_s` passed through.
     pub fn hip_motion_of(
         &self,
         cfg: &RobotStateConfig,
@@ -527,6 +529,8 @@ impl TfTree {
             forward_m_s: velocity.dot(&forward),
             up_m_s: velocity.z,
             forward_position_m: p.dot(&forward),
+            // The forward's left, horizontal: z x forward.
+            lateral_m_s: velocity.dot(&Vector3::new(-forward.y, forward.x, 0.0)),
         };
         if plausible_hip(&hip) {
             Ok(hip)
@@ -577,18 +581,18 @@ mod tests {
     #[test]
     fn a_hip_below_a_moving_body_is_interpolated_through_the_chain() {
         let mut tree = TfTree::default();
-        // The body heaves from 0.20 to 0.22 m and moves 1 cm forward in 100 ms; the hip is
-        // fixed 0.1 m ahead of it and 0.05 m below.
+        // The body heaves from 0.20 to 0.22 m and moves 1 cm forward and 5 mm to its left in
+        // 100 ms; the hip is fixed 0.1 m ahead of it and 0.05 m below.
         tree.insert(
             &TfMessage {
                 transforms: vec![tf("base_link", "fl_hip", 0, [0.1, 0.0, -0.05], 0.0)],
             },
             true,
         );
-        for (t, z, x) in [(0, 0.20, 0.0), (100_000_000, 0.22, 0.01)] {
+        for (t, z, x, y) in [(0, 0.20, 0.0, 0.0), (100_000_000, 0.22, 0.01, 0.005)] {
             tree.insert(
                 &TfMessage {
-                    transforms: vec![tf("/odom", "base_link", t, [x, 0.0, z], 0.0)],
+                    transforms: vec![tf("/odom", "base_link", t, [x, y, z], 0.0)],
                 },
                 false,
             );
@@ -600,6 +604,7 @@ mod tests {
         );
         assert!((hip.up_m_s - 0.2).abs() < 1e-9, "{hip:?}");
         assert!((hip.forward_m_s - 0.1).abs() < 1e-9, "{hip:?}");
+        assert!((hip.lateral_m_s - 0.05).abs() < 1e-9, "{hip:?}");
         assert_eq!(hip.omega_rad_s, 2.0);
         // Past the newest pose by more than max_age: stale; a frame nobody sent: unknown.
         assert_eq!(

@@ -714,8 +714,8 @@ impl BodyLeg {
 
     /// The sand's force and moment on the body turned by `angle_rad` (the joint's angle, +
     /// rolling forward: where its grousers are) at the hip `hip` (its height that of the hub
-    /// above the surface; `forward_m_s` along the body's heading, `up_m_s` up, `omega_rad_s` +
-    /// rolling forward), with the regime: the full wrench at the hub, in the body's frame. An
+    /// above the surface; `forward_m_s` along the body's heading, `lateral_m_s` along its axle
+    /// to the left, `up_m_s` up, `omega_rad_s` + rolling forward), with the regime: the full wrench at the hub, in the body's frame. An
     /// angle, height, velocity or rate that is no number is an error naming it.
     pub fn wrench(
         &self,
@@ -728,6 +728,7 @@ impl BodyLeg {
             ("hip forward velocity (m/s)", hip.forward_m_s),
             ("hip vertical velocity (m/s)", hip.up_m_s),
             ("leg rotation rate (rad/s)", hip.omega_rad_s),
+            ("hip lateral velocity (m/s)", hip.lateral_m_s),
         ] {
             if !v.is_finite() {
                 return Err(ModelError::NotFinite { name, value: v });
@@ -744,7 +745,8 @@ impl BodyLeg {
             ));
         }
         // The fastest a point of the body moves along or into the sand.
-        let along = (hip.forward_m_s.abs()).max((hip.omega_rad_s * self.body.reach_m).abs());
+        let along = (hip.forward_m_s.hypot(hip.lateral_m_s))
+            .max((hip.omega_rad_s * self.body.reach_m).abs());
         let moving = along >= Self::MIN_SPEED_M_S || -hip.up_m_s >= Self::MIN_SPEED_M_S;
         if moving {
             let f = self.body.forces(
@@ -753,7 +755,7 @@ impl BodyLeg {
                 self.speed_law.as_ref(),
                 &HubMotion {
                     height_m: hip.height_m,
-                    velocity_m_s: [hip.forward_m_s, 0.0, hip.up_m_s],
+                    velocity_m_s: [hip.forward_m_s, hip.lateral_m_s, hip.up_m_s],
                     omega_rad_s: hip.omega_rad_s,
                     angle_rad,
                 },
@@ -796,6 +798,11 @@ impl BodyLeg {
             drag_n: f.force_n[0] + 0.0,
             lift_n: f.force_n[2] + 0.0,
             hip_torque_nm: f.drive_torque_nm() + 0.0,
+            // The hip frame's x is the body's backward and y its right: the body's left and
+            // its moment about its heading change sign.
+            side_n: -f.force_n[1] + 0.0,
+            roll_moment_nm: -f.moment_nm[0] + 0.0,
+            yaw_moment_nm: f.moment_nm[2] + 0.0,
             regime,
         })
     }

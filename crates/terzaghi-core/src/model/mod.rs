@@ -261,6 +261,16 @@ pub struct Prediction {
     pub lift_n: f64,
     /// Torque of the medium's force about the hip (N m).
     pub hip_torque_nm: f64,
+    /// Horizontal force across the travel, along the hip frame's `y` (N). The hip frame is
+    /// right-handed: `x` along the submerged tip's travel (the robot's backward), `z` up, so
+    /// `y` is the robot's right. Zero for a leg moving in its own plane, and for the flat-plate
+    /// models (planar by construction); RFT's legs and bodies feel it when the hip moves across
+    /// ([`HipMotion::lateral_m_s`]).
+    pub side_n: f64,
+    /// The medium's moment about the hip frame's `x` axis, at the hip (N m).
+    pub roll_moment_nm: f64,
+    /// The medium's moment about the hip frame's `z` axis (up), at the hip (N m).
+    pub yaw_moment_nm: f64,
     /// Which phase of the stroke the plate is in.
     pub regime: Regime,
 }
@@ -296,6 +306,10 @@ pub struct HipMotion {
     /// Where the hip is along the robot's forward, horizontal, in the world frame (m): where
     /// on the ground the leg strokes (0 where the robot's state does not tell).
     pub forward_position_m: f64,
+    /// The hip's horizontal velocity across the robot's forward, toward its left (m/s; ROS's
+    /// `y` of the body): a robot crabbing or turning, a leg yawed to its travel. The flat-plate
+    /// models ignore it; RFT's legs and bodies feel a side force from it.
+    pub lateral_m_s: f64,
 }
 
 impl HipMotion {
@@ -311,6 +325,12 @@ impl HipMotion {
     /// robot's backward.
     pub fn leg_frame_velocity_m_s(&self) -> [f64; 2] {
         [-self.forward_m_s, self.up_m_s]
+    }
+
+    /// The hip's velocity along the leg frame's `y` (m/s): the robot's right, since `x` is its
+    /// backward and `z` up.
+    pub fn leg_frame_lateral_m_s(&self) -> f64 {
+        -self.lateral_m_s
     }
 }
 

@@ -997,7 +997,16 @@ impl RftModel {
         elements: &LegElements,
         hip: &HipMotion,
     ) -> Prediction {
-        let (drag, lift, torque) = rft_elements_moving(
+        let lateral = hip.leg_frame_lateral_m_s();
+        let across = Across::new(
+            &self.coefficients,
+            if lateral.is_finite() && hip.omega_rad_s.is_finite() {
+                lateral
+            } else {
+                0.0
+            },
+        );
+        let [drag, lift, torque, side, roll, yaw] = rft_elements_moving(
             &self.coefficients,
             elements,
             self.plate.width_m(),
@@ -1006,6 +1015,7 @@ impl RftModel {
             (hip.omega_rad_s, hip.leg_frame_velocity_m_s()),
             self.speed_law.as_deref(),
             self.depth_law.as_deref(),
+            across.as_ref(),
         );
         // Depth of the lowest point, and the length of the mid-line below the surface.
         let (sin_b, cos_b) = beta.sin_cos();
@@ -1032,6 +1042,9 @@ impl RftModel {
             drag_n: drag,
             lift_n: lift,
             hip_torque_nm: torque,
+            side_n: side,
+            roll_moment_nm: roll,
+            yaw_moment_nm: yaw,
             regime,
         }
     }
@@ -1072,6 +1085,9 @@ impl RftModel {
                 drag_n: 0.0,
                 lift_n: 0.0,
                 hip_torque_nm: 0.0,
+                side_n: 0.0,
+                roll_moment_nm: 0.0,
+                yaw_moment_nm: 0.0,
                 regime: Regime::OutOfMedium,
             });
         }
@@ -1084,7 +1100,9 @@ impl RftModel {
         let (ux, uz) = (-cos_b, -sin_b);
         let (nx, nz) = (sin_b, -cos_b);
         let v_hip = hip.leg_frame_velocity_m_s();
-        let moving = v_hip != [0.0, 0.0] && hip.omega_rad_s.is_finite();
+        let lateral = finite("hip lateral velocity (m/s)", hip.leg_frame_lateral_m_s())?;
+        let moving = (v_hip != [0.0, 0.0] || lateral != 0.0) && hip.omega_rad_s.is_finite();
+        let across = Across::new(&self.coefficients, if moving { lateral } else { 0.0 });
         // A plate turning about a still hip: every element moves along n, so every element's
         // stress law is the same.
         let m_still = if nx < 0.0 { -1.0 } else { 1.0 };
@@ -1096,6 +1114,7 @@ impl RftModel {
             )
         });
         let (mut drag, mut lift, mut torque) = (0.0, 0.0, 0.0);
+        let mut side = [0.0; 3];
         for i in 0..self.elements {
             let r = (l - l_s) + (i as f64 + 0.5) * ds; // distance from the hip
             let depth = -(h + r * uz); // below the free surface at z = 0 (hip at z = h)
@@ -1111,6 +1130,27 @@ impl RftModel {
             } else {
                 (nx, nz)
             };
+            let depth = stressed_depth_m(self.depth_law.as_deref(), depth);
+            if let Some(a) = &across {
+                // Moving across its plane too: the planar law weighted by its share of the
+                // speed, and the shear across it.
+                let (w, extra) = a.share(self.speed_law.as_deref(), vx, vz);
+                let f = a.side_n(depth + extra, area, vx, vz);
+                side[0] += f;
+                side[1] -= r * uz * f;
+                side[2] += r * ux * f;
+                if w == 0.0 {
+                    continue;
+                }
+                let m = if vx < 0.0 { -1.0 } else { 1.0 };
+                let (ax, az) = self.coefficients.alpha_along((m * ux, uz), (m * vx, vz));
+                let k = N_CM3_TO_N_M3 * (depth + extra) * area * w;
+                let (d_drag, d_lift) = (m * ax * k, az * k);
+                drag += d_drag;
+                lift += d_lift;
+                torque += r * (d_drag * nx - d_lift * nz);
+                continue;
+            }
             if vx == 0.0 && vz == 0.0 {
                 continue;
             }
@@ -1133,7 +1173,6 @@ impl RftModel {
                     law.extra_depth_of_velocity_m(w * vx, w * vz)
                 }
             };
-            let depth = stressed_depth_m(self.depth_law.as_deref(), depth);
             let (d_drag, d_lift) = (
                 m * ax * N_CM3_TO_N_M3 * (depth + extra) * area,
                 az * N_CM3_TO_N_M3 * (depth + extra) * area,
@@ -1150,12 +1189,61 @@ impl RftModel {
             drag_n: drag,
             lift_n: lift,
             hip_torque_nm: torque,
+            side_n: side[0],
+            roll_moment_nm: side[1],
+            yaw_moment_nm: side[2],
             regime: if beta <= FRAC_PI_2 {
                 Regime::Penetration
             } else {
                 Regime::Extraction
             },
         })
+    }
+}
+
+/// A planar leg's elements moving across their plane as well (the hip moving sideways: a
+/// robot crabbing or turning, a leg yawed to its travel), as a body's elements do
+/// ([`super::body::Body::forces`]): each element's stress is the planar law of its velocity in
+/// the leg's plane, weighted by that part's share of its speed, plus the shear of the part
+/// across (along the plate's surface), as a horizontal plate dragged along itself is sheared.
+/// `None` for a leg moving in its plane, which keeps the planar law alone, bit for bit.
+#[derive(Debug, Clone, Copy)]
+struct Across {
+    /// The velocity along the leg frame's `y` (m/s), not zero.
+    vy: f64,
+    /// A horizontal plate dragged along itself: RFT's `alpha_x` there (N/cm^3).
+    shear_n_cm3: f64,
+}
+
+impl Across {
+    fn new(coefficients: &RftCoefficients, vy: f64) -> Option<Across> {
+        (vy != 0.0 && vy.is_finite()).then(|| Across {
+            vy,
+            shear_n_cm3: coefficients.alpha_along((1.0, 0.0), (1.0, 0.0)).0,
+        })
+    }
+
+    /// The share of an element's speed in the leg's plane at in-plane velocity `(vx, vz)`, and
+    /// the speed law's extra depth for the whole velocity (m).
+    fn share(&self, speed_law: Option<&RftSpeedLaw>, vx: f64, vz: f64) -> (f64, f64) {
+        let in_plane = (vx * vx + vz * vz).sqrt();
+        let speed = (in_plane * in_plane + self.vy * self.vy).sqrt();
+        let extra = speed_law.map_or(0.0, |law| {
+            law.extra_depth_of_velocity_m((vx * vx + self.vy * self.vy).sqrt(), vz)
+        });
+        (in_plane / speed, extra)
+    }
+
+    /// The shear's force along `y` on an element of `area_m2` at stressed depth `depth_m`
+    /// moving at `(vx, vz)` in the plane (N): against the motion across.
+    fn side_n(&self, depth_m: f64, area_m2: f64, vx: f64, vz: f64) -> f64 {
+        let speed = (vx * vx + vz * vz + self.vy * self.vy).sqrt();
+        -self.vy.signum()
+            * self.shear_n_cm3
+            * N_CM3_TO_N_M3
+            * depth_m
+            * area_m2
+            * (self.vy.abs() / speed)
     }
 }
 
@@ -1205,7 +1293,7 @@ pub fn rft_leg_moving(
     motion: (f64, [f64; 2]),
     speed_law: Option<&RftSpeedLaw>,
 ) -> (f64, f64, f64) {
-    rft_elements_moving(
+    let [drag, lift, torque, ..] = rft_elements_moving(
         coefficients,
         &LegElements::new(line, per_segment),
         width_m,
@@ -1214,7 +1302,9 @@ pub fn rft_leg_moving(
         motion,
         speed_law,
         None,
-    )
+        None,
+    );
+    (drag, lift, torque)
 }
 
 /// A leg's mid-line cut into RFT elements: what each element needs of the line, in the leg's
@@ -1258,7 +1348,8 @@ impl LegElements {
     }
 }
 
-/// [`rft_leg_moving`] over a line already cut into `elements`.
+/// [`rft_leg_moving`] over a line already cut into `elements`, moving `across` its plane too
+/// where given: drag, lift, hip torque, side force, roll and yaw moments (N, N m).
 #[allow(clippy::too_many_arguments)]
 fn rft_elements_moving(
     coefficients: &RftCoefficients,
@@ -1269,8 +1360,9 @@ fn rft_elements_moving(
     (omega_rad_s, hip_velocity_m_s): (f64, [f64; 2]),
     speed_law: Option<&RftSpeedLaw>,
     depth_law: Option<&RftDepthLaw>,
-) -> (f64, f64, f64) {
-    let still = omega_rad_s == 0.0 && hip_velocity_m_s == [0.0, 0.0];
+    across: Option<&Across>,
+) -> [f64; 6] {
+    let still = omega_rad_s == 0.0 && hip_velocity_m_s == [0.0, 0.0] && across.is_none();
     let (omega, v_hip) = if still || !omega_rad_s.is_finite() {
         (1.0, [0.0, 0.0])
     } else {
@@ -1284,6 +1376,7 @@ fn rft_elements_moving(
     // direction turns with the chord, and twice its angle by `e^(2 i beta)`.
     let (c2b, s2b) = (cos_b * cos_b - sin_b * sin_b, 2.0 * sin_b * cos_b);
     let (mut drag, mut lift, mut torque) = (0.0, 0.0, 0.0);
+    let mut side = [0.0; 3];
     for &[s, q, len, c2, s2, ds, dq] in &elements.elements {
         let p = (s * u.0 + q * n.0, s * u.1 + q * n.1);
         let depth = -(hip_height_m + p.1);
@@ -1294,6 +1387,24 @@ fn rft_elements_moving(
             omega * (s * n.0 - q * u.0) + v_hip[0],
             omega * (s * n.1 - q * u.1) + v_hip[1],
         );
+        // Moving across its plane too: the shear across, and the planar law weighted by its
+        // share of the speed.
+        let (w, across_extra) = match across {
+            Some(a) => {
+                let (w, extra) = a.share(speed_law, vx, vz);
+                let f = a.side_n(
+                    stressed_depth_m(depth_law, depth) + extra,
+                    width_m * len,
+                    vx,
+                    vz,
+                );
+                side[0] += f;
+                side[1] -= p.1 * f;
+                side[2] += p.0 * f;
+                (w, Some(extra))
+            }
+            None => (1.0, None),
+        };
         if vx == 0.0 && vz == 0.0 {
             continue;
         }
@@ -1311,17 +1422,22 @@ fn rft_elements_moving(
                 (m * vx, vz),
             ),
         };
-        let extra = speed_law.map_or(0.0, |law| {
-            law.extra_at_sine_m(speed, (-vz / speed).clamp(-1.0, 1.0))
+        let extra = across_extra.unwrap_or_else(|| {
+            speed_law.map_or(0.0, |law| {
+                law.extra_at_sine_m(speed, (-vz / speed).clamp(-1.0, 1.0))
+            })
         });
-        let k = N_CM3_TO_N_M3 * (stressed_depth_m(depth_law, depth) + extra) * width_m * len;
+        let mut k = N_CM3_TO_N_M3 * (stressed_depth_m(depth_law, depth) + extra) * width_m * len;
+        if across.is_some() {
+            k *= w;
+        }
         // alpha_x resists the motion's horizontal part: F_x = -m ax k.
         let (fx, fz) = (-m * ax * k, az * k);
         drag -= fx;
         lift += fz;
         torque += p.1 * fx - p.0 * fz;
     }
-    (drag, lift, torque)
+    [drag, lift, torque, side[0], side[1], side[2]]
 }
 
 /// The speed of a velocity `(vx, vz)`, not both zero: the square root of the sum of squares,
@@ -1476,10 +1592,71 @@ mod tests {
         assert!(RftDepthLaw::new(f64::NAN, 1.0).is_err());
         assert!(RftDepthLaw::new(1.0, -1.0).is_err());
     }
-    use std::f64::consts::FRAC_PI_4;
+    use std::f64::consts::{FRAC_PI_4, PI};
 
     fn plate() -> Plate {
         Plate::new(0.25, 0.06, 0.15).unwrap()
+    }
+
+    /// A leg yawed to its travel (the hip moving across the leg's plane) is pushed back against
+    /// its sideways motion, and turned the way its submerged part's place says, with the signs
+    /// `docs/bodies.md` gives; moving in its plane it has none, and its drag and lift are
+    /// today's, bit for bit.
+    #[test]
+    fn a_yawed_planar_leg_has_the_side_force_and_moments_the_docs_give() {
+        let c = RftCoefficients::Fit(RftFit::POPPY_LP);
+        let flat = RftModel::new(plate(), c.clone(), 100).unwrap();
+        let c_leg = RftModel::with_profile(plate(), c, 96, c_leg_profile(0.125, PI, 16)).unwrap();
+        for (leg, what) in [(&flat, "plate"), (&c_leg, "C-leg")] {
+            for beta_deg in [60.0f64, 90.0, 120.0] {
+                let hip = |lateral_m_s: f64| HipMotion {
+                    height_m: 0.15,
+                    omega_rad_s: 1.0,
+                    forward_m_s: 0.05,
+                    lateral_m_s,
+                    ..HipMotion::default()
+                };
+                let at = |h: HipMotion| leg.evaluate_moving(beta_deg.to_radians(), &h).unwrap();
+                let (planar, left, right, hair) =
+                    (at(hip(0.0)), at(hip(0.05)), at(hip(-0.05)), at(hip(1e-9)));
+                let case = format!("{what} at beta {beta_deg} deg: {left:?}");
+                let in_plane = |p: &Prediction| p.drag_n.hypot(p.lift_n);
+                assert!(in_plane(&planar) > 1.0, "{case}");
+                assert_eq!(
+                    [planar.side_n, planar.roll_moment_nm, planar.yaw_moment_nm],
+                    [0.0; 3],
+                    "{case}"
+                );
+                // Moving left (+lateral): pushed right, along the hip frame's +y.
+                assert!(left.side_n > 0.01 * in_plane(&planar), "{case}");
+                // The submerged part below the hip: the push to the right rolls it about +x.
+                assert!(left.roll_moment_nm > 0.0, "{case}");
+                // Turned about z by the push at the submerged part's x: behind the hip along
+                // the travel (beta < 90 deg: ahead along the robot's forward) it turns
+                // clockwise seen from above, in front of it anticlockwise.
+                let submerged_x = -(beta_deg.to_radians().cos());
+                if what == "plate" && beta_deg != 90.0 {
+                    assert_eq!(left.yaw_moment_nm.signum(), submerged_x.signum(), "{case}");
+                } else if what == "plate" {
+                    assert!(left.yaw_moment_nm.abs() < 1e-12, "{case}");
+                }
+                // Mirror images: the same drag and lift, the side force and moments reversed.
+                for (a, b) in [
+                    (left.drag_n, right.drag_n),
+                    (left.lift_n, right.lift_n),
+                    (left.side_n, -right.side_n),
+                    (left.roll_moment_nm, -right.roll_moment_nm),
+                    (left.yaw_moment_nm, -right.yaw_moment_nm),
+                ] {
+                    assert!((a - b).abs() <= 1e-12 * in_plane(&planar), "{case}");
+                }
+                // Sliding across takes a share of the speed from the planar law.
+                assert!(in_plane(&left) < in_plane(&planar), "{case}");
+                // And a hair of it changes nothing measurable.
+                assert!((hair.drag_n - planar.drag_n).abs() < 1e-6, "{case}");
+                assert!((hair.lift_n - planar.lift_n).abs() < 1e-6, "{case}");
+            }
+        }
     }
 
     /// For a flat plate, alpha is the same on every element, so the integral is

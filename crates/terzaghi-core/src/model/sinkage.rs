@@ -441,6 +441,9 @@ impl SinkageLeg {
             drag_n: 0.0,
             lift_n,
             hip_torque_nm: 0.0,
+            side_n: 0.0,
+            roll_moment_nm: 0.0,
+            yaw_moment_nm: 0.0,
             regime,
         })
     }

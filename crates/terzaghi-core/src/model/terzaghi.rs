@@ -75,6 +75,9 @@ impl TerzaghiForce {
             drag_n: self.drag_n,
             lift_n: self.lift_n,
             hip_torque_nm: self.hip_torque_nm,
+            side_n: 0.0,
+            roll_moment_nm: 0.0,
+            yaw_moment_nm: 0.0,
             regime: self.regime,
         }
     }
