@@ -45,6 +45,7 @@ fn models(c: &mut Criterion) {
         forward_m_s: 0.1,
         up_m_s: -0.05,
         forward_position_m: 0.0,
+        lateral_m_s: 0.0,
     };
     c.bench_function("rft_c_leg_evaluate", |b| {
         b.iter(|| c_leg.predict_moving(black_box(beta), &hip).unwrap().drag_n)

@@ -235,6 +235,89 @@ other_node:
     }
 
     #[test]
+    fn a_foot_or_a_mesh_leg_is_a_body_at_its_place_below_the_hip() {
+        // A leg given by its body alone: no length_m or width_m.
+        let foot = |extra: &str| {
+            let mut p = defaults();
+            let yaml = "/**:\n  ros__parameters:\n    model: rft\n    legs: [left]\n    left:\n      hip_height_m: 0.11\n      medium: poppy_lp\n      rft_coeffs: poppy_lp\n";
+            p.extend(parse_params_yaml(yaml, "t.yaml", "terzaghi", "/").unwrap());
+            let (_, ros) = parse_ros_args(&args(&format!("--ros-args {extra}"))).unwrap();
+            p.extend(ros.params);
+            (NodeConfig::from_params(&p, "terzaghi", "/", &[]), p)
+        };
+        // A sphere foot 20 mm in radius at the end of a 0.1 m leg: its reach is 0.12 m, its
+        // width its diameter.
+        let (c, given) = foot(
+            "-p left.shape:=sphere -p left.foot.radius_m:=0.02 -p left.body.xyz_m:=[0.0,0.0,-0.1]",
+        );
+        let c = c.unwrap();
+        let leg = &c.legs[0];
+        assert!(
+            (leg.plate.length_m() - 0.12).abs() < 1e-9,
+            "{:?}",
+            leg.plate
+        );
+        assert!((leg.plate.width_m() - 0.04).abs() < 1e-3, "{:?}", leg.plate);
+        let m = c.leg_model(0, leg.width, None).unwrap();
+        let crate::model::ForceModel::Body(b) = &m else {
+            panic!("{m:?}")
+        };
+        // Held 10 mm deep, the sand bears it; dragged forward, it is pushed back.
+        let held = b
+            .predict(0.0, &crate::model::HipMotion::still(0.11))
+            .unwrap();
+        assert!(held.lift_n > 0.0 && held.drag_n == 0.0, "{held:?}");
+        let dragged = b
+            .predict(
+                0.0,
+                &crate::model::HipMotion {
+                    height_m: 0.11,
+                    forward_m_s: 0.05,
+                    ..Default::default()
+                },
+            )
+            .unwrap();
+        assert!(dragged.drag_n < 0.0 && dragged.lift_n > 0.0, "{dragged:?}");
+        // Its values in force (length_m and width_m among them) read back as the same leg.
+        let again = NodeConfig::from_params(&c.effective_params(&given), "terzaghi", "/", &[]);
+        assert_eq!(again.unwrap().legs[0].plate, leg.plate);
+        // A box, a disc, and a box drawn as STL in millimetres and turned a quarter about z.
+        let dir = tempfile::tempdir().unwrap();
+        let stl = dir.path().join("foot.stl");
+        let mut text = String::from("solid foot\n");
+        for t in crate::model::box_triangles([40.0, 20.0, 10.0], [0.0; 3]) {
+            text += " facet normal 0 0 0\n  outer loop\n";
+            for v in t {
+                text += &format!("   vertex {} {} {}\n", v[0], v[1], v[2]);
+            }
+            text += "  endloop\n endfacet\n";
+        }
+        std::fs::write(&stl, text + "endsolid foot\n").unwrap();
+        let mesh = format!(
+            "-p left.shape:=mesh -p left.mesh.file:={} -p left.mesh.scale:=0.001 -p left.body.xyz_m:=[0.0,0.0,-0.1] -p left.body.rpy_rad:=[0.0,0.0,1.5707963267948966]",
+            stl.display()
+        );
+        for (extra, reach, width) in [
+            (
+                "-p left.shape:=box -p left.foot.size_m:=[0.04,0.02,0.01] -p left.body.xyz_m:=[0.0,0.0,-0.1]",
+                0.105,
+                0.02,
+            ),
+            (
+                "-p left.shape:=disc -p left.foot.radius_m:=0.03 -p left.foot.thickness_m:=0.01 -p left.body.xyz_m:=[0.0,0.0,-0.1]",
+                0.105,
+                0.06,
+            ),
+            (mesh.as_str(), 0.105, 0.04),
+        ] {
+            let c = foot(extra).0.unwrap();
+            let p = &c.legs[0].plate;
+            assert!((p.length_m() - reach).abs() < 1e-6, "{extra}: {p:?}");
+            assert!((p.width_m() - width).abs() < 1e-3, "{extra}: {p:?}");
+        }
+    }
+
+    #[test]
     fn a_leg_of_another_shape_is_predicted_by_rft_over_its_profile() {
         let c = load(
             "-p model:=rft -p left.rft_coeffs:=poppy_lp -p right.rft_coeffs:=poppy_lp -p left.shape:=c_leg -p left.length_m:=0.1 -p left.hip_height_m:=0.04",
@@ -369,6 +452,40 @@ other_node:
             (
                 "-p model:=rft -p left.rft_coeffs:=poppy_lp -p right.rft_coeffs:=poppy_lp -p left.wheel.radius_m:=0.05",
                 "left.wheel.radius_m",
+            ),
+            // A foot needs its sizes, RFT and a place below the hip; a foot's value on another
+            // shape, a mesh that is not there, a width that is not its own are refused.
+            (
+                "-p left.shape:=sphere -p left.foot.radius_m:=0.02",
+                "set model to rft",
+            ),
+            (
+                "-p model:=rft -p left.rft_coeffs:=poppy_lp -p right.rft_coeffs:=poppy_lp -p left.shape:=sphere",
+                "left.foot.radius_m",
+            ),
+            (
+                "-p model:=rft -p left.rft_coeffs:=poppy_lp -p right.rft_coeffs:=poppy_lp -p left.foot.radius_m:=0.02",
+                "left.foot.radius_m",
+            ),
+            (
+                "-p model:=rft -p left.rft_coeffs:=poppy_lp -p right.rft_coeffs:=poppy_lp -p left.shape:=sphere -p left.foot.radius_m:=0.02 -p left.body.xyz_m:=[0.0,0.0,0.1]",
+                "left.body.xyz_m",
+            ),
+            (
+                "-p model:=rft -p left.rft_coeffs:=poppy_lp -p right.rft_coeffs:=poppy_lp -p left.shape:=box -p left.foot.size_m:=[0.04,0.02]",
+                "left.foot.size_m",
+            ),
+            (
+                "-p model:=rft -p left.rft_coeffs:=poppy_lp -p right.rft_coeffs:=poppy_lp -p left.shape:=mesh -p left.mesh.file:=/nonexistent/foot.stl",
+                "left.mesh.file",
+            ),
+            (
+                "-p model:=rft -p left.rft_coeffs:=poppy_lp -p right.rft_coeffs:=poppy_lp -p left.shape:=sphere -p left.foot.radius_m:=0.02 -p left.body.xyz_m:=[0.0,0.0,-0.1] -p left.length_m:=0.12 -p left.width_m:=0.06",
+                "left.width_m",
+            ),
+            (
+                "-p model:=rft -p left.rft_coeffs:=poppy_lp -p right.rft_coeffs:=poppy_lp -p left.shape:=sphere -p left.foot.radius_m:=0.02 -p left.body.rpy_rad:=[0.0,0.0,1.0]",
+                "left.body.rpy_rad",
             ),
             (
                 "-p model:=rft -p left.rft_coeffs:=poppy_lp -p right.rft_coeffs:=poppy_lp -p left.shape:=c_leg -p left.c_leg.radius_m:=0.5",

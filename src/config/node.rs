@@ -286,7 +286,7 @@ pub const STARTUP_ONLY: [&str; 5] = [
 ];
 
 /// Names of the per-leg parameters (`<leg>.<name>`).
-pub const LEG_KEYS: [&str; 32] = [
+pub const LEG_KEYS: [&str; 40] = [
     "joint",
     "direction",
     "angle_offset_rad",
@@ -314,6 +314,14 @@ pub const LEG_KEYS: [&str; 32] = [
     "wheel.grouser_height_m",
     "wheel.grouser_thickness_m",
     "wheel.rim_elements",
+    "foot.radius_m",
+    "foot.thickness_m",
+    "foot.size_m",
+    "mesh.file",
+    "mesh.scale",
+    "body.xyz_m",
+    "body.rpy_rad",
+    "body.element_m",
     "hip_frame",
     "hip_offset_m",
     "trough_depth_m",
@@ -843,8 +851,15 @@ fn leg_config(
 ) -> Result<LegConfig, ConfigError> {
     let k = |s: &str| format!("{leg}.{s}");
     let geom_hint = "each leg needs length_m, width_m and hip_height_m";
-    let width = g.need_f64(&k("width_m"), geom_hint)?;
-    let body = leg_wheel(g, leg, model, width)?;
+    let foot = leg_foot(g, leg, model)?;
+    let width = match &foot {
+        Some((_, _, width_m)) => *width_m,
+        None => g.need_f64(&k("width_m"), geom_hint)?,
+    };
+    let body = match foot {
+        Some((body, reach_m, _)) => Some((body, reach_m)),
+        None => leg_wheel(g, leg, model, width)?,
+    };
     // A sinkage leg is a disc of diameter width_m unless a length makes it a rectangle; a
     // wheel's length is its rim's radius.
     let length = match (model, &body) {
@@ -1364,6 +1379,188 @@ fn leg_wheel(
     Ok(Some((body, radius_m)))
 }
 
+/// The keys of a foot or mesh leg, and which shapes take each.
+const FOOT_KEYS: [(&str, &[&str]); 8] = [
+    ("foot.radius_m", &["disc", "sphere"]),
+    ("foot.thickness_m", &["disc"]),
+    ("foot.size_m", &["box"]),
+    ("mesh.file", &["mesh"]),
+    ("mesh.scale", &["mesh"]),
+    ("body.xyz_m", &["disc", "sphere", "box", "mesh"]),
+    ("body.rpy_rad", &["mesh"]),
+    ("body.element_m", &["disc", "sphere", "box", "mesh"]),
+];
+
+/// `[x, y, z]` of `key`, where given.
+fn triple(g: &Get, key: &str, what: &str) -> Result<Option<[f64; 3]>, ConfigError> {
+    let v: Option<Vec<f64>> = match g.0.get(key) {
+        None => return Ok(None),
+        Some(ParamValue::DoubleArray(v)) => Some(v.clone()),
+        Some(ParamValue::IntArray(v)) => Some(v.iter().map(|&x| x as f64).collect()),
+        Some(_) => None,
+    };
+    match v {
+        Some(v) if v.len() == 3 && v.iter().all(|x| x.is_finite()) => Ok(Some([v[0], v[1], v[2]])),
+        _ => Err(invalid(
+            key,
+            &g.0.get(key).map(|v| v.to_string()).unwrap_or_default(),
+            format!("expected [x, y, z]: {what}"),
+        )),
+    }
+}
+
+/// A foot or a part drawn in CAD as a leg (`<leg>.shape: disc | sphere | box | mesh`): the
+/// shape's sizes (`foot.radius_m`, `foot.thickness_m`, `foot.size_m`) or its STL file
+/// (`mesh.file`, in metres unless `mesh.scale` says how many metres a unit is), placed at
+/// `body.xyz_m` from the hip (the foot's centre, the mesh's origin; `x` the robot's forward, `y`
+/// its left, `z` up, at joint angle 0) and, for a mesh, turned by `body.rpy_rad`; its triangles
+/// cut into elements no longer than `body.element_m` (default 5 mm). RFT predicts it (model
+/// rft); its length is its reach below the hip and its width its extent across, both at joint
+/// angle 0 (a `length_m` or `width_m` given must be those). Returns the body, its reach and its
+/// width; `None` for another shape (refusing a foot's keys there).
+fn leg_foot(
+    g: &Get,
+    leg: &str,
+    model: ModelKind,
+) -> Result<Option<(crate::model::Body, f64, f64)>, ConfigError> {
+    let k = |s: &str| format!("{leg}.{s}");
+    let shape = g.str(&k("shape"))?.unwrap_or_else(|| "plate".into());
+    for (key, shapes) in FOOT_KEYS {
+        if g.0.contains_key(&k(key)) && !shapes.contains(&shape.as_str()) {
+            return Err(invalid(
+                &k(key),
+                &"(given)",
+                format!(
+                    "only a leg of shape {} has it ({} is {shape})",
+                    shapes.join(" or "),
+                    k("shape")
+                ),
+            ));
+        }
+    }
+    if !["disc", "sphere", "box", "mesh"].contains(&shape.as_str()) {
+        return Ok(None);
+    }
+    if model != ModelKind::Rft {
+        return Err(invalid(
+            &k("shape"),
+            &shape,
+            format!(
+                "a {shape} is a body that RFT predicts over its surface, not the {} model's flat plate: set model to rft",
+                model.as_str()
+            ),
+        ));
+    }
+    let xyz = triple(
+        g,
+        &k("body.xyz_m"),
+        "the body's place from the hip in metres",
+    )?
+    .unwrap_or([0.0; 3]);
+    let element_m = g.f64(&k("body.element_m"))?.unwrap_or(0.005);
+    if !(element_m.is_finite() && (1e-4..=1.0).contains(&element_m)) {
+        return Err(invalid(
+            &k("body.element_m"),
+            &element_m,
+            "expected an element length from 0.0001 to 1 m",
+        ));
+    }
+    let need = |key: &str, hint: &str| g.need_f64(&k(key), hint);
+    // A foot's rim: segments (rings of a sphere) about as long as its elements.
+    let around = |r: f64| ((std::f64::consts::TAU * r / element_m).ceil() as usize).clamp(12, 4096);
+    let built = match shape.as_str() {
+        "disc" => {
+            let r = need(
+                "foot.radius_m",
+                "shape disc needs foot.radius_m and foot.thickness_m",
+            )?;
+            let t = need(
+                "foot.thickness_m",
+                "shape disc needs foot.radius_m and foot.thickness_m",
+            )?;
+            crate::model::Body::disc(r, t, xyz, around(r.abs().min(10.0)), element_m).map_err(
+                |e| {
+                    model_err(&k(if e.to_string().contains("thickness") {
+                        "foot.thickness_m"
+                    } else {
+                        "foot.radius_m"
+                    }))(e)
+                },
+            )?
+        }
+        "sphere" => {
+            let r = need("foot.radius_m", "shape sphere needs foot.radius_m")?;
+            crate::model::Body::sphere(r, xyz, around(r.abs().min(10.0)) / 2, element_m)
+                .map_err(model_err(&k("foot.radius_m")))?
+        }
+        "box" => {
+            let size = triple(
+                g,
+                &k("foot.size_m"),
+                "the box's length, width and height in metres",
+            )?
+            .ok_or_else(|| ConfigError::Missing {
+                name: k("foot.size_m"),
+                hint: "shape box needs foot.size_m: [x, y, z] in metres".into(),
+            })?;
+            crate::model::Body::cuboid(size, xyz, element_m)
+                .map_err(model_err(&k("foot.size_m")))?
+        }
+        _ => {
+            let file = g
+                .str(&k("mesh.file"))?
+                .filter(|f| !f.is_empty())
+                .ok_or_else(|| ConfigError::Missing {
+                    name: k("mesh.file"),
+                    hint: "shape mesh needs mesh.file: an STL file (binary or ASCII)".into(),
+                })?;
+            let scale = g.f64(&k("mesh.scale"))?.unwrap_or(1.0);
+            let rpy = triple(g, &k("body.rpy_rad"), "roll, pitch and yaw in radians")?
+                .unwrap_or([0.0; 3]);
+            crate::mesh_file::read_body(std::path::Path::new(&file), scale, xyz, rpy, element_m)
+                .map_err(|e| {
+                    let key = if matches!(e, crate::mesh_file::MeshFileError::Scale(_)) {
+                        "mesh.scale"
+                    } else {
+                        "mesh.file"
+                    };
+                    invalid(&k(key), &file, e.to_string())
+                })?
+        }
+    };
+    let reach_m = built.reach_m();
+    if reach_m.is_nan() || reach_m <= 0.0 {
+        return Err(invalid(
+            &k("body.xyz_m"),
+            &format!("{xyz:?}"),
+            format!(
+                "the {shape}'s lowest point is {:.4} m above the hip: a leg's body reaches below it",
+                -reach_m
+            ),
+        ));
+    }
+    let width_m = built.width_m();
+    for (key, value) in [("length_m", reach_m), ("width_m", width_m)] {
+        if let Some(given) = g.f64(&k(key))?
+            && (given - value).abs() > 1e-9 * value.max(1.0)
+        {
+            return Err(invalid(
+                &k(key),
+                &given,
+                format!(
+                    "a {shape} leg's {} is its body's, {value} m: leave {key} out",
+                    if key == "length_m" {
+                        "length (its reach below the hip)"
+                    } else {
+                        "width (its extent across)"
+                    }
+                ),
+            ));
+        }
+    }
+    Ok(Some((built, reach_m, width_m)))
+}
+
 /// `<leg>.shape` and what it needs: `plate` (the default), `c_leg` (`c_leg.radius_m`, default
 /// half of `length_m`, and `c_leg.span_deg`, default 180: an arc whose chord must be `length_m`),
 /// or `polyline` (`profile`: `[s0, q0, s1, q1, ...]` in metres).
@@ -1371,8 +1568,8 @@ fn leg_profile(g: &Get, leg: &str, plate: &Plate) -> Result<Option<LegProfile>, 
     let k = |s: &str| format!("{leg}.{s}");
     let shape = g.str(&k("shape"))?.unwrap_or_else(|| "plate".into());
     match shape.as_str() {
-        // A wheel is a body, not a mid-line: `leg_wheel` reads it.
-        "plate" | "wheel" => Ok(None),
+        // A wheel or a foot is a body, not a mid-line: `leg_wheel` and `leg_foot` read it.
+        "plate" | "wheel" | "disc" | "sphere" | "box" | "mesh" => Ok(None),
         "c_leg" => {
             let line = crate::model_spec::c_leg_line(
                 plate.length_m(),
@@ -1420,7 +1617,7 @@ fn leg_profile(g: &Get, leg: &str, plate: &Plate) -> Result<Option<LegProfile>, 
         other => Err(invalid(
             &k("shape"),
             &other,
-            "expected plate, c_leg, polyline or wheel",
+            "expected plate, c_leg, polyline, wheel, disc, sphere, box or mesh",
         )),
     }
 }

@@ -865,6 +865,8 @@ impl Batch {
                     forward_m_s: at(fwd, i),
                     up_m_s: at(up, i),
                     forward_position_m: 0.0,
+                    // A batch's legs move in their plane (LegBatch gives drag, lift and torque).
+                    lateral_m_s: 0.0,
                 };
                 match model.predict_moving(beta[i], &hip) {
                     Ok(p) => {

@@ -343,7 +343,30 @@ impl Body {
         (sx / n, sy / n)
     }
 
-    /// The body's height from its lowest point to its highest (m).
+    /// The body's extent across its heading, along `y` (m), as built.
+    pub fn width_m(&self) -> f64 {
+        let (lo, hi) = self
+            .points
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+                (lo.min(p[1]), hi.max(p[1]))
+            });
+        if hi > lo {
+            hi - lo
+        } else {
+            // A prism's outline lies in its mid-plane; its width is its elements'.
+            self.spatial
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), e| {
+                    (lo.min(e.p[1]), hi.max(e.p[1]))
+                })
+                .1
+                .max(0.0)
+                * 2.0
+        }
+    }
+
+    /// The body's height: from its lowest point to its highest (m).
     pub fn height_m(&self) -> f64 {
         self.reach_m + self.top_m
     }
