@@ -18,7 +18,7 @@ from __future__ import annotations
 import json
 import os
 from pathlib import Path
-from typing import Any, Dict, List, Optional, Union
+from typing import Any, Dict, List, Optional, Sequence, Union
 
 import numpy as np
 
@@ -215,16 +215,22 @@ def steady(
     omega_rad_s: ArrayLike = 0.0,
     slip_angle_deg: ArrayLike = 0.0,
     *,
-    radius_m: float,
-    width_m: float,
     medium_file: PathLike,
+    shape: str = "wheel",
+    radius_m: Optional[float] = None,
+    width_m: Optional[float] = None,
+    thickness_m: Optional[float] = None,
+    size_m: Optional[Sequence[float]] = None,
+    mesh_file: Optional[PathLike] = None,
+    mesh_scale: float = 1.0,
+    element_m: float = 0.002,
     grouser_count: Optional[int] = None,
     grouser_height_m: Optional[float] = None,
     grouser_thickness_m: Optional[float] = None,
     rim_elements: int = 720,
     sinkage_m: Optional[ArrayLike] = None,
 ) -> Dict[str, np.ndarray]:
-    """A wheel's steady state under each run's load, as ``terzaghi steady`` gives it.
+    """A wheel's or a foot's steady state under each run's load, as ``terzaghi steady`` gives it.
 
     Args:
         load_n: the load the sand must bear (N), an array of any shape (or a number); leave it
@@ -233,8 +239,18 @@ def steady(
         omega_rad_s: the rotation rate (rad/s, + rolling forward).
         slip_angle_deg: the heading's angle from the travel (deg, + the travel toward the
             wheel's left).
-        radius_m, width_m: the wheel's rim radius and width (m).
         medium_file: a medium file (``terzaghi calibrate``).
+        shape: ``"wheel"`` (``radius_m``, ``width_m``, grousers), ``"disc"`` (``radius_m``,
+            ``thickness_m``: a flat pad, its axis vertical), ``"sphere"`` (``radius_m``),
+            ``"box"`` (``size_m``: along the heading, across it, up) or ``"mesh"``
+            (``mesh_file``: a closed STL, ``mesh_scale`` metres per unit), as ``terzaghi
+            steady --shape`` takes them; a value another shape takes is refused by name.
+        radius_m, width_m: the wheel's rim radius and width (m); radius_m a disc's or sphere's.
+        thickness_m: a disc's thickness (m).
+        size_m: a box's three sizes (m).
+        mesh_file, mesh_scale: a mesh's STL file, its hub at the file's origin, and the metres
+            one of its units is (0.001 for millimetres).
+        element_m: a foot's or a mesh's elements, their longest edge (m).
         grouser_count, grouser_height_m, grouser_thickness_m: grousers, all three or none.
         rim_elements: elements of the rim (at least 360).
         sinkage_m: hold each run at this sinkage (m) instead of solving for it; the load the
@@ -274,7 +290,12 @@ def steady(
     n = len(flat["hub_vx_m_s"])
     cols = _terzaghi.steady(
         flat.get("load_n", [0.0] * n), flat["hub_vx_m_s"], flat["omega_rad_s"],
-        flat["slip_angle_deg"], flat.get("sinkage_m"), float(radius_m), float(width_m),
+        flat["slip_angle_deg"], flat.get("sinkage_m"), str(shape),
+        None if radius_m is None else float(radius_m),
+        None if width_m is None else float(width_m),
+        None if thickness_m is None else float(thickness_m),
+        None if size_m is None else [float(v) for v in size_m],
+        None if mesh_file is None else os.fspath(mesh_file), float(mesh_scale), float(element_m),
         None if grouser_count is None else (int(grouser_count), float(grouser_height_m),
                                             float(grouser_thickness_m)),
         int(rim_elements), os.fspath(medium_file))

@@ -66,3 +66,47 @@ def test_what_is_no_run_is_refused_by_name():
         terzaghi.steady(20.0, radius_m=-1.0, width_m=0.05, medium_file=MEDIUM)
     with pytest.raises(terzaghi.TerzaghiError, match="must be numbers"):
         terzaghi.steady("heavy", **WHEEL)
+
+
+@pytest.mark.parametrize("shape,args,cli_args", [
+    ("sphere", dict(radius_m=0.03), ["--radius-m", "0.03"]),
+    ("box", dict(size_m=[0.06, 0.04, 0.06]), ["--size-m", "0.06,0.04,0.06"]),
+    ("disc", dict(radius_m=0.03, thickness_m=0.04), ["--radius-m", "0.03", "--thickness-m", "0.04"]),
+])
+def test_a_foot_is_what_the_command_gives(tmp_path, shape, args, cli_args):
+    runs_path = REPO / "tests" / "data" / "feet" / "runs.csv"
+    runs = _columns(runs_path)
+    out = tmp_path / "steady.csv"
+    run("steady", runs_path, "--shape", shape, *cli_args, "--medium-file", MEDIUM, "-o", out)
+    cli = _columns(out)
+    py = terzaghi.steady(runs["load_n"], runs["hub_vx_m_s"], runs["omega_rad_s"],
+                         runs["slip_angle_deg"], shape=shape, medium_file=MEDIUM, **args)
+    for k in ("sinkage_m", "drawbar_n", "side_n", "torque_nm", "load_borne_n"):
+        np.testing.assert_allclose(py[k], cli[k], rtol=1e-12, atol=1e-12, err_msg=k)
+
+
+def test_a_mesh_foot_and_a_foot_given_what_it_does_not_take(tmp_path):
+    # A box drawn as ASCII STL in millimetres settles as the box shape does.
+    stl = tmp_path / "foot.stl"
+    hx, hy, hz = 25.0, 10.0, 25.0
+    v = [(sx * hx, sy * hy, sz * hz) for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]
+    quads = [(0, 2, 6, 4), (1, 5, 7, 3), (0, 4, 5, 1), (2, 3, 7, 6), (0, 1, 3, 2), (4, 6, 7, 5)]
+    lines = ["solid foot"]
+    for q in quads:
+        for t in ((q[0], q[1], q[2]), (q[0], q[2], q[3])):
+            lines += [" facet normal 0 0 0", "  outer loop"]
+            lines += ["   vertex %g %g %g" % v[i] for i in t]
+            lines += ["  endloop", " endfacet"]
+    stl.write_text("\n".join(lines + ["endsolid foot", ""]))
+    boxed = terzaghi.steady(8.0, 0.01, 0.0, 15.0, shape="box", size_m=[0.05, 0.02, 0.05],
+                            medium_file=MEDIUM)
+    meshed = terzaghi.steady(8.0, 0.01, 0.0, 15.0, shape="mesh", mesh_file=stl,
+                             mesh_scale=0.001, medium_file=MEDIUM)
+    for k in boxed:
+        np.testing.assert_allclose(meshed[k], boxed[k], rtol=1e-6, atol=1e-9, err_msg=k)
+    with pytest.raises(terzaghi.TerzaghiError, match="shape sphere takes no width_m"):
+        terzaghi.steady(8.0, shape="sphere", radius_m=0.03, width_m=0.05, medium_file=MEDIUM)
+    with pytest.raises(terzaghi.TerzaghiError, match="shape disc needs thickness_m"):
+        terzaghi.steady(8.0, shape="disc", radius_m=0.03, medium_file=MEDIUM)
+    with pytest.raises(terzaghi.TerzaghiError, match="no body shape \"cone\""):
+        terzaghi.steady(8.0, shape="cone", medium_file=MEDIUM)

@@ -5,7 +5,9 @@
 use super::print_out;
 use crate::medium_file::MediumFile;
 use crate::model::{Body, Grousers};
-use crate::session::steady::{INPUT_COLUMNS, OUTPUT_COLUMNS, Solve, steady_runs};
+use crate::session::steady::{
+    BodySpec, INPUT_COLUMNS, OUTPUT_COLUMNS, Solve, build_body, steady_runs,
+};
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use std::path::PathBuf;
@@ -116,80 +118,27 @@ pub struct SteadyArgs {
     pub out: Option<PathBuf>,
 }
 
-/// The value of a flag the shape needs, or an error naming it.
-fn needed<T: Copy>(v: Option<T>, flag: &str, shape: &str) -> Result<T> {
-    v.ok_or_else(|| anyhow::anyhow!("--shape {shape} needs {flag}"))
-}
-
 /// The body the flags describe; a flag of another shape is an error naming it.
 fn body(a: &SteadyArgs, grousers: Option<Grousers>) -> Result<Body> {
     let shape = a
         .shape
         .to_possible_value()
         .map_or(String::new(), |v| v.get_name().to_string());
-    let given = [
-        ("--radius-m", a.radius_m.is_some()),
-        ("--width-m", a.width_m.is_some()),
-        ("--thickness-m", a.thickness_m.is_some()),
-        ("--size-m", a.size_m.is_some()),
-        ("--mesh-file", a.mesh_file.is_some()),
-        ("--grouser-count", a.grouser_count.is_some()),
-    ];
-    let takes: &[&str] = match a.shape {
-        BodyShape::Wheel => &["--radius-m", "--width-m", "--grouser-count"],
-        BodyShape::Disc => &["--radius-m", "--thickness-m"],
-        BodyShape::Sphere => &["--radius-m"],
-        BodyShape::Box => &["--size-m"],
-        BodyShape::Mesh => &["--mesh-file"],
-    };
-    if let Some((flag, _)) = given.iter().find(|(f, g)| *g && !takes.contains(f)) {
-        anyhow::bail!(
-            "--shape {shape} takes no {flag} (it takes {})",
-            takes.join(", ")
-        );
-    }
-    // A foot's rim: segments (rings of a sphere) about as long as its elements.
-    let around =
-        |r: f64| ((std::f64::consts::TAU * r / a.element_m).ceil() as usize).clamp(12, 4096);
-    Ok(match a.shape {
-        BodyShape::Wheel => Body::wheel(
-            needed(a.radius_m, "--radius-m", &shape)?,
-            needed(a.width_m, "--width-m", &shape)?,
+    build_body(
+        &BodySpec {
+            shape,
+            radius_m: a.radius_m,
+            width_m: a.width_m,
+            thickness_m: a.thickness_m,
+            size_m: a.size_m.clone(),
+            mesh_file: a.mesh_file.clone(),
+            mesh_scale: a.mesh_scale,
+            element_m: a.element_m,
             grousers,
-            a.rim_elements,
-        )?,
-        BodyShape::Disc => {
-            let r = needed(a.radius_m, "--radius-m", &shape)?;
-            Body::disc(
-                r,
-                needed(a.thickness_m, "--thickness-m", &shape)?,
-                [0.0; 3],
-                around(r.abs().min(10.0)),
-                a.element_m,
-            )?
-        }
-        BodyShape::Sphere => {
-            let r = needed(a.radius_m, "--radius-m", &shape)?;
-            Body::sphere(r, [0.0; 3], around(r.abs().min(10.0)) / 2, a.element_m)?
-        }
-        BodyShape::Box => {
-            let s = a.size_m.as_deref().unwrap_or_default();
-            let s = <[f64; 3]>::try_from(s).map_err(|_| {
-                anyhow::anyhow!(
-                    "--shape box needs --size-m X,Y,Z: three sizes (m), not {}",
-                    s.len()
-                )
-            })?;
-            Body::cuboid(s, [0.0; 3], a.element_m)?
-        }
-        BodyShape::Mesh => crate::mesh_file::read_body(
-            needed(a.mesh_file.as_deref(), "--mesh-file", &shape)?,
-            a.mesh_scale,
-            [0.0; 3],
-            [0.0; 3],
-            a.element_m,
-        )?,
-    })
+            rim_elements: a.rim_elements,
+        },
+        |name| format!("--{}", name.replace('_', "-")),
+    )
 }
 
 pub fn run(a: SteadyArgs) -> Result<()> {

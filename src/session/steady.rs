@@ -35,6 +35,112 @@ pub enum Solve {
     AtSinkage(String),
 }
 
+/// A body as a wheel test names it: its shape (`wheel`, `disc`, `sphere`, `box` or `mesh`) and
+/// what that shape takes, as `terzaghi steady`'s flags and Python's `steady` give them.
+#[derive(Debug, Clone, Default)]
+pub struct BodySpec {
+    /// `wheel`, `disc`, `sphere`, `box` or `mesh`.
+    pub shape: String,
+    /// A wheel's rim radius, a disc's or a sphere's (m).
+    pub radius_m: Option<f64>,
+    /// A wheel's width (m).
+    pub width_m: Option<f64>,
+    /// A disc's thickness (m).
+    pub thickness_m: Option<f64>,
+    /// A box's size along the heading, across it and up (m).
+    pub size_m: Option<Vec<f64>>,
+    /// A mesh's STL file: its hub at the file's origin, `x` the heading, `y` to the left, `z` up.
+    pub mesh_file: Option<std::path::PathBuf>,
+    /// Metres per unit of the mesh file.
+    pub mesh_scale: f64,
+    /// A foot's or a mesh's elements: their longest edge (m).
+    pub element_m: f64,
+    /// A wheel's grousers.
+    pub grousers: Option<crate::model::Grousers>,
+    /// Elements of a wheel's rim (at least 360).
+    pub rim_elements: usize,
+}
+
+/// The body `spec` describes, its hub at the body's centre (a mesh's at the file's origin).
+/// A value of another shape, or one the shape needs and lacks, is an error naming it as
+/// `name` spells a field (`--radius-m` on the command line, `radius_m` in Python).
+pub fn build_body(spec: &BodySpec, name: impl Fn(&str) -> String) -> Result<Body> {
+    let shape = spec.shape.as_str();
+    let given = [
+        ("radius_m", spec.radius_m.is_some()),
+        ("width_m", spec.width_m.is_some()),
+        ("thickness_m", spec.thickness_m.is_some()),
+        ("size_m", spec.size_m.is_some()),
+        ("mesh_file", spec.mesh_file.is_some()),
+        ("grouser_count", spec.grousers.is_some()),
+    ];
+    let takes: &[&str] = match shape {
+        "wheel" => &["radius_m", "width_m", "grouser_count"],
+        "disc" => &["radius_m", "thickness_m"],
+        "sphere" => &["radius_m"],
+        "box" => &["size_m"],
+        "mesh" => &["mesh_file"],
+        other => bail!("no body shape {other:?}: expected wheel, disc, sphere, box or mesh"),
+    };
+    if let Some((field, _)) = given.iter().find(|(f, g)| *g && !takes.contains(f)) {
+        bail!(
+            "{} {shape} takes no {} (it takes {})",
+            name("shape"),
+            name(field),
+            takes.iter().map(|t| name(t)).collect::<Vec<_>>().join(", ")
+        );
+    }
+    let needed = |v: Option<f64>, field: &str| {
+        v.ok_or_else(|| anyhow::anyhow!("{} {shape} needs {}", name("shape"), name(field)))
+    };
+    // A foot's rim: segments (rings of a sphere) about as long as its elements.
+    let element_m = spec.element_m;
+    let around = |r: f64| ((std::f64::consts::TAU * r / element_m).ceil() as usize).clamp(12, 4096);
+    Ok(match shape {
+        "wheel" => Body::wheel(
+            needed(spec.radius_m, "radius_m")?,
+            needed(spec.width_m, "width_m")?,
+            spec.grousers,
+            spec.rim_elements,
+        )?,
+        "disc" => {
+            let r = needed(spec.radius_m, "radius_m")?;
+            Body::disc(
+                r,
+                needed(spec.thickness_m, "thickness_m")?,
+                [0.0; 3],
+                around(r.abs().min(10.0)),
+                element_m,
+            )?
+        }
+        "sphere" => {
+            let r = needed(spec.radius_m, "radius_m")?;
+            Body::sphere(r, [0.0; 3], around(r.abs().min(10.0)) / 2, element_m)?
+        }
+        "box" => {
+            let s = spec.size_m.as_deref().unwrap_or_default();
+            let s = <[f64; 3]>::try_from(s).map_err(|_| {
+                anyhow::anyhow!(
+                    "{} box needs {} X,Y,Z: three sizes (m), not {}",
+                    name("shape"),
+                    name("size_m"),
+                    s.len()
+                )
+            })?;
+            Body::cuboid(s, [0.0; 3], element_m)?
+        }
+        _ => crate::mesh_file::read_body(
+            spec.mesh_file.as_deref().ok_or_else(|| {
+                anyhow::anyhow!("{} mesh needs {}", name("shape"), name("mesh_file"))
+            })?,
+            spec.mesh_scale,
+            [0.0; 3],
+            [0.0; 3],
+            element_m,
+        )?,
+    })
+}
+
 /// Most rows a file of runs may hold (each is a bisection of some thousand RFT evaluations).
 pub const MAX_RUNS: usize = 100_000;
 

@@ -124,11 +124,11 @@ fn base_model(
     Ok(terzaghi::model_spec::terzaghi_model(plate, &chosen, None))
 }
 
-/// A wheel's steady state for each run of flat arrays of one length (`load_n`, `hub_vx_m_s`,
+/// A wheel's or a foot's steady state for each run of flat arrays of one length (`load_n`, `hub_vx_m_s`,
 /// `omega_rad_s`, `slip_angle_deg`; or, with `sinkage_m`, held there): sinkage, drawbar, side
 /// force, drive torque and the load borne, as `terzaghi steady` gives them.
 #[pyfunction]
-#[pyo3(signature = (load_n, hub_vx_m_s, omega_rad_s, slip_angle_deg, sinkage_m, radius_m, width_m, grousers, rim_elements, medium_file))]
+#[pyo3(signature = (load_n, hub_vx_m_s, omega_rad_s, slip_angle_deg, sinkage_m, shape, radius_m, width_m, thickness_m, size_m, mesh_file, mesh_scale, element_m, grousers, rim_elements, medium_file))]
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
 fn steady(
     py: Python<'_>,
@@ -137,13 +137,19 @@ fn steady(
     omega_rad_s: Vec<f64>,
     slip_angle_deg: Vec<f64>,
     sinkage_m: Option<Vec<f64>>,
-    radius_m: f64,
-    width_m: f64,
+    shape: String,
+    radius_m: Option<f64>,
+    width_m: Option<f64>,
+    thickness_m: Option<f64>,
+    size_m: Option<Vec<f64>>,
+    mesh_file: Option<std::path::PathBuf>,
+    mesh_scale: f64,
+    element_m: f64,
     grousers: Option<(usize, f64, f64)>,
     rim_elements: usize,
     medium_file: std::path::PathBuf,
 ) -> PyResult<[Vec<f64>; 5]> {
-    use terzaghi::model::{Body, Drive, Grousers, Stress, state_at_sinkage, steady_sinkage};
+    use terzaghi::model::{Drive, Grousers, Stress, state_at_sinkage, steady_sinkage};
     let medium = terzaghi::medium_file::MediumFile::read(&medium_file).map_err(err)?;
     let law = medium.rft_law(None).map_err(err)?;
     let grousers = grousers.map(|(count, height_m, thickness_m)| Grousers {
@@ -151,7 +157,19 @@ fn steady(
         height_m,
         thickness_m,
     });
-    let body = Body::wheel(radius_m, width_m, grousers, rim_elements).map_err(err)?;
+    let spec = terzaghi::session::steady::BodySpec {
+        shape,
+        radius_m,
+        width_m,
+        thickness_m,
+        size_m,
+        mesh_file,
+        mesh_scale,
+        element_m,
+        grousers,
+        rim_elements,
+    };
+    let body = terzaghi::session::steady::build_body(&spec, str::to_string).map_err(err)?;
     let n = hub_vx_m_s.len();
     if [load_n.len(), omega_rad_s.len(), slip_angle_deg.len()]
         .iter()
