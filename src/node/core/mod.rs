@@ -977,6 +977,21 @@ impl NodeCore {
                         }
                         keep_recent(&mut leg.reloads, RECENT_PREDICTIONS, stamp_ns, reloading);
                     }
+                    // So does a body pressed down where it stands (not moving along, nor
+                    // turning): pushed again into its own rut, it meets sand it pressed, until
+                    // it passes the deepest point. Moving along, it meets fresh sand.
+                    if let (ForceModel::Body(b), Some(h)) = (&leg.model, &hip) {
+                        let min = crate::model::BodyLeg::MIN_SPEED_M_S;
+                        let along = h.forward_m_s.hypot(h.lateral_m_s);
+                        if along < min && (h.omega_rad_s * b.body().reach_m()).abs() < min {
+                            let reloading = !leg.pressed.press(p.depth_m);
+                            if reloading && p.regime == Regime::Penetration {
+                                p.regime = Regime::Unloading;
+                            }
+                        } else {
+                            leg.pressed.press(0.0);
+                        }
+                    }
                     let rft_scale = leg.rft_scale(self.cfg.use_identified);
                     if let Some(s) = rft_scale {
                         p = scaled(p, s);
@@ -1505,6 +1520,74 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// A wheel pressed down, eased back and pressed again into its own rut reloads sand it
+    /// already pressed until it passes its deepest point (regime unloading, counted apart from
+    /// the law's loading); rolled along, it meets fresh sand.
+    #[test]
+    fn a_wheel_pressed_again_into_its_own_rut_reloads_it() {
+        let yaml = "/**:\n  ros__parameters:\n    model: rft\n    legs: [w]\n    w:\n      shape: wheel\n      wheel:\n        radius_m: 0.058\n      width_m: 0.05\n      hip_height_m: 0.05\n      medium: poppy_lp\n      rft_coeffs: poppy_lp\n";
+        let mut p = defaults();
+        p.extend(parse_params_yaml(yaml, "t", "terzaghi", "/").unwrap());
+        let cfg = NodeConfig::from_params(&p, "terzaghi", "/", &[]).unwrap();
+        let mut core = NodeCore::new(cfg);
+        let mut out = Outputs::default();
+        // Depth (mm) at 2 mm/s down or up: to 20, back to 10, down to 30.
+        let mut depths: Vec<f64> = (0..=20).map(f64::from).collect();
+        depths.extend((10..20).rev().map(f64::from));
+        depths.extend((11..=30).map(f64::from));
+        let mut regimes = Vec::new();
+        for (i, d) in depths.iter().enumerate() {
+            let t = 1_000 + 500_000_000 * i as i64;
+            let up = match (i.checked_sub(1).map(|j| depths[j]), d) {
+                (Some(before), d) if *d < before => 0.002,
+                _ => -0.002,
+            };
+            let hip = HipMotion {
+                height_m: 0.058 - d * 1e-3,
+                up_m_s: up,
+                ..HipMotion::default()
+            };
+            core.handle(Input::Hip(0, t, hip), &mut out);
+            core.handle(Input::Joints(&js(t, &["w"], &[0.0])), &mut out);
+            let f = &out.legs.last().unwrap().force;
+            regimes.push((*d, up < 0.0, Regime::from_code(f.regime).unwrap(), f.lift_n));
+        }
+        let mut deepest = 0.0f64;
+        for &(d, down, regime, lift) in &regimes[1..] {
+            let case = format!("{d} mm, {}: {regimes:?}", if down { "down" } else { "up" });
+            assert!(lift > 0.0, "{case}");
+            // Down through sand not pressed before: the law's loading; back up, or down
+            // again above the deepest point (20 mm, within 0.5 mm): unloading.
+            let virgin = down && d >= deepest - 0.5;
+            deepest = deepest.max(d);
+            let want = if virgin {
+                Regime::Penetration
+            } else {
+                Regime::Unloading
+            };
+            assert_eq!(regime, want, "{case}");
+        }
+        assert!(
+            regimes
+                .iter()
+                .filter(|r| r.1 && r.2 == Regime::Unloading)
+                .count()
+                >= 8
+        );
+        // Rolled along at the same depth, it meets fresh sand and presses it as new.
+        let t = 1_000 + 500_000_000 * depths.len() as i64;
+        let hip = HipMotion {
+            height_m: 0.058 - 0.025,
+            forward_m_s: 0.01,
+            up_m_s: -0.002,
+            ..HipMotion::default()
+        };
+        core.handle(Input::Hip(0, t, hip), &mut out);
+        core.handle(Input::Joints(&js(t, &["w"], &[0.0])), &mut out);
+        let rolled = &out.legs.last().unwrap().force;
+        assert_eq!(rolled.regime, Regime::Penetration.code());
     }
 
     #[test]
