@@ -997,10 +997,11 @@ impl RftModel {
         elements: &LegElements,
         hip: &HipMotion,
     ) -> Prediction {
+        // (evaluate_moving refused a lateral velocity that is no number)
         let lateral = hip.leg_frame_lateral_m_s();
         let across = Across::new(
             &self.coefficients,
-            if lateral.is_finite() && hip.omega_rad_s.is_finite() {
+            if hip.omega_rad_s.is_finite() {
                 lateral
             } else {
                 0.0
@@ -1072,6 +1073,7 @@ impl RftModel {
     ) -> Result<Prediction, ModelError> {
         let beta = wrap_beta_rad(finite("attack angle beta (rad)", beta_rad)? + hip.pitch_rad);
         let h = finite("hip height (m)", hip.height_m)?;
+        let lateral = finite("hip lateral velocity (m/s)", hip.leg_frame_lateral_m_s())?;
         if let (Some(line), Some(elements)) = (&self.profile, &self.profile_elements) {
             return Ok(self.evaluate_profile(beta, line, elements, hip));
         }
@@ -1100,7 +1102,6 @@ impl RftModel {
         let (ux, uz) = (-cos_b, -sin_b);
         let (nx, nz) = (sin_b, -cos_b);
         let v_hip = hip.leg_frame_velocity_m_s();
-        let lateral = finite("hip lateral velocity (m/s)", hip.leg_frame_lateral_m_s())?;
         let moving = (v_hip != [0.0, 0.0] || lateral != 0.0) && hip.omega_rad_s.is_finite();
         let across = Across::new(&self.coefficients, if moving { lateral } else { 0.0 });
         // A plate turning about a still hip: every element moves along n, so every element's
