@@ -969,27 +969,26 @@ impl NodeCore {
                         continue;
                     };
                     // A plate moving down through sand it already pressed reloads it: the
-                    // rig's force, not the law's loading.
-                    if matches!(leg.model, ForceModel::Sinkage(_)) {
-                        let reloading = !leg.pressed.press(p.depth_m);
+                    // rig's force, not the law's loading. So does a body pressed down where it
+                    // stands (not moving along, nor turning), pushed again into its own rut,
+                    // until it passes the deepest point; moving along, it meets fresh sand.
+                    let pressing = match (&leg.model, &hip) {
+                        (ForceModel::Sinkage(_), _) => Some(true),
+                        (ForceModel::Body(b), Some(h)) => {
+                            let min = crate::model::BodyLeg::MIN_SPEED_M_S;
+                            let along = h.forward_m_s.hypot(h.lateral_m_s);
+                            Some(along < min && (h.omega_rad_s * b.body().reach_m()).abs() < min)
+                        }
+                        _ => None,
+                    };
+                    if let Some(pressing) = pressing {
+                        // Moving along forgets the pressed depth (sand not pressed before).
+                        let reloading = !leg.pressed.press(if pressing { p.depth_m } else { 0.0 });
                         if reloading && p.regime == Regime::Penetration {
                             p.regime = Regime::Unloading;
                         }
-                        keep_recent(&mut leg.reloads, RECENT_PREDICTIONS, stamp_ns, reloading);
-                    }
-                    // So does a body pressed down where it stands (not moving along, nor
-                    // turning): pushed again into its own rut, it meets sand it pressed, until
-                    // it passes the deepest point. Moving along, it meets fresh sand.
-                    if let (ForceModel::Body(b), Some(h)) = (&leg.model, &hip) {
-                        let min = crate::model::BodyLeg::MIN_SPEED_M_S;
-                        let along = h.forward_m_s.hypot(h.lateral_m_s);
-                        if along < min && (h.omega_rad_s * b.body().reach_m()).abs() < min {
-                            let reloading = !leg.pressed.press(p.depth_m);
-                            if reloading && p.regime == Regime::Penetration {
-                                p.regime = Regime::Unloading;
-                            }
-                        } else {
-                            leg.pressed.press(0.0);
+                        if matches!(leg.model, ForceModel::Sinkage(_)) {
+                            keep_recent(&mut leg.reloads, RECENT_PREDICTIONS, stamp_ns, reloading);
                         }
                     }
                     let rft_scale = leg.rft_scale(self.cfg.use_identified);
@@ -1444,13 +1443,18 @@ mod tests {
     use crate::config::{defaults, parse_params_yaml};
     use crate::msgs::{DiagnosticArray, DiagnosticStatus};
 
+    /// The node of a params YAML file's text.
+    fn config_of(yaml: &str) -> NodeConfig {
+        let mut p = defaults();
+        p.extend(parse_params_yaml(yaml, "t", "terzaghi", "/").unwrap());
+        NodeConfig::from_params(&p, "terzaghi", "/", &[]).unwrap()
+    }
+
     fn config(extra: &str) -> NodeConfig {
         let yaml = format!(
             "/**:\n  ros__parameters:\n    legs: [fl, fr]\n    fl:\n      joint: hip_fl\n      length_m: 0.25\n      width_m: 0.06\n      hip_height_m: 0.15\n      unit_weight_n_m3: 16170\n      phi_deg: 32.0\n      delta_deg: 19.0\n      b_k: 2.0\n      a: 1.5\n      ft_topic: fl/ft\n{extra}    fr:\n      length_m: 0.25\n      width_m: 0.06\n      hip_height_m: 0.15\n      medium: hit_sand\n      direction: -1\n"
         );
-        let mut p = defaults();
-        p.extend(parse_params_yaml(&yaml, "t", "terzaghi", "/").unwrap());
-        NodeConfig::from_params(&p, "terzaghi", "/", &[]).unwrap()
+        config_of(&yaml)
     }
 
     fn js(t_ns: i64, names: &[&str], pos: &[f64]) -> JointState {
@@ -1470,9 +1474,7 @@ mod tests {
     fn a_wheel_legs_estimate_is_its_scale_not_its_mediums_b_k() {
         // hit_sand has a fitted b_k for a 60 mm plate, which a wheel 60 mm wide must not show.
         let yaml = "/**:\n  ros__parameters:\n    model: rft\n    legs: [w]\n    w:\n      shape: wheel\n      wheel:\n        radius_m: 0.058\n      width_m: 0.06\n      hip_height_m: 0.033\n      medium: hit_sand\n      rft_coeffs: poppy_lp\n      ft_topic: w/ft\n";
-        let mut p = defaults();
-        p.extend(parse_params_yaml(yaml, "t", "terzaghi", "/").unwrap());
-        let cfg = NodeConfig::from_params(&p, "terzaghi", "/", &[]).unwrap();
+        let cfg = config_of(yaml);
         assert_ne!(cfg.legs[0].width.b_k(), 1.0);
         let core = NodeCore::new(cfg);
         assert_eq!(core.width_in_use(0), Some((1.0, 1.0, false)));
@@ -1484,9 +1486,7 @@ mod tests {
     #[test]
     fn a_hip_moving_sideways_publishes_the_full_wrench() {
         let yaml = "/**:\n  ros__parameters:\n    model: rft\n    legs: [p, w]\n    p:\n      length_m: 0.25\n      width_m: 0.06\n      hip_height_m: 0.15\n      medium: poppy_lp\n      rft_coeffs: poppy_lp\n    w:\n      shape: wheel\n      wheel:\n        radius_m: 0.058\n      width_m: 0.05\n      hip_height_m: 0.033\n      medium: poppy_lp\n      rft_coeffs: poppy_lp\n";
-        let mut p = defaults();
-        p.extend(parse_params_yaml(yaml, "t", "terzaghi", "/").unwrap());
-        let cfg = NodeConfig::from_params(&p, "terzaghi", "/", &[]).unwrap();
+        let cfg = config_of(yaml);
         for lateral_m_s in [0.0, 0.05, -0.05] {
             let mut core = NodeCore::new(cfg.clone());
             let mut out = Outputs::default();
@@ -1528,9 +1528,7 @@ mod tests {
     #[test]
     fn a_wheel_pressed_again_into_its_own_rut_reloads_it() {
         let yaml = "/**:\n  ros__parameters:\n    model: rft\n    legs: [w]\n    w:\n      shape: wheel\n      wheel:\n        radius_m: 0.058\n      width_m: 0.05\n      hip_height_m: 0.05\n      medium: poppy_lp\n      rft_coeffs: poppy_lp\n";
-        let mut p = defaults();
-        p.extend(parse_params_yaml(yaml, "t", "terzaghi", "/").unwrap());
-        let cfg = NodeConfig::from_params(&p, "terzaghi", "/", &[]).unwrap();
+        let cfg = config_of(yaml);
         let mut core = NodeCore::new(cfg);
         let mut out = Outputs::default();
         // Depth (mm) at 2 mm/s down or up: to 20, back to 10, down to 30.
@@ -1620,9 +1618,7 @@ mod tests {
     fn an_rft_leg_with_a_speed_law_is_predicted_at_its_turning_rate() {
         use std::f64::consts::TAU;
         let yaml = "/**:\n  ros__parameters:\n    legs: [fl]\n    model: rft\n    fl:\n      length_m: 0.25\n      width_m: 0.06\n      hip_height_m: 0.15\n      medium: poppy_lp\n      rft_coeffs: poppy_lp\n      rft_speed_file: tests/dem/campaign/rft_entry.csv\n";
-        let mut p = defaults();
-        p.extend(parse_params_yaml(yaml, "t", "terzaghi", "/").unwrap());
-        let cfg = NodeConfig::from_params(&p, "terzaghi", "/", &[]).unwrap();
+        let cfg = config_of(yaml);
         let law = cfg.legs[0].rft_speed.unwrap().law;
         let core_rft_elements = cfg.rft_elements;
         let mut core = NodeCore::new(cfg);

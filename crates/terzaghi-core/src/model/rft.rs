@@ -1135,8 +1135,8 @@ impl RftModel {
             if let Some(a) = &across {
                 // Moving across its plane too: the planar law weighted by its share of the
                 // speed, and the shear across it.
-                let (w, extra) = a.share(self.speed_law.as_deref(), vx, vz);
-                let f = a.side_n(depth + extra, area, vx, vz);
+                let (w, across, extra) = a.shares(self.speed_law.as_deref(), vx, vz);
+                let f = a.side_n(depth + extra, area, across);
                 side[0] += f;
                 side[1] -= r * uz * f;
                 side[2] += r * ux * f;
@@ -1224,27 +1224,21 @@ impl Across {
         })
     }
 
-    /// The share of an element's speed in the leg's plane at in-plane velocity `(vx, vz)`, and
-    /// the speed law's extra depth for the whole velocity (m).
-    fn share(&self, speed_law: Option<&RftSpeedLaw>, vx: f64, vz: f64) -> (f64, f64) {
+    /// For an element at in-plane velocity `(vx, vz)`: the share of its speed in the leg's
+    /// plane, the share across it, and the speed law's extra depth for the whole velocity (m).
+    fn shares(&self, speed_law: Option<&RftSpeedLaw>, vx: f64, vz: f64) -> (f64, f64, f64) {
         let in_plane = (vx * vx + vz * vz).sqrt();
         let speed = (in_plane * in_plane + self.vy * self.vy).sqrt();
         let extra = speed_law.map_or(0.0, |law| {
             law.extra_depth_of_velocity_m((vx * vx + self.vy * self.vy).sqrt(), vz)
         });
-        (in_plane / speed, extra)
+        (in_plane / speed, self.vy.abs() / speed, extra)
     }
 
     /// The shear's force along `y` on an element of `area_m2` at stressed depth `depth_m`
-    /// moving at `(vx, vz)` in the plane (N): against the motion across.
-    fn side_n(&self, depth_m: f64, area_m2: f64, vx: f64, vz: f64) -> f64 {
-        let speed = (vx * vx + vz * vz + self.vy * self.vy).sqrt();
-        -self.vy.signum()
-            * self.shear_n_cm3
-            * N_CM3_TO_N_M3
-            * depth_m
-            * area_m2
-            * (self.vy.abs() / speed)
+    /// whose share of speed across the plane is `across` (N): against the motion across.
+    fn side_n(&self, depth_m: f64, area_m2: f64, across: f64) -> f64 {
+        -self.vy.signum() * self.shear_n_cm3 * N_CM3_TO_N_M3 * depth_m * area_m2 * across
     }
 }
 
@@ -1392,12 +1386,11 @@ fn rft_elements_moving(
         // share of the speed.
         let (w, across_extra) = match across {
             Some(a) => {
-                let (w, extra) = a.share(speed_law, vx, vz);
+                let (w, across, extra) = a.shares(speed_law, vx, vz);
                 let f = a.side_n(
                     stressed_depth_m(depth_law, depth) + extra,
                     width_m * len,
-                    vx,
-                    vz,
+                    across,
                 );
                 side[0] += f;
                 side[1] -= p.1 * f;
