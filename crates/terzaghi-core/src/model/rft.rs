@@ -813,6 +813,18 @@ impl RftCoefficients {
     }
 }
 
+impl RftCoefficients {
+    /// [`Self::alpha_along`] for a tangent and a motion that are unit vectors already (to
+    /// rounding): a fitted law then needs no square root or division.
+    #[inline]
+    pub(crate) fn alpha_unit(&self, (tx, tz): (f64, f64), (vx, vz): (f64, f64)) -> (f64, f64) {
+        match self {
+            RftCoefficients::Fit(f) => f.alpha_trig((tx * tx - tz * tz, 2.0 * tx * tz), (vx, -vz)),
+            RftCoefficients::Grid(g) => g.alpha(wrap_half_pi(tz.atan2(tx)), (-vz).atan2(vx)),
+        }
+    }
+}
+
 /// RFT for the rotating plate, integrated over `elements` equal elements of the submerged length.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RftModel {
