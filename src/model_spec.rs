@@ -172,6 +172,9 @@ pub enum LegShape {
         /// The points, hip side first.
         line: Vec<(f64, f64)>,
     },
+    /// A rigid body about the hip, its hub (a wheel, a foot, a mesh): three-dimensional RFT
+    /// over its surface ([`crate::model::BodyLeg`]).
+    Body(Box<crate::model::Body>),
 }
 
 /// Segments of a C-leg's mid-line (the node's `<leg>.shape: c_leg`).
@@ -271,6 +274,31 @@ impl ModelSpec {
             LegShape::Polyline { line } => {
                 RftModel::with_profile(plate, coeffs, self.rft_elements, line.clone())?
             }
+            LegShape::Body(_) => unreachable!("a body is no mid-line: rft_model builds it"),
+        })
+    }
+
+    /// The RFT model of this leg's shape on `plate` in a medium of `coeffs` and its laws.
+    fn rft_model(
+        &self,
+        plate: Plate,
+        coeffs: RftCoefficients,
+        depth_law: Option<crate::model::RftDepthLaw>,
+        speed_law: Option<crate::model::RftSpeedLaw>,
+    ) -> Result<ForceModel> {
+        Ok(match &self.shape {
+            LegShape::Body(body) => ForceModel::Body(Box::new(crate::model::BodyLeg::new(
+                (**body).clone(),
+                coeffs,
+                depth_law,
+                speed_law,
+                plate,
+            ))),
+            _ => ForceModel::Rft(
+                self.rft_leg(plate, coeffs)?
+                    .with_depth_law(depth_law)
+                    .with_speed_law(speed_law),
+            ),
         })
     }
 
@@ -281,7 +309,7 @@ impl ModelSpec {
         }
         if self.kind != ModelKind::Rft && self.shape != LegShape::Plate {
             bail!(
-                "a curved leg (C-leg, polyline) is predicted by RFT only (model rft), not the {:?} model",
+                "a curved leg (C-leg, polyline) or a body (wheel, foot, mesh) is predicted by RFT only (model rft), not the {:?} model",
                 self.kind
             );
         }
@@ -329,11 +357,12 @@ impl ModelSpec {
                     let law = medium
                         .rft_law(explicit)
                         .with_context(|| format!("{}", file.display()))?;
-                    return Ok(ForceModel::Rft(
-                        self.rft_leg(plate, law.coefficients)?
-                            .with_depth_law(Some(law.depth_law))
-                            .with_speed_law(law.speed_law),
-                    ));
+                    return self.rft_model(
+                        plate,
+                        law.coefficients,
+                        Some(law.depth_law),
+                        law.speed_law,
+                    );
                 }
                 let set = match (&self.rft_coeffs, &self.medium.preset) {
                     (Some(s), _) => s.clone(),
@@ -358,7 +387,7 @@ impl ModelSpec {
                     );
                 }
                 let coeffs = RftCoefficients::by_name(&set, self.rft_zeta)?;
-                Ok(ForceModel::Rft(self.rft_leg(plate, coeffs)?))
+                self.rft_model(plate, coeffs, None, None)
             }
             ModelKind::Sinkage => unreachable!("built above"),
         }

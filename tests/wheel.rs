@@ -422,3 +422,219 @@ fn the_shared_presses_replayed_as_a_wheel_leg() {
         "lift R^2 of the loading rows {r2s:?}"
     );
 }
+
+/// `terzaghi predict` takes the bodies `terzaghi steady` takes, moving as the flags say: a
+/// wheel rolling with slip and a box foot dragged at a slip angle, each held at a sinkage,
+/// give the force `steady --at-sinkage` gives the same run there (drawbar, load, side force,
+/// torque), in predict's leg terms; and a body's values that do not make one are refused.
+#[test]
+fn predict_gives_a_body_what_steady_gives_it_at_that_sinkage() {
+    let dir = tempfile::tempdir().unwrap();
+    let medium = repo().join("tests/data/medium_without_shape.yaml");
+    let medium = medium.to_str().unwrap();
+    // (shape flags, hub height, hub speed, omega, slip angle)
+    let cases: [(&[&str], f64, f64, f64, f64); 3] = [
+        (
+            &[
+                "--shape",
+                "wheel",
+                "--radius-m",
+                "0.058",
+                "--width-m",
+                "0.05",
+            ],
+            0.033,
+            0.01,
+            0.345,
+            0.0,
+        ),
+        (
+            &[
+                "--shape",
+                "wheel",
+                "--radius-m",
+                "0.058",
+                "--width-m",
+                "0.05",
+            ],
+            0.020,
+            0.01,
+            0.0,
+            0.0,
+        ),
+        // Its hub (its centre) 5 mm below the surface, its bottom 30 mm deep.
+        (
+            &["--shape", "box", "--size-m", "0.05,0.02,0.05"],
+            -0.005,
+            0.05,
+            0.0,
+            40.0,
+        ),
+    ];
+    for (shape, hub_m, speed, omega, slip_deg) in cases {
+        let reach = if shape[1] == "wheel" { 0.058 } else { 0.025 };
+        let runs = dir.path().join("runs.csv");
+        std::fs::write(
+            &runs,
+            format!(
+                "load_n,hub_vx_m_s,omega_rad_s,slip_angle_deg,held_m\n1,{speed},{omega},{slip_deg},{}\n",
+                reach - hub_m
+            ),
+        )
+        .unwrap();
+        let out = dir.path().join("steady.csv");
+        let mut steady = vec!["steady", runs.to_str().unwrap()];
+        steady.extend(shape);
+        steady.extend(["--medium-file", medium, "--at-sinkage", "held_m", "-o"]);
+        steady.push(out.to_str().unwrap());
+        ok(&Command::new(terzaghi()).args(&steady).output().unwrap());
+        let s = &rows(&out)[0];
+        let (forward, lateral) = (
+            speed * slip_deg.to_radians().cos(),
+            speed * slip_deg.to_radians().sin(),
+        );
+        let (hub, fw, lat, om) = (
+            hub_m.to_string(),
+            forward.to_string(),
+            lateral.to_string(),
+            omega.to_string(),
+        );
+        let mut predict = vec!["predict", "--model", "rft"];
+        predict.extend(shape);
+        predict.extend([
+            "--medium-file",
+            medium,
+            "--hip-height-m",
+            &hub,
+            "--beta-deg",
+            "0",
+            "--forward-m-s",
+            &fw,
+            "--lateral-m-s",
+            &lat,
+            "--omega-rad-s",
+            &om,
+            "--format",
+            "json",
+        ]);
+        let text = ok(&Command::new(terzaghi()).args(&predict).output().unwrap());
+        let p: serde_json::Value = serde_json::from_str(&text).unwrap();
+        let p = &p[0];
+        assert_eq!(p["regime"], "penetration", "{p}");
+        for (pred, steady_col) in [
+            ("drag_n", "drawbar_n"),
+            ("lift_n", "load_borne_n"),
+            ("side_n", "side_n"),
+            ("hip_torque_nm", "torque_nm"),
+        ] {
+            let (a, b) = (p[pred].as_f64().unwrap(), num(s, steady_col));
+            assert!(
+                (a - b).abs() <= 1e-4 * (1.0 + b.abs()),
+                "{shape:?}: predict {pred} {a}, steady {steady_col} {b}"
+            );
+        }
+        // Every case presses sand: the comparison is of forces, not of zeros.
+        assert!(p["lift_n"].as_f64().unwrap() > 1.0, "{p}");
+        if slip_deg != 0.0 {
+            assert!(p["side_n"].as_f64().unwrap() > 0.5, "{p}");
+        }
+    }
+    // docs/bodies.md shows what predict prints of a grousered wheel.
+    let page = std::fs::read_to_string(repo().join("docs/bodies.md")).unwrap();
+    let shown = Command::new(terzaghi())
+        .current_dir(repo())
+        .args([
+            "predict",
+            "--model",
+            "rft",
+            "--shape",
+            "wheel",
+            "--radius-m",
+            "0.058",
+            "--width-m",
+            "0.05",
+            "--grouser-count",
+            "8",
+            "--grouser-height-m",
+            "0.01",
+            "--grouser-thickness-m",
+            "0.004",
+            "--hip-height-m",
+            "0.033",
+            "--medium-file",
+            "tests/data/medium_without_shape.yaml",
+            "--beta-deg",
+            "0:45:15",
+            "--forward-m-s",
+            "0.01",
+            "--omega-rad-s",
+            "0.345",
+        ])
+        .output()
+        .unwrap();
+    let shown = ok(&shown);
+    assert!(
+        page.contains(&format!("```text\n{shown}```")),
+        "docs/bodies.md does not show predict's output:\n{shown}"
+    );
+    let wheel = [
+        "predict",
+        "--shape",
+        "wheel",
+        "--radius-m",
+        "0.058",
+        "--width-m",
+        "0.05",
+        "--hip-height-m",
+        "0.03",
+        "--medium-file",
+        medium,
+        "--beta-deg",
+        "0",
+    ];
+    let with = |extra: &[&str]| -> Vec<std::ffi::OsString> {
+        wheel.iter().chain(extra).map(Into::into).collect()
+    };
+    let bad: [(&[&str], &[&str]); 4] = [
+        (
+            &["--model", "rft", "--length-m", "0.06"],
+            &["--length-m 0.06", "0.058"],
+        ),
+        (
+            &["--model", "rft", "--thickness-m", "0.01"],
+            &["wheel takes no --thickness-m"],
+        ),
+        (&["--model", "improved"], &["RFT only"]),
+        (
+            &["--model", "rft", "--omega-rad-s", "nan"],
+            &["rotation rate", "NaN"],
+        ),
+    ];
+    for (extra, words) in bad {
+        let args = with(extra);
+        refused(
+            &args.iter().map(|s| s.as_os_str()).collect::<Vec<_>>(),
+            words,
+        );
+    }
+    // A plate's flags stay a plate's.
+    refused(
+        &[
+            "predict",
+            "--radius-m",
+            "0.05",
+            "--length-m",
+            "0.25",
+            "--width-m",
+            "0.06",
+            "--hip-height-m",
+            "0.15",
+            "--medium",
+            "hit_sand",
+            "--beta-deg",
+            "60",
+        ]
+        .map(std::ffi::OsStr::new),
+        &["--radius-m is for a body"],
+    );
+}

@@ -1,6 +1,7 @@
 //! `terzaghi predict`: one row per attack angle (or, for a plate pushed down, per depth).
 
-use super::{MediumArgs, PlateArgs, WidthArgs, print_out};
+use super::steady::BodyArgs;
+use super::{MediumArgs, WidthArgs, print_out};
 use crate::model::{ForceModel, Prediction};
 use anyhow::{Result, bail};
 use clap::{Args, ValueEnum};
@@ -28,6 +29,31 @@ pub enum Shape {
     CLeg,
     /// Any mid-line, given by --profile (RFT only).
     Polyline,
+    /// A wheel about the hip, its hub: --radius-m, --width-m, and grousers if --grouser-count
+    /// is given (RFT only, as every body).
+    Wheel,
+    /// A disc foot at the hip, its axis vertical: --radius-m, --thickness-m.
+    Disc,
+    /// A sphere foot at the hip: --radius-m.
+    Sphere,
+    /// A box foot at the hip: --size-m X,Y,Z (along the heading, across it, up).
+    Box,
+    /// A closed triangle mesh about the hip: --mesh-file (STL), --mesh-scale.
+    Mesh,
+}
+
+impl Shape {
+    /// A body's shape name (`wheel`, ...), or `None` for a leg's mid-line.
+    fn body_name(self) -> Option<&'static str> {
+        match self {
+            Shape::Plate | Shape::CLeg | Shape::Polyline => None,
+            Shape::Wheel => Some("wheel"),
+            Shape::Disc => Some("disc"),
+            Shape::Sphere => Some("sphere"),
+            Shape::Box => Some("box"),
+            Shape::Mesh => Some("mesh"),
+        }
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -41,8 +67,17 @@ pub struct PredictArgs {
     /// Which model to evaluate.
     #[arg(long, value_enum, default_value = "improved")]
     pub model: ModelKind,
-    #[command(flatten)]
-    pub plate: PlateArgs,
+    /// Plate length from the hip axis to the tip (m); a body's reach below its hub comes from
+    /// its shape (given, it must agree).
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
+    pub length_m: Option<f64>,
+    /// Plate width (m), or a wheel's; a foot's comes from its shape (given, it must agree).
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
+    pub width_m: Option<f64>,
+    /// Height of the hip axis (a body's hub) above the free surface (m); 0 puts the axis on
+    /// the surface; a body's hub may be below it (negative).
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
+    pub hip_height_m: f64,
     #[command(flatten)]
     pub medium: MediumArgs,
     #[command(flatten)]
@@ -88,9 +123,56 @@ pub struct PredictArgs {
     /// --model sinkage: the plate's depths below the surface (m), FROM:TO:STEP or one depth.
     #[arg(long, value_name = "FROM:TO:STEP", allow_hyphen_values = true)]
     pub depth_m: Option<String>,
+    #[command(flatten)]
+    pub body: BodyArgs,
+    /// The hip's velocity along the robot's heading (m/s, + forward). With any of the four
+    /// motion flags each row is predicted with the hip so moving (the others 0): RFT on each
+    /// element's own velocity. Without, a leg turns quasi-statically about a still hip and a
+    /// body is held (the sand's reaction to it, no drag).
+    #[arg(long, value_name = "M_S", allow_negative_numbers = true)]
+    pub forward_m_s: Option<f64>,
+    /// The hip's velocity to the robot's left (m/s); a leg or body moving sideways adds the
+    /// columns side_n, roll_moment_nm and yaw_moment_nm.
+    #[arg(long, value_name = "M_S", allow_negative_numbers = true)]
+    pub lateral_m_s: Option<f64>,
+    /// The hip's velocity up (m/s; a body pressed into the sand: negative).
+    #[arg(long, value_name = "M_S", allow_negative_numbers = true)]
+    pub up_m_s: Option<f64>,
+    /// The leg's rotation rate about its axis (rad/s, + as the attack angle grows: a wheel
+    /// rolling forward).
+    #[arg(long, value_name = "RAD_S", allow_negative_numbers = true)]
+    pub omega_rad_s: Option<f64>,
     /// Output format.
     #[arg(long, value_enum, default_value = "csv")]
     pub format: Format,
+}
+
+impl PredictArgs {
+    /// The hip's motion at `height_m`, where a motion flag is given.
+    fn motion(&self) -> Option<crate::model::HipMotion> {
+        let flags = [
+            self.forward_m_s,
+            self.lateral_m_s,
+            self.up_m_s,
+            self.omega_rad_s,
+        ];
+        flags
+            .iter()
+            .any(Option::is_some)
+            .then(|| crate::model::HipMotion {
+                forward_m_s: self.forward_m_s.unwrap_or(0.0),
+                lateral_m_s: self.lateral_m_s.unwrap_or(0.0),
+                up_m_s: self.up_m_s.unwrap_or(0.0),
+                omega_rad_s: self.omega_rad_s.unwrap_or(0.0),
+                ..crate::model::HipMotion::still(self.hip_height_m)
+            })
+    }
+
+    /// Whether the rows carry the side force and the moments about the heading and the
+    /// vertical: a body's, or a leg's moving sideways.
+    fn full_wrench(&self) -> bool {
+        self.shape.body_name().is_some() || self.lateral_m_s.is_some_and(|v| v != 0.0)
+    }
 }
 
 /// The speed a sinkage plate of `--depth-m` is pressed at (m/s): loading.
@@ -142,23 +224,43 @@ struct Row {
     lift_n: f64,
     hip_torque_nm: f64,
     regime: &'static str,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    side_n: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    roll_moment_nm: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    yaw_moment_nm: Option<f64>,
 }
 
 pub fn build_model(a: &PredictArgs) -> Result<ForceModel> {
     use crate::model_spec::LegShape;
-    let shape = match (a.shape, &a.profile) {
-        (Shape::Plate, None) => LegShape::Plate,
-        (Shape::CLeg, None) => LegShape::CLeg {
+    let body = match a.shape.body_name() {
+        Some(name) => Some(
+            a.body
+                .body(name, a.width_m.filter(|_| a.shape == Shape::Wheel))?,
+        ),
+        None => {
+            if let Some(flag) = a.body.given().first() {
+                bail!("{flag} is for a body (--shape wheel, disc, sphere, box or mesh)");
+            }
+            None
+        }
+    };
+    let shape = match (a.shape, &a.profile, body) {
+        (_, Some(_), _) if a.shape != Shape::Polyline => bail!("--profile is for --shape polyline"),
+        (_, _, Some(body)) => LegShape::Body(Box::new(body)),
+        (Shape::Plate, None, None) => LegShape::Plate,
+        (Shape::CLeg, None, None) => LegShape::CLeg {
             radius_m: a.c_leg_radius_m,
             span_deg: a.c_leg_span_deg,
         },
-        (Shape::Polyline, Some(text)) => LegShape::Polyline {
+        (Shape::Polyline, Some(text), None) => LegShape::Polyline {
             line: parse_profile(text)?,
         },
-        (Shape::Polyline, None) => {
+        (Shape::Polyline, None, None) => {
             bail!("--shape polyline needs --profile S0,Q0,S1,Q1,... (the leg's mid-line in metres)")
         }
-        (_, Some(_)) => bail!("--profile is for --shape polyline"),
+        (_, _, None) => unreachable!("every body shape has a body"),
     };
     if a.shape != Shape::CLeg && (a.c_leg_radius_m.is_some() || a.c_leg_span_deg.is_some()) {
         bail!("--c-leg-radius-m and --c-leg-span-deg are for --shape c-leg");
@@ -166,6 +268,28 @@ pub fn build_model(a: &PredictArgs) -> Result<ForceModel> {
     if (a.model == ModelKind::Sinkage) != a.depth_m.is_some() {
         bail!("--depth-m goes with --model sinkage, --beta-deg with the turning leg's models");
     }
+    // A body's reach and width are its shape's; given ones must agree.
+    let (length_m, width_m) = match &shape {
+        LegShape::Body(b) => {
+            let (reach, width) = (b.reach_m(), b.width_m());
+            for (flag, given, own) in [
+                ("--length-m", a.length_m, reach),
+                ("--width-m", a.width_m, width),
+            ] {
+                if let Some(v) = given.filter(|v| (v - own).abs() > 1e-9 * own.abs().max(1.0)) {
+                    bail!(
+                        "{flag} {v} is not the body's own ({own} m, from its shape): leave it out"
+                    );
+                }
+            }
+            (reach, width)
+        }
+        _ => match (a.length_m, a.width_m) {
+            (Some(l), Some(w)) => (l, w),
+            (None, _) => bail!("--length-m is needed (the leg's length from the hip axis, m)"),
+            (_, None) => bail!("--width-m is needed (the leg's width, m)"),
+        },
+    };
     crate::model_spec::ModelSpec {
         kind: match a.model {
             ModelKind::Improved => crate::model_spec::ModelKind::Improved,
@@ -173,9 +297,14 @@ pub fn build_model(a: &PredictArgs) -> Result<ForceModel> {
             ModelKind::Rft => crate::model_spec::ModelKind::Rft,
             ModelKind::Sinkage => crate::model_spec::ModelKind::Sinkage,
         },
-        length_m: a.plate.length_m,
-        width_m: a.plate.width_m,
-        hip_height_m: a.plate.hip_height_m,
+        length_m,
+        width_m,
+        // A body's hub may be in the sand (a foot sunk past its middle): its height is the
+        // motion's (see run), the configured one at most the surface.
+        hip_height_m: match a.shape.body_name() {
+            Some(_) => a.hip_height_m.max(0.0),
+            None => a.hip_height_m,
+        },
         medium: crate::model_spec::MediumSpec {
             file: a.medium_file.clone(),
             ..a.medium.spec()
@@ -216,6 +345,18 @@ pub fn run(a: PredictArgs) -> Result<()> {
         (None, Some(b)) => (parse_range(b)?, false),
         (None, None) => bail!("give --beta-deg (or --depth-m with --model sinkage)"),
     };
+    if sinkage && a.motion().is_some() {
+        bail!(
+            "--model sinkage presses the plate down at each --depth-m; the motion flags are for --beta-deg"
+        );
+    }
+    // A body is evaluated at its hub's height as given, held where no motion is.
+    let motion = a.motion().or_else(|| {
+        a.shape
+            .body_name()
+            .map(|_| crate::model::HipMotion::still(a.hip_height_m))
+    });
+    let full = a.full_wrench();
     let rows: Vec<Row> = values
         .iter()
         .map(|&v| {
@@ -226,8 +367,12 @@ pub fn run(a: PredictArgs) -> Result<()> {
                 };
                 (0.0, model.predict_moving(0.0, &hip)?)
             } else {
-                (v, model.predict(v.to_radians())?)
+                match &motion {
+                    Some(hip) => (v, model.predict_moving(v.to_radians(), hip)?),
+                    None => (v, model.predict(v.to_radians())?),
+                }
             };
+            let side = |x: f64| full.then_some(x);
             Ok(Row {
                 beta_deg: deg,
                 submerged_m: p.submerged_m,
@@ -236,6 +381,9 @@ pub fn run(a: PredictArgs) -> Result<()> {
                 lift_n: p.lift_n,
                 hip_torque_nm: p.hip_torque_nm,
                 regime: p.regime.as_str(),
+                side_n: side(p.side_n),
+                roll_moment_nm: side(p.roll_moment_nm),
+                yaw_moment_nm: side(p.yaw_moment_nm),
             })
         })
         .collect::<Result<_>>()?;
@@ -243,10 +391,14 @@ pub fn run(a: PredictArgs) -> Result<()> {
         Format::Json => serde_json::to_string_pretty(&rows)? + "\n",
         Format::Csv => {
             let mut s =
-                String::from("beta_deg,submerged_m,depth_m,drag_n,lift_n,hip_torque_nm,regime\n");
+                String::from("beta_deg,submerged_m,depth_m,drag_n,lift_n,hip_torque_nm,regime");
+            if full {
+                s += ",side_n,roll_moment_nm,yaw_moment_nm";
+            }
+            s += "\n";
             for r in &rows {
                 s += &format!(
-                    "{},{:.6},{:.6},{:.6},{:.6},{:.6},{}\n",
+                    "{},{:.6},{:.6},{:.6},{:.6},{:.6},{}",
                     r.beta_deg,
                     r.submerged_m,
                     r.depth_m,
@@ -255,6 +407,13 @@ pub fn run(a: PredictArgs) -> Result<()> {
                     r.hip_torque_nm,
                     r.regime
                 );
+                for v in [r.side_n, r.roll_moment_nm, r.yaw_moment_nm]
+                    .into_iter()
+                    .flatten()
+                {
+                    s += &format!(",{v:.6}");
+                }
+                s += "\n";
             }
             s
         }

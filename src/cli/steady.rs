@@ -27,24 +27,13 @@ pub enum BodyShape {
     Mesh,
 }
 
-#[derive(Debug, Args)]
-pub struct SteadyArgs {
-    /// The runs: a CSV with columns load_n (N, the load the sand bears), hub_vx_m_s (the hub's
-    /// speed over the ground along its travel), omega_rad_s (+ rolling forward) and
-    /// slip_angle_deg (the heading's angle from the travel, + the travel toward the wheel's
-    /// left); other columns are passed through, a measured sinkage_m, drawbar_n, side_n or
-    /// torque_nm as measured_<name>, and compared.
-    #[arg(value_name = "RUNS.csv")]
-    pub runs: PathBuf,
-    /// The body.
-    #[arg(long, value_enum, default_value = "wheel")]
-    pub shape: BodyShape,
+/// What a body's shape takes (`--shape wheel|disc|sphere|box|mesh`), but its width: `terzaghi
+/// steady`'s and `terzaghi predict`'s.
+#[derive(Debug, Clone, Args)]
+pub struct BodyArgs {
     /// The wheel's rim radius, or the disc's or sphere's (m).
     #[arg(long, value_name = "M", allow_negative_numbers = true)]
     pub radius_m: Option<f64>,
-    /// The wheel's width (m).
-    #[arg(long, value_name = "M", allow_negative_numbers = true)]
-    pub width_m: Option<f64>,
     /// The disc's thickness (m).
     #[arg(long, value_name = "M", allow_negative_numbers = true)]
     pub thickness_m: Option<f64>,
@@ -96,14 +85,81 @@ pub struct SteadyArgs {
         allow_negative_numbers = true
     )]
     pub grouser_thickness_m: Option<f64>,
+    /// Elements of the rim (at least 360).
+    #[arg(long, value_name = "N", default_value_t = 720)]
+    pub rim_elements: usize,
+}
+
+impl BodyArgs {
+    /// The flags given that only a body takes.
+    pub fn given(&self) -> Vec<&'static str> {
+        [
+            ("--radius-m", self.radius_m.is_some()),
+            ("--thickness-m", self.thickness_m.is_some()),
+            ("--size-m", self.size_m.is_some()),
+            ("--mesh-file", self.mesh_file.is_some()),
+            ("--grouser-count", self.grouser_count.is_some()),
+        ]
+        .into_iter()
+        .filter_map(|(flag, given)| given.then_some(flag))
+        .collect()
+    }
+
+    /// The body of `shape` (`wheel`, `disc`, ...) and `width_m` (a wheel's) the flags describe;
+    /// a flag of another shape is an error naming it.
+    pub fn body(&self, shape: &str, width_m: Option<f64>) -> Result<Body> {
+        let grousers = match (
+            self.grouser_count,
+            self.grouser_height_m,
+            self.grouser_thickness_m,
+        ) {
+            (Some(count), Some(height_m), Some(thickness_m)) => Some(Grousers {
+                count,
+                height_m,
+                thickness_m,
+            }),
+            _ => None,
+        };
+        build_body(
+            &BodySpec {
+                shape: shape.to_string(),
+                radius_m: self.radius_m,
+                width_m,
+                thickness_m: self.thickness_m,
+                size_m: self.size_m.clone(),
+                mesh_file: self.mesh_file.clone(),
+                mesh_scale: self.mesh_scale,
+                element_m: self.element_m,
+                grousers,
+                rim_elements: self.rim_elements,
+            },
+            |name| format!("--{}", name.replace('_', "-")),
+        )
+    }
+}
+
+#[derive(Debug, Args)]
+pub struct SteadyArgs {
+    /// The runs: a CSV with columns load_n (N, the load the sand bears), hub_vx_m_s (the hub's
+    /// speed over the ground along its travel), omega_rad_s (+ rolling forward) and
+    /// slip_angle_deg (the heading's angle from the travel, + the travel toward the wheel's
+    /// left); other columns are passed through, a measured sinkage_m, drawbar_n, side_n or
+    /// torque_nm as measured_<name>, and compared.
+    #[arg(value_name = "RUNS.csv")]
+    pub runs: PathBuf,
+    /// The body.
+    #[arg(long, value_enum, default_value = "wheel")]
+    pub shape: BodyShape,
+    /// The wheel's width (m).
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
+    pub width_m: Option<f64>,
+    #[command(flatten)]
+    pub body: BodyArgs,
     /// The medium: a medium file (terzaghi calibrate): its RFT shape, law in depth and speed
     /// law where it was calibrated on intrusion tests, else poppy_lp's shape under its
     /// rft_depth_power law.
     #[arg(long, value_name = "FILE")]
     pub medium_file: PathBuf,
-    /// Elements of the rim (at least 360).
-    #[arg(long, value_name = "N", default_value_t = 720)]
-    pub rim_elements: usize,
     /// Hold each run at the sinkage (m) of this column instead of solving for it (a measured
     /// sinkage_m, say): the load the sand bears there is the outcome (load_borne_n, compared
     /// with the run's load_n where it has one), to tell which force the model misses.
@@ -118,41 +174,14 @@ pub struct SteadyArgs {
     pub out: Option<PathBuf>,
 }
 
-/// The body the flags describe; a flag of another shape is an error naming it.
-fn body(a: &SteadyArgs, grousers: Option<Grousers>) -> Result<Body> {
+pub fn run(a: SteadyArgs) -> Result<()> {
+    let medium = MediumFile::read(&a.medium_file)?;
+    let law = medium.rft_law(None)?;
     let shape = a
         .shape
         .to_possible_value()
         .map_or(String::new(), |v| v.get_name().to_string());
-    build_body(
-        &BodySpec {
-            shape,
-            radius_m: a.radius_m,
-            width_m: a.width_m,
-            thickness_m: a.thickness_m,
-            size_m: a.size_m.clone(),
-            mesh_file: a.mesh_file.clone(),
-            mesh_scale: a.mesh_scale,
-            element_m: a.element_m,
-            grousers,
-            rim_elements: a.rim_elements,
-        },
-        |name| format!("--{}", name.replace('_', "-")),
-    )
-}
-
-pub fn run(a: SteadyArgs) -> Result<()> {
-    let medium = MediumFile::read(&a.medium_file)?;
-    let law = medium.rft_law(None)?;
-    let grousers = match (a.grouser_count, a.grouser_height_m, a.grouser_thickness_m) {
-        (Some(count), Some(height_m), Some(thickness_m)) => Some(Grousers {
-            count,
-            height_m,
-            thickness_m,
-        }),
-        _ => None,
-    };
-    let body = body(&a, grousers)?;
+    let body = a.body.body(&shape, a.width_m)?;
     let text = std::fs::read_to_string(&a.runs)
         .with_context(|| format!("cannot read {}", a.runs.display()))?;
     let solve = match &a.at_sinkage {
