@@ -425,10 +425,15 @@ impl Body {
             travel: (tx, ty),
             moving: travel > 0.0,
         };
+        let stress = Stress {
+            coefficients,
+            depth_law,
+            speed_law,
+        };
         let (f, m) = if hy == 0.0 && !self.planar.is_empty() {
-            self.planar_sum(coefficients, depth_law, speed_law, hub, &at)
+            self.planar_sum(&stress, hub, &at)
         } else {
-            Self::general_sum(&self.spatial, coefficients, depth_law, speed_law, hub, &at)
+            Self::general_sum(&self.spatial, &stress, hub, &at)
         };
         BodyForce {
             force_n: f,
@@ -440,12 +445,15 @@ impl Body {
     /// [`Body::forces`]'s sum over `elements`, in any motion.
     fn general_sum(
         elements: &[Element],
-        coefficients: &RftCoefficients,
-        depth_law: Option<&RftDepthLaw>,
-        speed_law: Option<&RftSpeedLaw>,
+        stress: &Stress,
         hub: &HubMotion,
         at: &Place,
     ) -> ([f64; 3], [f64; 3]) {
+        let Stress {
+            coefficients,
+            depth_law,
+            speed_law,
+        } = *stress;
         let [hx, hy, hz] = hub.velocity_m_s;
         let w = hub.omega_rad_s;
         let ((lx, ly), (tx, ty)) = (at.lowest_xy, at.travel);
@@ -530,15 +538,14 @@ impl Body {
     /// `y` = 0) for a motion in that plane: the same law, with what the plane makes constant
     /// taken out (no velocity across an element, the element's speed its in-plane speed, which
     /// cancels from the stress), so that an element in the sand costs one square root, one
-    /// division and its depth law, where the general sum takes four and eight. It agrees with the general sum to rounding (a test checks it).
-    fn planar_sum(
-        &self,
-        coefficients: &RftCoefficients,
-        depth_law: Option<&RftDepthLaw>,
-        speed_law: Option<&RftSpeedLaw>,
-        hub: &HubMotion,
-        at: &Place,
-    ) -> ([f64; 3], [f64; 3]) {
+    /// division and its depth law, where the general sum takes four and eight. It agrees with
+    /// the general sum to rounding (a test checks it).
+    fn planar_sum(&self, stress: &Stress, hub: &HubMotion, at: &Place) -> ([f64; 3], [f64; 3]) {
+        let Stress {
+            coefficients,
+            depth_law,
+            speed_law,
+        } = *stress;
         let [hx, _, hz] = hub.velocity_m_s;
         let w = hub.omega_rad_s;
         let (lx, tx) = (at.lowest_xy.0, at.travel.0);
@@ -1234,14 +1241,12 @@ mod tests {
                             travel: (if travel > 0.0 { v[0] / travel } else { 0.0 }, 0.0),
                             moving: travel > 0.0,
                         };
-                        let (f, m) = Body::general_sum(
-                            &body.planar,
+                        let stress = Stress {
                             coefficients,
                             depth_law,
                             speed_law,
-                            &hub,
-                            &at,
-                        );
+                        };
+                        let (f, m) = Body::general_sum(&body.planar, &stress, &hub, &at);
                         let scale = f.iter().chain(&m).fold(1e-9, |a: f64, x| a.max(x.abs()));
                         pressing += usize::from(scale > 1e-3);
                         for (a, b) in fast
