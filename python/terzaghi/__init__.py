@@ -288,17 +288,32 @@ def steady(
             or grouser_count < 1):
         raise TerzaghiError(f"grouser_count {grouser_count!r} is not a whole number of grousers >= 1")
     n = len(flat["hub_vx_m_s"])
+
+    def number(name, v, optional=True):
+        # A body's value that is no number is refused naming it, as the model's refusals are.
+        if v is None and optional:
+            return None
+        try:
+            return float(v)
+        except (TypeError, ValueError):
+            raise TerzaghiError(f"{name} {v!r} is not a number") from None
+
+    if size_m is not None:
+        try:
+            sizes = [number("size_m", v) for v in size_m]
+        except TypeError:
+            raise TerzaghiError(f"size_m {size_m!r} is not three sizes (m)") from None
     cols = _terzaghi.steady(
         flat.get("load_n", [0.0] * n), flat["hub_vx_m_s"], flat["omega_rad_s"],
         flat["slip_angle_deg"], flat.get("sinkage_m"), str(shape),
-        None if radius_m is None else float(radius_m),
-        None if width_m is None else float(width_m),
-        None if thickness_m is None else float(thickness_m),
-        None if size_m is None else [float(v) for v in size_m],
-        None if mesh_file is None else os.fspath(mesh_file), float(mesh_scale), float(element_m),
-        None if grouser_count is None else (int(grouser_count), float(grouser_height_m),
-                                            float(grouser_thickness_m)),
-        int(rim_elements), os.fspath(medium_file))
+        number("radius_m", radius_m), number("width_m", width_m),
+        number("thickness_m", thickness_m), None if size_m is None else sizes,
+        None if mesh_file is None else os.fspath(mesh_file),
+        number("mesh_scale", mesh_scale, False), number("element_m", element_m, False),
+        None if grouser_count is None else (int(grouser_count),
+                                            number("grouser_height_m", grouser_height_m),
+                                            number("grouser_thickness_m", grouser_thickness_m)),
+        int(number("rim_elements", rim_elements, False)), os.fspath(medium_file))
     shape = b[0].shape
     names = ("sinkage_m", "drawbar_n", "side_n", "torque_nm", "load_borne_n")
     return {k: np.asarray(c, dtype=np.float64).reshape(shape) for k, c in zip(names, cols)}

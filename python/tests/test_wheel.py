@@ -66,6 +66,15 @@ def test_what_is_no_run_is_refused_by_name():
         terzaghi.steady(20.0, radius_m=-1.0, width_m=0.05, medium_file=MEDIUM)
     with pytest.raises(terzaghi.TerzaghiError, match="must be numbers"):
         terzaghi.steady("heavy", **WHEEL)
+    # A body's value that is no number is named, not a bare conversion error.
+    with pytest.raises(terzaghi.TerzaghiError, match=r"size_m 'a' is not a number"):
+        terzaghi.steady(8.0, shape="box", size_m=["a", 0.02, 0.05], medium_file=MEDIUM)
+    with pytest.raises(terzaghi.TerzaghiError, match=r"size_m 0.05 is not three sizes"):
+        terzaghi.steady(8.0, shape="box", size_m=0.05, medium_file=MEDIUM)
+    with pytest.raises(terzaghi.TerzaghiError, match=r"radius_m 'wide' is not a number"):
+        terzaghi.steady(8.0, radius_m="wide", width_m=0.05, medium_file=MEDIUM)
+    with pytest.raises(terzaghi.TerzaghiError, match=r"rim_elements None is not a number"):
+        terzaghi.steady(8.0, rim_elements=None, **WHEEL)
 
 
 @pytest.mark.parametrize("shape,args,cli_args", [
