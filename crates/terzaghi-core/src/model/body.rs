@@ -394,37 +394,8 @@ impl Body {
         speed_law: Option<&RftSpeedLaw>,
         hub: &HubMotion,
     ) -> BodyForce {
-        // Turned by the angle (a round body is the same at every angle): a point (x, z) of the
-        // outline as built is at (x c + z s, -x s + z c), as rolling forward carries it.
-        let turned = !self.round && hub.angle_rad != 0.0 && hub.angle_rad.is_finite();
-        let (sin_a, cos_a) = if turned {
-            hub.angle_rad.sin_cos()
-        } else {
-            (0.0, 1.0)
-        };
-        let reach = self.reach_at_m(if turned { hub.angle_rad } else { 0.0 });
-        // The rut begins behind the lowest point.
-        let (lx, ly) = self.lowest_xy_at(if turned { hub.angle_rad } else { 0.0 }, reach);
-        let sinkage = reach - hub.height_m;
-        let rut = -sinkage.max(0.0);
-        let [hx, hy, _] = hub.velocity_m_s;
-        // Behind the body along its travel the sand is its rut (where it travels at all).
-        let travel = hx.hypot(hy);
-        let (tx, ty) = if travel > 0.0 {
-            (hx / travel, hy / travel)
-        } else {
-            (0.0, 0.0)
-        };
-        let at = Place {
-            turned,
-            sin_a,
-            cos_a,
-            lowest_xy: (lx, ly),
-            rut,
-            height_m: hub.height_m,
-            travel: (tx, ty),
-            moving: travel > 0.0,
-        };
+        let (at, sinkage) = self.place(hub);
+        let hy = hub.velocity_m_s[1];
         let stress = Stress {
             coefficients,
             depth_law,
@@ -440,6 +411,35 @@ impl Body {
             moment_nm: m,
             sinkage_m: sinkage,
         }
+    }
+
+    /// Where the body is for its elements at the hub's place and motion, and its sinkage (m).
+    fn place(&self, hub: &HubMotion) -> (Place, f64) {
+        // Turned by the angle (a round body is the same at every angle): a point (x, z) of the
+        // outline as built is at (x c + z s, -x s + z c), as rolling forward carries it.
+        let turned = !self.round && hub.angle_rad != 0.0 && hub.angle_rad.is_finite();
+        let angle = if turned { hub.angle_rad } else { 0.0 };
+        let (sin_a, cos_a) = if turned { angle.sin_cos() } else { (0.0, 1.0) };
+        let reach = self.reach_at_m(angle);
+        let sinkage = reach - hub.height_m;
+        // Behind the body along its travel the sand is its rut, from its lowest point on.
+        let [hx, hy, _] = hub.velocity_m_s;
+        let travel = hx.hypot(hy);
+        let place = Place {
+            turned,
+            sin_a,
+            cos_a,
+            lowest_xy: self.lowest_xy_at(angle, reach),
+            rut: -sinkage.max(0.0),
+            height_m: hub.height_m,
+            travel: if travel > 0.0 {
+                (hx / travel, hy / travel)
+            } else {
+                (0.0, 0.0)
+            },
+            moving: travel > 0.0,
+        };
+        (place, sinkage)
     }
 
     /// [`Body::forces`]'s sum over `elements`, in any motion.
@@ -1227,20 +1227,7 @@ mod tests {
                             angle_rad: angle,
                         };
                         let fast = body.forces(coefficients, depth_law, speed_law, &hub);
-                        let turned = !body.round && angle != 0.0;
-                        let (sin_a, cos_a) = if turned { angle.sin_cos() } else { (0.0, 1.0) };
-                        let reach = body.reach_at_m(if turned { angle } else { 0.0 });
-                        let travel = v[0].abs();
-                        let at = Place {
-                            turned,
-                            sin_a,
-                            cos_a,
-                            lowest_xy: body.lowest_xy_at(if turned { angle } else { 0.0 }, reach),
-                            rut: -(reach - hub.height_m).max(0.0),
-                            height_m: hub.height_m,
-                            travel: (if travel > 0.0 { v[0] / travel } else { 0.0 }, 0.0),
-                            moving: travel > 0.0,
-                        };
+                        let (at, _) = body.place(&hub);
                         let stress = Stress {
                             coefficients,
                             depth_law,
