@@ -198,9 +198,10 @@ pub fn fit(ctx: &Context, design: &Design, search: Option<Effect>) -> Fit {
         let p = design.columns();
         for (i, pt) in ctx.points.iter().enumerate() {
             if c.k == k_all || pt.fold == c.k {
-                let row = &cols[i * 2 * p..(i + 1) * 2 * p];
-                let yd: f64 = row[..p].iter().zip(&c.coef).map(|(x, c)| x * c).sum();
-                let yl: f64 = row[p..].iter().zip(&c.coef).map(|(x, c)| x * c).sum();
+                let cols = &cols;
+                let at = |c0: usize| (0..p).map(move |j| cols[(c0 + j) * n + i]);
+                let yd: f64 = at(0).zip(&c.coef).map(|(x, c)| x * c).sum();
+                let yl: f64 = at(p).zip(&c.coef).map(|(x, c)| x * c).sum();
                 if c.k == k_all {
                     fitted[i] = [yd, yl];
                 } else {
@@ -309,7 +310,7 @@ fn fit_ln_a(ctx: &Context, effects: &[Effect], nl: &[Nonlinear]) -> Vec<Candidat
             None => groups.push((*v, vec![k])),
         }
     }
-    let mut cols = Vec::new();
+    let mut buf = Buffers::default();
     let mut out = Vec::new();
     for (setting, ks) in groups {
         let unit = ctx.unit_forces_with_hip_offset(setting.surface_drop_m);
@@ -317,7 +318,7 @@ fn fit_ln_a(ctx: &Context, effects: &[Effect], nl: &[Nonlinear]) -> Vec<Candidat
         // sse[k][grid index]
         let mut sse = vec![vec![f64::INFINITY; grid.len()]; k_all + 1];
         for (gi, &ln_a) in grid.iter().enumerate() {
-            let sums = fold_sums(ctx, &parts, ln_a, &setting, &mut cols);
+            let sums = fold_sums(ctx, &parts, ln_a, &setting, &mut buf);
             for &k in &ks {
                 sse[k][gi] = train(&sums, k, k_all).solve().1;
             }
@@ -351,7 +352,7 @@ fn fit_ln_a(ctx: &Context, effects: &[Effect], nl: &[Nonlinear]) -> Vec<Candidat
                 if x <= lo || x >= hi {
                     continue;
                 }
-                let sums = fold_sums(ctx, &parts, x, &setting, &mut cols);
+                let sums = fold_sums(ctx, &parts, x, &setting, &mut buf);
                 xs.push(x);
                 for (k, y) in ys.iter_mut().enumerate() {
                     y.push(if ks.contains(&k) {
@@ -367,7 +368,7 @@ fn fit_ln_a(ctx: &Context, effects: &[Effect], nl: &[Nonlinear]) -> Vec<Candidat
         for &k in &ks {
             let y: Vec<f64> = order.iter().map(|&i| ys[k][i]).collect();
             let ln_a = refine(&xs, &y);
-            let sums = fold_sums(ctx, &parts, ln_a, &setting, &mut cols);
+            let sums = fold_sums(ctx, &parts, ln_a, &setting, &mut buf);
             let (coef, train_sse) = train(&sums, k, k_all).solve();
             out.push(Candidate {
                 k,
@@ -409,51 +410,92 @@ fn refine(x: &[f64], y: &[f64]) -> f64 {
     (x1 - 0.5 * num / den).clamp(x0, x2)
 }
 
+/// Scratch space of [`fold_sums`], kept between its calls.
+#[derive(Default)]
+struct Buffers {
+    /// The columns in time order (when the sensor's lag needs them so).
+    cols: Vec<f64>,
+    /// `a^(-beta)` at every point.
+    w: Vec<f64>,
+    /// A chunk of one fold's points, column by column ([`CHUNK`] values a column).
+    chunk: Vec<f64>,
+}
+
+/// How many of a fold's points [`fold_sums`] takes at once: their columns stay in the fastest
+/// cache while every product of two columns is summed over them.
+const CHUNK: usize = 128;
+
 /// Per-fold sums (index `folds`: the total) of the design at `ln_a` (its columns from
-/// `parts`).
+/// `parts`). A fold's points are taken a chunk at a time, their columns gathered side by side,
+/// so that each entry of the normal equations is a dot product over contiguous memory. Without
+/// the sensor's lag no column is written out for the whole session: a chunk's are made from
+/// `parts` as they are gathered.
 fn fold_sums(
     ctx: &Context,
     parts: &Parts,
     ln_a: f64,
     nl: &Nonlinear,
-    cols: &mut Vec<f64>,
+    buf: &mut Buffers,
 ) -> Vec<Sums> {
-    parts.columns(ctx, ln_a, nl, cols);
-    let p = parts.p;
+    let (p, n) = (parts.p, ctx.points.len());
     let mut sums = vec![Sums::zero(p); ctx.folds + 1];
-    // Accumulate the upper triangles in flat buffers (nalgebra indexing per element is slow).
-    let mut xtx = vec![vec![0.0; p * p]; ctx.folds];
-    let mut xty = vec![vec![0.0; p]; ctx.folds];
-    let mut yty = vec![0.0; ctx.folds];
-    for (i, pt) in ctx.points.iter().enumerate() {
-        let f = pt.fold;
-        for c in 0..2 {
-            let row = &cols[(2 * i + c) * p..(2 * i + c + 1) * p];
-            let y = pt.y_n[c];
-            let (m, v) = (&mut xtx[f], &mut xty[f]);
-            for r in 0..p {
-                let xr = row[r];
-                if xr == 0.0 {
-                    continue;
-                }
-                for (acc, x) in m[r * p + r..(r + 1) * p].iter_mut().zip(&row[r..]) {
-                    *acc += xr * x;
-                }
-                v[r] += xr * y;
-            }
-            yty[f] += y * y;
-        }
+    if n == 0 {
+        return sums;
     }
-    for f in 0..ctx.folds {
-        for r in 0..p {
-            for s in r..p {
-                sums[f].xtx[(r, s)] = xtx[f][r * p + s];
-                sums[f].xtx[(s, r)] = xtx[f][r * p + s];
+    let lagged = nl.lag_s > 0.0;
+    if lagged {
+        parts.columns(ctx, ln_a, nl, &mut buf.cols);
+    } else {
+        buf.w.clear();
+        buf.w
+            .extend(parts.beta_rad.iter().map(|b| (-ln_a * b).exp()));
+    }
+    buf.chunk.resize(2 * p * CHUNK, 0.0);
+    let mut xtx = vec![0.0; p * p];
+    let mut xty = vec![0.0; p];
+    for (f, range) in parts.fold_ranges.iter().enumerate() {
+        xtx.fill(0.0);
+        xty.fill(0.0);
+        for start in range.clone().step_by(CHUNK) {
+            let idx = &parts.order[start..(start + CHUNK).min(range.end)];
+            let m = idx.len();
+            for (q, dst) in buf.chunk.chunks_exact_mut(CHUNK).enumerate() {
+                let dst = &mut dst[..m];
+                let col = q * n..(q + 1) * n;
+                if lagged {
+                    let src = &buf.cols[col];
+                    for (d, &i) in dst.iter_mut().zip(idx) {
+                        *d = src[i];
+                    }
+                } else {
+                    let (fixed, scaled) = (&parts.fixed[col.clone()], &parts.scaled[col]);
+                    for (d, &i) in dst.iter_mut().zip(idx) {
+                        *d = fixed[i] + scaled[i] * buf.w[i];
+                    }
+                }
             }
-            sums[f].xty[r] = xty[f][r];
+            for c in 0..2 {
+                let col = |j: usize| &buf.chunk[(c * p + j) * CHUNK..][..m];
+                let y = &parts.y_by_fold[c * parts.order.len() + start..][..m];
+                for j in 0..p {
+                    let xj = col(j);
+                    for k in j..p {
+                        xtx[j * p + k] += dot(xj, col(k));
+                    }
+                    xty[j] += dot(xj, y);
+                }
+            }
         }
-        sums[f].yty = yty[f];
-        let own = sums[f].clone();
+        let s = &mut sums[f];
+        for j in 0..p {
+            for k in j..p {
+                s.xtx[(j, k)] = xtx[j * p + k];
+                s.xtx[(k, j)] = xtx[j * p + k];
+            }
+            s.xty[j] = xty[j];
+        }
+        s.yty = parts.yty[f];
+        let own = s.clone();
         let total = &mut sums[ctx.folds];
         total.xtx += &own.xtx;
         total.xty += &own.xty;
@@ -462,8 +504,26 @@ fn fold_sums(
     sums
 }
 
-/// The design's columns at every point: `cols[(2 i + c) p + j]` for point `i`, component `c`
-/// (drag, lift), column `j`.
+/// `sum a_i b_i`, in four running sums (which the compiler keeps in vector registers).
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
+    let tail: f64 = ca
+        .remainder()
+        .iter()
+        .zip(cb.remainder())
+        .map(|(x, y)| x * y)
+        .sum();
+    let mut acc = [0.0; 4];
+    for (x, y) in ca.zip(cb) {
+        for k in 0..4 {
+            acc[k] += x[k] * y[k];
+        }
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
+}
+
+/// The design's columns at every point, column by column: `cols[(c p + j) n + i]` for point
+/// `i` of `n`, component `c` (drag, lift), column `j`.
 /// `unit` is the unit model's forces at every point for `nl`'s surface level
 /// ([`Context::unit_forces_with_hip_offset`]), computed once per setting by the caller.
 fn build(
@@ -515,8 +575,8 @@ fn columns_at(
             e.push_columns(&pt.terms(), base, w, nl, &mut row);
         }
         for (j, v) in row.iter().enumerate() {
-            cols[2 * i * p + j] = v[0];
-            cols[(2 * i + 1) * p + j] = v[1];
+            cols[j * n + i] = v[0];
+            cols[(p + j) * n + i] = v[1];
         }
     }
     p
@@ -530,6 +590,18 @@ struct Parts {
     p: usize,
     fixed: Vec<f64>,
     scaled: Vec<f64>,
+    /// The indices of the points that count, fold by fold (in time order within a fold), and
+    /// each fold's range of them.
+    order: Vec<usize>,
+    fold_ranges: Vec<std::ops::Range<usize>>,
+    /// The measured drag, then lift, in `order`; and each fold's sum of their squares over
+    /// all of its points.
+    y_by_fold: Vec<f64>,
+    yty: Vec<f64>,
+    /// The points' attack angles (rad), in time order.
+    beta_rad: Vec<f64>,
+    /// The sensor's lag between points, for `nl`'s time constant ([`lag_steps`]).
+    lag_steps: Vec<(f64, f64, bool)>,
 }
 
 impl Parts {
@@ -541,53 +613,113 @@ impl Parts {
         for (s, f) in scaled.iter_mut().zip(&fixed) {
             *s -= f;
         }
-        Parts { p, fixed, scaled }
+        let n = ctx.points.len();
+        // Without the sensor's lag, a point whose columns are all zero (out of the medium, for
+        // most designs) adds to no sum but its measurement's square: it is left out of `order`.
+        let lagged = nl.lag_s > 0.0;
+        let counts = |i: usize| {
+            lagged || (0..2 * p).any(|q| fixed[q * n + i] != 0.0 || scaled[q * n + i] != 0.0)
+        };
+        let mut order: Vec<usize> = (0..n)
+            .filter(|&i| ctx.points[i].fold < ctx.folds && counts(i))
+            .collect();
+        order.sort_by_key(|&i| ctx.points[i].fold);
+        let mut fold_ranges = Vec::with_capacity(ctx.folds);
+        let mut start = 0;
+        for f in 0..ctx.folds {
+            let end = start
+                + order[start..]
+                    .iter()
+                    .take_while(|&&i| ctx.points[i].fold == f)
+                    .count();
+            fold_ranges.push(start..end);
+            start = end;
+        }
+        let y_by_fold = (order.iter().map(|&i| ctx.points[i].y_n[0]))
+            .chain(order.iter().map(|&i| ctx.points[i].y_n[1]))
+            .collect();
+        let mut yty = vec![0.0; ctx.folds];
+        for pt in ctx.points.iter().filter(|pt| pt.fold < ctx.folds) {
+            yty[pt.fold] += pt.y_n[0].powi(2) + pt.y_n[1].powi(2);
+        }
+        Parts {
+            p,
+            fixed,
+            scaled,
+            order,
+            fold_ranges,
+            y_by_fold,
+            yty,
+            beta_rad: ctx.points.iter().map(|pt| pt.beta_rad).collect(),
+            lag_steps: if nl.lag_s > 0.0 {
+                lag_steps(ctx, nl.lag_s)
+            } else {
+                Vec::new()
+            },
+        }
     }
 
     /// The columns at `ln_a`, the sensor's lag of `nl` applied.
     fn columns(&self, ctx: &Context, ln_a: f64, nl: &Nonlinear, cols: &mut Vec<f64>) {
-        let q = 2 * self.p;
-        cols.clear();
+        let n = ctx.points.len();
+        if n == 0 {
+            cols.clear();
+            return;
+        }
+        let w: Vec<f64> = self.beta_rad.iter().map(|b| (-ln_a * b).exp()).collect();
+        // Every value is written below: a buffer of the right length is not cleared first.
         cols.resize(self.fixed.len(), 0.0);
-        for (i, pt) in ctx.points.iter().enumerate() {
-            let w = (-ln_a * pt.beta_rad).exp();
-            let r = i * q..(i + 1) * q;
-            for ((c, f), s) in cols[r.clone()]
-                .iter_mut()
-                .zip(&self.fixed[r.clone()])
-                .zip(&self.scaled[r])
-            {
+        for ((c, f), s) in cols
+            .chunks_exact_mut(n)
+            .zip(self.fixed.chunks_exact(n))
+            .zip(self.scaled.chunks_exact(n))
+        {
+            for (((c, f), s), w) in c.iter_mut().zip(f).zip(s).zip(&w) {
                 *c = f + s * w;
             }
         }
         if nl.lag_s > 0.0 {
-            lag(ctx, nl.lag_s, self.p, cols);
+            lag_with(&self.lag_steps, nl.lag_s, self.p, cols);
         }
     }
 }
 
-/// The sensor's first-order lag with time constant `tau` on every column ([`lag_step`]). In
-/// place: the previous point's raw input is kept aside.
+/// The sensor's first-order lag with time constant `tau` on every column ([`lag_step`]) of
+/// `cols` (column by column, as [`columns_at`] lays them out), in place.
 fn lag(ctx: &Context, tau: f64, p: usize, cols: &mut [f64]) {
-    let n = ctx.points.len();
-    if n == 0 {
+    lag_with(&lag_steps(ctx, tau), tau, p, cols);
+}
+
+/// What [`lag`] needs of each step between points: `lag_step`'s `dt`, its exponential (taken
+/// once per step), and whether time moved forward.
+fn lag_steps(ctx: &Context, tau: f64) -> Vec<(f64, f64, bool)> {
+    ctx.points
+        .windows(2)
+        .map(|w| {
+            let dt = w[1].t_s - w[0].t_s;
+            (dt, (-dt / tau).exp(), dt > 0.0 && dt.is_finite())
+        })
+        .collect()
+}
+
+/// [`lag`] with its steps given.
+fn lag_with(steps: &[(f64, f64, bool)], tau: f64, p: usize, cols: &mut [f64]) {
+    let n = steps.len() + 1;
+    if n < 2 {
         return;
     }
-    let mut raw_prev: Vec<f64> = cols[..2 * p].to_vec();
-    for i in 1..n {
-        let dt = ctx.points[i].t_s - ctx.points[i - 1].t_s;
-        // lag_step's, its exponential once per point.
-        let decay = (-dt / tau).exp();
-        let forward = dt > 0.0 && dt.is_finite();
-        for q in 0..2 * p {
-            let (x0, x1, y0) = (raw_prev[q], cols[2 * i * p + q], cols[2 * (i - 1) * p + q]);
-            raw_prev[q] = x1;
-            cols[2 * i * p + q] = if forward {
+    for col in cols.chunks_exact_mut(n).take(2 * p) {
+        // The previous point's raw input, before it was overwritten by its lagged value.
+        let mut x0 = col[0];
+        for (i, &(dt, decay, forward)) in steps.iter().enumerate() {
+            let (x1, y0) = (col[i + 1], col[i]);
+            col[i + 1] = if forward {
                 let g = (x1 - x0) / dt;
                 x1 - g * tau + (y0 - x0 + g * tau) * decay
             } else {
                 y0
             };
+            x0 = x1;
         }
     }
 }
@@ -625,15 +757,104 @@ mod tests {
         );
         let ctx = Context::new(&model, &samples, &[], &kinematics(&samples, 5), 2, 1);
         // One column, the time itself, lagged by 20 ms: y = t - tau once settled.
-        let mut cols: Vec<f64> = ctx.points.iter().flat_map(|p| [p.t_s, p.t_s]).collect();
+        let n = ctx.points.len();
+        let mut cols: Vec<f64> = ctx
+            .points
+            .iter()
+            .map(|p| p.t_s)
+            .collect::<Vec<_>>()
+            .repeat(2);
         lag(&ctx, 0.02, 1, &mut cols);
         for (i, p) in ctx.points.iter().enumerate().skip(500) {
-            assert!(
-                (cols[2 * i] - (p.t_s - 0.02)).abs() < 1e-9,
-                "{} at {}",
-                cols[2 * i],
-                p.t_s
-            );
+            for c in 0..2 {
+                let v = cols[c * n + i];
+                assert!((v - (p.t_s - 0.02)).abs() < 1e-9, "{v} at {}", p.t_s);
+            }
+        }
+    }
+
+    /// Each fold's normal equations, as the search sums them a chunk of points at a time, are
+    /// those of the columns built directly: with and without the sensor's lag, for folds of
+    /// whole strokes and for one stroke's samples alternately in two folds.
+    #[test]
+    fn the_fold_sums_are_the_normal_equations_of_the_built_columns() {
+        let samples: Vec<Sample> = (0..2000)
+            .map(|i| {
+                let t = i as f64 * 0.004;
+                Sample {
+                    t_s: Some(t),
+                    beta_rad: (4.0 * t).rem_euclid(std::f64::consts::TAU),
+                    drag_n: 10.0 * (3.0 * t).sin(),
+                    lift_n: 4.0 + (5.0 * t).cos(),
+                }
+            })
+            .collect();
+        let model = TerzaghiModel::conventional(
+            Plate::new(0.25, 0.06, 0.15).unwrap(),
+            Medium::new(16170.0, 32.0, 19.0).unwrap(),
+        );
+        let whole = Context::new(&model, &samples, &[], &kinematics(&samples, 5), 3, 1);
+        assert!(whole.strokes >= 3, "{} strokes", whole.strokes);
+        let alternate = whole.sub_session(&[1], 2);
+        // With a sensor's bias every point counts; without it, those out of the medium do not.
+        let designs = [
+            &[Effect::Rate, Effect::Surcharge, Effect::SensorBias][..],
+            &[Effect::Rate, Effect::Surcharge][..],
+        ];
+        for (ctx, effects, lag_s) in [&whole, &alternate]
+            .into_iter()
+            .flat_map(|c| designs.map(|e| (c, e)))
+            .flat_map(|(c, e)| [0.0, 0.015].map(|l| (c, e, l)))
+        {
+            let n = ctx.points.len();
+            {
+                let nl = Nonlinear {
+                    lag_s,
+                    ..Nonlinear::default()
+                };
+                let unit = ctx.unit_forces_with_hip_offset(nl.surface_drop_m);
+                let parts = Parts::new(ctx, effects, &nl, &unit);
+                let p = parts.p;
+                let skipped = effects.len() == 2 && lag_s == 0.0;
+                assert_eq!(
+                    parts.order.len() < n,
+                    skipped,
+                    "{} of {n}",
+                    parts.order.len()
+                );
+                let ln_a = 0.7;
+                let sums = fold_sums(ctx, &parts, ln_a, &nl, &mut Buffers::default());
+                let mut cols = Vec::new();
+                build(ctx, effects, f64::exp(ln_a), &nl, &unit, &mut cols);
+                for (f, got) in sums.iter().enumerate() {
+                    let mine = |pt: &super::super::context::Point| f == ctx.folds || pt.fold == f;
+                    let mut want = Sums::zero(p);
+                    for (i, pt) in ctx.points.iter().enumerate().filter(|(_, pt)| mine(pt)) {
+                        for c in 0..2 {
+                            let x = |j: usize| cols[(c * p + j) * n + i];
+                            for j in 0..p {
+                                for k in 0..p {
+                                    want.xtx[(j, k)] += x(j) * x(k);
+                                }
+                                want.xty[j] += x(j) * pt.y_n[c];
+                            }
+                            want.yty += pt.y_n[c].powi(2);
+                        }
+                    }
+                    let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs().max(1.0);
+                    assert!(want.yty > 0.0 && close(got.yty, want.yty), "fold {f}");
+                    for j in 0..p {
+                        assert!(close(got.xty[j], want.xty[j]), "fold {f} xty {j}");
+                        for k in 0..p {
+                            let (g, w) = (got.xtx[(j, k)], want.xtx[(j, k)]);
+                            assert!(
+                                close(g, w),
+                                "fold {f} lag {lag_s}: ({j}, {k}) {g} against {w}"
+                            );
+                        }
+                    }
+                }
+            }
         }
     }
 
@@ -690,18 +911,20 @@ mod tests {
             }
         }
         // The lag as lag_step gives it, on a ramp of uneven steps.
-        let mut cols: Vec<f64> = ctx
-            .points
-            .iter()
-            .flat_map(|p| [p.t_s.sin(), p.t_s])
+        let n = ctx.points.len();
+        let mut cols: Vec<f64> = (ctx.points.iter().map(|p| p.t_s.sin()))
+            .chain(ctx.points.iter().map(|p| p.t_s))
             .collect();
         let raw = cols.clone();
         lag(&ctx, 0.01, 1, &mut cols);
-        let mut y = raw[0];
-        for i in 1..ctx.points.len() {
-            let dt = ctx.points[i].t_s - ctx.points[i - 1].t_s;
-            y = crate::model::corrections::lag_step(raw[2 * (i - 1)], raw[2 * i], y, dt, 0.01);
-            assert_eq!(cols[2 * i], y, "point {i}");
+        for c in 0..2 {
+            let mut y = raw[c * n];
+            for i in 1..n {
+                let dt = ctx.points[i].t_s - ctx.points[i - 1].t_s;
+                let (x0, x1) = (raw[c * n + i - 1], raw[c * n + i]);
+                y = crate::model::corrections::lag_step(x0, x1, y, dt, 0.01);
+                assert_eq!(cols[c * n + i], y, "column {c}, point {i}");
+            }
         }
     }
 }
