@@ -415,7 +415,7 @@ fn refine(x: &[f64], y: &[f64]) -> f64 {
 struct Buffers {
     /// The columns in time order (when the sensor's lag needs them so).
     cols: Vec<f64>,
-    /// `a^(-beta)` at every point.
+    /// `a^(-beta)` at the points that count, in their order (without the sensor's lag).
     w: Vec<f64>,
     /// A chunk of one fold's points, column by column ([`CHUNK`] values a column).
     chunk: Vec<f64>,
@@ -446,9 +446,10 @@ fn fold_sums(
     if lagged {
         parts.columns(ctx, ln_a, nl, &mut buf.cols);
     } else {
+        // At the points that count, in their order.
         buf.w.clear();
         buf.w
-            .extend(parts.beta_rad.iter().map(|b| (-ln_a * b).exp()));
+            .extend((parts.order.iter()).map(|&i| (-ln_a * parts.beta_rad[i]).exp()));
     }
     buf.chunk.resize(2 * p * CHUNK, 0.0);
     let mut xtx = vec![0.0; p * p];
@@ -469,8 +470,9 @@ fn fold_sums(
                     }
                 } else {
                     let (fixed, scaled) = (&parts.fixed[col.clone()], &parts.scaled[col]);
-                    for (d, &i) in dst.iter_mut().zip(idx) {
-                        *d = fixed[i] + scaled[i] * buf.w[i];
+                    let w = &buf.w[start..start + m];
+                    for ((d, &i), w) in dst.iter_mut().zip(idx).zip(w) {
+                        *d = fixed[i] + scaled[i] * w;
                     }
                 }
             }
