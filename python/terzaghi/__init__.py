@@ -123,11 +123,52 @@ def _model_tail(b_k, a, rft_coeffs, rft_zeta, rft_elements, shape, c_leg_radius_
             None if medium_file is None else os.fspath(medium_file))
 
 
+#: The shapes that are bodies (by 3D RFT, with a medium file): ``predict`` and ``steady`` take
+#: them with the values each needs, as ``terzaghi predict --shape`` and ``terzaghi steady``.
+BODY_SHAPES = ("wheel", "disc", "sphere", "box", "mesh")
+
+
+def _number(name: str, v, optional: bool = True) -> Optional[float]:
+    """``v`` as a float, or a TerzaghiError naming ``name`` (``None`` passes if optional)."""
+    if v is None and optional:
+        return None
+    try:
+        return float(v)
+    except (TypeError, ValueError):
+        raise TerzaghiError(f"{name} {v!r} is not a number") from None
+
+
+def _body(shape, radius_m, width_m, thickness_m, size_m, mesh_file, mesh_scale, element_m,
+          grouser_count, grouser_height_m, grouser_thickness_m, rim_elements) -> tuple:
+    """A body's values as the native calls take them, each checked and named."""
+    grousers = (grouser_count, grouser_height_m, grouser_thickness_m)
+    if any(g is not None for g in grousers) and not all(g is not None for g in grousers):
+        raise TerzaghiError("grousers need grouser_count, grouser_height_m and grouser_thickness_m")
+    if grouser_count is not None and (
+            isinstance(grouser_count, bool) or not isinstance(grouser_count, (int, float, np.number))
+            or not float(grouser_count).is_integer() or grouser_count < 1):
+        raise TerzaghiError(f"grouser_count {grouser_count!r} is not a whole number of grousers >= 1")
+    sizes = None
+    if size_m is not None:
+        try:
+            sizes = [_number("size_m", v) for v in size_m]
+        except TypeError:
+            raise TerzaghiError(f"size_m {size_m!r} is not three sizes (m)") from None
+    return (str(shape), _number("radius_m", radius_m), _number("width_m", width_m),
+            _number("thickness_m", thickness_m), sizes,
+            None if mesh_file is None else os.fspath(mesh_file),
+            _number("mesh_scale", mesh_scale, False), _number("element_m", element_m, False),
+            None if grouser_count is None else (int(grouser_count),
+                                                _number("grouser_height_m", grouser_height_m),
+                                                _number("grouser_thickness_m", grouser_thickness_m)),
+            int(_number("rim_elements", rim_elements, False)))
+
+
 def predict(
     beta_rad: ArrayLike,
     *,
     length_m: Optional[float] = None,
-    width_m: float,
+    width_m: Optional[float] = None,
     hip_height_m: ArrayLike,
     medium: Optional[str] = None,
     unit_weight_n_m3: Optional[float] = None,
@@ -145,8 +186,21 @@ def predict(
     profile=None,
     medium_file: Optional[PathLike] = None,
     up_m_s: Optional[ArrayLike] = None,
+    forward_m_s: Optional[ArrayLike] = None,
+    lateral_m_s: Optional[ArrayLike] = None,
+    omega_rad_s: Optional[ArrayLike] = None,
+    radius_m: Optional[float] = None,
+    thickness_m: Optional[float] = None,
+    size_m: Optional[Sequence[float]] = None,
+    mesh_file: Optional[PathLike] = None,
+    mesh_scale: float = 1.0,
+    element_m: float = 0.002,
+    grouser_count: Optional[int] = None,
+    grouser_height_m: Optional[float] = None,
+    grouser_thickness_m: Optional[float] = None,
+    rim_elements: int = 720,
 ) -> Dict[str, np.ndarray]:
-    """The forces on a leg at each attack angle, as ``terzaghi predict`` gives them.
+    """The forces on a leg or a body at each attack angle, as ``terzaghi predict`` gives them.
 
     Args:
         beta_rad: attack angles (rad), an array of any shape (or a number).
@@ -169,37 +223,71 @@ def predict(
             of ``c_leg_radius_m`` (default half the length) over ``c_leg_span_deg`` (default
             180); RFT only, as the node's ``<leg>.shape: c_leg``), or ``"polyline"`` (any
             mid-line: ``profile``, ``[(s, q), ...]`` in metres from the hip, ``s`` along the
-            chord, ``q`` toward the travel; RFT only, as ``<leg>.shape: polyline``).
+            chord, ``q`` toward the travel; RFT only, as ``<leg>.shape: polyline``); or a body
+            (:data:`BODY_SHAPES`: ``"wheel"``, ``"disc"``, ``"sphere"``, ``"box"``, ``"mesh"``,
+            about the hip, its hub) with the values :func:`steady` takes (``radius_m``,
+            ``width_m``, ``thickness_m``, ``size_m``, ``mesh_file``, ``mesh_scale``,
+            ``element_m``, the grousers, ``rim_elements``): RFT with ``medium_file``; its reach
+            and width are its own (``length_m`` is not given); its hub may be below the surface.
+        up_m_s, forward_m_s, lateral_m_s, omega_rad_s: the hip's velocity (up, forward, to the
+            robot's left; m/s) and the leg's rotation rate (rad/s, + as the attack angle grows),
+            arrays broadcast with ``beta_rad``. Without them a leg turns quasi-statically and a
+            body is held (the sand's reaction to it, no drag), as ``terzaghi predict``.
 
     Returns:
         A dict of arrays shaped like ``beta_rad``: ``drag_n``, ``lift_n``,
         ``hip_torque_nm``, ``submerged_m``, ``depth_m`` (float64) and ``regime``
-        (uint8 codes; their names are :data:`REGIMES`).
+        (uint8 codes; their names are :data:`REGIMES`); for a body, or a leg moving sideways,
+        also ``side_n``, ``roll_moment_nm`` and ``yaw_moment_nm``.
 
     Raises:
         TerzaghiError: a value the model refuses (a NaN angle, a plate that never enters the
             medium, an unknown preset, ...), named.
     """
-    if length_m is None:
-        if model != "sinkage":
-            raise TerzaghiError("length_m is needed (the leg from the hip axis to the tip)")
-        length_m = width_m  # a disc
+    body_values = dict(radius_m=radius_m, thickness_m=thickness_m, size_m=size_m,
+                       mesh_file=mesh_file, grouser_count=grouser_count,
+                       grouser_height_m=grouser_height_m, grouser_thickness_m=grouser_thickness_m)
+    body = None
+    if shape in BODY_SHAPES:
+        if length_m is not None:
+            raise TerzaghiError(f"length_m is not given for a body ({shape}): its reach is its own")
+        body = _body(shape, width_m=width_m, mesh_scale=mesh_scale, element_m=element_m,
+                     rim_elements=rim_elements, **body_values)
+        length_m, width_m, shape = 1.0, 1.0, "plate"  # the body's own, in the native call
+    else:
+        given = [k for k, v in body_values.items() if v is not None]
+        if given:
+            raise TerzaghiError(f"{given[0]} is for a body (shape one of {', '.join(BODY_SHAPES)})")
+        if width_m is None:
+            raise TerzaghiError("width_m is needed (the leg's width, m)")
+        if length_m is None:
+            if model != "sinkage":
+                raise TerzaghiError("length_m is needed (the leg from the hip axis to the tip)")
+            length_m = width_m  # a disc
     tail = (*_medium(medium, unit_weight_n_m3, phi_deg, delta_deg),
             *_model_tail(b_k, a, rft_coeffs, rft_zeta, rft_elements, shape, c_leg_radius_m,
                          c_leg_span_deg, profile, medium_file))
-    if model == "sinkage" or np.ndim(hip_height_m) > 0 or up_m_s is not None:
+    motion = {"up_m_s": up_m_s, "forward_m_s": forward_m_s, "lateral_m_s": lateral_m_s,
+              "omega_rad_s": omega_rad_s}
+    moving = any(v is not None for v in motion.values())
+    # The side force and the moments about the heading and the vertical: a body's, or a leg's
+    # moving sideways (as terzaghi predict's columns).
+    full = body is not None or (lateral_m_s is not None and np.any(np.asarray(lateral_m_s) != 0))
+    if model == "sinkage" or body is not None or np.ndim(hip_height_m) > 0 or moving:
         given = {"beta_rad": beta_rad, "hip_height_m": hip_height_m,
-                 "up_m_s": 0.0 if up_m_s is None else up_m_s}
-        b, h, u = _broadcast(given)
+                 **{k: 0.0 if v is None else v for k, v in motion.items()}}
+        b, h, u, f, l, w = _broadcast(given)
         cols, regime = _terzaghi.predict_moving(
-            b.ravel().tolist(), h.ravel().tolist(), u.ravel().tolist(), model, float(length_m),
-            float(width_m), *tail)
-        drag, lift, torque, submerged, depth = (np.asarray(c).reshape(b.shape) for c in cols)
+            b.ravel().tolist(), h.ravel().tolist(), u.ravel().tolist(), f.ravel().tolist(),
+            l.ravel().tolist(), w.ravel().tolist(), model, float(length_m), float(width_m),
+            *tail, body)
+        drag, lift, torque, submerged, depth, side, roll, yaw = (
+            np.asarray(c).reshape(b.shape) for c in cols)
         regime = np.frombuffer(bytes(regime), dtype=np.uint8).reshape(b.shape).copy()
     else:
         drag, lift, torque, submerged, depth, regime = _terzaghi.predict(
             beta_rad, model, float(length_m), float(width_m), float(hip_height_m), *tail)
-    return {
+    out = {
         "drag_n": drag,
         "lift_n": lift,
         "hip_torque_nm": torque,
@@ -207,6 +295,9 @@ def predict(
         "depth_m": depth,
         "regime": regime,
     }
+    if full:
+        out.update(side_n=side, roll_moment_nm=roll, yaw_moment_nm=yaw)
+    return out
 
 
 def steady(
@@ -280,40 +371,12 @@ def steady(
         given["sinkage_m"] = sinkage_m
     b = _broadcast(given)
     flat = {k: a.ravel().tolist() for k, a in zip(given, b)}
-    grousers = (grouser_count, grouser_height_m, grouser_thickness_m)
-    if any(g is not None for g in grousers) and not all(g is not None for g in grousers):
-        raise TerzaghiError("grousers need grouser_count, grouser_height_m and grouser_thickness_m")
-    if grouser_count is not None and (
-            isinstance(grouser_count, bool) or not float(grouser_count).is_integer()
-            or grouser_count < 1):
-        raise TerzaghiError(f"grouser_count {grouser_count!r} is not a whole number of grousers >= 1")
+    body = _body(shape, radius_m, width_m, thickness_m, size_m, mesh_file, mesh_scale, element_m,
+                 grouser_count, grouser_height_m, grouser_thickness_m, rim_elements)
     n = len(flat["hub_vx_m_s"])
-
-    def number(name, v, optional=True):
-        # A body's value that is no number is refused naming it, as the model's refusals are.
-        if v is None and optional:
-            return None
-        try:
-            return float(v)
-        except (TypeError, ValueError):
-            raise TerzaghiError(f"{name} {v!r} is not a number") from None
-
-    if size_m is not None:
-        try:
-            sizes = [number("size_m", v) for v in size_m]
-        except TypeError:
-            raise TerzaghiError(f"size_m {size_m!r} is not three sizes (m)") from None
     cols = _terzaghi.steady(
         flat.get("load_n", [0.0] * n), flat["hub_vx_m_s"], flat["omega_rad_s"],
-        flat["slip_angle_deg"], flat.get("sinkage_m"), str(shape),
-        number("radius_m", radius_m), number("width_m", width_m),
-        number("thickness_m", thickness_m), None if size_m is None else sizes,
-        None if mesh_file is None else os.fspath(mesh_file),
-        number("mesh_scale", mesh_scale, False), number("element_m", element_m, False),
-        None if grouser_count is None else (int(grouser_count),
-                                            number("grouser_height_m", grouser_height_m),
-                                            number("grouser_thickness_m", grouser_thickness_m)),
-        int(number("rim_elements", rim_elements, False)), os.fspath(medium_file))
+        flat["slip_angle_deg"], flat.get("sinkage_m"), *body, os.fspath(medium_file))
     shape = b[0].shape
     names = ("sinkage_m", "drawbar_n", "side_n", "torque_nm", "load_borne_n")
     return {k: np.asarray(c, dtype=np.float64).reshape(shape) for k, c in zip(names, cols)}

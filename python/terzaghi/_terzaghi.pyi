@@ -62,6 +62,9 @@ def predict_moving(
     beta_rad: List[float],
     hip_height_m: List[float],
     up_m_s: List[float],
+    forward_m_s: List[float],
+    lateral_m_s: List[float],
+    omega_rad_s: List[float],
     model: str,
     length_m: float,
     width_m: float,
@@ -79,6 +82,20 @@ def predict_moving(
     c_leg_span_deg: Optional[float],
     profile: Optional[List[Tuple[float, float]]],
     medium_file: Optional[str],
+    body: Optional[
+        Tuple[
+            str,
+            Optional[float],
+            Optional[float],
+            Optional[float],
+            Optional[List[float]],
+            Optional[str],
+            float,
+            float,
+            Optional[Tuple[int, float, float]],
+            int,
+        ]
+    ],
 ) -> Tuple[List[List[float]], List[int]]: ...
 def fit_json(
     beta_rad: npt.ArrayLike,

@@ -119,3 +119,61 @@ def test_a_mesh_foot_and_a_foot_given_what_it_does_not_take(tmp_path):
         terzaghi.steady(8.0, shape="disc", radius_m=0.03, medium_file=MEDIUM)
     with pytest.raises(terzaghi.TerzaghiError, match="no body shape \"cone\""):
         terzaghi.steady(8.0, shape="cone", medium_file=MEDIUM)
+
+
+def _predict_rows(text):
+    rows = list(csv.DictReader(text.splitlines()))
+    return {k: np.array([float(r[k]) if k != "regime" else 0.0 for r in rows]) for k in rows[0]}
+
+
+@pytest.mark.parametrize("shape,args,cli_args", [
+    ("wheel", dict(radius_m=0.058, width_m=0.05, grouser_count=8, grouser_height_m=0.01,
+                   grouser_thickness_m=0.004),
+     ["--radius-m", "0.058", "--width-m", "0.05", "--grouser-count", "8",
+      "--grouser-height-m", "0.01", "--grouser-thickness-m", "0.004"]),
+    ("box", dict(size_m=[0.05, 0.02, 0.05]), ["--size-m", "0.05,0.02,0.05"]),
+])
+def test_predict_gives_a_body_what_the_command_gives(shape, args, cli_args):
+    # A body turning through its angles with its hub 20 mm over the surface (the wheel's rim
+    # 38 mm deep), moving forward and to the left and rolling; then held, its hub 5 mm deep.
+    common = ["predict", "--model", "rft", "--shape", shape, *cli_args, "--medium-file", MEDIUM,
+              "--beta-deg", "0:90:30"]
+    beta = np.radians([0.0, 30.0, 60.0, 90.0])
+    for hub, motion in [(0.02, dict(forward_m_s=0.01, lateral_m_s=0.004, omega_rad_s=0.2)),
+                        (-0.005, {})]:
+        flags = [f"--{k.replace('_', '-')}={v}" for k, v in motion.items()]
+        cli = _predict_rows(run(*common, f"--hip-height-m={hub}", *flags))
+        py = terzaghi.predict(beta, model="rft", shape=shape, hip_height_m=hub,
+                              medium_file=MEDIUM, **args, **motion)
+        assert py["lift_n"].max() > 1.0, py  # the sand is pressed: no comparison of zeros
+        for k in ("drag_n", "lift_n", "hip_torque_nm", "side_n", "roll_moment_nm",
+                  "yaw_moment_nm", "submerged_m", "depth_m"):
+            np.testing.assert_allclose(py[k], cli[k], rtol=1e-6, atol=1e-6, err_msg=(k, hub))
+    # Arrays of hubs and motions broadcast with the angles, each sample its own.
+    hubs = np.array([[0.02], [0.0]])
+    both = terzaghi.predict(beta, model="rft", shape=shape, hip_height_m=hubs,
+                            forward_m_s=0.01, medium_file=MEDIUM, **args)
+    assert both["side_n"].shape == (2, 4)
+    one = terzaghi.predict(beta, model="rft", shape=shape, hip_height_m=0.0, forward_m_s=0.01,
+                           medium_file=MEDIUM, **args)
+    np.testing.assert_array_equal(both["lift_n"][1], one["lift_n"])
+
+
+def test_predict_refuses_what_a_body_or_a_leg_does_not_take():
+    with pytest.raises(terzaghi.TerzaghiError, match="length_m is not given for a body"):
+        terzaghi.predict(0.0, model="rft", shape="wheel", length_m=0.1, hip_height_m=0.02, **WHEEL)
+    with pytest.raises(terzaghi.TerzaghiError, match="radius_m is for a body"):
+        terzaghi.predict(0.5, length_m=0.25, width_m=0.06, hip_height_m=0.1, radius_m=0.05,
+                         medium="hit_sand")
+    with pytest.raises(terzaghi.TerzaghiError, match="RFT only"):
+        terzaghi.predict(0.0, shape="wheel", hip_height_m=0.02, **WHEEL)
+    with pytest.raises(terzaghi.TerzaghiError, match="size_m"):
+        terzaghi.predict(0.0, model="rft", shape="box", size_m=0.05, hip_height_m=0.0,
+                         medium_file=MEDIUM)
+    with pytest.raises(terzaghi.TerzaghiError, match="omega_rad_s"):
+        terzaghi.predict([0.0, 1.0], model="rft", shape="wheel", hip_height_m=0.02,
+                         omega_rad_s=[np.nan, 0.0], **WHEEL)
+    # A plate moving sideways carries the side columns; one that does not, none.
+    plate = dict(length_m=0.25, width_m=0.06, hip_height_m=0.15, medium="hit_sand")
+    assert "side_n" in terzaghi.predict(1.0, lateral_m_s=0.01, **plate)
+    assert "side_n" not in terzaghi.predict(1.0, **plate)

@@ -300,18 +300,38 @@ fn predict<'py>(
     ))
 }
 
-/// [`predict`] with each sample's own hip: heights (m above the surface, negative below it)
-/// and vertical velocities (m/s, up) beside the angles, flat arrays of one length. The sinkage
-/// model's path (its depth is the hip's height below the surface); the model is built with its
-/// hip at the surface.
+/// A body as Python's `predict` gives it: shape, radius, width, thickness, sizes, mesh file,
+/// mesh scale, element size, grousers (count, height, thickness), rim elements.
+type BodyArgs = (
+    String,
+    Option<f64>,
+    Option<f64>,
+    Option<f64>,
+    Option<Vec<f64>>,
+    Option<std::path::PathBuf>,
+    f64,
+    f64,
+    Option<(usize, f64, f64)>,
+    usize,
+);
+
+/// [`predict`] with each sample's own hip: heights (m above the surface, negative below it),
+/// velocities (forward, to the left and up, m/s) and the leg's rotation rate (rad/s) beside the
+/// angles, flat arrays of one length. The sinkage model's path (its depth is the hip's height
+/// below the surface) and a body's (`body`: then the leg is that body, by RFT, its reach and
+/// width its own); the model is built with its hip at the surface. Columns: drag, lift, hip
+/// torque, submerged length, depth, side force, roll and yaw moments; and the regimes.
 #[pyfunction]
-#[pyo3(signature = (beta_rad, hip_height_m, up_m_s, model, length_m, width_m, medium, unit_weight_n_m3, phi_deg, delta_deg, b_k, a, rft_coeffs, rft_zeta, rft_elements, shape, c_leg_radius_m, c_leg_span_deg, profile, medium_file))]
+#[pyo3(signature = (beta_rad, hip_height_m, up_m_s, forward_m_s, lateral_m_s, omega_rad_s, model, length_m, width_m, medium, unit_weight_n_m3, phi_deg, delta_deg, b_k, a, rft_coeffs, rft_zeta, rft_elements, shape, c_leg_radius_m, c_leg_span_deg, profile, medium_file, body))]
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
 fn predict_moving<'py>(
     py: Python<'py>,
     beta_rad: Vec<f64>,
     hip_height_m: Vec<f64>,
     up_m_s: Vec<f64>,
+    forward_m_s: Vec<f64>,
+    lateral_m_s: Vec<f64>,
+    omega_rad_s: Vec<f64>,
     model: &str,
     length_m: f64,
     width_m: f64,
@@ -329,16 +349,23 @@ fn predict_moving<'py>(
     c_leg_span_deg: Option<f64>,
     profile: Option<Vec<(f64, f64)>>,
     medium_file: Option<std::path::PathBuf>,
+    body: Option<BodyArgs>,
 ) -> PyResult<(Vec<Vec<f64>>, Vec<u8>)> {
-    if hip_height_m.len() != beta_rad.len() || up_m_s.len() != beta_rad.len() {
+    let n = beta_rad.len();
+    let motion = [
+        ("hip_height_m", &hip_height_m),
+        ("up_m_s", &up_m_s),
+        ("forward_m_s", &forward_m_s),
+        ("lateral_m_s", &lateral_m_s),
+        ("omega_rad_s", &omega_rad_s),
+    ];
+    if let Some((name, v)) = motion.iter().find(|(_, v)| v.len() != n) {
         return Err(TerzaghiError::new_err(format!(
-            "{} angles, {} hip heights, {} vertical velocities: give one of each per sample",
-            beta_rad.len(),
-            hip_height_m.len(),
-            up_m_s.len()
+            "{n} angles and {} of {name}: give one of each per sample",
+            v.len()
         )));
     }
-    let m: ForceModel = spec(
+    let mut spec = spec(
         model,
         length_m,
         width_m,
@@ -357,20 +384,51 @@ fn predict_moving<'py>(
         c_leg_span_deg,
         profile,
         medium_file,
-    )?
-    .build()
-    .map_err(err)?;
+    )?;
+    if let Some(b) = body {
+        let (shape, radius_m, width_m, thickness_m, size_m, mesh_file) =
+            (b.0, b.1, b.2, b.3, b.4, b.5);
+        let body = terzaghi::session::steady::build_body(
+            &terzaghi::session::steady::BodySpec {
+                shape,
+                radius_m,
+                width_m,
+                thickness_m,
+                size_m,
+                mesh_file,
+                mesh_scale: b.6,
+                element_m: b.7,
+                grousers: b
+                    .8
+                    .map(|(count, height_m, thickness_m)| terzaghi::model::Grousers {
+                        count,
+                        height_m,
+                        thickness_m,
+                    }),
+                rim_elements: b.9,
+            },
+            str::to_string,
+        )
+        .map_err(err)?;
+        (spec.length_m, spec.width_m) = (body.reach_m(), body.width_m());
+        spec.shape = terzaghi::model_spec::LegShape::Body(Box::new(body));
+    }
+    let m: ForceModel = spec.build().map_err(err)?;
     py.detach(move || {
-        let mut cols: Vec<Vec<f64>> = (0..5).map(|_| Vec::with_capacity(beta_rad.len())).collect();
-        let mut regime = Vec::with_capacity(beta_rad.len());
-        for (k, ((&b, &h), &u)) in beta_rad.iter().zip(&hip_height_m).zip(&up_m_s).enumerate() {
+        let mut cols: Vec<Vec<f64>> = (0..8).map(|_| Vec::with_capacity(n)).collect();
+        let mut regime = Vec::with_capacity(n);
+        for (k, &b) in beta_rad.iter().enumerate() {
+            let [h, u, f, l, w] = motion.map(|(_, v)| v[k]);
             let hip = terzaghi::model::HipMotion {
                 up_m_s: u,
+                forward_m_s: f,
+                lateral_m_s: l,
+                omega_rad_s: w,
                 ..terzaghi::model::HipMotion::still(h)
             };
             let p = m.predict_moving(b, &hip).map_err(|e| {
                 TerzaghiError::new_err(format!(
-                    "sample {k} (flat index): beta_rad {b}, hip_height_m {h}, up_m_s {u}: {e}"
+                    "sample {k} (flat index): beta_rad {b}, hip_height_m {h}, up_m_s {u}, forward_m_s {f}, lateral_m_s {l}, omega_rad_s {w}: {e}"
                 ))
             })?;
             for (c, v) in cols.iter_mut().zip([
@@ -379,6 +437,9 @@ fn predict_moving<'py>(
                 p.hip_torque_nm,
                 p.submerged_m,
                 p.depth_m,
+                p.side_n,
+                p.roll_moment_nm,
+                p.yaw_moment_nm,
             ]) {
                 c.push(v);
             }
