@@ -595,7 +595,7 @@ fn predict_gives_a_body_what_steady_gives_it_at_that_sinkage() {
     let with = |extra: &[&str]| -> Vec<std::ffi::OsString> {
         wheel.iter().chain(extra).map(Into::into).collect()
     };
-    let bad: [(&[&str], &[&str]); 4] = [
+    let bad: [(&[&str], &[&str]); 6] = [
         (
             &["--model", "rft", "--length-m", "0.06"],
             &["--length-m 0.06", "0.058"],
@@ -609,6 +609,15 @@ fn predict_gives_a_body_what_steady_gives_it_at_that_sinkage() {
             &["--model", "rft", "--omega-rad-s", "nan"],
             &["rotation rate", "NaN"],
         ),
+        // A value with a default is still refused where the shape takes none.
+        (
+            &["--model", "rft", "--element-m", "0.01"],
+            &["wheel takes no --element-m"],
+        ),
+        (
+            &["--model", "rft", "--rft-elements", "50"],
+            &["--rft-elements is for a leg's mid-line"],
+        ),
     ];
     for (extra, words) in bad {
         let args = with(extra);
@@ -617,24 +626,26 @@ fn predict_gives_a_body_what_steady_gives_it_at_that_sinkage() {
             words,
         );
     }
-    // A plate's flags stay a plate's.
-    refused(
-        &[
-            "predict",
-            "--radius-m",
-            "0.05",
-            "--length-m",
-            "0.25",
-            "--width-m",
-            "0.06",
-            "--hip-height-m",
-            "0.15",
-            "--medium",
-            "hit_sand",
-            "--beta-deg",
-            "60",
-        ]
-        .map(std::ffi::OsStr::new),
-        &["--radius-m is for a body"],
-    );
+    // A plate's flags stay a plate's, those with a default among them.
+    for flag in ["--radius-m", "--mesh-scale", "--rim-elements"] {
+        refused(
+            &[
+                "predict",
+                flag,
+                "5",
+                "--length-m",
+                "0.25",
+                "--width-m",
+                "0.06",
+                "--hip-height-m",
+                "0.15",
+                "--medium",
+                "hit_sand",
+                "--beta-deg",
+                "60",
+            ]
+            .map(std::ffi::OsStr::new),
+            &[&format!("{flag} is for a body")],
+        );
+    }
 }

@@ -157,11 +157,19 @@ def _body(shape, radius_m, width_m, thickness_m, size_m, mesh_file, mesh_scale, 
     return (str(shape), _number("radius_m", radius_m), _number("width_m", width_m),
             _number("thickness_m", thickness_m), sizes,
             None if mesh_file is None else os.fspath(mesh_file),
-            _number("mesh_scale", mesh_scale, False), _number("element_m", element_m, False),
+            _number("mesh_scale", mesh_scale), _number("element_m", element_m),
             None if grouser_count is None else (int(grouser_count),
                                                 _number("grouser_height_m", grouser_height_m),
                                                 _number("grouser_thickness_m", grouser_thickness_m)),
-            int(_number("rim_elements", rim_elements, False)))
+            None if rim_elements is None else _whole("rim_elements", rim_elements))
+
+
+def _whole(name: str, v) -> int:
+    """``v`` as a whole number, or a TerzaghiError naming ``name``."""
+    f = _number(name, v, False)
+    if not f.is_integer() or f < 0:
+        raise TerzaghiError(f"{name} {v!r} is not a whole number")
+    return int(f)
 
 
 def predict(
@@ -179,7 +187,7 @@ def predict(
     a: Optional[float] = None,
     rft_coeffs: Optional[str] = None,
     rft_zeta: Optional[float] = None,
-    rft_elements: int = 100,
+    rft_elements: Optional[int] = None,
     shape: str = "plate",
     c_leg_radius_m: Optional[float] = None,
     c_leg_span_deg: Optional[float] = None,
@@ -193,12 +201,12 @@ def predict(
     thickness_m: Optional[float] = None,
     size_m: Optional[Sequence[float]] = None,
     mesh_file: Optional[PathLike] = None,
-    mesh_scale: float = 1.0,
-    element_m: float = 0.002,
+    mesh_scale: Optional[float] = None,
+    element_m: Optional[float] = None,
     grouser_count: Optional[int] = None,
     grouser_height_m: Optional[float] = None,
     grouser_thickness_m: Optional[float] = None,
-    rim_elements: int = 720,
+    rim_elements: Optional[int] = None,
 ) -> Dict[str, np.ndarray]:
     """The forces on a leg or a body at each attack angle, as ``terzaghi predict`` gives them.
 
@@ -245,14 +253,17 @@ def predict(
             medium, an unknown preset, ...), named.
     """
     body_values = dict(radius_m=radius_m, thickness_m=thickness_m, size_m=size_m,
-                       mesh_file=mesh_file, grouser_count=grouser_count,
-                       grouser_height_m=grouser_height_m, grouser_thickness_m=grouser_thickness_m)
+                       mesh_file=mesh_file, mesh_scale=mesh_scale, element_m=element_m,
+                       grouser_count=grouser_count, grouser_height_m=grouser_height_m,
+                       grouser_thickness_m=grouser_thickness_m, rim_elements=rim_elements)
     body = None
     if shape in BODY_SHAPES:
         if length_m is not None:
             raise TerzaghiError(f"length_m is not given for a body ({shape}): its reach is its own")
-        body = _body(shape, width_m=width_m, mesh_scale=mesh_scale, element_m=element_m,
-                     rim_elements=rim_elements, **body_values)
+        if rft_elements is not None:
+            raise TerzaghiError(f"rft_elements is for a leg's mid-line: a body ({shape}) is cut "
+                                "by element_m or rim_elements")
+        body = _body(shape, width_m=width_m, **body_values)
         length_m, width_m, shape = 1.0, 1.0, "plate"  # the body's own, in the native call
     else:
         given = [k for k, v in body_values.items() if v is not None]
@@ -265,7 +276,8 @@ def predict(
                 raise TerzaghiError("length_m is needed (the leg from the hip axis to the tip)")
             length_m = width_m  # a disc
     tail = (*_medium(medium, unit_weight_n_m3, phi_deg, delta_deg),
-            *_model_tail(b_k, a, rft_coeffs, rft_zeta, rft_elements, shape, c_leg_radius_m,
+            *_model_tail(b_k, a, rft_coeffs, rft_zeta,
+                         100 if rft_elements is None else rft_elements, shape, c_leg_radius_m,
                          c_leg_span_deg, profile, medium_file))
     motion = {"up_m_s": up_m_s, "forward_m_s": forward_m_s, "lateral_m_s": lateral_m_s,
               "omega_rad_s": omega_rad_s}
@@ -313,12 +325,12 @@ def steady(
     thickness_m: Optional[float] = None,
     size_m: Optional[Sequence[float]] = None,
     mesh_file: Optional[PathLike] = None,
-    mesh_scale: float = 1.0,
-    element_m: float = 0.002,
+    mesh_scale: Optional[float] = None,
+    element_m: Optional[float] = None,
     grouser_count: Optional[int] = None,
     grouser_height_m: Optional[float] = None,
     grouser_thickness_m: Optional[float] = None,
-    rim_elements: int = 720,
+    rim_elements: Optional[int] = None,
     sinkage_m: Optional[ArrayLike] = None,
 ) -> Dict[str, np.ndarray]:
     """A wheel's or a foot's steady state under each run's load, as ``terzaghi steady`` gives it.
@@ -340,10 +352,11 @@ def steady(
         thickness_m: a disc's thickness (m).
         size_m: a box's three sizes (m).
         mesh_file, mesh_scale: a mesh's STL file, its hub at the file's origin, and the metres
-            one of its units is (0.001 for millimetres).
-        element_m: a foot's or a mesh's elements, their longest edge (m).
+            one of its units is (default 1; 0.001 for millimetres).
+        element_m: a foot's or a mesh's elements, their longest edge (m; default 0.002).
         grouser_count, grouser_height_m, grouser_thickness_m: grousers, all three or none.
-        rim_elements: elements of the rim (at least 360).
+        rim_elements: elements of a wheel's rim (at least 360; default 720). A value the shape
+            does not take is refused, as a default or not.
         sinkage_m: hold each run at this sinkage (m) instead of solving for it; the load the
             sand bears there is then ``load_borne_n``.
 

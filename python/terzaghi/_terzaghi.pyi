@@ -22,10 +22,10 @@ def steady(
     thickness_m: Optional[float],
     size_m: Optional[List[float]],
     mesh_file: Optional[str],
-    mesh_scale: float,
-    element_m: float,
+    mesh_scale: Optional[float],
+    element_m: Optional[float],
     grousers: Optional[Tuple[int, float, float]],
-    rim_elements: int,
+    rim_elements: Optional[int],
     medium_file: str,
 ) -> List[List[float]]: ...
 
@@ -90,10 +90,10 @@ def predict_moving(
             Optional[float],
             Optional[List[float]],
             Optional[str],
-            float,
-            float,
+            Optional[float],
+            Optional[float],
             Optional[Tuple[int, float, float]],
-            int,
+            Optional[int],
         ]
     ],
 ) -> Tuple[List[List[float]], List[int]]: ...

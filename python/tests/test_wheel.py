@@ -73,8 +73,13 @@ def test_what_is_no_run_is_refused_by_name():
         terzaghi.steady(8.0, shape="box", size_m=0.05, medium_file=MEDIUM)
     with pytest.raises(terzaghi.TerzaghiError, match=r"radius_m 'wide' is not a number"):
         terzaghi.steady(8.0, radius_m="wide", width_m=0.05, medium_file=MEDIUM)
-    with pytest.raises(terzaghi.TerzaghiError, match=r"rim_elements None is not a number"):
-        terzaghi.steady(8.0, rim_elements=None, **WHEEL)
+    with pytest.raises(terzaghi.TerzaghiError, match=r"rim_elements 'many' is not a number"):
+        terzaghi.steady(8.0, rim_elements="many", **WHEEL)
+    # A value the shape does not take is refused, defaults or not.
+    with pytest.raises(terzaghi.TerzaghiError, match="shape wheel takes no mesh_scale"):
+        terzaghi.steady(8.0, mesh_scale=0.001, **WHEEL)
+    with pytest.raises(terzaghi.TerzaghiError, match="shape sphere takes no rim_elements"):
+        terzaghi.steady(8.0, shape="sphere", radius_m=0.03, rim_elements=720, medium_file=MEDIUM)
 
 
 @pytest.mark.parametrize("shape,args,cli_args", [
@@ -165,6 +170,12 @@ def test_predict_refuses_what_a_body_or_a_leg_does_not_take():
     with pytest.raises(terzaghi.TerzaghiError, match="radius_m is for a body"):
         terzaghi.predict(0.5, length_m=0.25, width_m=0.06, hip_height_m=0.1, radius_m=0.05,
                          medium="hit_sand")
+    with pytest.raises(terzaghi.TerzaghiError, match="element_m is for a body"):
+        terzaghi.predict(0.5, length_m=0.25, width_m=0.06, hip_height_m=0.1, element_m=0.01,
+                         medium="hit_sand")
+    with pytest.raises(terzaghi.TerzaghiError, match="rft_elements is for a leg"):
+        terzaghi.predict(0.0, model="rft", shape="wheel", rft_elements=50, hip_height_m=0.02,
+                         **WHEEL)
     with pytest.raises(terzaghi.TerzaghiError, match="RFT only"):
         terzaghi.predict(0.0, shape="wheel", hip_height_m=0.02, **WHEEL)
     with pytest.raises(terzaghi.TerzaghiError, match="size_m"):

@@ -82,9 +82,10 @@ pub struct PredictArgs {
     pub medium: MediumArgs,
     #[command(flatten)]
     pub width: WidthArgs,
-    /// RFT: number of elements over the submerged length.
-    #[arg(long, value_name = "N", default_value_t = 100)]
-    pub rft_elements: usize,
+    /// RFT: number of elements over a leg's submerged length (default 100; a body is cut by
+    /// --element-m or --rim-elements).
+    #[arg(long, value_name = "N")]
+    pub rft_elements: Option<usize>,
     /// RFT coefficients: poppy_lp, poppy_cp, poppy_lp_grid (measured) or generic (needs
     /// --rft-zeta). Default: the medium preset's, if it has one.
     #[arg(long, value_name = "SET")]
@@ -246,6 +247,11 @@ pub fn build_model(a: &PredictArgs) -> Result<ForceModel> {
             None
         }
     };
+    if body.is_some() && a.rft_elements.is_some() {
+        bail!(
+            "--rft-elements is for a leg's mid-line: a body is cut by --element-m or --rim-elements"
+        );
+    }
     let shape = match (a.shape, &a.profile, body) {
         (_, Some(_), _) if a.shape != Shape::Polyline => bail!("--profile is for --shape polyline"),
         (_, _, Some(body)) => LegShape::Body(Box::new(body)),
@@ -313,7 +319,7 @@ pub fn build_model(a: &PredictArgs) -> Result<ForceModel> {
         a: a.width.a,
         rft_coeffs: a.rft_coeffs.clone(),
         rft_zeta: a.rft_zeta,
-        rft_elements: a.rft_elements,
+        rft_elements: a.rft_elements.unwrap_or(100),
         shape,
     }
     .build()

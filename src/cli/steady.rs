@@ -49,23 +49,13 @@ pub struct BodyArgs {
     /// left, z up.
     #[arg(long, value_name = "FILE.stl")]
     pub mesh_file: Option<PathBuf>,
-    /// Metres per unit of the mesh file (1 for metres, as ROS gives meshes; 0.001 for a CAD part
-    /// in millimetres).
-    #[arg(
-        long,
-        value_name = "M",
-        default_value_t = 1.0,
-        allow_negative_numbers = true
-    )]
-    pub mesh_scale: f64,
-    /// A foot's or a mesh's elements: their longest edge (m).
-    #[arg(
-        long,
-        value_name = "M",
-        default_value_t = 0.002,
-        allow_negative_numbers = true
-    )]
-    pub element_m: f64,
+    /// Metres per unit of the mesh file (default 1: metres, as ROS gives meshes; 0.001 for a
+    /// CAD part in millimetres).
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
+    pub mesh_scale: Option<f64>,
+    /// A foot's or a mesh's elements: their longest edge (m; default 0.002).
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
+    pub element_m: Option<f64>,
     /// Grousers (lugs): how many, evenly spaced around the rim.
     #[arg(long, value_name = "N", requires_all = ["grouser_height_m", "grouser_thickness_m"])]
     pub grouser_count: Option<usize>,
@@ -85,9 +75,9 @@ pub struct BodyArgs {
         allow_negative_numbers = true
     )]
     pub grouser_thickness_m: Option<f64>,
-    /// Elements of the rim (at least 360).
-    #[arg(long, value_name = "N", default_value_t = 720)]
-    pub rim_elements: usize,
+    /// Elements of a wheel's rim (at least 360; default 720).
+    #[arg(long, value_name = "N")]
+    pub rim_elements: Option<usize>,
 }
 
 impl BodyArgs {
@@ -98,7 +88,10 @@ impl BodyArgs {
             ("--thickness-m", self.thickness_m.is_some()),
             ("--size-m", self.size_m.is_some()),
             ("--mesh-file", self.mesh_file.is_some()),
+            ("--mesh-scale", self.mesh_scale.is_some()),
+            ("--element-m", self.element_m.is_some()),
             ("--grouser-count", self.grouser_count.is_some()),
+            ("--rim-elements", self.rim_elements.is_some()),
         ]
         .into_iter()
         .filter_map(|(flag, given)| given.then_some(flag))

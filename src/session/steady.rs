@@ -51,15 +51,22 @@ pub struct BodySpec {
     pub size_m: Option<Vec<f64>>,
     /// A mesh's STL file: its hub at the file's origin, `x` the heading, `y` to the left, `z` up.
     pub mesh_file: Option<std::path::PathBuf>,
-    /// Metres per unit of the mesh file.
-    pub mesh_scale: f64,
-    /// A foot's or a mesh's elements: their longest edge (m).
-    pub element_m: f64,
+    /// Metres per unit of the mesh file (default [`MESH_SCALE`]).
+    pub mesh_scale: Option<f64>,
+    /// A foot's or a mesh's elements: their longest edge (m; default [`ELEMENT_M`]).
+    pub element_m: Option<f64>,
     /// A wheel's grousers.
     pub grousers: Option<crate::model::Grousers>,
-    /// Elements of a wheel's rim (at least 360).
-    pub rim_elements: usize,
+    /// Elements of a wheel's rim (at least 360; default [`RIM_ELEMENTS`]).
+    pub rim_elements: Option<usize>,
 }
+
+/// A mesh file's metres per unit where none is given: metres, as ROS gives meshes.
+pub const MESH_SCALE: f64 = 1.0;
+/// A foot's or a mesh's longest element edge where none is given (m).
+pub const ELEMENT_M: f64 = 0.002;
+/// A wheel's rim elements where none is given.
+pub const RIM_ELEMENTS: usize = 720;
 
 /// The body `spec` describes, its hub at the body's centre (a mesh's at the file's origin).
 /// A value of another shape, or one the shape needs and lacks, is an error naming it as
@@ -72,14 +79,17 @@ pub fn build_body(spec: &BodySpec, name: impl Fn(&str) -> String) -> Result<Body
         ("thickness_m", spec.thickness_m.is_some()),
         ("size_m", spec.size_m.is_some()),
         ("mesh_file", spec.mesh_file.is_some()),
+        ("mesh_scale", spec.mesh_scale.is_some()),
+        ("element_m", spec.element_m.is_some()),
         ("grouser_count", spec.grousers.is_some()),
+        ("rim_elements", spec.rim_elements.is_some()),
     ];
     let takes: &[&str] = match shape {
-        "wheel" => &["radius_m", "width_m", "grouser_count"],
-        "disc" => &["radius_m", "thickness_m"],
-        "sphere" => &["radius_m"],
-        "box" => &["size_m"],
-        "mesh" => &["mesh_file"],
+        "wheel" => &["radius_m", "width_m", "grouser_count", "rim_elements"],
+        "disc" => &["radius_m", "thickness_m", "element_m"],
+        "sphere" => &["radius_m", "element_m"],
+        "box" => &["size_m", "element_m"],
+        "mesh" => &["mesh_file", "mesh_scale", "element_m"],
         other => bail!("no body shape {other:?}: expected wheel, disc, sphere, box or mesh"),
     };
     if let Some((field, _)) = given.iter().find(|(f, g)| *g && !takes.contains(f)) {
@@ -94,14 +104,14 @@ pub fn build_body(spec: &BodySpec, name: impl Fn(&str) -> String) -> Result<Body
         v.ok_or_else(|| anyhow::anyhow!("{} {shape} needs {}", name("shape"), name(field)))
     };
     // A foot's rim: segments (rings of a sphere) about as long as its elements.
-    let element_m = spec.element_m;
+    let element_m = spec.element_m.unwrap_or(ELEMENT_M);
     let around = |r: f64| ((std::f64::consts::TAU * r / element_m).ceil() as usize).clamp(12, 4096);
     Ok(match shape {
         "wheel" => Body::wheel(
             needed(spec.radius_m, "radius_m")?,
             needed(spec.width_m, "width_m")?,
             spec.grousers,
-            spec.rim_elements,
+            spec.rim_elements.unwrap_or(RIM_ELEMENTS),
         )?,
         "disc" => {
             let r = needed(spec.radius_m, "radius_m")?;
@@ -133,7 +143,7 @@ pub fn build_body(spec: &BodySpec, name: impl Fn(&str) -> String) -> Result<Body
             spec.mesh_file.as_deref().ok_or_else(|| {
                 anyhow::anyhow!("{} mesh needs {}", name("shape"), name("mesh_file"))
             })?,
-            spec.mesh_scale,
+            spec.mesh_scale.unwrap_or(MESH_SCALE),
             [0.0; 3],
             [0.0; 3],
             element_m,

@@ -143,10 +143,10 @@ fn steady(
     thickness_m: Option<f64>,
     size_m: Option<Vec<f64>>,
     mesh_file: Option<std::path::PathBuf>,
-    mesh_scale: f64,
-    element_m: f64,
+    mesh_scale: Option<f64>,
+    element_m: Option<f64>,
     grousers: Option<(usize, f64, f64)>,
-    rim_elements: usize,
+    rim_elements: Option<usize>,
     medium_file: std::path::PathBuf,
 ) -> PyResult<[Vec<f64>; 5]> {
     use terzaghi::model::{Drive, Grousers, Stress, state_at_sinkage, steady_sinkage};
@@ -309,10 +309,10 @@ type BodyArgs = (
     Option<f64>,
     Option<Vec<f64>>,
     Option<std::path::PathBuf>,
-    f64,
-    f64,
+    Option<f64>,
+    Option<f64>,
     Option<(usize, f64, f64)>,
-    usize,
+    Option<usize>,
 );
 
 /// [`predict`] with each sample's own hip: heights (m above the surface, negative below it),
