@@ -1267,7 +1267,7 @@ mod tests {
     #[test]
     fn the_gains_from_logarithms_are_the_rows_gains() {
         let (rows, _) = prepare(&campaign(&RftFit::POPPY_CP, 1.3), &ShapeOptions::default());
-        let taken = |r: &Prepared| r.row % 3 != 0;
+        let taken = |r: &Prepared| !r.row.is_multiple_of(3);
         for z0 in [-0.004, 0.0, 0.003] {
             let logs = DepthLogs::new(&rows, &taken, z0);
             for n in [0.6, 1.0, 1.37, 2.2] {
