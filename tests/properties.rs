@@ -210,7 +210,7 @@ mod agree_with_the_crates {
         fn csv_rows_read_back_with_the_csv_crate(
             legs in prop::collection::vec("[a-z ,\"_]{1,10}", 1..4),
             values in prop::collection::vec(
-                (any::<usize>(), prop::array::uniform13(any_f64()), any::<bool>(), any::<bool>(), 0usize..5),
+                (any::<usize>(), prop::array::uniform16(any_f64()), any::<bool>(), any::<bool>(), 0usize..5),
                 1..60),
         ) {
             let mut rows = CsvRows::new(&legs).unwrap();
@@ -234,6 +234,9 @@ mod agree_with_the_crates {
                     bare_lift_n: v[10],
                     expected_reading_drag_n: v[11],
                     expected_reading_lift_n: v[12],
+                    predicted_side_n: v[13],
+                    predicted_roll_moment_nm: v[14],
+                    predicted_yaw_moment_nm: v[15],
                 })
                 .collect();
             for r in &written {
@@ -247,7 +250,7 @@ mod agree_with_the_crates {
                 b.to_bits() == v.to_bits() || (b.is_nan() && v.is_nan())
             };
             for (b, w) in back.iter().zip(&written) {
-                prop_assert_eq!(b.len(), 16);
+                prop_assert_eq!(b.len(), 19);
                 prop_assert!(same(&b[0], w.t_s));
                 prop_assert_eq!(&b[1], legs[w.leg].as_str());
                 prop_assert!(same(&b[2], w.beta_rad));
@@ -262,7 +265,9 @@ mod agree_with_the_crates {
                 }
                 prop_assert_eq!(&b[11], if w.identified { "true" } else { "false" });
                 for (i, v) in [(12, w.bare_drag_n), (13, w.bare_lift_n),
-                               (14, w.expected_reading_drag_n), (15, w.expected_reading_lift_n)] {
+                               (14, w.expected_reading_drag_n), (15, w.expected_reading_lift_n),
+                               (16, w.predicted_side_n), (17, w.predicted_roll_moment_nm),
+                               (18, w.predicted_yaw_moment_nm)] {
                     prop_assert!(same(&b[i], v), "field {} of {:?}", i, b);
                 }
             }

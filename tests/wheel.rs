@@ -649,3 +649,89 @@ fn predict_gives_a_body_what_steady_gives_it_at_that_sinkage() {
         );
     }
 }
+
+/// A wheel leg of a CSV force log whose hub moves to the robot's left (`hip_vy_m_s`) has its
+/// side force and moments in `replay --reevaluate`'s rows, as `terzaghi predict` gives that
+/// state (the sign the docs give: moving left, pushed toward +y, the hip frame's right); moving
+/// straight, none.
+#[test]
+fn replayed_rows_carry_a_body_s_side_force() {
+    let dir = tempfile::tempdir().unwrap();
+    let medium = repo().join("tests/data/medium_without_shape.yaml");
+    let params = dir.path().join("wheel.yaml");
+    std::fs::write(
+        &params,
+        format!(
+            "/**:\n  ros__parameters:\n    model: rft\n    legs: [wheel]\n    wheel:\n      joint: wheel_joint\n      shape: wheel\n      wheel:\n        radius_m: 0.058\n      width_m: 0.05\n      hip_height_m: 0.0\n      medium: {}\n      ft_topic: /wheel/ft\n",
+            medium.display()
+        ),
+    )
+    .unwrap();
+    for lateral_m_s in [0.004, 0.0] {
+        let log = dir.path().join("log.csv");
+        let mut text =
+            String::from("t_s,beta_rad,drag_n,lift_n,hip_height_m,hip_vx_m_s,hip_vy_m_s\n");
+        for i in 0..20 {
+            let t = 0.01 * f64::from(i);
+            text += &format!("{t},{},1.0,10.0,0.03,0.01,{lateral_m_s}\n", 0.2 * t);
+        }
+        std::fs::write(&log, text).unwrap();
+        let out_csv = dir.path().join("rows.csv");
+        ok(&Command::new(terzaghi())
+            .args(["replay", "--reevaluate"])
+            .arg(&log)
+            .arg("--params-file")
+            .arg(&params)
+            .args(["-p", "use_identified:=false", "-o"])
+            .arg(&out_csv)
+            .output()
+            .unwrap());
+        let rows = rows(&out_csv);
+        assert_eq!(rows.len(), 20);
+        let last = &rows[19];
+        let side = num(last, "predicted_side_n");
+        if lateral_m_s == 0.0 {
+            assert_eq!(side, 0.0, "{last:?}");
+            continue;
+        }
+        assert!(side > 0.05, "{last:?}");
+        let shown = ok(&Command::new(terzaghi())
+            .args([
+                "predict",
+                "--model",
+                "rft",
+                "--shape",
+                "wheel",
+                "--radius-m",
+                "0.058",
+            ])
+            .args(["--width-m", "0.05", "--medium-file"])
+            .arg(&medium)
+            .args([
+                "--hip-height-m",
+                "0.03",
+                "--forward-m-s",
+                "0.01",
+                "--omega-rad-s",
+                "0.2",
+                "--format",
+                "json",
+            ])
+            .arg(format!("--lateral-m-s={lateral_m_s}"))
+            .arg(format!("--beta-deg={}", num(last, "beta_rad").to_degrees()))
+            .output()
+            .unwrap());
+        let p: serde_json::Value = serde_json::from_str(&shown).unwrap();
+        for (col, key) in [
+            ("predicted_side_n", "side_n"),
+            ("predicted_roll_moment_nm", "roll_moment_nm"),
+            ("predicted_yaw_moment_nm", "yaw_moment_nm"),
+            ("predicted_lift_n", "lift_n"),
+        ] {
+            // Within 1 %: the replayed wheel rolls in the rut it has pressed since the log's
+            // start, where predict's meets fresh sand.
+            let (a, b) = (num(last, col), p[0][key].as_f64().unwrap());
+            assert!((a - b).abs() <= 1e-2 * b.abs(), "{col}: {a} against {b}");
+        }
+    }
+}

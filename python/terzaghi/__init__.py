@@ -549,7 +549,8 @@ def session_rows(
         ``{leg: {column: array}}`` (columns ``t_s``, ``beta_rad``, ``regime`` codes,
         ``measured_drag_n`` and ``measured_lift_n`` (NaN where the row has none),
         ``predicted_drag_n``, ``predicted_lift_n``, ``predicted_hip_torque_nm``, ``b_k``, ``a``,
-        ``identified``, ``bare_*``, ``expected_reading_*``), or ``{leg: DataFrame}`` with
+        ``identified``, ``bare_*``, ``expected_reading_*``, and a body's ``predicted_side_n``,
+        ``predicted_roll_moment_nm``, ``predicted_yaw_moment_nm``), or ``{leg: DataFrame}`` with
         ``pandas=True`` (its ``regime`` column by name).
     """
     pairs = [(str(k), _param_text(str(k), v)) for k, v in (params or {}).items()]

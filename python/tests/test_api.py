@@ -160,7 +160,8 @@ def test_session_rows_equal_the_binarys_reevaluation(tmp_path):
     for leg, rows in want.items():
         g = got[leg]
         assert len(g["t_s"]) == len(rows)
-        for col in ["t_s", "beta_rad", "predicted_drag_n", "predicted_lift_n", "b_k", "a"]:
+        for col in ["t_s", "beta_rad", "predicted_drag_n", "predicted_lift_n", "b_k", "a",
+                    "predicted_side_n", "predicted_yaw_moment_nm"]:
             np.testing.assert_allclose(g[col], [float(r[col]) for r in rows], rtol=1e-9, atol=1e-9)
         measured = [float(r["measured_lift_n"]) if r["measured_lift_n"] else np.nan for r in rows]
         np.testing.assert_allclose(g["measured_lift_n"], measured, rtol=1e-9, atol=1e-9)

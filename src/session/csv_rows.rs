@@ -6,7 +6,7 @@ use crate::model::Regime;
 use anyhow::{Result, anyhow};
 
 /// The CSV header of `replay --reevaluate`.
-pub const CSV_HEADER: &str = "t_s,leg,beta_rad,regime,measured_drag_n,measured_lift_n,predicted_drag_n,predicted_lift_n,predicted_hip_torque_nm,b_k,a,identified,bare_drag_n,bare_lift_n,expected_reading_drag_n,expected_reading_lift_n\n";
+pub const CSV_HEADER: &str = "t_s,leg,beta_rad,regime,measured_drag_n,measured_lift_n,predicted_drag_n,predicted_lift_n,predicted_hip_torque_nm,b_k,a,identified,bare_drag_n,bare_lift_n,expected_reading_drag_n,expected_reading_lift_n,predicted_side_n,predicted_roll_moment_nm,predicted_yaw_moment_nm\n";
 
 /// Rows of a re-evaluation as CSV, written by hand beside the csv crate: every field but the
 /// leg's name is a number, a fixed word or empty, so no field needs the crate's quoting checks,
@@ -163,6 +163,9 @@ impl CsvRows {
             r.bare_lift_n,
             r.expected_reading_drag_n,
             r.expected_reading_lift_n,
+            r.predicted_side_n,
+            r.predicted_roll_moment_nm,
+            r.predicted_yaw_moment_nm,
         ] {
             self.floats.put(out, v);
         }
@@ -201,6 +204,9 @@ mod tests {
             bare_lift_n: -1.5,
             expected_reading_drag_n: 2.5,
             expected_reading_lift_n: predicted,
+            predicted_side_n: -0.25,
+            predicted_roll_moment_nm: 7e-3,
+            predicted_yaw_moment_nm: -predicted,
         };
         let mut written = [
             row(0, Some(12.345678901234567), 0.0),
@@ -214,14 +220,15 @@ mod tests {
         }
         let mut rdr = csv::Reader::from_reader(&text[..]);
         let header: Vec<String> = rdr.headers().unwrap().iter().map(String::from).collect();
-        assert_eq!(header.len(), 16);
+        assert_eq!(header.len(), 19);
         assert_eq!(header[0], "t_s");
         assert_eq!(header[11], "identified");
         assert_eq!(header[15], "expected_reading_lift_n");
+        assert_eq!(header[18], "predicted_yaw_moment_nm");
         let back: Vec<csv::StringRecord> = rdr.records().map(|r| r.unwrap()).collect();
         assert_eq!(back.len(), written.len());
         for (b, w) in back.iter().zip(&written) {
-            assert_eq!(b.len(), 16, "{b:?}");
+            assert_eq!(b.len(), 19, "{b:?}");
             let num = |i: usize| b[i].parse::<f64>().unwrap();
             assert_eq!(num(0), w.t_s);
             assert_eq!(&b[1], legs[w.leg].as_str());
@@ -243,6 +250,9 @@ mod tests {
             assert_eq!((num(12), num(13), num(14)), (1.5, -1.5, 2.5));
             let e = num(15);
             assert!(e == w.predicted_drag_n || (e.is_nan() && w.predicted_drag_n.is_nan()));
+            assert_eq!((num(16), num(17)), (-0.25, 7e-3));
+            let y = num(18);
+            assert!(y == -w.predicted_drag_n || (y.is_nan() && w.predicted_drag_n.is_nan()));
         }
     }
 
@@ -284,6 +294,9 @@ mod tests {
                 bare_lift_n: v(),
                 expected_reading_drag_n: v(),
                 expected_reading_lift_n: v(),
+                predicted_side_n: v(),
+                predicted_roll_moment_nm: v(),
+                predicted_yaw_moment_nm: v(),
             };
             rows.push(&mut text, &r);
             written.push(r);
@@ -307,8 +320,11 @@ mod tests {
                 w.bare_lift_n,
                 w.expected_reading_drag_n,
                 w.expected_reading_lift_n,
+                w.predicted_side_n,
+                w.predicted_roll_moment_nm,
+                w.predicted_yaw_moment_nm,
             ];
-            for (i, v) in [0, 2, 4, 5, 6, 7, 8, 9, 10, 12, 13, 14, 15]
+            for (i, v) in [0, 2, 4, 5, 6, 7, 8, 9, 10, 12, 13, 14, 15, 16, 17, 18]
                 .into_iter()
                 .zip(want)
             {

@@ -54,6 +54,13 @@ pub struct Row {
     pub expected_reading_drag_n: f64,
     /// What the sensor is expected to read, lift (N).
     pub expected_reading_lift_n: f64,
+    /// The predicted side force (N; `LegForce`'s `side_n`, along the hip frame's y): zero for a
+    /// leg moving in its plane.
+    pub predicted_side_n: f64,
+    /// The predicted moment about the heading at the hip (N m).
+    pub predicted_roll_moment_nm: f64,
+    /// The predicted moment about the vertical at the hip (N m).
+    pub predicted_yaw_moment_nm: f64,
 }
 
 /// How far one leg's predictions lie from its measurements, over the rows that have one: the
@@ -254,6 +261,9 @@ impl Driver {
                     bare_lift_n: f.bare_lift_n,
                     expected_reading_drag_n: f.sensor_drag_n,
                     expected_reading_lift_n: f.sensor_lift_n,
+                    predicted_side_n: f.side_n,
+                    predicted_roll_moment_nm: f.roll_moment_nm,
+                    predicted_yaw_moment_nm: f.yaw_moment_nm,
                 });
             }
         }
@@ -291,6 +301,9 @@ impl Driver {
                 bare_lift_n: r.bare_n[1],
                 expected_reading_drag_n: r.sensor_n[0],
                 expected_reading_lift_n: r.sensor_n[1],
+                predicted_side_n: p.side_n,
+                predicted_roll_moment_nm: p.roll_moment_nm,
+                predicted_yaw_moment_nm: p.yaw_moment_nm,
             };
             // A plate held or unloaded bears what the rig gives it: its rows are not the law's
             // to answer for, and are counted apart.

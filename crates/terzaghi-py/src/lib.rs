@@ -737,6 +737,9 @@ fn reevaluate<'py>(
                     r.bare_lift_n,
                     r.expected_reading_drag_n,
                     r.expected_reading_lift_n,
+                    r.predicted_side_n,
+                    r.predicted_roll_moment_nm,
+                    r.predicted_yaw_moment_nm,
                 ];
                 for (c, x) in cols.iter_mut().zip(v) {
                     c.push(x);
@@ -756,7 +759,7 @@ fn reevaluate<'py>(
 }
 
 /// The columns [`reevaluate`] returns, in order.
-const COLUMNS: [&str; 16] = [
+const COLUMNS: [&str; 19] = [
     "t_s",
     "leg",
     "beta_rad",
@@ -773,6 +776,9 @@ const COLUMNS: [&str; 16] = [
     "bare_lift_n",
     "expected_reading_drag_n",
     "expected_reading_lift_n",
+    "predicted_side_n",
+    "predicted_roll_moment_nm",
+    "predicted_yaw_moment_nm",
 ];
 
 /// One model evaluated for many legs at once (a simulator's environments times legs), from
