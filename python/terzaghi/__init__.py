@@ -389,7 +389,7 @@ def steady(
     n = len(flat["hub_vx_m_s"])
     cols = _terzaghi.steady(
         flat.get("load_n", [0.0] * n), flat["hub_vx_m_s"], flat["omega_rad_s"],
-        flat["slip_angle_deg"], flat.get("sinkage_m"), *body, os.fspath(medium_file))
+        flat["slip_angle_deg"], flat.get("sinkage_m"), body, os.fspath(medium_file))
     shape = b[0].shape
     names = ("sinkage_m", "drawbar_n", "side_n", "torque_nm", "load_borne_n")
     return {k: np.asarray(c, dtype=np.float64).reshape(shape) for k, c in zip(names, cols)}

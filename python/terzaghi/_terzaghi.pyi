@@ -10,22 +10,28 @@ REGIMES: List[str]
 class TerzaghiError(ValueError):
     """A value terzaghi refuses, with the words of its reason."""
 
+# A body: shape, radius, width, thickness, sizes, mesh file, mesh scale, element size,
+# grousers (count, height, thickness), rim elements.
+BodyArgs = Tuple[
+    str,
+    Optional[float],
+    Optional[float],
+    Optional[float],
+    Optional[List[float]],
+    Optional[str],
+    Optional[float],
+    Optional[float],
+    Optional[Tuple[int, float, float]],
+    Optional[int],
+]
+
 def steady(
     load_n: List[float],
     hub_vx_m_s: List[float],
     omega_rad_s: List[float],
     slip_angle_deg: List[float],
     sinkage_m: Optional[List[float]],
-    shape: str,
-    radius_m: Optional[float],
-    width_m: Optional[float],
-    thickness_m: Optional[float],
-    size_m: Optional[List[float]],
-    mesh_file: Optional[str],
-    mesh_scale: Optional[float],
-    element_m: Optional[float],
-    grousers: Optional[Tuple[int, float, float]],
-    rim_elements: Optional[int],
+    body: BodyArgs,
     medium_file: str,
 ) -> List[List[float]]: ...
 
@@ -82,20 +88,7 @@ def predict_moving(
     c_leg_span_deg: Optional[float],
     profile: Optional[List[Tuple[float, float]]],
     medium_file: Optional[str],
-    body: Optional[
-        Tuple[
-            str,
-            Optional[float],
-            Optional[float],
-            Optional[float],
-            Optional[List[float]],
-            Optional[str],
-            Optional[float],
-            Optional[float],
-            Optional[Tuple[int, float, float]],
-            Optional[int],
-        ]
-    ],
+    body: Optional[BodyArgs],
 ) -> Tuple[List[List[float]], List[int]]: ...
 def fit_json(
     beta_rad: npt.ArrayLike,

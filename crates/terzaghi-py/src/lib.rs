@@ -128,7 +128,7 @@ fn base_model(
 /// `omega_rad_s`, `slip_angle_deg`; or, with `sinkage_m`, held there): sinkage, drawbar, side
 /// force, drive torque and the load borne, as `terzaghi steady` gives them.
 #[pyfunction]
-#[pyo3(signature = (load_n, hub_vx_m_s, omega_rad_s, slip_angle_deg, sinkage_m, shape, radius_m, width_m, thickness_m, size_m, mesh_file, mesh_scale, element_m, grousers, rim_elements, medium_file))]
+#[pyo3(signature = (load_n, hub_vx_m_s, omega_rad_s, slip_angle_deg, sinkage_m, body, medium_file))]
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
 fn steady(
     py: Python<'_>,
@@ -137,39 +137,13 @@ fn steady(
     omega_rad_s: Vec<f64>,
     slip_angle_deg: Vec<f64>,
     sinkage_m: Option<Vec<f64>>,
-    shape: String,
-    radius_m: Option<f64>,
-    width_m: Option<f64>,
-    thickness_m: Option<f64>,
-    size_m: Option<Vec<f64>>,
-    mesh_file: Option<std::path::PathBuf>,
-    mesh_scale: Option<f64>,
-    element_m: Option<f64>,
-    grousers: Option<(usize, f64, f64)>,
-    rim_elements: Option<usize>,
+    body: BodyArgs,
     medium_file: std::path::PathBuf,
 ) -> PyResult<[Vec<f64>; 5]> {
-    use terzaghi::model::{Drive, Grousers, Stress, state_at_sinkage, steady_sinkage};
+    use terzaghi::model::{Drive, Stress, state_at_sinkage, steady_sinkage};
     let medium = terzaghi::medium_file::MediumFile::read(&medium_file).map_err(err)?;
     let law = medium.rft_law(None).map_err(err)?;
-    let grousers = grousers.map(|(count, height_m, thickness_m)| Grousers {
-        count,
-        height_m,
-        thickness_m,
-    });
-    let spec = terzaghi::session::steady::BodySpec {
-        shape,
-        radius_m,
-        width_m,
-        thickness_m,
-        size_m,
-        mesh_file,
-        mesh_scale,
-        element_m,
-        grousers,
-        rim_elements,
-    };
-    let body = terzaghi::session::steady::build_body(&spec, str::to_string).map_err(err)?;
+    let body = body_of(body)?;
     let n = hub_vx_m_s.len();
     if [load_n.len(), omega_rad_s.len(), slip_angle_deg.len()]
         .iter()
@@ -315,6 +289,31 @@ type BodyArgs = (
     Option<usize>,
 );
 
+/// The body `b` describes, or an error naming the value Python's argument gave wrong.
+fn body_of(b: BodyArgs) -> PyResult<terzaghi::model::Body> {
+    let (shape, radius_m, width_m, thickness_m, size_m, mesh_file, mesh_scale, element_m) =
+        (b.0, b.1, b.2, b.3, b.4, b.5, b.6, b.7);
+    let spec = terzaghi::session::steady::BodySpec {
+        shape,
+        radius_m,
+        width_m,
+        thickness_m,
+        size_m,
+        mesh_file,
+        mesh_scale,
+        element_m,
+        grousers: b
+            .8
+            .map(|(count, height_m, thickness_m)| terzaghi::model::Grousers {
+                count,
+                height_m,
+                thickness_m,
+            }),
+        rim_elements: b.9,
+    };
+    terzaghi::session::steady::build_body(&spec, str::to_string).map_err(err)
+}
+
 /// [`predict`] with each sample's own hip: heights (m above the surface, negative below it),
 /// velocities (forward, to the left and up, m/s) and the leg's rotation rate (rad/s) beside the
 /// angles, flat arrays of one length. The sinkage model's path (its depth is the hip's height
@@ -386,30 +385,7 @@ fn predict_moving<'py>(
         medium_file,
     )?;
     if let Some(b) = body {
-        let (shape, radius_m, width_m, thickness_m, size_m, mesh_file) =
-            (b.0, b.1, b.2, b.3, b.4, b.5);
-        let body = terzaghi::session::steady::build_body(
-            &terzaghi::session::steady::BodySpec {
-                shape,
-                radius_m,
-                width_m,
-                thickness_m,
-                size_m,
-                mesh_file,
-                mesh_scale: b.6,
-                element_m: b.7,
-                grousers: b
-                    .8
-                    .map(|(count, height_m, thickness_m)| terzaghi::model::Grousers {
-                        count,
-                        height_m,
-                        thickness_m,
-                    }),
-                rim_elements: b.9,
-            },
-            str::to_string,
-        )
-        .map_err(err)?;
+        let body = body_of(b)?;
         (spec.length_m, spec.width_m) = (body.reach_m(), body.width_m());
         spec.shape = terzaghi::model_spec::LegShape::Body(Box::new(body));
     }
