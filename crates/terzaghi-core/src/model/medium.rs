@@ -11,8 +11,11 @@ pub struct Medium {
     delta_rad: f64,
 }
 
+/// The least internal friction angle a medium takes (deg).
+pub const MIN_PHI_DEG: f64 = 0.001;
+
 impl Medium {
-    /// `unit_weight_n_m3` (`lambda`, N/m^3) > 0; internal friction `phi` in (0, 90) deg;
+    /// `unit_weight_n_m3` (`lambda`, N/m^3) > 0; internal friction `phi` in [0.001, 90) deg;
     /// plate–medium friction `delta` in [0, 90) deg.
     ///
     /// ```
@@ -23,10 +26,13 @@ impl Medium {
     pub fn new(unit_weight_n_m3: f64, phi_deg: f64, delta_deg: f64) -> Result<Self, ModelError> {
         positive("unit weight (N/m^3)", unit_weight_n_m3)?;
         let phi = finite("internal friction angle phi (deg)", phi_deg)?;
-        if !(phi > 0.0 && phi < 90.0) {
+        // Below a thousandth of a degree the log spiral's 1 / (4 tan phi) runs out of floating
+        // point (at 1e-308 deg it is infinite, and a term of the force NaN); no granular medium
+        // is near it.
+        if !(MIN_PHI_DEG..90.0).contains(&phi) {
             return Err(ModelError::AngleOutOfRange {
                 name: "internal friction angle phi",
-                range: "(0, 90)",
+                range: "[0.001, 90)",
                 value_deg: phi,
             });
         }
@@ -340,6 +346,13 @@ mod tests {
         assert!(FittingWidth::new(1.0, -1.0).is_err());
         assert!(FittingWidth::new(f64::INFINITY, 1.0).is_err());
         assert!(Medium::new(16170.0, 0.0, 19.0).is_err());
+        // A friction angle so small that the log spiral's 1 / (4 tan phi) is infinite (found
+        // by tests/properties.rs: a term of the force came out NaN), refused by name.
+        let e = Medium::new(16170.0, 1.4e-308, 19.0)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("phi") && e.contains("[0.001, 90)"), "{e}");
+        assert!(Medium::new(16170.0, MIN_PHI_DEG, 19.0).is_ok());
         assert!(Medium::new(16170.0, 32.0, 90.0).is_err());
         assert!(Medium::new(16170.0, 32.0, -1.0).is_err());
         assert!(Medium::new(0.0, 32.0, 19.0).is_err());
