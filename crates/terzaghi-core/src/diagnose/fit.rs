@@ -318,7 +318,7 @@ fn fit_ln_a(ctx: &Context, effects: &[Effect], nl: &[Nonlinear]) -> Vec<Candidat
         // sse[k][grid index]
         let mut sse = vec![vec![f64::INFINITY; grid.len()]; k_all + 1];
         for (gi, &ln_a) in grid.iter().enumerate() {
-            let sums = fold_sums(ctx, &parts, ln_a, &setting, &mut buf);
+            let sums = fold_sums(ctx, &parts, ln_a, &mut buf);
             for &k in &ks {
                 sse[k][gi] = train(&sums, k, k_all).solve().1;
             }
@@ -352,7 +352,7 @@ fn fit_ln_a(ctx: &Context, effects: &[Effect], nl: &[Nonlinear]) -> Vec<Candidat
                 if x <= lo || x >= hi {
                     continue;
                 }
-                let sums = fold_sums(ctx, &parts, x, &setting, &mut buf);
+                let sums = fold_sums(ctx, &parts, x, &mut buf);
                 xs.push(x);
                 for (k, y) in ys.iter_mut().enumerate() {
                     y.push(if ks.contains(&k) {
@@ -368,7 +368,7 @@ fn fit_ln_a(ctx: &Context, effects: &[Effect], nl: &[Nonlinear]) -> Vec<Candidat
         for &k in &ks {
             let y: Vec<f64> = order.iter().map(|&i| ys[k][i]).collect();
             let ln_a = refine(&xs, &y);
-            let sums = fold_sums(ctx, &parts, ln_a, &setting, &mut buf);
+            let sums = fold_sums(ctx, &parts, ln_a, &mut buf);
             let (coef, train_sse) = train(&sums, k, k_all).solve();
             out.push(Candidate {
                 k,
@@ -430,21 +430,15 @@ const CHUNK: usize = 128;
 /// so that each entry of the normal equations is a dot product over contiguous memory. Without
 /// the sensor's lag no column is written out for the whole session: a chunk's are made from
 /// `parts` as they are gathered.
-fn fold_sums(
-    ctx: &Context,
-    parts: &Parts,
-    ln_a: f64,
-    nl: &Nonlinear,
-    buf: &mut Buffers,
-) -> Vec<Sums> {
+fn fold_sums(ctx: &Context, parts: &Parts, ln_a: f64, buf: &mut Buffers) -> Vec<Sums> {
     let (p, n) = (parts.p, ctx.points.len());
     let mut sums = vec![Sums::zero(p); ctx.folds + 1];
     if n == 0 {
         return sums;
     }
-    let lagged = nl.lag_s > 0.0;
+    let lagged = parts.lag_s > 0.0;
     if lagged {
-        parts.columns(ctx, ln_a, nl, &mut buf.cols);
+        parts.columns(ctx, ln_a, &mut buf.cols);
     } else {
         // At the points that count, in their order.
         buf.w.clear();
@@ -602,7 +596,9 @@ struct Parts {
     yty: Vec<f64>,
     /// The points' attack angles (rad), in time order.
     beta_rad: Vec<f64>,
-    /// The sensor's lag between points, for `nl`'s time constant ([`lag_steps`]).
+    /// The sensor's time constant of the setting (s; 0: no lag), and its steps between points
+    /// ([`lag_steps`]).
+    lag_s: f64,
     lag_steps: Vec<(f64, f64, bool)>,
 }
 
@@ -653,7 +649,8 @@ impl Parts {
             y_by_fold,
             yty,
             beta_rad: ctx.points.iter().map(|pt| pt.beta_rad).collect(),
-            lag_steps: if nl.lag_s > 0.0 {
+            lag_s: nl.lag_s,
+            lag_steps: if lagged {
                 lag_steps(ctx, nl.lag_s)
             } else {
                 Vec::new()
@@ -661,8 +658,8 @@ impl Parts {
         }
     }
 
-    /// The columns at `ln_a`, the sensor's lag of `nl` applied.
-    fn columns(&self, ctx: &Context, ln_a: f64, nl: &Nonlinear, cols: &mut Vec<f64>) {
+    /// The columns at `ln_a`, the setting's sensor lag applied.
+    fn columns(&self, ctx: &Context, ln_a: f64, cols: &mut Vec<f64>) {
         let n = ctx.points.len();
         if n == 0 {
             cols.clear();
@@ -680,8 +677,8 @@ impl Parts {
                 *c = f + s * w;
             }
         }
-        if nl.lag_s > 0.0 {
-            lag_with(&self.lag_steps, nl.lag_s, self.p, cols);
+        if self.lag_s > 0.0 {
+            lag_with(&self.lag_steps, self.lag_s, self.p, cols);
         }
     }
 }
@@ -825,7 +822,7 @@ mod tests {
                     parts.order.len()
                 );
                 let ln_a = 0.7;
-                let sums = fold_sums(ctx, &parts, ln_a, &nl, &mut Buffers::default());
+                let sums = fold_sums(ctx, &parts, ln_a, &mut Buffers::default());
                 let mut cols = Vec::new();
                 build(ctx, effects, f64::exp(ln_a), &nl, &unit, &mut cols);
                 for (f, got) in sums.iter().enumerate() {
@@ -901,7 +898,7 @@ mod tests {
         let (mut direct, mut split) = (Vec::new(), Vec::new());
         for ln_a in [-2.0, 0.0, 0.7, 3.1] {
             build(&ctx, &effects, f64::exp(ln_a), &nl, &unit, &mut direct);
-            parts.columns(&ctx, ln_a, &nl, &mut split);
+            parts.columns(&ctx, ln_a, &mut split);
             assert_eq!(direct.len(), split.len());
             let scale = direct.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             assert!(scale > 0.0);
