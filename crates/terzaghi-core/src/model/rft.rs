@@ -17,7 +17,7 @@ use std::f64::consts::{FRAC_PI_2, PI};
 use std::sync::OnceLock;
 
 /// N/cm^3 to N/m^3.
-const N_CM3_TO_N_M3: f64 = 1e6;
+pub(crate) const N_CM3_TO_N_M3: f64 = 1e6;
 
 /// The nine coefficients of the RFT fit, in N/cm^3: Li, Zhang and Goldman's discrete Fourier
 /// form, as the module's formula writes it (`bm11` is `B-11`, `cm11` is `C-11`).
@@ -825,6 +825,14 @@ impl RftCoefficients {
     }
 }
 
+/// An [`RftModel`]'s parts, as [`RftModel::batch_parts`] lends them.
+pub(crate) struct RftParts<'a> {
+    pub coefficients: &'a RftCoefficients,
+    pub elements: usize,
+    pub profile_elements: Option<&'a [[f64; 7]]>,
+    pub has_speed_law: bool,
+}
+
 /// RFT for the rotating plate, integrated over `elements` equal elements of the submerged length.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RftModel {
@@ -996,6 +1004,22 @@ impl RftModel {
         &self.plate
     }
 
+    /// What a batch of legs needs to integrate this model without [`Self::evaluate_moving`]:
+    /// the coefficients, the element count over a plate's submerged length, the profile's
+    /// elements (`[s, q, length, cos 2t, sin 2t, ds, dq]` each, [`LegElements`]), and whether a
+    /// speed law applies.
+    pub(crate) fn batch_parts(&self) -> RftParts<'_> {
+        RftParts {
+            coefficients: &self.coefficients,
+            elements: self.elements,
+            profile_elements: self
+                .profile_elements
+                .as_deref()
+                .map(|e| e.elements.as_slice()),
+            has_speed_law: self.speed_law.is_some(),
+        }
+    }
+
     /// The leg's mid-line, where it is not a flat plate.
     pub fn profile(&self) -> Option<&[(f64, f64)]> {
         self.profile.as_deref()
@@ -1116,14 +1140,16 @@ impl RftModel {
         let v_hip = hip.leg_frame_velocity_m_s();
         let moving = (v_hip != [0.0, 0.0] || lateral != 0.0) && hip.omega_rad_s.is_finite();
         let across = Across::new(&self.coefficients, if moving { lateral } else { 0.0 });
-        // A plate turning about a still hip: every element moves along n, so every element's
-        // stress law is the same.
-        let m_still = if nx < 0.0 { -1.0 } else { 1.0 };
+        // A plate turning about a still hip: every element moves along n (against it for a
+        // rotation backward), so every element's stress law is the same.
+        let turn = if hip.omega_rad_s < 0.0 { -1.0 } else { 1.0 };
+        let (tx, tz) = (turn * nx, turn * nz);
+        let m_still = if tx < 0.0 { -1.0 } else { 1.0 };
         let still = (!moving && (nx != 0.0 || nz != 0.0)).then(|| {
             (
                 m_still,
                 self.coefficients
-                    .alpha_along((m_still * ux, uz), (m_still * nx, nz)),
+                    .alpha_along((m_still * ux, uz), (m_still * tx, tz)),
             )
         });
         let (mut drag, mut lift, mut torque) = (0.0, 0.0, 0.0);
@@ -1141,7 +1167,7 @@ impl RftModel {
                     hip.omega_rad_s * r * nz + v_hip[1],
                 )
             } else {
-                (nx, nz)
+                (tx, tz)
             };
             let depth = stressed_depth_m(self.depth_law.as_deref(), depth);
             if let Some(a) = &across {
@@ -1180,9 +1206,9 @@ impl RftModel {
             let extra = match (self.speed_law.as_deref(), moving) {
                 (None, _) => 0.0,
                 (Some(law), true) => law.extra_depth_of_velocity_m(vx, vz),
-                // Along n at omega r: n's direction, reversed for a rotation backward.
+                // Along the turn's direction at |omega| r.
                 (Some(law), false) => {
-                    let w = hip.omega_rad_s * r;
+                    let w = hip.omega_rad_s.abs() * r;
                     law.extra_depth_of_velocity_m(w * vx, w * vz)
                 }
             };
@@ -1602,6 +1628,38 @@ mod tests {
 
     fn plate() -> Plate {
         Plate::new(0.25, 0.06, 0.15).unwrap()
+    }
+
+    #[test]
+    fn a_plate_turning_backward_about_a_still_hip_is_pushed_as_it_moves() {
+        // A still hip and a hip creeping forward by a hair must give the same forces: the
+        // plate's elements move against n either way (the still hip's case took n's
+        // direction whatever the sign of the rotation).
+        let m = RftModel::new(plate(), RftCoefficients::Fit(RftFit::POPPY_LP), 100).unwrap();
+        for beta_deg in [30.0f64, 70.0, 110.0, 150.0] {
+            let beta = beta_deg.to_radians();
+            let at = |fwd: f64| {
+                let hip = HipMotion {
+                    height_m: 0.05,
+                    omega_rad_s: -3.0,
+                    forward_m_s: fwd,
+                    ..HipMotion::default()
+                };
+                m.evaluate_moving(beta, &hip).unwrap()
+            };
+            let (still, creeping) = (at(0.0), at(1e-12));
+            assert!(still.lift_n.abs() > 0.1, "{beta_deg} deg: in the medium");
+            for (a, b) in [
+                (still.drag_n, creeping.drag_n),
+                (still.lift_n, creeping.lift_n),
+                (still.hip_torque_nm, creeping.hip_torque_nm),
+            ] {
+                assert!(
+                    (a - b).abs() < 1e-9 * (1.0 + b.abs()),
+                    "{beta_deg} deg: {a} against {b}"
+                );
+            }
+        }
     }
 
     /// A leg yawed to its travel (the hip moving across the leg's plane) is pushed back against
