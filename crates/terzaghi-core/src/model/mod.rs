@@ -22,6 +22,7 @@
 //! rotation. [`HipMotion`] places a hip the robot's state gives (height, pitch, velocity).
 //! Everything here is pure: no I/O, no clock.
 
+pub mod batch;
 pub mod body;
 pub mod corrections;
 pub mod medium;

@@ -1,0 +1,1052 @@
+//! Many legs of one model at once, as a simulator's environments times legs give them: drag,
+//! lift and hip torque only, written into the caller's slices, in `f64` or `f32`.
+//!
+//! [`LegKernel::forces`] evaluates what [`ForceModel::predict_moving`] gives for each leg
+//! (equal to rounding: to about 1e-15 of the largest element's force in `f64`), without
+//! building a [`super::Prediction`] per leg. RFT of a plate or a profile (a C-leg) with the
+//! fitted coefficients, its planar motion, and a law in depth if the medium has one, is
+//! integrated by its own loop over the leg's elements, eight or sixteen at once in the
+//! processor's vector registers; a leg whose hip is above the reach of its elements costs a
+//! comparison. In `f32` that loop runs in `f32` (twice the lanes; the rest of a leg in `f64`).
+//! Every other model (the Terzaghi models, sinkage, bodies, RFT's measured grid or speed law)
+//! goes through [`ForceModel::predict_moving`] leg by leg.
+
+use super::rft::{N_CM3_TO_N_M3, RftParts};
+use super::{FittingWidth, ForceModel, HipMotion, ModelError, Plate, wrap_beta_rad};
+use std::ops::{Add, Mul, Neg, Sub};
+
+/// A number a batch is given in: `f64` or `f32`.
+pub trait Real:
+    Copy
+    + PartialOrd
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Neg<Output = Self>
+    + Send
+    + Sync
+    + 'static
+{
+    /// Zero.
+    const ZERO: Self;
+    /// The largest speed scale (m/s, `|omega| reach + |v_hip|`) whose squares do not overflow.
+    const MAX_SPEED_SCALE: f64;
+    /// The smallest non-zero speed scale whose squares (after cancellation) do not underflow.
+    const MIN_SPEED_SCALE: f64;
+    /// `x` rounded to this type.
+    fn of(x: f64) -> Self;
+    /// As `f64`.
+    fn to_f64(self) -> f64;
+    /// `1 / sqrt(self)` where positive, else 0.
+    fn inv_sqrt_or_zero(self) -> Self;
+    /// The profile's elements in this type.
+    fn elements(e: &Elements) -> &Soa<Self>;
+    /// `self a + b`, rounded once (only where the processor fuses it: else libm's is slow).
+    fn mul_add(self, a: Self, b: Self) -> Self;
+    /// [`Real::inv_sqrt_or_zero`] of every lane, by the processor's reciprocal square root
+    /// estimate and Newton's steps to the type's precision (a few units in the last place).
+    ///
+    /// # Safety
+    /// The processor has AVX-512F.
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn inv_sqrt_avx512(v2: &[Self; LANES]) -> [Self; LANES];
+}
+
+macro_rules! real {
+    ($t:ty, $max:expr, $min:expr, $field:ident, $inv:ident) => {
+        impl Real for $t {
+            const ZERO: Self = 0.0;
+            const MAX_SPEED_SCALE: f64 = $max;
+            const MIN_SPEED_SCALE: f64 = $min;
+            #[inline(always)]
+            fn of(x: f64) -> Self {
+                x as $t
+            }
+            #[inline(always)]
+            fn to_f64(self) -> f64 {
+                self as f64
+            }
+            #[inline(always)]
+            fn inv_sqrt_or_zero(self) -> Self {
+                if self > 0.0 { 1.0 / self.sqrt() } else { 0.0 }
+            }
+            #[inline(always)]
+            fn elements(e: &Elements) -> &Soa<Self> {
+                &e.$field
+            }
+            #[inline(always)]
+            fn mul_add(self, a: Self, b: Self) -> Self {
+                <$t>::mul_add(self, a, b)
+            }
+            #[cfg(target_arch = "x86_64")]
+            #[inline(always)]
+            unsafe fn inv_sqrt_avx512(v2: &[Self; LANES]) -> [Self; LANES] {
+                // SAFETY: the caller's promise.
+                unsafe { $inv(v2) }
+            }
+        }
+    };
+}
+real!(f64, 1e100, 1e-100, f64s, inv_sqrt_f64_avx512);
+real!(f32, 1e15, 1e-8, f32s, inv_sqrt_f32_avx512);
+
+/// [`Real::inv_sqrt_avx512`] of `f64`: `vrsqrt14pd` (14 bits) and two Newton steps.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+fn inv_sqrt_f64_avx512(v2: &[f64; LANES]) -> [f64; LANES] {
+    use std::arch::x86_64::*;
+    let mut out = [0.0; LANES];
+    let (half, three_halves) = (_mm512_set1_pd(0.5), _mm512_set1_pd(1.5));
+    for k in 0..LANES / 8 {
+        // SAFETY: 8 values from a slice of 8.
+        let x = unsafe { _mm512_loadu_pd(v2[8 * k..8 * k + 8].as_ptr()) };
+        let hx = _mm512_mul_pd(half, x);
+        let mut y = _mm512_rsqrt14_pd(x);
+        for _ in 0..2 {
+            let yy = _mm512_mul_pd(y, y);
+            y = _mm512_mul_pd(y, _mm512_fnmadd_pd(hx, yy, three_halves));
+        }
+        // Zero (no motion) and what is not positive give 0, as `inv_sqrt_or_zero`.
+        let positive = _mm512_cmp_pd_mask::<_CMP_GT_OQ>(x, _mm512_setzero_pd());
+        let y = _mm512_maskz_mov_pd(positive, y);
+        // SAFETY: 8 values into a slice of 8.
+        unsafe { _mm512_storeu_pd(out[8 * k..8 * k + 8].as_mut_ptr(), y) };
+    }
+    out
+}
+
+/// [`Real::inv_sqrt_avx512`] of `f32`: `vrsqrt14ps` and one Newton step.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+fn inv_sqrt_f32_avx512(v2: &[f32; LANES]) -> [f32; LANES] {
+    use std::arch::x86_64::*;
+    let mut out = [0.0; LANES];
+    // SAFETY: 16 values from an array of 16.
+    let x = unsafe { _mm512_loadu_ps(v2.as_ptr()) };
+    let hx = _mm512_mul_ps(_mm512_set1_ps(0.5), x);
+    let y = _mm512_rsqrt14_ps(x);
+    let yy = _mm512_mul_ps(y, y);
+    let y = _mm512_mul_ps(y, _mm512_fnmadd_ps(hx, yy, _mm512_set1_ps(1.5)));
+    let positive = _mm512_cmp_ps_mask::<_CMP_GT_OQ>(x, _mm512_setzero_ps());
+    let y = _mm512_maskz_mov_ps(positive, y);
+    // SAFETY: 16 values into an array of 16.
+    unsafe { _mm512_storeu_ps(out.as_mut_ptr(), y) };
+    out
+}
+
+/// Elements the vector loop takes at once (each of its accumulators is this wide).
+pub const LANES: usize = 16;
+
+/// A leg's elements as columns, padded with empty elements to a multiple of [`LANES`].
+#[derive(Debug, Clone)]
+pub struct Soa<T> {
+    s: Vec<T>,
+    q: Vec<T>,
+    /// `1e6 width length` (N/cm^3 to N per metre of depth).
+    wl: Vec<T>,
+    c2: Vec<T>,
+    s2: Vec<T>,
+    /// Per [`LANES`] elements: a circle about them all, `[s, q, radius]` (m), whose lowest
+    /// point above the surface lets the loop skip them.
+    blocks: Vec<[f64; 3]>,
+}
+
+impl<T> Soa<T> {
+    fn empty() -> Soa<T> {
+        Soa {
+            s: Vec::new(),
+            q: Vec::new(),
+            wl: Vec::new(),
+            c2: Vec::new(),
+            s2: Vec::new(),
+            blocks: Vec::new(),
+        }
+    }
+}
+
+/// The circles of [`Soa::blocks`] about points `(s, q)` (padding included), with room for
+/// the rounding of the loop's type.
+fn blocks_of(points: impl ExactSizeIterator<Item = (f64, f64)> + Clone) -> Vec<[f64; 3]> {
+    let pts: Vec<(f64, f64)> = points.collect();
+    pts.chunks(LANES)
+        .map(|b| {
+            let (lo_s, hi_s, lo_q, hi_q) = b.iter().fold(
+                (
+                    f64::INFINITY,
+                    f64::NEG_INFINITY,
+                    f64::INFINITY,
+                    f64::NEG_INFINITY,
+                ),
+                |(a, bb, c, d), &(s, q)| (a.min(s), bb.max(s), c.min(q), d.max(q)),
+            );
+            let (cs, cq) = (0.5 * (lo_s + hi_s), 0.5 * (lo_q + hi_q));
+            let r = b
+                .iter()
+                .map(|&(s, q)| (s - cs).hypot(q - cq))
+                .fold(0.0f64, f64::max);
+            let scale = cs.abs() + cq.abs() + r;
+            [cs, cq, r + 1e-6 * scale + 1e-12]
+        })
+        .collect()
+}
+
+impl<T: Real> Soa<T> {
+    fn of(rows: &[[f64; 7]], width_m: f64) -> Soa<T> {
+        let n = rows.len().div_ceil(LANES) * LANES;
+        let col = |f: &dyn Fn(&[f64; 7]) -> f64| -> Vec<T> {
+            let mut v: Vec<T> = rows.iter().map(|r| T::of(f(r))).collect();
+            v.resize(n, T::ZERO);
+            v
+        };
+        let (s, q) = (col(&|r| r[0]), col(&|r| r[1]));
+        let blocks = blocks_of(s.iter().zip(&q).map(|(s, q)| (s.to_f64(), q.to_f64())));
+        Soa {
+            s,
+            q,
+            wl: col(&|r| N_CM3_TO_N_M3 * width_m * r[2]),
+            c2: col(&|r| r[3]),
+            s2: col(&|r| r[4]),
+            blocks,
+        }
+    }
+}
+
+/// A profile's elements in both types.
+#[derive(Debug, Clone)]
+pub struct Elements {
+    f64s: Soa<f64>,
+    f32s: Soa<f32>,
+    /// The farthest element's distance from the hip (m): a hip higher than this has no element
+    /// in the medium.
+    reach_m: f64,
+}
+
+/// The fitted coefficients, summed as the vector loop uses them.
+#[derive(Debug, Clone, Copy)]
+struct Fit {
+    a00: f64,
+    a10: f64,
+    /// `B11 - B-11`, `B11 + B-11`, `B01`.
+    b_diff: f64,
+    b_sum: f64,
+    b01: f64,
+    /// `C11 + C-11`, `C-11 - C11`, `C01`, `D10`.
+    c_sum: f64,
+    c_diff: f64,
+    c01: f64,
+    d10: f64,
+}
+
+/// How a kernel integrates its model.
+#[derive(Debug, Clone)]
+enum Plan {
+    /// RFT of a profile with the fitted coefficients, no speed law.
+    Profile(Box<Elements>, Fit),
+    /// RFT of a flat plate with the fitted coefficients, no speed law: `elements` equal
+    /// elements over its submerged length.
+    Plate(Fit, usize),
+    /// Leg by leg through [`ForceModel::predict_moving`].
+    EachLeg,
+}
+
+/// One model for many legs (see the module's documentation).
+#[derive(Debug, Clone)]
+pub struct LegKernel {
+    model: ForceModel,
+    plan: Plan,
+    isa: Isa,
+}
+
+/// The inputs of a batch: each leg's values at one index of every slice (`None`: zero).
+#[derive(Debug, Clone, Copy)]
+pub struct Legs<'a, T> {
+    /// The joint's attack angle (rad).
+    pub beta_rad: &'a [T],
+    /// The hip's height above the surface (m).
+    pub hip_height_m: &'a [T],
+    /// The body's pitch (rad), added to the attack angle.
+    pub pitch_rad: Option<&'a [T]>,
+    /// The leg's rotation rate (rad/s).
+    pub omega_rad_s: Option<&'a [T]>,
+    /// The hip's velocity forward and up (m/s).
+    pub forward_m_s: Option<&'a [T]>,
+    /// See `forward_m_s`.
+    pub up_m_s: Option<&'a [T]>,
+    /// Each leg's fitting width `b_k` and `a` (the improved model only): a medium per
+    /// environment.
+    pub b_k: Option<&'a [T]>,
+    /// See `b_k`.
+    pub a: Option<&'a [T]>,
+}
+
+/// What a batch writes: each leg's drag, lift (N) and hip torque (N m).
+#[derive(Debug)]
+pub struct LegForcesOut<'a, T> {
+    /// Drag (N).
+    pub drag_n: &'a mut [T],
+    /// Lift (N).
+    pub lift_n: &'a mut [T],
+    /// Hip torque (N m).
+    pub hip_torque_nm: &'a mut [T],
+}
+
+/// A leg a batch could not evaluate: its index in the inputs, and why.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("leg {index} (flat index): {problem}")]
+pub struct LegError {
+    /// The leg's index in the input slices.
+    pub index: usize,
+    /// Why.
+    pub problem: LegProblem,
+}
+
+/// Why a leg of a batch has no forces.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum LegProblem {
+    /// An input the model refuses (a non-finite value, a fitting width that is not positive).
+    #[error(transparent)]
+    Model(#[from] ModelError),
+    /// A force beyond the output type's range.
+    #[error("its {output} is {value}, beyond the output type's range")]
+    Overflow {
+        /// The output's name.
+        output: &'static str,
+        /// The force in `f64`.
+        value: f64,
+    },
+    /// A per-leg fitting width for a model that has none.
+    #[error(
+        "b_k and a per leg are the improved Terzaghi model's fitting width; this model has none"
+    )]
+    NoFittingWidth,
+}
+
+impl LegKernel {
+    /// The kernel of `model`; a per-leg fitting width (`Legs::b_k`, `Legs::a`) is taken by
+    /// the improved Terzaghi model only.
+    pub fn new(model: ForceModel) -> LegKernel {
+        let plan = match &model {
+            ForceModel::Rft(m) => {
+                let parts: RftParts<'_> = m.batch_parts();
+                match (parts.coefficients, parts.has_speed_law) {
+                    (super::RftCoefficients::Fit(f), false) => {
+                        let fit = Fit {
+                            a00: f.a00,
+                            a10: f.a10,
+                            b_diff: f.b11 - f.bm11,
+                            b_sum: f.b11 + f.bm11,
+                            b01: f.b01,
+                            c_sum: f.c11 + f.cm11,
+                            c_diff: f.cm11 - f.c11,
+                            c01: f.c01,
+                            d10: f.d10,
+                        };
+                        match parts.profile_elements {
+                            Some(rows) => {
+                                let w = m.plate().width_m();
+                                let reach_m =
+                                    rows.iter().map(|r| r[0].hypot(r[1])).fold(0.0f64, f64::max);
+                                Plan::Profile(
+                                    Box::new(Elements {
+                                        f64s: Soa::of(rows, w),
+                                        f32s: Soa::of(rows, w),
+                                        reach_m,
+                                    }),
+                                    fit,
+                                )
+                            }
+                            None => Plan::Plate(fit, parts.elements),
+                        }
+                    }
+                    _ => Plan::EachLeg,
+                }
+            }
+            _ => Plan::EachLeg,
+        };
+        LegKernel {
+            model,
+            plan,
+            isa: Isa::detected(),
+        }
+    }
+
+    /// The kernel with its element loop compiled for `isa` (the processor's best by default);
+    /// `None` where the processor lacks it.
+    pub fn on(self, isa: Isa) -> Option<LegKernel> {
+        let ok = match isa {
+            Isa::Baseline => true,
+            Isa::Avx2 => Isa::detected() != Isa::Baseline,
+            Isa::Avx512 => Isa::detected() == Isa::Avx512,
+        };
+        ok.then_some(LegKernel { isa, ..self })
+    }
+
+    /// The element loop's compilation in use.
+    pub fn isa(&self) -> Isa {
+        self.isa
+    }
+
+    /// The model.
+    pub fn model(&self) -> &ForceModel {
+        &self.model
+    }
+
+    /// Whether legs go through their own vector loop (RFT with the fitted coefficients),
+    /// rather than [`ForceModel::predict_moving`] one by one.
+    pub fn is_vectorised(&self) -> bool {
+        !matches!(self.plan, Plan::EachLeg)
+    }
+
+    /// Writes the forces of legs `first..first + out.drag_n.len()` of `legs` into `out`. A
+    /// non-finite input, a per-leg width the model does not take or that is not positive, or a
+    /// force that overflows, is an error naming the leg (the outputs before it are written).
+    ///
+    /// # Panics
+    /// If an input slice is shorter than `first + out.drag_n.len()`, or the outputs differ in
+    /// length.
+    pub fn forces<T: Real>(
+        &self,
+        legs: &Legs<'_, T>,
+        first: usize,
+        out: LegForcesOut<'_, T>,
+    ) -> Result<(), LegError> {
+        let n = out.drag_n.len();
+        assert!(out.lift_n.len() == n && out.hip_torque_nm.len() == n);
+        let at = |o: Option<&[T]>, i: usize| o.map_or(0.0, |v| v[i].to_f64());
+        let mut scratch = Scratch::default();
+        let widths = match &self.model {
+            _ if legs.b_k.is_none() && legs.a.is_none() => None,
+            ForceModel::Terzaghi(m) if m.fitting_width() != FittingWidth::CONVENTIONAL => Some(m),
+            _ if n == 0 => None,
+            _ => {
+                return Err(LegError {
+                    index: first,
+                    problem: LegProblem::NoFittingWidth,
+                });
+            }
+        };
+        for k in 0..n {
+            let i = first + k;
+            let fail = |error: ModelError| LegError {
+                index: i,
+                problem: error.into(),
+            };
+            let named = |name: &'static str, v: f64| super::finite(name, v).map_err(fail);
+            let beta = named("attack angle beta (rad)", legs.beta_rad[i].to_f64())?;
+            let hip = HipMotion {
+                height_m: named("hip height (m)", legs.hip_height_m[i].to_f64())?,
+                pitch_rad: named("pitch (rad)", at(legs.pitch_rad, i))?,
+                omega_rad_s: named("leg rate omega (rad/s)", at(legs.omega_rad_s, i))?,
+                forward_m_s: named("hip forward velocity (m/s)", at(legs.forward_m_s, i))?,
+                up_m_s: named("hip up velocity (m/s)", at(legs.up_m_s, i))?,
+                forward_position_m: 0.0,
+                lateral_m_s: 0.0,
+            };
+            let f = match (&self.plan, &widths) {
+                (_, Some(m)) => {
+                    let w = FittingWidth::new(
+                        legs.b_k.map_or(m.fitting_width().b_k(), |v| v[i].to_f64()),
+                        legs.a.map_or(m.fitting_width().a(), |v| v[i].to_f64()),
+                    )
+                    .map_err(fail)?;
+                    let f = m
+                        .with_fitting_width(w)
+                        .evaluate_at_height(beta + hip.pitch_rad, hip.height_m)
+                        .map_err(fail)?;
+                    [f.drag_n, f.lift_n, f.hip_torque_nm]
+                }
+                (Plan::EachLeg, None) => {
+                    let p = self.model.predict_moving(beta, &hip).map_err(fail)?;
+                    [p.drag_n, p.lift_n, p.hip_torque_nm]
+                }
+                (Plan::Profile(e, fit), None) => {
+                    match self.profile_leg::<T>(e, fit, beta, &hip, &mut scratch) {
+                        Some(f) => f,
+                        None => {
+                            let p = self.model.predict_moving(beta, &hip).map_err(fail)?;
+                            [p.drag_n, p.lift_n, p.hip_torque_nm]
+                        }
+                    }
+                }
+                (Plan::Plate(fit, elements), None) => {
+                    match self.plate_leg::<T>(fit, *elements, beta, &hip, &mut scratch) {
+                        Some(f) => f,
+                        None => {
+                            let p = self.model.predict_moving(beta, &hip).map_err(fail)?;
+                            [p.drag_n, p.lift_n, p.hip_torque_nm]
+                        }
+                    }
+                }
+            };
+            for (output, v) in ["drag", "lift", "hip torque"].into_iter().zip(f) {
+                if !T::of(v).to_f64().is_finite() {
+                    return Err(LegError {
+                        index: i,
+                        problem: LegProblem::Overflow { output, value: v },
+                    });
+                }
+            }
+            out.drag_n[k] = T::of(f[0]);
+            out.lift_n[k] = T::of(f[1]);
+            out.hip_torque_nm[k] = T::of(f[2]);
+        }
+        Ok(())
+    }
+
+    /// The depth law of an RFT model, if any.
+    fn depth_law(&self) -> Option<&super::RftDepthLaw> {
+        match &self.model {
+            ForceModel::Rft(m) => m.depth_law(),
+            _ => None,
+        }
+    }
+
+    /// A profile leg by the vector loop; `None` where its speed is out of the type's range.
+    fn profile_leg<T: Real>(
+        &self,
+        e: &Elements,
+        fit: &Fit,
+        beta_rad: f64,
+        hip: &HipMotion,
+        scratch: &mut Scratch<T>,
+    ) -> Option<[f64; 3]> {
+        let beta = wrap_beta_rad(beta_rad + hip.pitch_rad);
+        let h = hip.height_m;
+        // No element below the surface: nothing to integrate.
+        if h > e.reach_m * (1.0 + 1e-6) {
+            return Some([0.0; 3]);
+        }
+        let frame = Frame::new::<T>(beta, h, hip, e.reach_m)?;
+        let soa = T::elements(e);
+        Some(sum(soa, fit, &frame, self.depth_law(), scratch, self.isa))
+    }
+
+    /// A flat plate's leg by the vector loop: `elements` equal elements over its submerged
+    /// length, as [`super::RftModel::evaluate_moving`] cuts it.
+    fn plate_leg<T: Real>(
+        &self,
+        fit: &Fit,
+        elements: usize,
+        beta_rad: f64,
+        hip: &HipMotion,
+        scratch: &mut Scratch<T>,
+    ) -> Option<[f64; 3]> {
+        let ForceModel::Rft(m) = &self.model else {
+            return None;
+        };
+        let beta = wrap_beta_rad(beta_rad + hip.pitch_rad);
+        let h = hip.height_m;
+        let plate = m.plate();
+        let l = plate.length_m();
+        let l_s = Plate::new(l, plate.width_m(), h.max(0.0))
+            .ok()?
+            .submerged_length_m(beta);
+        if l_s <= 0.0 {
+            return Some([0.0; 3]);
+        }
+        let frame = Frame::new::<T>(beta, h, hip, l)?;
+        let ds = l_s / elements as f64;
+        let wl = N_CM3_TO_N_M3 * plate.width_m() * ds;
+        let n = elements.div_ceil(LANES) * LANES;
+        let soa = &mut scratch.plate;
+        for col in [
+            &mut soa.s,
+            &mut soa.q,
+            &mut soa.wl,
+            &mut soa.c2,
+            &mut soa.s2,
+        ] {
+            col.clear();
+            col.resize(n, T::ZERO);
+        }
+        for i in 0..elements {
+            soa.s[i] = T::of((l - l_s) + (i as f64 + 0.5) * ds);
+            soa.wl[i] = T::of(wl);
+            soa.c2[i] = T::of(1.0);
+        }
+        soa.blocks = blocks_of(soa.s.iter().map(|s| (s.to_f64(), 0.0)));
+        let soa = std::mem::replace(&mut scratch.plate, Soa::empty());
+        let f = sum(&soa, fit, &frame, self.depth_law(), scratch, self.isa);
+        scratch.plate = soa;
+        Some(f)
+    }
+}
+
+/// Buffers a batch reuses from leg to leg.
+#[derive(Debug)]
+struct Scratch<T> {
+    /// A plate leg's elements.
+    plate: Soa<T>,
+    /// Each element's stressed depth, where a depth law applies.
+    depth: Vec<T>,
+}
+
+impl<T> Default for Scratch<T> {
+    fn default() -> Self {
+        Scratch {
+            plate: Soa::empty(),
+            depth: Vec::new(),
+        }
+    }
+}
+
+/// A leg's pose and motion as the element loop reads it.
+#[derive(Debug, Clone, Copy)]
+struct Frame {
+    h: f64,
+    /// The chord's direction `u`, the travel `n`, `cos 2 beta`, `sin 2 beta`.
+    u: (f64, f64),
+    n: (f64, f64),
+    c2b: f64,
+    s2b: f64,
+    omega: f64,
+    v_hip: (f64, f64),
+}
+
+impl Frame {
+    /// `None` where the speeds are out of the range whose squares the type holds.
+    fn new<T: Real>(beta: f64, h: f64, hip: &HipMotion, reach_m: f64) -> Option<Frame> {
+        let [vx, vz] = hip.leg_frame_velocity_m_s();
+        // A leg that neither turns nor moves is evaluated as turning forward (quasi-static).
+        let still = hip.omega_rad_s == 0.0 && vx == 0.0 && vz == 0.0;
+        let (omega, v_hip) = if still {
+            (1.0, (0.0, 0.0))
+        } else {
+            (hip.omega_rad_s, (vx, vz))
+        };
+        let scale = omega.abs() * reach_m + v_hip.0.abs() + v_hip.1.abs();
+        if !(scale <= T::MAX_SPEED_SCALE && scale >= T::MIN_SPEED_SCALE) {
+            return None;
+        }
+        let (sin_b, cos_b) = beta.sin_cos();
+        Some(Frame {
+            h,
+            u: (-cos_b, -sin_b),
+            n: (sin_b, -cos_b),
+            c2b: cos_b * cos_b - sin_b * sin_b,
+            s2b: 2.0 * sin_b * cos_b,
+            omega,
+            v_hip,
+        })
+    }
+}
+
+/// The forces of `soa`'s elements for a leg in `frame`: drag, lift, hip torque.
+fn sum<T: Real>(
+    soa: &Soa<T>,
+    fit: &Fit,
+    frame: &Frame,
+    depth_law: Option<&super::RftDepthLaw>,
+    scratch: &mut Scratch<T>,
+    isa: Isa,
+) -> [f64; 3] {
+    let t = |x: f64| T::of(x);
+    let (u0, u1, n0, n1, h) = (
+        t(frame.u.0),
+        t(frame.u.1),
+        t(frame.n.0),
+        t(frame.n.1),
+        t(frame.h),
+    );
+    // A depth law's power, once per element below the surface, before the vector loop.
+    let depth = depth_law.map(|law| {
+        scratch.depth.clear();
+        scratch
+            .depth
+            .extend(soa.s.iter().zip(&soa.q).map(|(&s, &q)| {
+                let d = -(h + (s * u1 + q * n1));
+                if d > T::ZERO {
+                    T::of(law.effective_depth_m(d.to_f64()))
+                } else {
+                    T::ZERO
+                }
+            }));
+        scratch.depth.as_slice()
+    });
+    let c = Consts {
+        u0,
+        u1,
+        n0,
+        n1,
+        h,
+        c2b: t(frame.c2b),
+        s2b: t(frame.s2b),
+        omega: t(frame.omega),
+        vhx: t(frame.v_hip.0),
+        vhz: t(frame.v_hip.1),
+        a00: t(fit.a00),
+        a10: t(fit.a10),
+        b_diff: t(fit.b_diff),
+        b_sum: t(fit.b_sum),
+        b01: t(fit.b01),
+        c_sum: t(fit.c_sum),
+        c_diff: t(fit.c_diff),
+        c01: t(fit.c01),
+        d10: t(fit.d10),
+    };
+    match isa {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: the processor has the features the function is compiled for.
+        Isa::Avx512 => unsafe { sum_avx512(soa, depth, &c, frame.h) },
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: as above.
+        Isa::Avx2 => unsafe { sum_avx2(soa, depth, &c, frame.h) },
+        _ => sum_lanes::<T, false, false>(soa, depth, &c, frame.h),
+    }
+}
+
+/// Which of the element loop's compilations the processor runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Isa {
+    /// AVX-512F: sixteen lanes in one or two registers, fused multiply-adds, and the reciprocal
+    /// square root estimate refined by Newton's steps.
+    Avx512,
+    /// AVX2 and FMA: fused multiply-adds, the exact square root and division.
+    Avx2,
+    /// The target's baseline (SSE2 on x86-64): the exact operations of
+    /// [`super::RftModel::evaluate_moving`], not fused.
+    Baseline,
+}
+
+impl Isa {
+    /// The fastest this processor runs.
+    pub fn detected() -> Isa {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                return Isa::Avx512;
+            }
+            if std::arch::is_x86_feature_detected!("avx2")
+                && std::arch::is_x86_feature_detected!("fma")
+            {
+                return Isa::Avx2;
+            }
+        }
+        Isa::Baseline
+    }
+}
+
+/// A leg's constants in the loop's type.
+struct Consts<T> {
+    u0: T,
+    u1: T,
+    n0: T,
+    n1: T,
+    h: T,
+    c2b: T,
+    s2b: T,
+    omega: T,
+    vhx: T,
+    vhz: T,
+    a00: T,
+    a10: T,
+    b_diff: T,
+    b_sum: T,
+    b01: T,
+    c_sum: T,
+    c_diff: T,
+    c01: T,
+    d10: T,
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn sum_avx512<T: Real>(soa: &Soa<T>, depth: Option<&[T]>, c: &Consts<T>, h: f64) -> [f64; 3] {
+    sum_lanes::<T, true, true>(soa, depth, c, h)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn sum_avx2<T: Real>(soa: &Soa<T>, depth: Option<&[T]>, c: &Consts<T>, h: f64) -> [f64; 3] {
+    sum_lanes::<T, true, false>(soa, depth, c, h)
+}
+
+/// The element loop, [`LANES`] elements at a time, each lane its own sums (so that it needs
+/// no reassociation to run in vector registers, and gives the same sums whatever the
+/// register's width). `FMA`: fuse multiply-adds; `RSQRT`: the AVX-512 reciprocal square root
+/// (both only where the caller is compiled for them).
+///
+/// Per element, as [`super::RftModel::evaluate_moving`]: its point `p = s u + q n`, depth
+/// `-(h + p_z)`, velocity `omega (s n - q u) + v_hip`, and RFT's stresses at its tangent's
+/// angle and its motion's. The mirror of a motion toward -x cancels out of the forces (it
+/// multiplies `alpha_x` and the drag it gives, and both of the mixed terms of `alpha_z`),
+/// so the loop has no branch. A block of elements whose circle lies above the surface is
+/// skipped (its elements would add zeros).
+#[inline(always)]
+fn sum_lanes<T: Real, const FMA: bool, const RSQRT: bool>(
+    soa: &Soa<T>,
+    depth: Option<&[T]>,
+    c: &Consts<T>,
+    h: f64,
+) -> [f64; 3] {
+    // a b + d
+    let fma = |a: T, b: T, d: T| if FMA { a.mul_add(b, d) } else { a * b + d };
+    let mut drag = [T::ZERO; LANES];
+    let mut lift = [T::ZERO; LANES];
+    let mut torque = [T::ZERO; LANES];
+    let z = T::ZERO;
+    let (u1, n1) = (c.u1.to_f64(), c.n1.to_f64());
+    for (b, &[bs, bq, br]) in soa.blocks.iter().enumerate() {
+        if -(h + (bs * u1 + bq * n1)) + br <= 0.0 {
+            continue;
+        }
+        let start = b * LANES;
+        let s = &soa.s[start..start + LANES];
+        let q = &soa.q[start..start + LANES];
+        let wl = &soa.wl[start..start + LANES];
+        let c2 = &soa.c2[start..start + LANES];
+        let s2 = &soa.s2[start..start + LANES];
+        let dl = depth.map(|d| &d[start..start + LANES]);
+        let mut vx = [z; LANES];
+        let mut vz = [z; LANES];
+        let mut v2 = [z; LANES];
+        for l in 0..LANES {
+            let (s, q) = (s[l], q[l]);
+            vx[l] = fma(c.omega, s * c.n0 - q * c.u0, c.vhx);
+            vz[l] = fma(c.omega, s * c.n1 - q * c.u1, c.vhz);
+            v2[l] = fma(vx[l], vx[l], vz[l] * vz[l]);
+        }
+        let inv = if RSQRT {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `RSQRT` is set only in `sum_avx512`, compiled for AVX-512F and called
+            // where the processor has it.
+            unsafe {
+                T::inv_sqrt_avx512(&v2)
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            v2.map(Real::inv_sqrt_or_zero)
+        } else {
+            v2.map(Real::inv_sqrt_or_zero)
+        };
+        for l in 0..LANES {
+            let (s, q) = (s[l], q[l]);
+            let p0 = fma(s, c.u0, q * c.n0);
+            let p1 = fma(s, c.u1, q * c.n1);
+            let d = -(c.h + p1);
+            // The motion's direction `(x, -sg)`; the tangent's twice-angle `(c2e, sm)`.
+            let x = vx[l] * inv[l];
+            let sg = -(vz[l] * inv[l]);
+            let c2e = c2[l] * c.c2b - s2[l] * c.s2b;
+            let sm = fma(c2[l], c.s2b, s2[l] * c.c2b);
+            let az = fma(
+                c.b01,
+                sg,
+                fma(
+                    c.b_sum,
+                    c2e * sg,
+                    fma(c.b_diff, sm * x, fma(c.a10, c2e, c.a00)),
+                ),
+            );
+            let ax = fma(
+                c.d10,
+                sm,
+                fma(c.c01, x, fma(c.c_diff, sm * sg, c.c_sum * (c2e * x))),
+            );
+            let stressed = match dl {
+                Some(dl) => dl[l],
+                None => d,
+            };
+            let k = if d > z && inv[l] > z {
+                stressed * wl[l]
+            } else {
+                z
+            };
+            drag[l] = fma(ax, k, drag[l]);
+            lift[l] = fma(az, k, lift[l]);
+            torque[l] = torque[l] - fma(p1, ax, p0 * az) * k;
+        }
+    }
+    let total = |a: &[T; LANES]| a.iter().fold(0.0, |acc, v| acc + v.to_f64());
+    [total(&drag), total(&lift), total(&torque)]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::TerzaghiModel;
+    use crate::model::{
+        Medium, Plate, RftCoefficients, RftDepthLaw, RftFit, RftModel, c_leg_profile,
+    };
+    use std::f64::consts::PI;
+
+    fn models() -> Vec<(&'static str, ForceModel)> {
+        let plate = Plate::new(0.1, 0.025, 0.0).unwrap();
+        let c = RftCoefficients::Fit(RftFit::POPPY_LP);
+        let law = RftDepthLaw::new(1.7, 0.8)
+            .unwrap()
+            .with_offset(0.002)
+            .unwrap();
+        vec![
+            (
+                "rft plate",
+                ForceModel::Rft(RftModel::new(plate, c.clone(), 100).unwrap()),
+            ),
+            (
+                "rft plate, law in depth",
+                ForceModel::Rft(
+                    RftModel::new(plate, c.clone(), 100)
+                        .unwrap()
+                        .with_depth_law(Some(law)),
+                ),
+            ),
+            (
+                "c-leg",
+                ForceModel::Rft(
+                    RftModel::with_profile(plate, c.clone(), 96, c_leg_profile(0.05, PI, 16))
+                        .unwrap(),
+                ),
+            ),
+            (
+                "c-leg, law in depth",
+                ForceModel::Rft(
+                    RftModel::with_profile(plate, c, 96, c_leg_profile(0.05, PI, 16))
+                        .unwrap()
+                        .with_depth_law(Some(law)),
+                ),
+            ),
+            (
+                "improved",
+                ForceModel::Terzaghi(TerzaghiModel::new(
+                    plate,
+                    Medium::new(13000.0, 30.0, 20.0).unwrap(),
+                    FittingWidth::new(30.0, 2.3).unwrap(),
+                )),
+            ),
+        ]
+    }
+
+    /// A grid of legs: angles over two turns, hips from below the surface to above the reach,
+    /// still and moving every way.
+    fn legs() -> Vec<[f64; 6]> {
+        let mut v = Vec::new();
+        for i in 0..73 {
+            let beta = -PI + i as f64 * 0.17;
+            for h in [-0.01, 0.0, 0.02, 0.05, 0.12] {
+                for (pitch, omega, fwd, up) in [
+                    (0.0, 0.0, 0.0, 0.0),
+                    (0.1, 4.0, 0.0, 0.0),
+                    (0.0, -3.0, 0.0, 0.0),
+                    (-0.05, 2.0, 0.3, -0.05),
+                    (0.0, 0.0, -0.2, 0.1),
+                    (0.0, 1e-120, 0.0, 0.0),
+                ] {
+                    v.push([beta, h, pitch, omega, fwd, up]);
+                }
+            }
+        }
+        v
+    }
+
+    #[test]
+    fn a_batch_gives_each_leg_what_predict_moving_gives() {
+        let legs = legs();
+        let col = |k: usize| legs.iter().map(|l| l[k]).collect::<Vec<f64>>();
+        let cols: Vec<Vec<f64>> = (0..6).map(col).collect();
+        let input = Legs {
+            beta_rad: &cols[0],
+            hip_height_m: &cols[1],
+            pitch_rad: Some(&cols[2]),
+            omega_rad_s: Some(&cols[3]),
+            forward_m_s: Some(&cols[4]),
+            up_m_s: Some(&cols[5]),
+            b_k: None,
+            a: None,
+        };
+        let isas = [Isa::Baseline, Isa::Avx2, Isa::Avx512];
+        let cases = models()
+            .into_iter()
+            .flat_map(|(name, m)| isas.map(|isa| (name, isa, m.clone())));
+        for (name, isa, model) in cases {
+            let Some(kernel) = LegKernel::new(model.clone()).on(isa) else {
+                continue;
+            };
+            let name = format!("{name} on {isa:?}");
+            assert_eq!(
+                kernel.is_vectorised(),
+                !name.starts_with("improved"),
+                "{name}"
+            );
+            let n = legs.len();
+            let (mut d, mut l, mut t) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+            kernel
+                .forces(
+                    &input,
+                    0,
+                    LegForcesOut {
+                        drag_n: &mut d,
+                        lift_n: &mut l,
+                        hip_torque_nm: &mut t,
+                    },
+                )
+                .unwrap();
+            let mut scale = 0.0f64;
+            let want: Vec<[f64; 3]> = legs
+                .iter()
+                .map(|x| {
+                    let hip = HipMotion {
+                        height_m: x[1],
+                        pitch_rad: x[2],
+                        omega_rad_s: x[3],
+                        forward_m_s: x[4],
+                        up_m_s: x[5],
+                        ..HipMotion::default()
+                    };
+                    let p = model.predict_moving(x[0], &hip).unwrap();
+                    scale = scale.max(p.drag_n.abs()).max(p.lift_n.abs());
+                    [p.drag_n, p.lift_n, p.hip_torque_nm]
+                })
+                .collect();
+            assert!(scale > 1.0, "{name}: legs in the medium");
+            for (i, w) in want.iter().enumerate() {
+                for (k, (got, w)) in [d[i], l[i], t[i]].iter().zip(w).enumerate() {
+                    let tol = 1e-13 * scale * if k == 2 { 0.2 } else { 1.0 };
+                    assert!(
+                        (got - w).abs() <= tol,
+                        "{name}, leg {i} {:?}, output {k}: {got} against {w}",
+                        legs[i]
+                    );
+                }
+            }
+            // f32: the same legs, to the type's precision.
+            let cols32: Vec<Vec<f32>> = cols
+                .iter()
+                .map(|c| c.iter().map(|&v| v as f32).collect())
+                .collect();
+            let input32 = Legs {
+                beta_rad: &cols32[0],
+                hip_height_m: &cols32[1],
+                pitch_rad: Some(&cols32[2]),
+                omega_rad_s: Some(&cols32[3]),
+                forward_m_s: Some(&cols32[4]),
+                up_m_s: Some(&cols32[5]),
+                b_k: None,
+                a: None,
+            };
+            let (mut d32, mut l32, mut t32) = (vec![0.0f32; n], vec![0.0f32; n], vec![0.0f32; n]);
+            kernel
+                .forces(
+                    &input32,
+                    0,
+                    LegForcesOut {
+                        drag_n: &mut d32,
+                        lift_n: &mut l32,
+                        hip_torque_nm: &mut t32,
+                    },
+                )
+                .unwrap();
+            let worst = (0..n)
+                .map(|i| {
+                    (d32[i] as f64 - d[i])
+                        .abs()
+                        .max((l32[i] as f64 - l[i]).abs())
+                })
+                .fold(0.0f64, f64::max);
+            assert!(
+                worst <= 1e-3 * scale,
+                "{name}: f32 off by {worst} of {scale}"
+            );
+        }
+    }
+}
