@@ -9,42 +9,9 @@ use common::{repo, terzaghi};
 use std::path::PathBuf;
 use std::process::Command;
 
-/// The venv with the package built from this checkout (reinstalled on every run: the crate may
-/// have changed since).
+/// The venv with the package built from this checkout.
 fn python_with_package() -> PathBuf {
-    let venv = repo().join("target/pyvenv");
-    let py = venv.join("bin/python");
-    let pip = venv.join("bin/pip");
-    static INSTALL: std::sync::Mutex<()> = std::sync::Mutex::new(());
-    let _one = INSTALL.lock().unwrap_or_else(|p| p.into_inner());
-    if !py.exists() {
-        let ok = Command::new("python3")
-            .args(["-m", "venv"])
-            .arg(&venv)
-            .status()
-            .is_ok_and(|s| s.success());
-        assert!(ok, "cannot make the venv {}", venv.display());
-    }
-    let ok = Command::new(&pip)
-        .args(["install", "-q", "-r"])
-        .arg(repo().join("python/tests/requirements.txt"))
-        .status()
-        .is_ok_and(|s| s.success());
-    assert!(
-        ok,
-        "pip install -r python/tests/requirements.txt failed (it needs PyPI)"
-    );
-    let out = Command::new(&pip)
-        .args(["install", "-q", "--force-reinstall", "--no-deps"])
-        .arg(repo().join("python"))
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "pip install ./python failed:\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    py
+    common::python_venv("target/pyvenv", "python/tests/requirements.txt")
 }
 
 #[test]

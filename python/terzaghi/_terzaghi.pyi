@@ -157,17 +157,21 @@ class Batch:
         profile: Optional[List[Tuple[float, float]]],
         medium_file: Optional[str],
     ) -> None: ...
+    @property
+    def vectorised(self) -> bool: ...
     def forces_into(
         self,
-        beta_rad: npt.NDArray[np.float64],
-        hip_height_m: npt.NDArray[np.float64],
-        pitch_rad: Optional[npt.NDArray[np.float64]],
-        omega_rad_s: Optional[npt.NDArray[np.float64]],
-        forward_m_s: Optional[npt.NDArray[np.float64]],
-        up_m_s: Optional[npt.NDArray[np.float64]],
-        drag_n: npt.NDArray[np.float64],
-        lift_n: npt.NDArray[np.float64],
-        hip_torque_nm: npt.NDArray[np.float64],
+        beta_rad: npt.NDArray[np.floating],
+        hip_height_m: npt.NDArray[np.floating],
+        pitch_rad: Optional[npt.NDArray[np.floating]],
+        omega_rad_s: Optional[npt.NDArray[np.floating]],
+        forward_m_s: Optional[npt.NDArray[np.floating]],
+        up_m_s: Optional[npt.NDArray[np.floating]],
+        b_k: Optional[npt.NDArray[np.floating]],
+        a: Optional[npt.NDArray[np.floating]],
+        drag_n: npt.NDArray[np.floating],
+        lift_n: npt.NDArray[np.floating],
+        hip_torque_nm: npt.NDArray[np.floating],
     ) -> None: ...
 
 class Recorder:

@@ -8,14 +8,17 @@
 >>> drag.shape
 (4096, 6)
 
-The arrays are read and written in place, without a copy when they are C-contiguous float64:
-pass ``out=(drag, lift, torque)`` to reuse arrays from step to step, and nothing is allocated
-per call. The work is shared over every core, without the interpreter's lock.
+A batch runs in ``beta_rad``'s dtype, float64 or float32 (float32 in, float32 out). numpy
+arrays, CPU torch tensors and JAX arrays (anything with ``__dlpack__`` on the CPU) are read
+where they lie, without a copy when they are C-contiguous in the batch's dtype; the outputs
+come back as the same kind of array. Pass ``out=(drag, lift, torque)`` to reuse arrays from
+step to step, and nothing is allocated per call. The work is shared over every core, without
+the interpreter's lock.
 """
 
 from __future__ import annotations
 
-from typing import Optional, Tuple
+from typing import Any, Optional, Tuple
 
 import numpy as np
 
@@ -23,31 +26,103 @@ from . import TerzaghiError, _medium, _model_tail, _terzaghi
 
 __all__ = ["LegBatch"]
 
-Arrays = Tuple[np.ndarray, np.ndarray, np.ndarray]
+Arrays = Tuple[Any, Any, Any]
 
 
-def _f64(name: str, x) -> np.ndarray:
-    try:
-        return np.ascontiguousarray(x, dtype=np.float64)
-    except (TypeError, ValueError) as e:
-        raise TerzaghiError(f"{name}: not an array of numbers ({e})") from None
+def _kind(x) -> str:
+    """``"numpy"``, ``"torch"``, ``"jax"`` or ``"other"``: which stack an array comes from."""
+    if isinstance(x, np.ndarray):
+        return "numpy"
+    module = type(x).__module__.split(".")[0]
+    return module if module in ("torch", "jax", "jaxlib") else "other"
 
 
-def _like(name: str, x, beta: np.ndarray) -> np.ndarray:
-    """``x`` as a C-contiguous float64 array of ``beta``'s shape: a scalar is broadcast (as
+def _on_cpu(name: str, x) -> None:
+    """Refuses an array that lives on an accelerator, saying what to do."""
+    device = getattr(x, "device", None)
+    if device is None or isinstance(device, str):
+        return
+    kind = getattr(device, "type", None) or getattr(device, "platform", None)
+    if callable(kind):
+        kind = kind()
+    if kind is not None and kind != "cpu":
+        raise TerzaghiError(
+            f"{name} is on {device}: terzaghi computes on the CPU. Move it there once per step "
+            "(x.cpu() in torch, jax.device_put(x, jax.devices('cpu')[0]) in JAX); see "
+            "docs/python.md, 'GPU users'")
+
+
+def _view(name: str, x):
+    """``x`` as a numpy array over the same memory where it has one (``__dlpack__``)."""
+    if isinstance(x, np.ndarray):
+        return x
+    if hasattr(x, "__dlpack__"):
+        _on_cpu(name, x)
+        try:
+            return np.from_dlpack(x)
+        except (TypeError, ValueError, RuntimeError, BufferError) as e:
+            raise TerzaghiError(f"{name}: its memory cannot be read in place ({e})") from None
+    return x
+
+
+def _input(name: str, x, dtype, shape) -> np.ndarray:
+    """``x`` as a C-contiguous array of ``dtype`` and ``shape``: a scalar is broadcast (as
     :func:`terzaghi.predict` does), any other shape is refused by name, even with as many
     values (a transposed ``(6, 4096)`` against ``(4096, 6)`` would read the legs out of order)."""
+    x = _view(name, x)
     if np.ndim(x) == 0:
         try:
-            return np.full(beta.shape, float(x))
+            return np.full(shape, float(x), dtype=dtype)
         except (TypeError, ValueError) as e:
             raise TerzaghiError(f"{name}: not a number ({e})") from None
-    a = _f64(name, x)
-    if a.shape != beta.shape:
-        hint = " (transposed?)" if a.shape == beta.shape[::-1] and a.ndim > 1 else ""
+    try:
+        a = np.ascontiguousarray(x, dtype=dtype)
+    except (TypeError, ValueError) as e:
+        raise TerzaghiError(f"{name}: not an array of numbers ({e})") from None
+    if a.shape != shape:
+        hint = " (transposed?)" if a.shape == shape[::-1] and a.ndim > 1 else ""
         raise TerzaghiError(
-            f"{name} has shape {a.shape}, beta_rad {beta.shape}{hint}: give each input the "
+            f"{name} has shape {a.shape}, beta_rad {shape}{hint}: give each input the "
             "shape of beta_rad, or a scalar")
+    return a
+
+
+def _output(name: str, x, dtype, shape) -> np.ndarray:
+    """An ``out`` array, written in place: it must have the batch's dtype and shape already."""
+    a = _view(name, x)
+    if not isinstance(a, np.ndarray):
+        raise TerzaghiError(f"{name}: not an array ({type(x).__name__})")
+    if a.dtype != dtype or a.shape != shape:
+        raise TerzaghiError(
+            f"{name} is {a.dtype} {a.shape}, the batch {np.dtype(dtype)} {shape} (beta_rad's): "
+            "give each output the batch's dtype and shape")
+    if not a.flags.c_contiguous:
+        raise TerzaghiError(f"{name} must be C-contiguous (np.empty(shape, dtype))")
+    if not a.flags.writeable:
+        raise TerzaghiError(f"{name} is read-only (a JAX array is): leave out= out for JAX")
+    return a
+
+
+def _aligned_empty(shape, dtype) -> np.ndarray:
+    """An empty array whose data starts on a 64-byte boundary (what JAX needs to take it
+    without a copy)."""
+    n = int(np.prod(shape))
+    item = np.dtype(dtype).itemsize
+    raw = np.empty(n * item + 64, dtype=np.uint8)
+    start = -raw.ctypes.data % 64
+    return raw[start:start + n * item].view(dtype).reshape(shape)
+
+
+def _as_kind(kind: str, a: np.ndarray):
+    """``a`` as an array of the stack ``kind``, over the same memory."""
+    if kind == "torch":
+        import torch
+
+        return torch.from_dlpack(a)
+    if kind in ("jax", "jaxlib"):
+        import jax.numpy as jnp
+
+        return jnp.from_dlpack(a)
     return a
 
 
@@ -96,6 +171,12 @@ class LegBatch:
                          c_leg_span_deg, profile, medium_file),
         )
 
+    @property
+    def vectorised(self) -> bool:
+        """Whether legs go through the kernel's vector loop (RFT with fitted coefficients);
+        other models are evaluated leg by leg, as :func:`terzaghi.predict` does."""
+        return self._inner.vectorised
+
     def forces(
         self,
         beta_rad,
@@ -105,30 +186,54 @@ class LegBatch:
         omega_rad_s=None,
         forward_m_s=None,
         up_m_s=None,
+        b_k=None,
+        a=None,
         out: Optional[Arrays] = None,
     ) -> Arrays:
         """Drag, lift (N) and hip torque (N m) of every leg.
 
         Args:
-            beta_rad: each leg's joint angle (rad), any shape.
+            beta_rad: each leg's joint angle (rad), any shape; float32 makes a float32 batch,
+                anything else float64. A numpy array, or a CPU torch tensor or JAX array.
             hip_height_m: each hip's height above the surface (m), the same shape (a scalar is
                 broadcast).
             pitch_rad, omega_rad_s, forward_m_s, up_m_s: the body's pitch, the leg's rate and
                 the hip's horizontal (forward) and vertical (up) velocity; zero if left out.
                 RFT uses the velocities; the improved model uses the pitch and height.
-            out: three C-contiguous float64 arrays of that shape to write into.
+            b_k, a: the improved model's fitting width per leg (a medium per environment),
+                the shape of ``beta_rad`` or a scalar; the batch's own if left out.
+            out: three C-contiguous arrays of the batch's dtype and shape to write into.
+
+        Returns:
+            The three arrays: ``out`` where given, else new arrays of ``beta_rad``'s kind
+            (numpy, torch or JAX).
 
         Raises:
-            TerzaghiError: a non-finite input (its flat index named), or an input or output
-                array whose shape differs from ``beta_rad``'s (its name and both shapes).
+            TerzaghiError: a non-finite input (its flat index named), an input or output array
+                whose shape differs from ``beta_rad``'s (its name and both shapes), an output of
+                another dtype, or an array on an accelerator.
         """
-        beta = _f64("beta_rad", beta_rad)
-        arrays = [_like("hip_height_m", hip_height_m, beta)] + [
-            None if v is None else _like(n, v, beta)
+        kind = _kind(beta_rad)
+        beta = _view("beta_rad", beta_rad)
+        dtype = np.float32 if getattr(beta, "dtype", None) == np.float32 else np.float64
+        try:
+            beta = np.ascontiguousarray(beta, dtype=dtype)
+        except (TypeError, ValueError) as e:
+            raise TerzaghiError(f"beta_rad: not an array of numbers ({e})") from None
+        shape = beta.shape
+        arrays = [_input("hip_height_m", hip_height_m, dtype, shape)] + [
+            None if v is None else _input(n, v, dtype, shape)
             for n, v in [("pitch_rad", pitch_rad), ("omega_rad_s", omega_rad_s),
-                         ("forward_m_s", forward_m_s), ("up_m_s", up_m_s)]
+                         ("forward_m_s", forward_m_s), ("up_m_s", up_m_s), ("b_k", b_k),
+                         ("a", a)]
         ]
         if out is None:
-            out = (np.empty_like(beta), np.empty_like(beta), np.empty_like(beta))
-        self._inner.forces_into(beta, *arrays, *out)
-        return out
+            arrays_out = tuple(_aligned_empty(shape, dtype) for _ in range(3))
+            self._inner.forces_into(beta, *arrays, *arrays_out)
+            return tuple(_as_kind(kind, o) for o in arrays_out)
+        if len(out) != 3:
+            raise TerzaghiError(f"out: three arrays (drag, lift, torque), got {len(out)}")
+        arrays_out = tuple(_output(n, o, dtype, shape)
+                           for n, o in zip(("drag_n", "lift_n", "hip_torque_nm"), out))
+        self._inner.forces_into(beta, *arrays, *arrays_out)
+        return tuple(out)

@@ -52,7 +52,7 @@ def test_out_arrays_are_written_in_place_and_bad_inputs_are_named():
     assert all(g is o for g, o in zip(got, out))
     bad = beta.copy()
     bad[3, 2] = np.nan
-    with pytest.raises(terzaghi.TerzaghiError, match="element 20"):
+    with pytest.raises(terzaghi.TerzaghiError, match=r"leg 20 \(flat index\)"):
         legs.forces(bad, hip)
     with pytest.raises(terzaghi.TerzaghiError, match=r"hip_height_m has shape \(47,\)"):
         legs.forces(beta, np.zeros(47))
@@ -65,7 +65,7 @@ def test_out_arrays_are_written_in_place_and_bad_inputs_are_named():
     varied = np.linspace(0.2, 1.4, 48).reshape(8, 6)
     for k, (a, b) in enumerate(zip(legs.forces(varied, 0.01), legs.forces(varied, np.full((8, 6), 0.01)))):
         np.testing.assert_array_equal(a, b, err_msg=f"output {k}")
-    with pytest.raises(terzaghi.TerzaghiError, match="drag_n has shape"):
+    with pytest.raises(terzaghi.TerzaghiError, match=r"drag_n is float64 \(48,\), the batch float64 \(8, 6\)"):
         legs.forces(beta, hip, out=(np.empty(48), out[1], out[2]))
     with pytest.raises(terzaghi.TerzaghiError, match="C-contiguous"):
         legs.forces(beta, hip, out=(np.empty((6, 8)).T, out[1], out[2]))
@@ -73,3 +73,81 @@ def test_out_arrays_are_written_in_place_and_bad_inputs_are_named():
         LegBatch(**LEG, model="rft", medium="poppy_lp", shape="c_leg", c_leg_radius_m=0.03)
     with pytest.raises(terzaghi.TerzaghiError, match="RFT only"):
         LegBatch(**LEG, **MEDIUM, b_k=30.0, a=2.3, shape="c_leg")
+
+
+def _rand_legs(shape, seed):
+    rng = np.random.default_rng(seed)
+    return dict(beta=rng.uniform(-np.pi, 3 * np.pi, shape), hip=rng.uniform(-0.01, 0.08, shape),
+                pitch=rng.uniform(-0.1, 0.1, shape), omega=rng.uniform(-6.0, 8.0, shape),
+                fwd=rng.uniform(-0.2, 0.3, shape), up=rng.uniform(-0.05, 0.05, shape))
+
+
+C_LEG = dict(model="rft", medium="poppy_lp", shape="c_leg", rft_elements=96)
+
+
+def test_a_float32_batch_runs_in_float32_within_the_documented_accuracy():
+    # docs/python.md: float32 forces within 1e-4 of the largest force of the batch in float64.
+    x = _rand_legs((512, 6), 3)
+    for kw in [C_LEG, dict(model="rft", medium="poppy_lp"), dict(**MEDIUM, b_k=30.0, a=2.3)]:
+        legs = LegBatch(**LEG, **kw)
+        motion = dict(pitch_rad=x["pitch"], omega_rad_s=x["omega"], forward_m_s=x["fwd"],
+                      up_m_s=x["up"])
+        f64 = legs.forces(x["beta"], x["hip"], **motion)
+        f32 = legs.forces(x["beta"].astype(np.float32), x["hip"].astype(np.float32),
+                          **{k: v.astype(np.float32) for k, v in motion.items()})
+        scale = max(np.abs(f64[0]).max(), np.abs(f64[1]).max())
+        assert scale > 1.0
+        for k, (a, b) in enumerate(zip(f32, f64)):
+            assert a.dtype == np.float32 and b.dtype == np.float64
+            err = np.abs(a.astype(np.float64) - b).max()
+            assert err <= 1e-4 * scale, f"{kw}, output {k}: {err} of {scale}"
+
+
+def test_each_environment_s_medium_equals_its_own_predict_to_1e_12():
+    envs, legs_per_env = 16, 6
+    x = _rand_legs((envs, legs_per_env), 5)
+    rng = np.random.default_rng(11)
+    b_k = rng.uniform(5.0, 60.0, envs)[:, None] * np.ones((1, legs_per_env))
+    a = rng.uniform(1.1, 4.0, envs)[:, None] * np.ones((1, legs_per_env))
+    legs = LegBatch(**LEG, **MEDIUM, b_k=30.0, a=2.3)
+    drag, lift, torque = legs.forces(x["beta"], x["hip"], pitch_rad=x["pitch"], b_k=b_k, a=a)
+    in_sand = 0
+    for e in range(envs):
+        for j in range(legs_per_env):
+            p = terzaghi.predict(x["beta"][e, j] + x["pitch"][e, j], **LEG, **MEDIUM,
+                                 hip_height_m=max(x["hip"][e, j], 0.0), b_k=b_k[e, 0],
+                                 a=a[e, 0])
+            for got, key in [(drag, "drag_n"), (lift, "lift_n"), (torque, "hip_torque_nm")]:
+                want = float(np.asarray(p[key]).reshape(-1)[0])
+                assert abs(got[e, j] - want) <= 1e-12 * max(1.0, abs(want)), (e, j, key)
+            in_sand += lift[e, j] != 0
+    assert in_sand > 10
+    # A fitting width that is not positive is named with its leg; a model without one refuses.
+    bad = b_k.copy()
+    bad[2, 3] = -1.0
+    with pytest.raises(terzaghi.TerzaghiError, match=r"leg 15 \(flat index\).*b_k.*-1"):
+        legs.forces(x["beta"], x["hip"], b_k=bad)
+    with pytest.raises(terzaghi.TerzaghiError, match="fitting width"):
+        LegBatch(**LEG, **C_LEG).forces(x["beta"], x["hip"], b_k=b_k)
+
+
+def test_shapes_and_dtypes_are_checked_and_named():
+    legs = LegBatch(**LEG, **C_LEG)
+    beta = np.full((4, 6), 0.5)
+    with pytest.raises(terzaghi.TerzaghiError, match=r"hip_height_m has shape \(24,\), beta_rad \(4, 6\)"):
+        legs.forces(beta, np.zeros(24))
+    with pytest.raises(terzaghi.TerzaghiError,
+                       match=r"forward_m_s has shape \(6, 4\), beta_rad \(4, 6\) \(transposed\?\)"):
+        legs.forces(beta, 0.01, forward_m_s=np.zeros((6, 4)))
+    out32 = tuple(np.empty((4, 6), np.float32) for _ in range(3))
+    with pytest.raises(terzaghi.TerzaghiError,
+                       match=r"drag_n is float32 \(4, 6\), the batch float64 \(4, 6\)"):
+        legs.forces(beta, 0.01, out=out32)
+    with pytest.raises(terzaghi.TerzaghiError,
+                       match=r"lift_n is float64 \(6, 4\), the batch float32 \(4, 6\)"):
+        legs.forces(beta.astype(np.float32), 0.01,
+                    out=(out32[0], np.empty((6, 4)), out32[2]))
+    # The native layer checks as well, naming the argument and both.
+    with pytest.raises(terzaghi.TerzaghiError, match=r"hip_torque_nm is float32 \[4, 6\]"):
+        legs._inner.forces_into(beta, np.zeros((4, 6)), None, None, None, None, None, None,
+                                np.empty((4, 6)), np.empty((4, 6)), out32[2])

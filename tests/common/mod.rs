@@ -362,3 +362,40 @@ pub fn refused(args: &[&std::ffi::OsStr], words: &[&str]) {
     }
     assert!(!err.contains("panicked"), "{err}");
 }
+
+/// The Python of the venv `venv` (under the repository, made on first use: needs PyPI) with
+/// `requirements` installed and the package built from this checkout (reinstalled on every
+/// call: the crate may have changed since). One install at a time per test binary.
+#[allow(dead_code)]
+pub fn python_venv(venv: &str, requirements: &str) -> std::path::PathBuf {
+    let venv = repo().join(venv);
+    let py = venv.join("bin/python");
+    let pip = venv.join("bin/pip");
+    static INSTALL: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _one = INSTALL.lock().unwrap_or_else(|p| p.into_inner());
+    if !py.exists() {
+        let ok = Command::new("python3")
+            .args(["-m", "venv"])
+            .arg(&venv)
+            .status()
+            .is_ok_and(|s| s.success());
+        assert!(ok, "cannot make the venv {}", venv.display());
+    }
+    let ok = Command::new(&pip)
+        .args(["install", "-q", "-r"])
+        .arg(repo().join(requirements))
+        .status()
+        .is_ok_and(|s| s.success());
+    assert!(ok, "pip install -r {requirements} failed (it needs PyPI)");
+    let out = Command::new(&pip)
+        .args(["install", "-q", "--force-reinstall", "--no-deps"])
+        .arg(repo().join("python"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "pip install ./python failed:\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    py
+}

@@ -758,36 +758,158 @@ const COLUMNS: [&str; 19] = [
 ];
 
 /// One model evaluated for many legs at once (a simulator's environments times legs), from
-/// arrays, on every core, into arrays the caller owns: nothing is allocated per call.
+/// arrays of float64 or float32, on every core without the interpreter's lock, into arrays the
+/// caller owns: nothing is allocated per call.
 #[pyclass(module = "terzaghi._terzaghi", name = "Batch")]
 struct Batch {
-    model: ForceModel,
+    kernel: terzaghi::model::batch::LegKernel,
 }
 
 /// Legs per task of [`Batch::forces_into`].
 const CHUNK: usize = 1024;
 
-/// A C-contiguous array's values, or an error naming it.
-fn slice_of<'a>(name: &str, a: &'a numpy::PyReadonlyArrayDyn<'_, f64>) -> PyResult<&'a [f64]> {
-    // A Fortran-ordered array is contiguous too, but its slice is not in index order.
-    match a.as_slice() {
-        Ok(s) if a.is_c_contiguous() => Ok(s),
-        _ => Err(not_c_contiguous(name)),
-    }
-}
+/// The names of [`Batch::forces_into`]'s inputs, in its order.
+const BATCH_INPUTS: [&str; 8] = [
+    "beta_rad",
+    "hip_height_m",
+    "pitch_rad",
+    "omega_rad_s",
+    "forward_m_s",
+    "up_m_s",
+    "b_k",
+    "a",
+];
 
-fn not_c_contiguous(name: &str) -> PyErr {
-    TerzaghiError::new_err(format!(
-        "{name} must be a C-contiguous float64 array (np.ascontiguousarray(x, dtype=np.float64))"
-    ))
-}
+/// The names of its outputs.
+const BATCH_OUTPUTS: [&str; 3] = ["drag_n", "lift_n", "hip_torque_nm"];
 
-/// [`slice_of`] for an array that may be left out.
-fn optional_slice<'a>(
+/// `a` as a C-contiguous array of `T` of `shape`, or an error naming it, its shape and dtype,
+/// and the batch's.
+fn batch_array<'py, T: numpy::Element>(
     name: &str,
-    a: &'a Option<numpy::PyReadonlyArrayDyn<'_, f64>>,
-) -> PyResult<Option<&'a [f64]>> {
-    a.as_ref().map(|x| slice_of(name, x)).transpose()
+    a: &Bound<'py, PyAny>,
+    shape: &[usize],
+) -> PyResult<Bound<'py, PyArrayDyn<T>>> {
+    let want = || {
+        format!(
+            "{} {shape:?}",
+            std::any::type_name::<T>().replace("f", "float")
+        )
+    };
+    let arr = a.cast::<PyArrayDyn<T>>().map_err(|_| {
+        let got = a
+            .cast::<numpy::PyUntypedArray>()
+            .map(|u| format!("{} {:?}", u.dtype(), u.shape()))
+            .unwrap_or_else(|_| a.get_type().to_string());
+        TerzaghiError::new_err(format!(
+            "{name} is {got}, the batch {}: give every array the batch's dtype and shape",
+            want()
+        ))
+    })?;
+    if arr.shape() != shape {
+        return Err(TerzaghiError::new_err(format!(
+            "{name} has shape {:?}, the batch {}",
+            arr.shape(),
+            want()
+        )));
+    }
+    if !arr.is_c_contiguous() {
+        return Err(TerzaghiError::new_err(format!(
+            "{name} must be C-contiguous (np.ascontiguousarray)"
+        )));
+    }
+    Ok(arr.clone())
+}
+
+impl Batch {
+    /// [`Batch::forces_into`] in `T`.
+    fn forces_as<T: numpy::Element + terzaghi::model::batch::Real>(
+        &self,
+        py: Python<'_>,
+        inputs: [Option<&Bound<'_, PyAny>>; 8],
+        outputs: [&Bound<'_, PyAny>; 3],
+    ) -> PyResult<()> {
+        use numpy::PyArrayMethods;
+        use rayon::prelude::*;
+        use terzaghi::model::batch::{LegForcesOut, Legs};
+        let beta = inputs[0].expect("beta_rad is required");
+        let shape = beta
+            .cast::<numpy::PyUntypedArray>()
+            .map(|u| u.shape().to_vec())
+            .map_err(|_| TerzaghiError::new_err("beta_rad must be a numpy array"))?;
+        let mut ins = Vec::with_capacity(8);
+        for (name, a) in BATCH_INPUTS.iter().zip(inputs) {
+            ins.push(
+                a.map(|a| batch_array::<T>(name, a, &shape).map(|a| a.readonly()))
+                    .transpose()?,
+            );
+        }
+        let mut outs = Vec::with_capacity(3);
+        for (name, a) in BATCH_OUTPUTS.iter().zip(outputs) {
+            let a = batch_array::<T>(name, a, &shape)?;
+            outs.push(a.try_readwrite().map_err(|_| {
+                TerzaghiError::new_err(format!(
+                    "{name} is an input too, or not writeable: give each output its own writeable array"
+                ))
+            })?);
+        }
+        let slice = |i: usize| -> Option<&[T]> {
+            ins[i]
+                .as_ref()
+                .map(|a| a.as_slice().expect("checked C-contiguous"))
+        };
+        let legs = Legs {
+            beta_rad: slice(0).expect("given"),
+            hip_height_m: slice(1)
+                .ok_or_else(|| TerzaghiError::new_err("hip_height_m is required"))?,
+            pitch_rad: slice(2),
+            omega_rad_s: slice(3),
+            forward_m_s: slice(4),
+            up_m_s: slice(5),
+            b_k: slice(6),
+            a: slice(7),
+        };
+        let [d, l, t] = &mut outs[..] else {
+            unreachable!("three outputs")
+        };
+        let (d, l, t) = (
+            d.as_slice_mut().expect("checked C-contiguous"),
+            l.as_slice_mut().expect("checked C-contiguous"),
+            t.as_slice_mut().expect("checked C-contiguous"),
+        );
+        let kernel = &self.kernel;
+        let failed = py.detach(|| {
+            let run = |c: usize, d: &mut [T], l: &mut [T], t: &mut [T]| {
+                kernel
+                    .forces(
+                        &legs,
+                        c * CHUNK,
+                        LegForcesOut {
+                            drag_n: d,
+                            lift_n: l,
+                            hip_torque_nm: t,
+                        },
+                    )
+                    .err()
+            };
+            // A robot's few legs are done here: waking the pool would cost more than they do.
+            if d.len() <= CHUNK {
+                run(0, d, l, t)
+            } else {
+                d.par_chunks_mut(CHUNK)
+                    .zip(l.par_chunks_mut(CHUNK))
+                    .zip(t.par_chunks_mut(CHUNK))
+                    .enumerate()
+                    .map(|(c, ((d, l), t))| run(c, d, l, t))
+                    .find_first(Option::is_some)
+                    .flatten()
+            }
+        });
+        match failed {
+            Some(e) => Err(TerzaghiError::new_err(e.to_string())),
+            None => Ok(()),
+        }
+    }
 }
 
 #[pymethods]
@@ -837,126 +959,53 @@ impl Batch {
         )?
         .build()
         .map_err(err)?;
-        Ok(Batch { model })
+        Ok(Batch {
+            kernel: terzaghi::model::batch::LegKernel::new(model),
+        })
     }
 
-    /// Writes the forces at every element of the inputs (one shape, C-contiguous float64)
-    /// into `drag_n`, `lift_n` and `hip_torque_nm` (the same shape). Motion arrays left out are
-    /// zero. A non-finite input is an error naming its flat index (the outputs are then partly
-    /// written).
-    #[pyo3(signature = (beta_rad, hip_height_m, pitch_rad, omega_rad_s, forward_m_s, up_m_s, drag_n, lift_n, hip_torque_nm))]
+    /// Whether the model's legs go through the vector loop (RFT with fitted coefficients).
+    #[getter]
+    fn vectorised(&self) -> bool {
+        self.kernel.is_vectorised()
+    }
+
+    /// Writes the forces at every element of the inputs (one shape and dtype, float64 or
+    /// float32, C-contiguous: `beta_rad`'s) into `drag_n`, `lift_n` and `hip_torque_nm` (the
+    /// same). Inputs left out are zero (`b_k`, `a`: the model's). A non-finite input is an
+    /// error naming its flat index (the outputs are then partly written).
+    #[pyo3(signature = (beta_rad, hip_height_m, pitch_rad, omega_rad_s, forward_m_s, up_m_s, b_k, a, drag_n, lift_n, hip_torque_nm))]
     #[allow(clippy::too_many_arguments)]
     fn forces_into(
         &self,
         py: Python<'_>,
-        beta_rad: numpy::PyReadonlyArrayDyn<'_, f64>,
-        hip_height_m: numpy::PyReadonlyArrayDyn<'_, f64>,
-        pitch_rad: Option<numpy::PyReadonlyArrayDyn<'_, f64>>,
-        omega_rad_s: Option<numpy::PyReadonlyArrayDyn<'_, f64>>,
-        forward_m_s: Option<numpy::PyReadonlyArrayDyn<'_, f64>>,
-        up_m_s: Option<numpy::PyReadonlyArrayDyn<'_, f64>>,
-        mut drag_n: numpy::PyReadwriteArrayDyn<'_, f64>,
-        mut lift_n: numpy::PyReadwriteArrayDyn<'_, f64>,
-        mut hip_torque_nm: numpy::PyReadwriteArrayDyn<'_, f64>,
+        beta_rad: &Bound<'_, PyAny>,
+        hip_height_m: &Bound<'_, PyAny>,
+        pitch_rad: Option<&Bound<'_, PyAny>>,
+        omega_rad_s: Option<&Bound<'_, PyAny>>,
+        forward_m_s: Option<&Bound<'_, PyAny>>,
+        up_m_s: Option<&Bound<'_, PyAny>>,
+        b_k: Option<&Bound<'_, PyAny>>,
+        a: Option<&Bound<'_, PyAny>>,
+        drag_n: &Bound<'_, PyAny>,
+        lift_n: &Bound<'_, PyAny>,
+        hip_torque_nm: &Bound<'_, PyAny>,
     ) -> PyResult<()> {
-        use rayon::prelude::*;
-        let shape = beta_rad.shape().to_vec();
-        let beta = slice_of("beta_rad", &beta_rad)?;
-        let h = slice_of("hip_height_m", &hip_height_m)?;
-        let (pitch, omega, fwd, up) = (
-            optional_slice("pitch_rad", &pitch_rad)?,
-            optional_slice("omega_rad_s", &omega_rad_s)?,
-            optional_slice("forward_m_s", &forward_m_s)?,
-            optional_slice("up_m_s", &up_m_s)?,
-        );
-        for (name, len) in [
-            ("hip_height_m", Some(h.len())),
-            ("pitch_rad", pitch.map(<[f64]>::len)),
-            ("omega_rad_s", omega.map(<[f64]>::len)),
-            ("forward_m_s", fwd.map(<[f64]>::len)),
-            ("up_m_s", up.map(<[f64]>::len)),
-        ] {
-            if len.is_some_and(|n| n != beta.len()) {
-                return Err(TerzaghiError::new_err(format!(
-                    "{name} has {} values, beta_rad {} (shape {shape:?}): give each input the shape of beta_rad",
-                    len.unwrap_or(0),
-                    beta.len()
-                )));
-            }
-        }
-        for (name, out) in [
-            ("drag_n", drag_n.shape()),
-            ("lift_n", lift_n.shape()),
-            ("hip_torque_nm", hip_torque_nm.shape()),
-        ] {
-            if out != shape.as_slice() {
-                return Err(TerzaghiError::new_err(format!(
-                    "{name} has shape {out:?}, beta_rad {shape:?}"
-                )));
-            }
-        }
-        for (name, c) in [
-            ("drag_n", drag_n.is_c_contiguous()),
-            ("lift_n", lift_n.is_c_contiguous()),
-            ("hip_torque_nm", hip_torque_nm.is_c_contiguous()),
-        ] {
-            if !c {
-                return Err(not_c_contiguous(name));
-            }
-        }
-        let d = drag_n
-            .as_slice_mut()
-            .map_err(|_| not_c_contiguous("drag_n"))?;
-        let l = lift_n
-            .as_slice_mut()
-            .map_err(|_| not_c_contiguous("lift_n"))?;
-        let t = hip_torque_nm
-            .as_slice_mut()
-            .map_err(|_| not_c_contiguous("hip_torque_nm"))?;
-        let model = &self.model;
-        let at = |o: Option<&[f64]>, i: usize| o.map_or(0.0, |v| v[i]);
-        // One chunk of up to 1024 legs: few enough tasks for rayon, enough to share the cores.
-        let chunk = |c: usize, d: &mut [f64], l: &mut [f64], t: &mut [f64]| -> Option<String> {
-            for k in 0..d.len() {
-                let i = c * CHUNK + k;
-                let hip = terzaghi::model::HipMotion {
-                    height_m: h[i],
-                    pitch_rad: at(pitch, i),
-                    omega_rad_s: at(omega, i),
-                    forward_m_s: at(fwd, i),
-                    up_m_s: at(up, i),
-                    forward_position_m: 0.0,
-                    // A batch's legs move in their plane (LegBatch gives drag, lift and torque).
-                    lateral_m_s: 0.0,
-                };
-                match model.predict_moving(beta[i], &hip) {
-                    Ok(p) => {
-                        d[k] = p.drag_n;
-                        l[k] = p.lift_n;
-                        t[k] = p.hip_torque_nm;
-                    }
-                    Err(e) => return Some(format!("element {i} (flat index): {e}")),
-                }
-            }
-            None
-        };
-        // A robot's few legs are done here: waking the pool would cost more than they do.
-        let failed = if d.len() <= CHUNK {
-            chunk(0, d, l, t)
+        let inputs = [
+            Some(beta_rad),
+            Some(hip_height_m),
+            pitch_rad,
+            omega_rad_s,
+            forward_m_s,
+            up_m_s,
+            b_k,
+            a,
+        ];
+        let outputs = [drag_n, lift_n, hip_torque_nm];
+        if beta_rad.cast::<PyArrayDyn<f32>>().is_ok() {
+            self.forces_as::<f32>(py, inputs, outputs)
         } else {
-            py.detach(|| {
-                d.par_chunks_mut(CHUNK)
-                    .zip(l.par_chunks_mut(CHUNK))
-                    .zip(t.par_chunks_mut(CHUNK))
-                    .enumerate()
-                    .map(|(c, ((d, l), t))| chunk(c, d, l, t))
-                    .find_first(Option::is_some)
-                    .flatten()
-            })
-        };
-        match failed {
-            Some(why) => Err(TerzaghiError::new_err(why)),
-            None => Ok(()),
+            self.forces_as::<f64>(py, inputs, outputs)
         }
     }
 }
