@@ -1,6 +1,7 @@
-"""The improved Terzaghi model of a flat leg, vectorised in numpy: what a lab would write from the
-paper (Eqs. 11-25, as docs/model.md resolves them), for arrays of legs. The peer of
-terzaghi.batch in the benchmark; python/tests/test_batch.py checks the two agree to 1e-9.
+"""The improved Terzaghi model of a flat leg, vectorised in numpy: the paper's equations (Eqs.
+11-25, as docs/model.md resolves them) written out for arrays of legs, every leg and both
+branches evaluated. python/tests/test_batch.py checks terzaghi.batch against it to 1e-9; the
+benchmark's peers (python/benchmarks/peers.py) are the same equations written for speed.
 """
 
 import math

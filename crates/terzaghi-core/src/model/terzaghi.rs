@@ -85,22 +85,22 @@ impl TerzaghiForce {
 
 /// Constants of a medium, computed once so that an evaluation costs a few transcendental calls.
 #[derive(Debug, Clone, Copy, PartialEq)]
-struct MediumConstants {
-    lambda: f64,
+pub(crate) struct MediumConstants {
+    pub(crate) lambda: f64,
     /// `k = tan(phi)`
-    k: f64,
+    pub(crate) k: f64,
     /// `3pi/4 + phi/2`: the spiral vanishes beyond this attack angle.
-    theta_end: f64,
-    cos_phi: f64,
-    sin_alpha: f64,
-    cos_alpha: f64,
+    pub(crate) theta_end: f64,
+    pub(crate) cos_phi: f64,
+    pub(crate) sin_alpha: f64,
+    pub(crate) cos_alpha: f64,
     /// `K_p = tan^2(pi/4 + phi/2)`
-    k_p: f64,
+    pub(crate) k_p: f64,
     /// `1 / (3 (1 + 9 k^2))`
-    inv_spiral_den: f64,
+    pub(crate) inv_spiral_den: f64,
     /// `1 / (4 k)`
-    inv_4k: f64,
-    tan_delta: f64,
+    pub(crate) inv_4k: f64,
+    pub(crate) tan_delta: f64,
 }
 
 impl MediumConstants {
@@ -177,6 +177,12 @@ impl TerzaghiModel {
     /// The fitting width `b_k, a`.
     pub fn fitting_width(&self) -> FittingWidth {
         self.width
+    }
+
+    /// The medium's constants and `ln a`, as a batch of legs evaluates them
+    /// ([`super::batch`]).
+    pub(crate) fn batch_constants(&self) -> (MediumConstants, f64) {
+        (self.c, self.ln_a)
     }
 
     /// The same plate and medium with another fitting width (cheap: constants are kept).

@@ -1,0 +1,167 @@
+//! `sin`, `cos` and `exp` of [`LANES`] values at once, without a branch, so that a loop over
+//! them runs in vector registers: fdlibm's kernels (the polynomials glibc's and musl's `sin`,
+//! `cos` and `exp` descend from) after a reduction that is exact for the arguments the batch
+//! gives them (`|x| < 2^20` for `sin_cos`, `|x| <= 700` for `exp`: the caller checks). Within
+//! two units in the last place of libm's (`tests::they_are_libm_s_to_two_units_in_the_last_place`).
+
+// fdlibm's constants as it publishes them (the digits past a double's are its own).
+#![allow(clippy::excessive_precision)]
+
+use super::LANES;
+
+/// `1.5 2^52`: added and taken off, a double rounds to the nearest integer, which its low
+/// mantissa bits then hold.
+const ROUND: f64 = 6_755_399_441_055_744.0;
+
+/// `pi/2` in three parts (fdlibm's `pio2_1`, `pio2_2`, `pio2_2t`; the first two of 33 bits, so
+/// that their products by a small integer are exact).
+const PIO2_1: f64 = 1.570_796_326_734_125_614_17e+00;
+const PIO2_2: f64 = 6.077_100_506_303_965_976_6e-11;
+const PIO2_2T: f64 = 2.022_266_248_795_950_732_1e-21;
+
+const TWO_OVER_PI: f64 = std::f64::consts::FRAC_2_PI;
+
+const S1: f64 = -1.666_666_666_666_663_243_48e-01;
+const S2: f64 = 8.333_333_333_322_489_461_24e-03;
+const S3: f64 = -1.984_126_982_985_794_931_34e-04;
+const S4: f64 = 2.755_731_370_707_006_767_89e-06;
+const S5: f64 = -2.505_076_025_340_686_341_95e-08;
+const S6: f64 = 1.589_690_995_211_550_102_21e-10;
+
+const C1: f64 = 4.166_666_666_666_660_190_37e-02;
+const C2: f64 = -1.388_888_888_887_410_957_49e-03;
+const C3: f64 = 2.480_158_728_947_672_941_78e-05;
+const C4: f64 = -2.755_731_435_139_066_330_35e-07;
+const C5: f64 = 2.087_572_321_298_174_827_90e-09;
+const C6: f64 = -1.135_964_755_778_819_482_65e-11;
+
+/// `sin` and `cos` of every lane.
+#[inline(always)]
+pub fn sin_cos(x: &[f64; LANES]) -> ([f64; LANES], [f64; LANES]) {
+    let mut s = [0.0; LANES];
+    let mut c = [0.0; LANES];
+    let round_bits = ROUND.to_bits() as i64;
+    for l in 0..LANES {
+        let x = x[l];
+        // The nearest multiple of pi/2, n; x - n pi/2 to about 2^-100 of x (fdlibm's medium
+        // case, its second step always taken).
+        let t = x * TWO_OVER_PI + ROUND;
+        let n = t - ROUND;
+        let q = (t.to_bits() as i64).wrapping_sub(round_bits);
+        let r = x - n * PIO2_1;
+        let w = n * PIO2_2;
+        let r2 = r - w;
+        let w2 = n * PIO2_2T - ((r - r2) - w);
+        let y = r2 - w2;
+        // The kernels on [-pi/4, pi/4] (fdlibm's __kernel_sin and __kernel_cos, with no tail).
+        let z = y * y;
+        let v = z * y;
+        let ps = S2 + z * (S3 + z * (S4 + z * (S5 + z * S6)));
+        let sy = y + v * (S1 + z * ps);
+        let pc = z * (C1 + z * (C2 + z * (C3 + z * (C4 + z * (C5 + z * C6)))));
+        let cy = 1.0 - (0.5 * z - z * pc);
+        // The quadrant: (s, c), (c, -s), (-s, -c), (-c, s).
+        let odd = q & 1 != 0;
+        let (a, b) = if odd { (cy, sy) } else { (sy, cy) };
+        let sin_neg = q & 2 != 0;
+        let cos_neg = (q + 1) & 2 != 0;
+        s[l] = if sin_neg { -a } else { a };
+        c[l] = if cos_neg { -b } else { b };
+    }
+
+    (s, c)
+}
+
+const LN2_HI: f64 = 6.931_471_803_691_238_164_90e-01;
+const LN2_LO: f64 = 1.908_214_929_270_587_700_02e-10;
+const LOG2_E: f64 = std::f64::consts::LOG2_E;
+
+/// `1 / n!` for `n` in `0..=13`.
+const EXP_TAYLOR: [f64; 14] = [
+    1.0,
+    1.0,
+    1.0 / 2.0,
+    1.0 / 6.0,
+    1.0 / 24.0,
+    1.0 / 120.0,
+    1.0 / 720.0,
+    1.0 / 5040.0,
+    1.0 / 40320.0,
+    1.0 / 362_880.0,
+    1.0 / 3_628_800.0,
+    1.0 / 39_916_800.0,
+    1.0 / 479_001_600.0,
+    1.0 / 6_227_020_800.0,
+];
+
+/// `exp` of every lane (`|x| <= 700`).
+#[inline(always)]
+pub fn exp(x: &[f64; LANES]) -> [f64; LANES] {
+    let mut out = [0.0; LANES];
+    let round_bits = ROUND.to_bits() as i64;
+    for l in 0..LANES {
+        let x = x[l];
+        let t = x * LOG2_E + ROUND;
+        let k = t - ROUND;
+        let ki = (t.to_bits() as i64).wrapping_sub(round_bits);
+        // r = x - k ln 2 in two parts (k ln2_hi is exact).
+        let hi = x - k * LN2_HI;
+        let lo = k * LN2_LO;
+        let r = hi - lo;
+        // e^r on |r| <= ln2/2 by its Taylor series to r^13 (the remainder below 2^-60).
+        let p = EXP_TAYLOR.iter().rev().fold(0.0, |acc, c| acc * r + c);
+        // 2^k (k within the normal exponents for |x| <= 700).
+        let scale = f64::from_bits(((ki + 1023) as u64) << 52);
+        out[l] = p * scale;
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ulps(a: f64, b: f64) -> f64 {
+        if a == b {
+            return 0.0;
+        }
+        let spacing = f64::EPSILON * a.abs().max(b.abs()).max(f64::MIN_POSITIVE);
+        (a - b).abs() / spacing
+    }
+
+    #[test]
+    fn they_are_libm_s_to_two_units_in_the_last_place() {
+        let mut worst = [0.0f64; 3];
+        let mut x = [0.0; LANES];
+        let mut count = 0;
+        // Angles over two turns each way, and exponents over the batch's range.
+        for i in 0..20_000 {
+            for (l, v) in x.iter_mut().enumerate() {
+                *v = -4.0 * std::f64::consts::PI
+                    + (i * LANES + l) as f64
+                        * (8.0 * std::f64::consts::PI / (20_000 * LANES) as f64);
+            }
+            let (s, c) = sin_cos(&x);
+            for l in 0..LANES {
+                let (ws, wc) = x[l].sin_cos();
+                // Near a zero of sin or cos, compare against the argument's scale instead.
+                let floor = f64::EPSILON * 0.5;
+                worst[0] = worst[0].max(ulps(s[l], ws).min((s[l] - ws).abs() / floor));
+                worst[1] = worst[1].max(ulps(c[l], wc).min((c[l] - wc).abs() / floor));
+                count += 1;
+            }
+            for (l, v) in x.iter_mut().enumerate() {
+                *v = -700.0 + (i * LANES + l) as f64 * (1400.0 / (20_000 * LANES) as f64);
+            }
+            let e = exp(&x);
+            for l in 0..LANES {
+                worst[2] = worst[2].max(ulps(e[l], x[l].exp()));
+            }
+        }
+        assert!(count > 300_000);
+        assert!(
+            worst.iter().all(|w| *w <= 2.0),
+            "sin, cos, exp off by {worst:?} ulp"
+        );
+    }
+}
