@@ -66,6 +66,19 @@ def medium_constants():
                 tan_delta=math.tan(math.radians(MEDIUM["delta_deg"])))
 
 
+def rft_alpha(c2e, sm, x, sg):
+    """RFT's stresses (alpha_x, alpha_z; N/cm^3, poppy seeds) of elements whose tangent is at
+    twice-angle (c2e, sm) and which move along (x, -sg), the mirror of a motion toward -x
+    cancelled out (it multiplies alpha_x and the drag it gives): numpy arrays or torch tensors.
+    """
+    k = POPPY_LP
+    az = k["a00"] + k["a10"] * c2e + (k["b11"] - k["bm11"]) * (sm * x) \
+        + (k["b11"] + k["bm11"]) * (c2e * sg) + k["b01"] * sg
+    ax = (k["c11"] + k["cm11"]) * (c2e * x) + (k["cm11"] - k["c11"]) * (sm * sg) \
+        + k["c01"] * x + k["d10"] * sm
+    return ax, az
+
+
 # ---------------------------------------------------------------- numpy, careful
 
 def numpy_plates(beta, hip, pitch, out):
@@ -119,7 +132,6 @@ def numpy_c_legs(el, beta, hip, pitch, omega, fwd, up, out):
     import numpy as np
 
     s, q, wl, c2, s2 = el
-    k = POPPY_LP
     drag, lift, torque = out
     drag.fill(0.0), lift.fill(0.0), torque.fill(0.0)
     reach = np.hypot(s, q).max()
@@ -145,10 +157,7 @@ def numpy_c_legs(el, beta, hip, pitch, omega, fwd, up, out):
     c2b, s2b = cb * cb - sb * sb, 2 * sb * cb
     c2e = c2 * c2b - s2 * s2b
     sm = c2 * s2b + s2 * c2b
-    az = k["a00"] + k["a10"] * c2e + (k["b11"] - k["bm11"]) * (sm * x) \
-        + (k["b11"] + k["bm11"]) * (c2e * sg) + k["b01"] * sg
-    ax = (k["c11"] + k["cm11"]) * (c2e * x) + (k["cm11"] - k["c11"]) * (sm * sg) \
-        + k["c01"] * x + k["d10"] * sm
+    ax, az = rft_alpha(c2e, sm, x, sg)
     np.maximum(depth, 0.0, out=depth)
     depth *= wl
     drag.ravel()[idx] = np.einsum("ij,ij->i", ax, depth)
@@ -258,7 +267,6 @@ def numba_kernels():
 def torch_c_legs_fn(torch, el, dtype):
     """2D RFT over (legs, elements) tensors, every element computed and masked, as Isaac Lab's
     RFT terrains write it."""
-    K = POPPY_LP
     s, q, wl, c2, s2 = (torch.as_tensor(a, dtype=dtype) for a in el)
 
     def c_legs(beta, hip, pitch, omega, fwd, up):
@@ -280,10 +288,7 @@ def torch_c_legs_fn(torch, el, dtype):
         c2b, s2b = cb * cb - sb * sb, 2 * sb * cb
         c2e = c2 * c2b - s2 * s2b
         sm = c2 * s2b + s2 * c2b
-        az = K["a00"] + K["a10"] * c2e + (K["b11"] - K["bm11"]) * (sm * x) \
-            + (K["b11"] + K["bm11"]) * (c2e * sg) + K["b01"] * sg
-        ax = (K["c11"] + K["cm11"]) * (c2e * x) + (K["cm11"] - K["c11"]) * (sm * sg) \
-            + K["c01"] * x + K["d10"] * sm
+        ax, az = rft_alpha(c2e, sm, x, sg)
         k = depth * wl
         shape = beta.shape
         return ((ax * k).sum(1).reshape(shape), (az * k).sum(1).reshape(shape),
