@@ -8,8 +8,9 @@ then every contestant is timed in turn, alternating, and the medians and ratios 
 The peers are the same equations written as a careful lab would:
   numpy   only the legs within reach of the sand, in place, no double branches;
   numba   a plain parallel loop over legs (numba.prange), fastmath, compiled before timing;
-  torch   2D RFT over (legs, elements) tensors as Isaac Lab's terrains write it: eager, and
-          under torch.compile (inductor, CPU), float64 and float32 (C-legs only).
+  torch   2D RFT over (legs, elements) tensors as Isaac Lab's terrains write it, and the
+          improved model over legs (both regimes, torch.where): eager, and under
+          torch.compile (inductor, CPU); C-legs in float64 and float32.
 
     python python/benchmarks/peers.py --threads 1     # one core
     python python/benchmarks/peers.py --threads 2     # all of this machine's
@@ -264,6 +265,43 @@ def numba_kernels():
 
 # ---------------------------------------------------------------- torch
 
+def torch_plates(torch, beta, hip, pitch):
+    """The improved model of every leg in torch tensors, both regimes computed and chosen with
+    torch.where, as a simulator's tensor code writes it."""
+    c = medium_constants()
+    L, W = LEG["length_m"], LEG["width_m"]
+    k = c["k"]
+    b = torch.remainder(beta + pitch, 2 * math.pi)
+    h = torch.clamp(hip, min=0.0)
+    down = b < math.pi
+    s = torch.where(down, torch.sin(b), torch.zeros_like(b))
+    co = torch.where(down, torch.cos(b), torch.ones_like(b))
+    safe_s = torch.where(s > 0, s, torch.ones_like(s))
+    l_s = torch.where(s > 0, torch.clamp(L - h / safe_s, min=0.0), torch.zeros_like(s))
+    w = (W * B_K * c["lam"]) * torch.exp(-math.log(A) * b)
+    theta = c["theta_end"] - b
+    spiral = theta > 0
+    tk = theta * k
+    e1 = torch.exp(tk)
+    r_b = l_s * e1
+    e2m1 = torch.where(tk < 1e-3, torch.expm1(2 * tk), e1 * e1 - 1)
+    g_lg = w * l_s * l_s * e2m1 / (4 * k)
+    f = s + 3 * k * co + e1 ** 3 * (3 * k * c["cos_alpha"] - c["sin_alpha"])
+    m_lg = torch.where(spiral & (g_lg > 0), w * l_s ** 3 * f / c["spiral_den"],
+                       torch.zeros_like(w))
+    m_spiral = (0.25 * w * r_b * r_b * c["cos_phi"] * (2 / 3 * r_b * c["cos_alpha"])
+                + 0.5 * w * (r_b * c["sin_alpha"]) ** 2 * c["k_p"] * (2 / 3 * r_b * c["sin_alpha"]))
+    m_triangle = ((-0.5 * w * l_s * l_s * s * co) * (-2 / 3 * l_s * co)
+                  + 0.5 * w * (l_s * s) ** 2 * c["k_p"] * (2 / 3 * l_s * s))
+    moment = torch.where(spiral, m_spiral, m_triangle) + m_lg
+    d_perp = 2 / 3 * l_s
+    inside = l_s > 0
+    normal = torch.where(inside, moment / torch.where(inside, d_perp, torch.ones_like(d_perp)),
+                         torch.zeros_like(moment))
+    tang = normal * c["tan_delta"]
+    return (normal * s - tang * co, normal * co + tang * s, normal * (L - l_s + d_perp))
+
+
 def torch_c_legs_fn(torch, el, dtype):
     """2D RFT over (legs, elements) tensors, every element computed and masked, as Isaac Lab's
     RFT terrains write it."""
@@ -364,12 +402,15 @@ def main():
             up_m_s=b32[5], out=o32),
         "C-legs: numpy (careful)": lambda: numpy_c_legs(el, beta, hip, *motion, o_peer),
         "C-legs: numba": lambda: numba_c_legs(*el, reach, beta, hip, *motion, *o_peer),
+        "plates: torch eager": lambda: torch_plates(torch, tt[0], tt[1], tt[2]),
         "C-legs: torch eager": lambda: t_eager(*tt),
         "C-legs: torch eager float32": lambda: t_eager32(*tt32),
     }
     if not args.no_compile:
         t_comp = torch.compile(torch_c_legs_fn(torch, el, torch.float64))
         t_comp32 = torch.compile(torch_c_legs_fn(torch, el, torch.float32))
+        p_comp = torch.compile(lambda b, h, p: torch_plates(torch, b, h, p))
+        contestants["plates: torch.compile"] = lambda: p_comp(tt[0], tt[1], tt[2])
         contestants["C-legs: torch.compile"] = lambda: t_comp(*tt)
         contestants["C-legs: torch.compile float32"] = lambda: t_comp32(*tt32)
 
