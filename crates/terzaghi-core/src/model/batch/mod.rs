@@ -715,9 +715,11 @@ fn write_block<T: Real>(
                 }
             }
         }
-        for d in dst.iter() {
-            finite &= d.to_f64().is_finite();
-        }
+        let check = dst.iter().fold(0.0, |a, d| {
+            let d = d.to_f64();
+            a + d * 0.0
+        });
+        finite &= check == 0.0;
     }
     if finite {
         return Ok(());
@@ -737,6 +739,20 @@ fn write_block<T: Real>(
         }
     }
     unreachable!("a force was beyond the type's range")
+}
+
+/// Copies `from[first..first + m]` into the first `m` lanes of `to`, as `f64`.
+#[inline(always)]
+fn read<T: Real>(from: &[T], first: usize, m: usize, to: &mut [f64; LANES]) {
+    match <&[T; LANES]>::try_from(&from[first..first + m]) {
+        // A whole block: a copy of known size, in registers.
+        Ok(whole) => *to = whole.map(T::to_f64),
+        Err(_) => {
+            for (t, f) in to.iter_mut().zip(&from[first..first + m]) {
+                *t = f.to_f64();
+            }
+        }
+    }
 }
 
 /// Up to [`LANES`] legs' inputs, checked finite, as `f64`; past the legs, one pointing up.
@@ -777,29 +793,28 @@ impl Block {
         if m < LANES {
             *self = Block::new();
         }
-        // Copied, and checked all at once: a loop without a branch.
-        let mut finite = true;
-        let mut read = |from: Option<&[T]>, to: &mut [f64; LANES]| {
-            let Some(from) = from else { return };
-            match <&[T; LANES]>::try_from(&from[first..first + m]) {
-                // A whole block: a copy of known size, in registers.
-                Ok(whole) => *to = whole.map(T::to_f64),
-                Err(_) => {
-                    for (t, f) in to.iter_mut().zip(&from[first..first + m]) {
-                        *t = f.to_f64();
-                    }
+        // Copied, and checked all at once: `0 x` is 0 for a number and NaN for anything
+        // else, and so is their sum (a loop without a branch).
+        read(legs.beta_rad, first, m, &mut self.beta_given);
+        read(legs.hip_height_m, first, m, &mut self.h);
+        let mut check = [0.0; LANES];
+        for (c, (b, h)) in check.iter_mut().zip(self.beta_given.iter().zip(&self.h)) {
+            *c = b * 0.0 + h * 0.0;
+        }
+        for (from, to) in [
+            (legs.pitch_rad, &mut self.pitch),
+            (legs.omega_rad_s, &mut self.omega),
+            (legs.forward_m_s, &mut self.forward),
+            (legs.up_m_s, &mut self.up),
+        ] {
+            if let Some(from) = from {
+                read(from, first, m, to);
+                for (c, x) in check.iter_mut().zip(to.iter()) {
+                    *c += x * 0.0;
                 }
             }
-            for t in &to[..m] {
-                finite &= t.is_finite();
-            }
-        };
-        read(Some(legs.beta_rad), &mut self.beta_given);
-        read(Some(legs.hip_height_m), &mut self.h);
-        read(legs.pitch_rad, &mut self.pitch);
-        read(legs.omega_rad_s, &mut self.omega);
-        read(legs.forward_m_s, &mut self.forward);
-        read(legs.up_m_s, &mut self.up);
+        }
+        let finite = check.iter().fold(0.0, |a, c| a + c) == 0.0;
         if !finite {
             return Err(Block::first_not_finite(legs, first, m));
         }
@@ -1341,6 +1356,48 @@ mod tests {
             }
         }
         v
+    }
+
+    #[test]
+    fn a_value_that_is_no_number_is_named_with_its_leg() {
+        let n = 40;
+        let (beta, hip, still) = (vec![0.6; n], vec![0.01; n], vec![0.0; n]);
+        let mut omega = vec![2.0; n];
+        omega[37] = f64::INFINITY;
+        let mut up = vec![0.0; n];
+        up[3] = f64::NAN;
+        for (name, model) in models() {
+            let kernel = LegKernel::new(model);
+            for (omega, up, index, what) in [
+                (&omega, &still, 37, "leg rate omega"),
+                (&still, &up, 3, "hip up velocity"),
+            ] {
+                let legs = Legs {
+                    beta_rad: &beta,
+                    hip_height_m: &hip,
+                    pitch_rad: None,
+                    omega_rad_s: Some(omega),
+                    forward_m_s: None,
+                    up_m_s: Some(up),
+                    b_k: None,
+                    a: None,
+                };
+                let (mut d, mut l, mut t) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+                let e = kernel
+                    .forces(
+                        &legs,
+                        0,
+                        LegForcesOut {
+                            drag_n: &mut d,
+                            lift_n: &mut l,
+                            hip_torque_nm: &mut t,
+                        },
+                    )
+                    .unwrap_err();
+                assert_eq!(e.index, index, "{name}");
+                assert!(e.to_string().contains(what), "{name}: {e}");
+            }
+        }
     }
 
     #[test]
