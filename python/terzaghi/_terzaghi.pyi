@@ -174,6 +174,39 @@ class Batch:
         hip_torque_nm: npt.NDArray[np.floating],
     ) -> None: ...
 
+class FreeBase:
+    def __init__(
+        self,
+        qpos0: int,
+        qvel0: int,
+        nstate: int,
+        joint_qpos: List[int],
+        joint_dof: List[int],
+        hip_m: List[Tuple[float, float, float]],
+        com_m: List[Tuple[float, float, float]],
+        xfrc: List[int],
+        ncontrol: int,
+        surface_z_m: float,
+    ) -> None: ...
+    def legs_in(
+        self,
+        state: npt.NDArray[np.float64],
+        beta_rad: npt.NDArray[np.float64],
+        hip_height_m: npt.NDArray[np.float64],
+        pitch_rad: npt.NDArray[np.float64],
+        omega_rad_s: npt.NDArray[np.float64],
+        forward_m_s: npt.NDArray[np.float64],
+        up_m_s: npt.NDArray[np.float64],
+    ) -> None: ...
+    def wrenches_out(
+        self,
+        state: npt.NDArray[np.float64],
+        drag_n: npt.NDArray[np.float64],
+        lift_n: npt.NDArray[np.float64],
+        hip_torque_nm: npt.NDArray[np.float64],
+        control: npt.NDArray[np.float64],
+    ) -> None: ...
+
 class Recorder:
     def __init__(self, path: str, params: List[Tuple[str, str]], overwrite: bool) -> None: ...
     def joint_state(

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Dict, List, Optional, Sequence
+from typing import TYPE_CHECKING, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -30,7 +30,7 @@ from .batch import LegBatch
 if TYPE_CHECKING:
     from . import Node
 
-__all__ = ["LegMap", "Coupling", "HEXAPOD_XML", "hexapod_xml", "hexapod_params", "WalkRecording", "walk"]
+__all__ = ["LegMap", "Coupling", "BatchCoupling", "HEXAPOD_XML", "hexapod_xml", "hexapod_params", "WalkRecording", "walk"]
 
 
 @dataclass(frozen=True)
@@ -134,6 +134,11 @@ class Coupling:
         forward and up velocity, as the model takes them (arrays over the legs)."""
         import mujoco
 
+        # The bodies' poses and velocities of this state: after mj_step, MjData holds those of
+        # the state before it (computed before the integration), one step behind qpos and qvel.
+        mujoco.mj_kinematics(self.model, data)
+        mujoco.mj_comPos(self.model, data)
+        mujoco.mj_comVel(self.model, data)
         self._torso_pose = (data.xpos[self._torso].copy(), data.xquat[self._torso].copy())
         R = data.xmat[self._torso].reshape(3, 3)
         fwd = R[:, 0].copy()
@@ -190,6 +195,169 @@ class Coupling:
         m[:, 2] += r[:, 0] * f[:, 1] - r[:, 1] * f[:, 0]
         data.xfrc_applied[self._body, :3] = f
         data.xfrc_applied[self._body, 3:] = m
+
+
+def _state_offset(model, spec: int, part: int) -> int:
+    """Where ``part`` (one ``mjtState`` bit) starts in a state vector of ``spec``."""
+    import mujoco
+
+    return mujoco.mj_stateSize(model, spec & (part - 1))
+
+
+class BatchCoupling:
+    """terzaghi's forces on the legs of many environments of one MuJoCo model, stepped together
+    by MuJoCo's own rollout (``mujoco.rollout``, on ``threads`` threads): one call per step
+    reads every environment's legs, evaluates them with one :class:`terzaghi.batch.LegBatch`
+    call and writes every leg's wrench, with no Python loop over environments.
+
+    The robot is a torso on a free joint with legs hinged to it (:class:`LegMap`): each leg's
+    body a child of the torso, its hinge at the body's origin (the hip) about the torso's +y
+    axis, at angle 0 along the torso's +x (the frames of :class:`Coupling`, whose forces this
+    gives to every environment: a test holds them equal).
+
+    Args:
+        model: the ``mujoco.MjModel``.
+        legs: the legs (:class:`LegMap`; their ``model`` is not used).
+        leg_model: the leg model (:class:`terzaghi.batch.LegBatch`) of every leg.
+        n_envs: the number of environments.
+        torso: the free body the legs hang from.
+        surface_z_m: the height of the sand's free surface in the world (m).
+        threads: MuJoCo's threads for the step (default: every core).
+
+    Attributes:
+        state: ``(n_envs, nstate)``, each environment's ``mjSTATE_FULLPHYSICS`` (all start at
+            the model's initial state; write rows to set or reset them).
+        ctrl: ``(n_envs, nu)``, each environment's actuator controls for the next step.
+        drag_n, lift_n, hip_torque_nm: ``(n_envs, legs)``, the forces of the last step.
+        b_k, a: ``None``, or ``(n_envs,)`` arrays: the improved model's medium per environment
+            (domain randomisation); set them with :meth:`set_media`.
+    """
+
+    def __init__(self, model, legs: Sequence[LegMap], leg_model: LegBatch, *, n_envs: int,
+                 torso: str, surface_z_m: float = 0.0, threads: Optional[int] = None) -> None:
+        import os
+
+        import mujoco
+        from mujoco import rollout
+
+        from . import _terzaghi
+
+        if not isinstance(leg_model, LegBatch):
+            raise ValueError(f"leg_model: a terzaghi.batch.LegBatch, not {type(leg_model).__name__}")
+        if isinstance(n_envs, bool) or not isinstance(n_envs, (int, np.integer)) or n_envs < 1:
+            raise ValueError(f"n_envs = {n_envs!r}: a whole number >= 1")
+        threads = (os.cpu_count() or 1) if threads is None else int(threads)
+        if threads < 1:
+            raise ValueError(f"threads = {threads}: at least 1")
+        self.model, self.legs, self.leg_model = model, list(legs), leg_model
+        self.n_envs = int(n_envs)
+        name = lambda kind, n: mujoco.mj_name2id(model, kind, n)
+        t = name(mujoco.mjtObj.mjOBJ_BODY, torso)
+        if t < 0:
+            raise ValueError(f"torso {torso!r}: no such body in the model")
+        j = model.body_jntadr[t]
+        if model.body_jntnum[t] != 1 or model.jnt_type[j] != mujoco.mjtJoint.mjJNT_FREE:
+            raise ValueError(f"torso {torso!r}: needs one joint, a free joint")
+        hips, coms, qpos, dofs, xfrc = [], [], [], [], []
+        spec = mujoco.mjtState.mjSTATE_FULLPHYSICS.value
+        control_spec = mujoco.mjtState.mjSTATE_CTRL.value | mujoco.mjtState.mjSTATE_XFRC_APPLIED.value
+        xfrc0 = _state_offset(model, control_spec, mujoco.mjtState.mjSTATE_XFRC_APPLIED.value)
+        for leg in self.legs:
+            jl = name(mujoco.mjtObj.mjOBJ_JOINT, leg.joint)
+            b = name(mujoco.mjtObj.mjOBJ_BODY, leg.body)
+            if jl < 0 or b < 0:
+                raise ValueError(f"leg {leg.name}: no joint {leg.joint!r} or body {leg.body!r} in the model")
+            if model.jnt_type[jl] != mujoco.mjtJoint.mjJNT_HINGE or model.jnt_bodyid[jl] != b:
+                raise ValueError(f"leg {leg.name}: joint {leg.joint!r} is not a hinge of body {leg.body!r}")
+            if model.body_parentid[b] != t or model.body_jntnum[b] != 1:
+                raise ValueError(f"leg {leg.name}: body {leg.body!r} must hang from {torso!r} by its hinge alone")
+            rot = np.empty(9)
+            mujoco.mju_quat2Mat(rot, model.body_quat[b])
+            rot = rot.reshape(3, 3)
+            axis = rot @ model.jnt_axis[jl]
+            if np.abs(axis - [0.0, 1.0, 0.0]).max() > 1e-9 or np.abs(model.jnt_pos[jl]).max() > 0:
+                raise ValueError(f"leg {leg.name}: its hinge must turn about the torso's +y axis "
+                                 f"at the body's origin (axis {axis.round(6).tolist()}, "
+                                 f"pos {model.jnt_pos[jl].tolist()})")
+            if model.qpos0[model.jnt_qposadr[jl]] != 0:
+                raise ValueError(f"leg {leg.name}: joint {leg.joint!r} has a reference angle; "
+                                 "the leg model's angle is its qpos")
+            hips.append(model.body_pos[b].tolist())
+            coms.append((rot @ model.body_ipos[b]).tolist())
+            qpos.append(_state_offset(model, spec, mujoco.mjtState.mjSTATE_QPOS.value) + model.jnt_qposadr[jl])
+            dofs.append(_state_offset(model, spec, mujoco.mjtState.mjSTATE_QVEL.value) + model.jnt_dofadr[jl])
+            xfrc.append(xfrc0 + 6 * b)
+        nstate = mujoco.mj_stateSize(model, spec)
+        ncontrol = mujoco.mj_stateSize(model, control_spec)
+        self._layout = _terzaghi.FreeBase(
+            _state_offset(model, spec, mujoco.mjtState.mjSTATE_QPOS.value) + model.jnt_qposadr[j],
+            _state_offset(model, spec, mujoco.mjtState.mjSTATE_QVEL.value) + model.jnt_dofadr[j],
+            nstate, qpos, dofs, hips, coms, xfrc, ncontrol, float(surface_z_m))
+        self._spec, self._control_spec = spec, control_spec
+        data = mujoco.MjData(model)
+        mujoco.mj_forward(model, data)
+        first = np.empty(nstate)
+        mujoco.mj_getState(model, data, first, spec)
+        self.initial_state = first
+        # Two buffers of states, the step reading one and writing the other.
+        self._buf = [np.tile(first, (self.n_envs, 1, 1)), np.empty((self.n_envs, 1, nstate))]
+        self.state = self._buf[0][:, 0, :]
+        self._sensors = np.empty((self.n_envs, 1, model.nsensordata))
+        self._control = np.zeros((self.n_envs, 1, ncontrol))
+        self.control = self._control[:, 0, :]
+        self.ctrl = self.control[:, :model.nu]
+        shape = (self.n_envs, len(self.legs))
+        self._in = {k: np.zeros(shape) for k in ["beta", "h", "pitch", "omega", "fwd", "up"]}
+        self.drag_n, self.lift_n, self.hip_torque_nm = (np.zeros(shape) for _ in range(3))
+        self.b_k: Optional[np.ndarray] = None
+        self.a: Optional[np.ndarray] = None
+        self._media: Tuple = (None, None)
+        self._rollout = rollout.Rollout(nthread=threads if threads > 1 else 0)
+        self._datas = [mujoco.MjData(model) for _ in range(threads)]
+        # The rollout's call without its checks takes one model per environment.
+        self._models = [model] * self.n_envs
+
+    def set_media(self, b_k=None, a=None) -> None:
+        """The improved model's ``b_k`` and ``a`` per environment (``(n_envs,)`` arrays, or
+        ``None`` for the leg model's own)."""
+        legs = len(self.legs)
+        per_leg = []
+        for label, v in (("b_k", b_k), ("a", a)):
+            if v is None:
+                per_leg.append(None)
+                continue
+            v = np.asarray(v, dtype=np.float64)
+            if v.shape != (self.n_envs,):
+                raise ValueError(f"{label} has shape {v.shape}, the environments ({self.n_envs},)")
+            per_leg.append(np.ascontiguousarray(np.repeat(v[:, None], legs, axis=1)))
+        self.b_k = None if b_k is None else np.asarray(b_k, dtype=np.float64)
+        self.a = None if a is None else np.asarray(a, dtype=np.float64)
+        self._media = tuple(per_leg)
+
+    def apply(self) -> None:
+        """Evaluates every environment's legs at ``state`` and writes their wrenches into the
+        control of the next step (``xfrc_applied``)."""
+        x = self._in
+        self._layout.legs_in(self.state, x["beta"], x["h"], x["pitch"], x["omega"], x["fwd"], x["up"])
+        self.leg_model.forces(x["beta"], x["h"], pitch_rad=x["pitch"], omega_rad_s=x["omega"],
+                              forward_m_s=x["fwd"], up_m_s=x["up"], b_k=self._media[0],
+                              a=self._media[1], out=(self.drag_n, self.lift_n, self.hip_torque_nm))
+        self._layout.wrenches_out(self.state, self.drag_n, self.lift_n, self.hip_torque_nm, self.control)
+
+    def step(self, coupled: bool = True) -> None:
+        """One step of every environment: :meth:`apply` (unless ``coupled`` is false: the legs
+        then feel nothing) and MuJoCo's step with ``ctrl``; ``state`` is then the new state."""
+        if coupled:
+            self.apply()
+        self._rollout.rollout(self._models, self._datas, self._buf[0][:, 0, :], self._control,
+                              control_spec=self._control_spec, skip_checks=True, nstep=1,
+                              state=self._buf[1], sensordata=self._sensors)
+        self._buf.reverse()
+        self.state = self._buf[0][:, 0, :]
+
+    def close(self) -> None:
+        """Stops MuJoCo's threads."""
+        self._rollout.close()
 
 
 #: A RHex-like hexapod: a 0.5 x 0.2 m torso of 7 kg on a free joint, six flat legs 0.1 m long and

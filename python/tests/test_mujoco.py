@@ -273,3 +273,157 @@ def test_the_example_runs_and_its_mjcf_is_the_hexapods(tmp_path):
     tables = terzaghi.read_topics(out)
     assert len(tables["/joint_states"]["stamp_s"]) == 500
     assert len(tables["/body_pose"]["z_m"]) == 500
+
+
+# ---------------------------------------------------------------- many environments at once
+
+def _random_states(model, n, seed):
+    """``n`` states of the hexapod, each tilted, turning and moving its own way, as
+    ``mjSTATE_FULLPHYSICS`` rows."""
+    rng = np.random.default_rng(seed)
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    data = mujoco.MjData(model)
+    rows = []
+    for _ in range(n):
+        mujoco.mj_resetData(model, data)
+        q = rng.normal(size=4)
+        data.qpos[:3] = [rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(0.0, 0.1)]
+        data.qpos[3:7] = q / np.linalg.norm(q) if rng.uniform() < 0.5 else [1, 0, 0, 0]
+        data.qpos[7:] = rng.uniform(-4, 8, model.nq - 7)
+        data.qvel[:] = rng.normal(0.0, 0.5, model.nv)
+        data.qvel[6:] = rng.uniform(-6, 8, model.nv - 6)
+        row = np.empty(mujoco.mj_stateSize(model, spec))
+        mujoco.mj_getState(model, data, row, spec)
+        rows.append(row)
+    return np.array(rows)
+
+
+def test_a_batch_of_environments_feels_what_one_coupling_gives_each():
+    model = mujoco.MjModel.from_xml_string(tm.hexapod_xml())
+    legs = LegBatch(length_m=0.1, width_m=0.025, medium="poppy_lp")
+    n = 64
+    batch = tm.BatchCoupling(model, tm.hexapod_legs(), legs, n_envs=n, torso="torso", threads=2)
+    batch.state[:] = _random_states(model, n, 3)
+    batch.apply()
+    one = tm.Coupling(model, tm.hexapod_legs(), legs, torso="torso")
+    data = mujoco.MjData(model)
+    bodies = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, leg.body) for leg in tm.hexapod_legs()]
+    xfrc = batch.control[:, model.nu:].reshape(n, model.nbody, 6)
+    in_sand = 0
+    for e in range(n):
+        mujoco.mj_setState(model, data, batch.state[e], mujoco.mjtState.mjSTATE_FULLPHYSICS)
+        mujoco.mj_forward(model, data)
+        one.apply(data)
+        scale = max(1.0, np.abs(one.drag_n).max(), np.abs(one.lift_n).max())
+        for got, want in ((batch.drag_n[e], one.drag_n), (batch.lift_n[e], one.lift_n),
+                          (batch.hip_torque_nm[e], one.hip_torque_nm)):
+            np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * scale)
+        np.testing.assert_allclose(xfrc[e, bodies], data.xfrc_applied[bodies], rtol=0, atol=1e-12 * scale)
+        in_sand += int((np.abs(one.lift_n) > 0).sum())
+    # The states put a good share of the legs in the sand.
+    assert in_sand > n, in_sand
+
+
+def test_a_batch_of_environments_steps_as_each_would_alone():
+    model = mujoco.MjModel.from_xml_string(tm.hexapod_xml())
+    legs = LegBatch(length_m=0.1, width_m=0.025, medium="poppy_lp")
+    n, steps = 4, 600
+    batch = tm.BatchCoupling(model, tm.hexapod_legs(), legs, n_envs=n, torso="torso", threads=2)
+    start = batch.state.copy()
+    for e in range(n):
+        start[e, 8:14] = 0.8 + (e % 2) * np.pi  # the legs' angles (after time and the free joint)
+    batch.state[:] = start
+    act = np.arange(model.nu)
+    speeds = np.array([[4.0 + e, 3.0, 5.0, 4.0, 6.0 - e, 4.0] for e in range(n)])
+    for _ in range(steps):
+        batch.ctrl[:] = speeds
+        batch.step()
+    # Each environment on its own: one MjData, the one-robot coupling, mj_step.
+    one = tm.Coupling(model, tm.hexapod_legs(), legs, torso="torso")
+    for e in range(n):
+        data = mujoco.MjData(model)
+        mujoco.mj_setState(model, data, start[e], mujoco.mjtState.mjSTATE_FULLPHYSICS)
+        mujoco.mj_forward(model, data)
+        for _ in range(steps):
+            data.ctrl[act] = speeds[e]
+            one.apply(data)
+            mujoco.mj_step(model, data)
+        np.testing.assert_allclose(batch.state[e, 1:1 + model.nq], data.qpos, atol=1e-6)
+        # The robot walked: its torso moved forward on the sand's forces.
+        assert data.qpos[0] - start[e, 1] > 0.005, data.qpos[0]
+
+
+def test_a_medium_per_environment_changes_only_its_own_legs():
+    model = mujoco.MjModel.from_xml_string(tm.hexapod_xml())
+    legs = LegBatch(length_m=0.1, width_m=0.025, medium="poppy_lp")
+    n = 8
+    batch = tm.BatchCoupling(model, tm.hexapod_legs(), legs, n_envs=n, torso="torso", threads=1)
+    batch.state[:] = _random_states(model, 1, 5)[0]
+    b_k = np.linspace(0.5, 2.0, n)
+    a = np.linspace(1.05, 1.6, n)
+    batch.set_media(b_k, a)
+    batch.apply()
+    x = batch._in
+    for e in range(n):
+        own = LegBatch(length_m=0.1, width_m=0.025, medium="poppy_lp", b_k=b_k[e], a=a[e])
+        d, l, t = own.forces(x["beta"][e], x["h"][e], pitch_rad=x["pitch"][e],
+                             omega_rad_s=x["omega"][e], forward_m_s=x["fwd"][e], up_m_s=x["up"][e])
+        np.testing.assert_allclose(batch.lift_n[e], l, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(batch.drag_n[e], d, rtol=1e-12, atol=1e-12)
+    assert len({round(float(v), 9) for v in batch.lift_n.sum(axis=1)}) == n
+    with pytest.raises(ValueError, match=r"b_k has shape \(3,\), the environments \(8,\)"):
+        batch.set_media(np.ones(3))
+
+
+def test_a_model_the_batch_cannot_couple_is_refused_by_name():
+    legs = LegBatch(length_m=0.1, width_m=0.025, medium="poppy_lp")
+    model = mujoco.MjModel.from_xml_string(ONE_LEG)
+    with pytest.raises(ValueError, match="torso 'hip': needs one joint, a free joint"):
+        tm.BatchCoupling(model, [tm.LegMap("leg", "leg_joint", "leg")], legs, n_envs=2, torso="hip")
+    tilted = tm.hexapod_xml().replace('<joint name="front_left_joint" type="hinge" axis="0 1 0"',
+                                      '<joint name="front_left_joint" type="hinge" axis="1 0 0"')
+    model = mujoco.MjModel.from_xml_string(tilted)
+    with pytest.raises(ValueError, match=r"leg front_left: its hinge must turn about the torso's \+y"):
+        tm.BatchCoupling(model, tm.hexapod_legs(), legs, n_envs=2, torso="torso")
+    model = mujoco.MjModel.from_xml_string(tm.hexapod_xml())
+    for bad in (0, -3, 2.5, True):
+        with pytest.raises(ValueError, match="n_envs"):
+            tm.BatchCoupling(model, tm.hexapod_legs(), legs, n_envs=bad, torso="torso")
+
+
+def test_the_vectorised_environment_walks_each_copy_on_its_own_medium():
+    gymnasium = pytest.importorskip("gymnasium")
+    from terzaghi.envs import HexapodSandVecEnv
+
+    env = HexapodSandVecEnv(num_envs=8, max_steps=60, threads=2)
+    assert isinstance(env, gymnasium.vector.VectorEnv)
+    obs, info = env.reset(seed=0)
+    assert obs.shape == (8, 29) and obs.dtype == np.float32
+    assert env.observation_space.contains(obs)
+    assert ((info["b_k"] >= 24.0) & (info["b_k"] <= 40.0)).all() and len(set(info["b_k"])) == 8
+    first_media = info["b_k"].copy()
+    rewards = []
+    for k in range(60):
+        obs, reward, terminated, truncated, info = env.step(np.full((8, 6), 4.0))
+        assert reward.shape == (8,) and np.isfinite(reward).all()
+        assert not terminated.any()
+        if k < 59:
+            assert not truncated.any()
+            rewards.append(reward)
+    # Every copy walks forward on the sand's forces, each at its own pace (its own medium).
+    speed = np.mean(rewards[20:], axis=0)
+    assert (speed > 0.0).all(), speed
+    assert len({round(float(v), 6) for v in speed}) == 8
+    # The last step truncated every episode and began the next on newly drawn media.
+    assert truncated.all() and info["_final_obs"].all()
+    assert info["final_obs"].shape == (8, 29)
+    assert (info["b_k"] != first_media).all()
+    np.testing.assert_array_equal(info["final_info"]["b_k"], first_media)
+    np.testing.assert_allclose(obs[:, 0], 0.09, atol=1e-9)  # back at the start
+    with pytest.raises(ValueError, match=r"actions has shape \(6,\), expected \(8, 6\)"):
+        env.step(np.zeros(6))
+    with pytest.raises(ValueError, match=r"actions\[2, 3\] = nan"):
+        bad = np.zeros((8, 6))
+        bad[2, 3] = np.nan
+        env.step(bad)
+    env.close()

@@ -3,6 +3,8 @@
 //! (`python/terzaghi/__init__.py`) gives them their documented signatures; everything here
 //! calls the same functions as the `terzaghi` command line.
 
+mod free_base;
+
 use numpy::ndarray::{ArrayD, Zip};
 use numpy::{
     AllowTypeChange, IntoPyArray, PyArray1, PyArrayDyn, PyArrayLikeDyn, PyUntypedArrayMethods,
@@ -1392,6 +1394,7 @@ fn _terzaghi(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("REEVALUATE_COLUMNS", COLUMNS.to_vec())?;
     m.add_class::<Online>()?;
     m.add_class::<Batch>()?;
+    m.add_class::<free_base::FreeBase>()?;
     m.add_class::<Recorder>()?;
     m.add_class::<Node>()?;
     m.add("NODE_FIELDS", NODE_FIELDS.to_vec())?;

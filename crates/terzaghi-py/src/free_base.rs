@@ -1,0 +1,379 @@
+//! The kinematics of `terzaghi.mujoco.BatchCoupling`: many environments' MuJoCo states (rows of
+//! `mjSTATE_FULLPHYSICS`) in, each leg's model inputs out; each leg's drag, lift and hip torque
+//! in, the wrench at its body's centre of mass out, into the rows of a rollout's control
+//! (`xfrc_applied`). The robot is a torso on a free joint with legs hinged to it about its +y
+//! axis, each leg's hinge at its body's origin (the hip); Python checks the model is so.
+
+use numpy::{PyArray2, PyArrayMethods, PyUntypedArrayMethods};
+use pyo3::prelude::*;
+use rayon::prelude::*;
+
+use crate::TerzaghiError;
+
+/// Environments per task.
+const ENVS_PER_TASK: usize = 256;
+
+/// The torso's frame and motion in one environment.
+struct Torso {
+    /// Position of its origin in the world (m).
+    p: [f64; 3],
+    /// Rotation to the world: columns are its axes.
+    r: [[f64; 3]; 3],
+    /// Linear velocity of its origin (world, m/s).
+    v: [f64; 3],
+    /// Angular velocity (world, rad/s).
+    w: [f64; 3],
+    /// Its heading: its +x axis in the horizontal plane, of unit length.
+    fwd: [f64; 2],
+    /// Its pitch, nose down positive (rad).
+    pitch_rad: f64,
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+fn rotate(r: &[[f64; 3]; 3], x: [f64; 3]) -> [f64; 3] {
+    [
+        r[0][0] * x[0] + r[0][1] * x[1] + r[0][2] * x[2],
+        r[1][0] * x[0] + r[1][1] * x[1] + r[1][2] * x[2],
+        r[2][0] * x[0] + r[2][1] * x[1] + r[2][2] * x[2],
+    ]
+}
+
+impl Torso {
+    /// From a state row: the free joint's position and quaternion (w, x, y, z) at `qpos0`, its
+    /// world linear and local angular velocity at `qvel0`. `None` for a quaternion of no length.
+    fn from_state(row: &[f64], qpos0: usize, qvel0: usize) -> Option<Torso> {
+        let p = [row[qpos0], row[qpos0 + 1], row[qpos0 + 2]];
+        let q = &row[qpos0 + 3..qpos0 + 7];
+        let n = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt();
+        if !(n > 0.0 && n.is_finite()) {
+            return None;
+        }
+        let (w, x, y, z) = (q[0] / n, q[1] / n, q[2] / n, q[3] / n);
+        let r = [
+            [
+                1.0 - 2.0 * (y * y + z * z),
+                2.0 * (x * y - w * z),
+                2.0 * (x * z + w * y),
+            ],
+            [
+                2.0 * (x * y + w * z),
+                1.0 - 2.0 * (x * x + z * z),
+                2.0 * (y * z - w * x),
+            ],
+            [
+                2.0 * (x * z - w * y),
+                2.0 * (y * z + w * x),
+                1.0 - 2.0 * (x * x + y * y),
+            ],
+        ];
+        let v = [row[qvel0], row[qvel0 + 1], row[qvel0 + 2]];
+        let w = rotate(&r, [row[qvel0 + 3], row[qvel0 + 4], row[qvel0 + 5]]);
+        let norm = r[0][0].hypot(r[1][0]);
+        let fwd = if norm > 0.0 {
+            [r[0][0] / norm, r[1][0] / norm]
+        } else {
+            [1.0, 0.0]
+        };
+        let pitch_rad = (-r[2][0]).atan2(norm);
+        Some(Torso {
+            p,
+            r,
+            v,
+            w,
+            fwd,
+            pitch_rad,
+        })
+    }
+}
+
+/// The layout of one model's environments: where the torso and legs are in a state row, and
+/// where each leg's `xfrc_applied` is in a control row.
+#[pyclass(module = "terzaghi._terzaghi", name = "FreeBase")]
+pub(crate) struct FreeBase {
+    qpos0: usize,
+    qvel0: usize,
+    nstate: usize,
+    joint_qpos: Vec<usize>,
+    joint_dof: Vec<usize>,
+    /// Each hip in the torso's frame (m).
+    hip_m: Vec<[f64; 3]>,
+    /// Each leg's centre of mass from its hip, in the torso's frame at joint angle 0 (m).
+    com_m: Vec<[f64; 3]>,
+    /// Each leg's `xfrc_applied` in a control row.
+    xfrc: Vec<usize>,
+    ncontrol: usize,
+    surface_z_m: f64,
+}
+
+/// `a` as a C-contiguous (rows, cols) float64 array, or an error naming it and both shapes.
+fn rows<'py>(name: &str, a: &Bound<'py, PyArray2<f64>>, rows: usize, cols: usize) -> PyResult<()> {
+    if a.shape() != [rows, cols] || !a.is_c_contiguous() {
+        return Err(TerzaghiError::new_err(format!(
+            "{name} has shape {:?}{}, expected ({rows}, {cols}) C-contiguous float64",
+            a.shape(),
+            if a.is_c_contiguous() {
+                ""
+            } else {
+                " (not C-contiguous)"
+            }
+        )));
+    }
+    Ok(())
+}
+
+#[pymethods]
+impl FreeBase {
+    #[new]
+    #[pyo3(signature = (qpos0, qvel0, nstate, joint_qpos, joint_dof, hip_m, com_m, xfrc, ncontrol, surface_z_m))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        qpos0: usize,
+        qvel0: usize,
+        nstate: usize,
+        joint_qpos: Vec<usize>,
+        joint_dof: Vec<usize>,
+        hip_m: Vec<[f64; 3]>,
+        com_m: Vec<[f64; 3]>,
+        xfrc: Vec<usize>,
+        ncontrol: usize,
+        surface_z_m: f64,
+    ) -> PyResult<Self> {
+        let n = joint_qpos.len();
+        if [joint_dof.len(), hip_m.len(), com_m.len(), xfrc.len()] != [n; 4] {
+            return Err(TerzaghiError::new_err(
+                "FreeBase: one entry per leg in each list",
+            ));
+        }
+        let in_row = |i: usize| i < nstate;
+        if qpos0 + 7 > nstate
+            || qvel0 + 6 > nstate
+            || !joint_qpos.iter().chain(&joint_dof).all(|&i| in_row(i))
+            || xfrc.iter().any(|&i| i + 6 > ncontrol)
+        {
+            return Err(TerzaghiError::new_err(
+                "FreeBase: an address beyond the state or control row",
+            ));
+        }
+        if !surface_z_m.is_finite() {
+            return Err(TerzaghiError::new_err(format!(
+                "surface_z_m = {surface_z_m}: not a finite height"
+            )));
+        }
+        Ok(FreeBase {
+            qpos0,
+            qvel0,
+            nstate,
+            joint_qpos,
+            joint_dof,
+            hip_m,
+            com_m,
+            xfrc,
+            ncontrol,
+            surface_z_m,
+        })
+    }
+
+    /// Each environment's legs as the leg model takes them, into (environments, legs) arrays:
+    /// joint angle, hip height above the surface, the torso's pitch, the joint's rate, and the
+    /// hip's velocity along the torso's heading and up. An environment whose torso has no
+    /// orientation (a zero quaternion) gets NaN, which the leg model then names.
+    #[allow(clippy::too_many_arguments)]
+    fn legs_in(
+        &self,
+        py: Python<'_>,
+        state: &Bound<'_, PyArray2<f64>>,
+        beta_rad: &Bound<'_, PyArray2<f64>>,
+        hip_height_m: &Bound<'_, PyArray2<f64>>,
+        pitch_rad: &Bound<'_, PyArray2<f64>>,
+        omega_rad_s: &Bound<'_, PyArray2<f64>>,
+        forward_m_s: &Bound<'_, PyArray2<f64>>,
+        up_m_s: &Bound<'_, PyArray2<f64>>,
+    ) -> PyResult<()> {
+        let n_env = state.shape()[0];
+        let n_leg = self.joint_qpos.len();
+        rows("state", state, n_env, self.nstate)?;
+        let outs = [
+            ("beta_rad", beta_rad),
+            ("hip_height_m", hip_height_m),
+            ("pitch_rad", pitch_rad),
+            ("omega_rad_s", omega_rad_s),
+            ("forward_m_s", forward_m_s),
+            ("up_m_s", up_m_s),
+        ];
+        for (name, a) in outs {
+            rows(name, a, n_env, n_leg)?;
+        }
+        let state = state.readonly();
+        let mut w: Vec<_> = outs
+            .iter()
+            .map(|(name, a)| {
+                a.try_readwrite().map_err(|_| {
+                    TerzaghiError::new_err(format!("{name}: not writeable, or given twice"))
+                })
+            })
+            .collect::<PyResult<_>>()?;
+        let state = state.as_slice().expect("checked C-contiguous");
+        let mut slices: Vec<&mut [f64]> = w
+            .iter_mut()
+            .map(|a| a.as_slice_mut().expect("checked C-contiguous"))
+            .collect();
+        let [beta, h, pitch, omega, fwd, up] = &mut slices[..] else {
+            unreachable!("six outputs")
+        };
+        let chunk = ENVS_PER_TASK * n_leg.max(1);
+        py.detach(|| {
+            state
+                .par_chunks(ENVS_PER_TASK * self.nstate)
+                .zip(beta.par_chunks_mut(chunk))
+                .zip(h.par_chunks_mut(chunk))
+                .zip(pitch.par_chunks_mut(chunk))
+                .zip(omega.par_chunks_mut(chunk))
+                .zip(fwd.par_chunks_mut(chunk))
+                .zip(up.par_chunks_mut(chunk))
+                .for_each(|((((((s, beta), h), pitch), omega), fwd), up)| {
+                    for (e, row) in s.chunks(self.nstate).enumerate() {
+                        let legs = e * n_leg..(e + 1) * n_leg;
+                        self.env_in(
+                            row,
+                            &mut beta[legs.clone()],
+                            &mut h[legs.clone()],
+                            &mut pitch[legs.clone()],
+                            &mut omega[legs.clone()],
+                            &mut fwd[legs.clone()],
+                            &mut up[legs],
+                        );
+                    }
+                })
+        });
+        Ok(())
+    }
+
+    /// Each leg's wrench at its body's centre of mass (world frame: force, then moment) into
+    /// its `xfrc_applied` of each environment's control row, from its drag (along the torso's
+    /// heading), lift (up) and hip torque (about the torso's +y axis, resisting), the legs
+    /// placed as in `state`. The control's other entries are kept.
+    fn wrenches_out(
+        &self,
+        py: Python<'_>,
+        state: &Bound<'_, PyArray2<f64>>,
+        drag_n: &Bound<'_, PyArray2<f64>>,
+        lift_n: &Bound<'_, PyArray2<f64>>,
+        hip_torque_nm: &Bound<'_, PyArray2<f64>>,
+        control: &Bound<'_, PyArray2<f64>>,
+    ) -> PyResult<()> {
+        let n_env = state.shape()[0];
+        let n_leg = self.joint_qpos.len();
+        rows("state", state, n_env, self.nstate)?;
+        for (name, a) in [
+            ("drag_n", drag_n),
+            ("lift_n", lift_n),
+            ("hip_torque_nm", hip_torque_nm),
+        ] {
+            rows(name, a, n_env, n_leg)?;
+        }
+        rows("control", control, n_env, self.ncontrol)?;
+        let (state, d, l, t) = (
+            state.readonly(),
+            drag_n.readonly(),
+            lift_n.readonly(),
+            hip_torque_nm.readonly(),
+        );
+        let mut c = control
+            .try_readwrite()
+            .map_err(|_| TerzaghiError::new_err("control: not writeable"))?;
+        let (state, d, l, t) = (
+            state.as_slice().expect("checked C-contiguous"),
+            d.as_slice().expect("checked C-contiguous"),
+            l.as_slice().expect("checked C-contiguous"),
+            t.as_slice().expect("checked C-contiguous"),
+        );
+        let c = c.as_slice_mut().expect("checked C-contiguous");
+        let chunk = ENVS_PER_TASK * n_leg.max(1);
+        py.detach(|| {
+            state
+                .par_chunks(ENVS_PER_TASK * self.nstate)
+                .zip(c.par_chunks_mut(ENVS_PER_TASK * self.ncontrol))
+                .zip(d.par_chunks(chunk))
+                .zip(l.par_chunks(chunk))
+                .zip(t.par_chunks(chunk))
+                .for_each(|((((s, c), d), l), t)| {
+                    for (e, (row, c)) in s
+                        .chunks(self.nstate)
+                        .zip(c.chunks_mut(self.ncontrol))
+                        .enumerate()
+                    {
+                        let legs = e * n_leg..(e + 1) * n_leg;
+                        self.env_out(row, &d[legs.clone()], &l[legs.clone()], &t[legs], c);
+                    }
+                })
+        });
+        Ok(())
+    }
+}
+
+impl FreeBase {
+    #[allow(clippy::too_many_arguments)]
+    fn env_in(
+        &self,
+        row: &[f64],
+        beta: &mut [f64],
+        h: &mut [f64],
+        pitch: &mut [f64],
+        omega: &mut [f64],
+        fwd: &mut [f64],
+        up: &mut [f64],
+    ) {
+        let Some(torso) = Torso::from_state(row, self.qpos0, self.qvel0) else {
+            for x in [beta, h, pitch, omega, fwd, up] {
+                x.fill(f64::NAN);
+            }
+            return;
+        };
+        for (i, hip) in self.hip_m.iter().enumerate() {
+            let arm = rotate(&torso.r, *hip);
+            let wxr = cross(torso.w, arm);
+            let v = [
+                torso.v[0] + wxr[0],
+                torso.v[1] + wxr[1],
+                torso.v[2] + wxr[2],
+            ];
+            beta[i] = row[self.joint_qpos[i]];
+            h[i] = torso.p[2] + arm[2] - self.surface_z_m;
+            pitch[i] = torso.pitch_rad;
+            omega[i] = row[self.joint_dof[i]];
+            fwd[i] = v[0] * torso.fwd[0] + v[1] * torso.fwd[1];
+            up[i] = v[2];
+        }
+    }
+
+    fn env_out(&self, row: &[f64], d: &[f64], l: &[f64], t: &[f64], control: &mut [f64]) {
+        let Some(torso) = Torso::from_state(row, self.qpos0, self.qvel0) else {
+            for &x in &self.xfrc {
+                control[x..x + 6].fill(0.0);
+            }
+            return;
+        };
+        let axis = [torso.r[0][1], torso.r[1][1], torso.r[2][1]];
+        for (i, com) in self.com_m.iter().enumerate() {
+            let f = [d[i] * torso.fwd[0], d[i] * torso.fwd[1], l[i]];
+            // The leg's centre of mass turned about the hip's +y by the joint angle.
+            let (s, c) = row[self.joint_qpos[i]].sin_cos();
+            let local = [c * com[0] + s * com[2], com[1], c * com[2] - s * com[0]];
+            let hip_from_com = rotate(&torso.r, local).map(|x| -x);
+            // xfrc_applied acts at the centre of mass: M_com = M_hip + (r_hip - r_com) x F.
+            let m = cross(hip_from_com, f);
+            let x = self.xfrc[i];
+            control[x..x + 3].copy_from_slice(&f);
+            control[x + 3] = m[0] - t[i] * axis[0];
+            control[x + 4] = m[1] - t[i] * axis[1];
+            control[x + 5] = m[2] - t[i] * axis[2];
+        }
+    }
+}
