@@ -5,13 +5,14 @@ import inspect
 
 import pytest
 
-MODULES = ["terzaghi", "terzaghi.batch", "terzaghi.fleet", "terzaghi.mujoco", "terzaghi._terzaghi"]
+MODULES = ["terzaghi", "terzaghi.batch", "terzaghi.fleet", "terzaghi.mujoco", "terzaghi.envs",
+           "terzaghi._terzaghi"]
 
 
 def undocumented(modname):
     try:
         m = importlib.import_module(modname)
-    except ImportError as e:  # terzaghi.mujoco without mujoco, terzaghi.fleet without dask
+    except ImportError as e:  # terzaghi.mujoco without mujoco, terzaghi.envs without gymnasium, terzaghi.fleet without dask
         pytest.skip(f"{modname}: {e}")
     missing = [] if (m.__doc__ or "").strip() else [modname]
     names = getattr(m, "__all__", None) or [n for n in dir(m) if not n.startswith("_")]
