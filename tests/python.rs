@@ -1,7 +1,12 @@
 //! The Python package (`python/`, pyo3 and maturin) as a user installs it: `pip install
 //! ./python` into a venv of its own (`target/pyvenv`, made on first use; needs PyPI), then its
 //! pytest suite (`python/tests`: the API against this build's `terzaghi` on the same inputs)
-//! and the README's Python example as written.
+//! and the README's Python example as written. Beside it, in a venv of its own
+//! (`target/peervenv`, from `python/benchmarks/requirements-peers.txt`; torch from PyPI is
+//! about 6 GB installed, and its download runs while the package's tests do),
+//! `python/tests_peers`: CPU tensors and JAX arrays in and out without a copy, an
+//! accelerator's refused, and every peer of `python/benchmarks/peers.py` equal to
+//! `terzaghi.batch`.
 
 mod common;
 
@@ -52,4 +57,26 @@ fn the_python_package_passes_its_tests_and_the_readme_example_runs() {
         String::from_utf8_lossy(&out.stderr)
     );
     assert!(printed.contains("b_k"), "{printed}");
+}
+
+#[test]
+fn torch_and_jax_arrays_go_through_the_batch_in_place_and_every_peer_agrees() {
+    let py = common::python_venv(
+        "target/peervenv",
+        "python/benchmarks/requirements-peers.txt",
+    );
+    let tmp = tempfile::tempdir().unwrap();
+    let out = Command::new(&py)
+        .args(["-m", "pytest", "-q", "-p", "no:cacheprovider"])
+        .arg(repo().join("python/tests_peers"))
+        .env("TERZAGHI_BIN", terzaghi())
+        .current_dir(tmp.path())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "pytest python/tests_peers failed:\n{}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
 }

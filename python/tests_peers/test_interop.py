@@ -1,7 +1,7 @@
 """terzaghi.batch with the arrays of the learning stacks: CPU torch tensors and JAX arrays are
 read and written where they lie (DLPack), accelerator arrays refused with what to do; and every
 peer of python/benchmarks/peers.py equals terzaghi.batch before it is timed. Run by
-tests/python_peers.rs in target/peervenv (python/benchmarks/requirements-peers.txt)."""
+tests/python.rs in target/peervenv (python/benchmarks/requirements-peers.txt)."""
 
 import sys
 from pathlib import Path

@@ -365,14 +365,23 @@ pub fn refused(args: &[&std::ffi::OsStr], words: &[&str]) {
 
 /// The Python of the venv `venv` (under the repository, made on first use: needs PyPI) with
 /// `requirements` installed and the package built from this checkout (reinstalled on every
-/// call: the crate may have changed since). One install at a time per test binary.
+/// call: the crate may have changed since). The venv is made and its requirements installed
+/// under a lock on the file `<venv>.lock` (flock): tests that share a venv take turns, two
+/// venvs install side by side, and another process may make the venv ahead of the tests while
+/// it holds the lock (CI does, for the peers' 6 GB, while the tests build). The package is
+/// built for one venv at a time.
 #[allow(dead_code)]
 pub fn python_venv(venv: &str, requirements: &str) -> std::path::PathBuf {
+    use std::sync::Mutex;
     let venv = repo().join(venv);
     let py = venv.join("bin/python");
     let pip = venv.join("bin/pip");
-    static INSTALL: std::sync::Mutex<()> = std::sync::Mutex::new(());
-    let _one = INSTALL.lock().unwrap_or_else(|p| p.into_inner());
+    let lock_path = venv.with_extension("lock");
+    std::fs::create_dir_all(venv.parent().unwrap()).unwrap();
+    let lock = std::fs::File::create(&lock_path)
+        .unwrap_or_else(|e| panic!("cannot open {}: {e}", lock_path.display()));
+    lock.lock()
+        .unwrap_or_else(|e| panic!("cannot lock {}: {e}", lock_path.display()));
     if !py.exists() {
         let ok = Command::new("python3")
             .args(["-m", "venv"])
@@ -387,6 +396,9 @@ pub fn python_venv(venv: &str, requirements: &str) -> std::path::PathBuf {
         .status()
         .is_ok_and(|s| s.success());
     assert!(ok, "pip install -r {requirements} failed (it needs PyPI)");
+    drop(lock);
+    static BUILD: Mutex<()> = Mutex::new(());
+    let _build = BUILD.lock().unwrap_or_else(|p| p.into_inner());
     let out = Command::new(&pip)
         .args(["install", "-q", "--force-reinstall", "--no-deps"])
         .arg(repo().join("python"))
