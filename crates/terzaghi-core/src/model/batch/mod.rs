@@ -15,7 +15,7 @@ mod vmath;
 
 use super::rft::{N_CM3_TO_N_M3, RftParts};
 use super::terzaghi::MediumConstants;
-use super::{FittingWidth, ForceModel, HipMotion, ModelError, wrap_beta_rad};
+use super::{FittingWidth, ForceModel, HipMotion, ModelError, TerzaghiModel, wrap_beta_rad};
 use std::ops::{Add, Mul, Neg, Sub};
 
 /// A number a batch is given in: `f64` or `f32`.
@@ -263,7 +263,36 @@ struct Improved {
     /// `ln a`, and `width b_k` (m).
     ln_a: f64,
     width_b_k_m: f64,
+    width_m: f64,
     length_m: f64,
+}
+
+/// Each lane's fitting width: `ln a` and `width b_k` (m), the model's or the leg's own.
+struct LaneWidths {
+    ln_a: [f64; LANES],
+    width_b_k_m: [f64; LANES],
+}
+
+impl LaneWidths {
+    fn of(imp: &Improved) -> LaneWidths {
+        LaneWidths {
+            ln_a: [imp.ln_a; LANES],
+            width_b_k_m: [imp.width_b_k_m; LANES],
+        }
+    }
+}
+
+/// Leg `i`'s fitting width: its own `b_k` and `a` where `legs` gives them, else `model`'s.
+fn leg_width<T: Real>(
+    model: &TerzaghiModel,
+    legs: &Legs<'_, T>,
+    i: usize,
+) -> Result<FittingWidth, ModelError> {
+    FittingWidth::new(
+        legs.b_k
+            .map_or(model.fitting_width().b_k(), |v| v[i].to_f64()),
+        legs.a.map_or(model.fitting_width().a(), |v| v[i].to_f64()),
+    )
 }
 
 /// One model for many legs (see the module's documentation).
@@ -384,6 +413,7 @@ impl LegKernel {
                     c,
                     ln_a,
                     width_b_k_m: m.plate().width_m() * m.fitting_width().b_k(),
+                    width_m: m.plate().width_m(),
                     length_m: m.plate().length_m(),
                 }))
             }
@@ -450,13 +480,14 @@ impl LegKernel {
                 });
             }
         };
-        match (&self.plan, &widths) {
-            (Plan::Terzaghi(imp), None) => return self.terzaghi_blocks(imp, legs, first, out),
+        match (&self.plan, widths) {
+            (Plan::Terzaghi(imp), w) => return self.terzaghi_blocks(imp, legs, first, out, w),
             (Plan::Profile(..) | Plan::Plate(..), None) => {
                 return self.rft_blocks(legs, first, out);
             }
             _ => {}
         }
+        // Leg by leg: the models without a vector plan (`Plan::EachLeg`).
         for k in 0..n {
             let i = first + k;
             let fail = |error: ModelError| LegError {
@@ -474,25 +505,18 @@ impl LegKernel {
                 forward_position_m: 0.0,
                 lateral_m_s: 0.0,
             };
-            let f = match (&self.plan, &widths) {
-                (_, Some(m)) => {
-                    let w = FittingWidth::new(
-                        legs.b_k.map_or(m.fitting_width().b_k(), |v| v[i].to_f64()),
-                        legs.a.map_or(m.fitting_width().a(), |v| v[i].to_f64()),
-                    )
-                    .map_err(fail)?;
+            let f = match widths {
+                Some(m) => {
+                    let w = leg_width(m, legs, i).map_err(fail)?;
                     let f = m
                         .with_fitting_width(w)
                         .evaluate_at_height(beta + hip.pitch_rad, hip.height_m)
                         .map_err(fail)?;
                     [f.drag_n, f.lift_n, f.hip_torque_nm]
                 }
-                (Plan::EachLeg | Plan::Terzaghi(_), None) => {
+                None => {
                     let p = self.model.predict_moving(beta, &hip).map_err(fail)?;
                     [p.drag_n, p.lift_n, p.hip_torque_nm]
-                }
-                (Plan::Profile(..) | Plan::Plate(..), None) => {
-                    unreachable!("RFT's legs go by rft_blocks")
                 }
             };
             for (output, v) in ["drag", "lift", "hip torque"].into_iter().zip(f) {
@@ -519,6 +543,7 @@ impl LegKernel {
         legs: &Legs<'_, T>,
         first: usize,
         mut out: LegForcesOut<'_, T>,
+        per_leg: Option<&TerzaghiModel>,
     ) -> Result<(), LegError> {
         let ForceModel::Terzaghi(model) = &self.model else {
             unreachable!("a Terzaghi plan is a Terzaghi model's")
@@ -526,28 +551,55 @@ impl LegKernel {
         let n = out.drag_n.len();
         let mut block = Block::new();
         let (mut clamped, mut f, mut scalar) = ([0.0; LANES], [[0.0; LANES]; 3], [false; LANES]);
+        let mut lanes = LaneWidths::of(imp);
+        let mut widths = [model.fitting_width(); LANES];
+        // The last leg's `a` and its logarithm: an environment's legs share a medium.
+        let mut last_a = (model.fitting_width().a(), imp.ln_a);
         for start in (0..n).step_by(LANES) {
             let m = LANES.min(n - start);
             block.gather(legs, first + start, m)?;
             for (c, h) in clamped.iter_mut().zip(&block.h) {
                 *c = h.max(0.0);
             }
+            if let Some(own) = per_leg {
+                for (l, width) in widths.iter_mut().enumerate().take(m) {
+                    let i = first + start + l;
+                    let w = leg_width(own, legs, i).map_err(|e| LegError {
+                        index: i,
+                        problem: e.into(),
+                    })?;
+                    if w.a() != last_a.0 {
+                        last_a = (w.a(), w.a().ln());
+                    }
+                    *width = w;
+                    lanes.ln_a[l] = last_a.1;
+                    lanes.width_b_k_m[l] = imp.width_m * w.b_k();
+                }
+            }
             match self.isa {
                 #[cfg(target_arch = "x86_64")]
                 // SAFETY: the kernel's ISA is one the processor has (`LegKernel::on`).
                 Isa::Avx512 => unsafe {
-                    improved_avx512(imp, &block.beta, &clamped, &mut f, &mut scalar)
+                    improved_avx512(imp, &lanes, &block.beta, &clamped, &mut f, &mut scalar)
                 },
                 #[cfg(target_arch = "x86_64")]
                 // SAFETY: as above.
                 Isa::Avx2 => unsafe {
-                    improved_avx2(imp, &block.beta, &clamped, &mut f, &mut scalar)
+                    improved_avx2(imp, &lanes, &block.beta, &clamped, &mut f, &mut scalar)
                 },
-                _ => improved_lanes(imp, &block.beta, &clamped, &mut f, &mut scalar),
+                _ => improved_lanes(imp, &lanes, &block.beta, &clamped, &mut f, &mut scalar),
             }
             if scalar[..m].iter().any(|s| *s) {
                 for l in (0..m).filter(|&l| scalar[l]) {
-                    let r = model
+                    let own;
+                    let leg_model = match per_leg {
+                        Some(m) => {
+                            own = m.with_fitting_width(widths[l]);
+                            &own
+                        }
+                        None => model,
+                    };
+                    let r = leg_model
                         .evaluate_at_height(block.beta_given[l] + block.pitch[l], block.h[l])
                         .map_err(|e| LegError {
                             index: first + start + l,
@@ -1175,6 +1227,7 @@ fn sum_lanes<T: Real, const FMA: bool, const RSQRT: bool>(
 #[inline(always)]
 fn improved_lanes(
     imp: &Improved,
+    widths: &LaneWidths,
     beta: &[f64; LANES],
     h: &[f64; LANES],
     f: &mut [[f64; LANES]; 3],
@@ -1185,7 +1238,7 @@ fn improved_lanes(
     let mut x_width = [0.0; LANES];
     let mut x_spiral = [0.0; LANES];
     for l in 0..LANES {
-        x_width[l] = -beta[l] * imp.ln_a;
+        x_width[l] = -beta[l] * widths.ln_a[l];
         x_spiral[l] = (c.theta_end - beta[l]) * c.k;
     }
     let e_width = vmath::exp(&x_width);
@@ -1200,7 +1253,7 @@ fn improved_lanes(
         } else {
             (imp.length_m - h[l] / sin_b).max(0.0)
         };
-        let w = imp.width_b_k_m * e_width[l] * c.lambda;
+        let w = widths.width_b_k_m[l] * e_width[l] * c.lambda;
         let theta = c.theta_end - b;
         let d_perp = 2.0 / 3.0 * l_s;
         let spiral = theta > 0.0;
@@ -1249,24 +1302,26 @@ fn improved_lanes(
 #[target_feature(enable = "avx512f")]
 fn improved_avx512(
     imp: &Improved,
+    widths: &LaneWidths,
     beta: &[f64; LANES],
     h: &[f64; LANES],
     f: &mut [[f64; LANES]; 3],
     scalar: &mut [bool; LANES],
 ) {
-    improved_lanes(imp, beta, h, f, scalar)
+    improved_lanes(imp, widths, beta, h, f, scalar)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 fn improved_avx2(
     imp: &Improved,
+    widths: &LaneWidths,
     beta: &[f64; LANES],
     h: &[f64; LANES],
     f: &mut [[f64; LANES]; 3],
     scalar: &mut [bool; LANES],
 ) {
-    improved_lanes(imp, beta, h, f, scalar)
+    improved_lanes(imp, widths, beta, h, f, scalar)
 }
 
 #[cfg(test)]
@@ -1398,6 +1453,94 @@ mod tests {
                 assert!(e.to_string().contains(what), "{name}: {e}");
             }
         }
+    }
+
+    #[test]
+    fn a_fitting_width_per_leg_gives_each_leg_its_own_models_forces() {
+        let legs = legs();
+        let n = legs.len();
+        let col = |k: usize| legs.iter().map(|l| l[k]).collect::<Vec<f64>>();
+        let cols: Vec<Vec<f64>> = (0..3).map(col).collect();
+        // Six legs per environment share a medium, as a batch of robots does; a few legs take
+        // a spiral thin enough for the scalar path, with their own width.
+        let b_k: Vec<f64> = (0..n).map(|i| 5.0 + (i / 6 % 17) as f64 * 3.0).collect();
+        let a: Vec<f64> = (0..n).map(|i| 1.1 + (i / 6 % 13) as f64 * 0.15).collect();
+        let input = Legs {
+            beta_rad: &cols[0],
+            hip_height_m: &cols[1],
+            pitch_rad: Some(&cols[2]),
+            omega_rad_s: None,
+            forward_m_s: None,
+            up_m_s: None,
+            b_k: Some(&b_k),
+            a: Some(&a),
+        };
+        let ForceModel::Terzaghi(model) = models()
+            .into_iter()
+            .find(|(name, _)| *name == "improved")
+            .expect("the improved model")
+            .1
+        else {
+            unreachable!()
+        };
+        for isa in [Isa::Baseline, Isa::Avx2, Isa::Avx512] {
+            let Some(kernel) = LegKernel::new(ForceModel::Terzaghi(model.clone())).on(isa) else {
+                continue;
+            };
+            let (mut d, mut l, mut t) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+            kernel
+                .forces(
+                    &input,
+                    0,
+                    LegForcesOut {
+                        drag_n: &mut d,
+                        lift_n: &mut l,
+                        hip_torque_nm: &mut t,
+                    },
+                )
+                .unwrap();
+            let mut in_medium = 0;
+            for (i, x) in legs.iter().enumerate() {
+                let own = model.with_fitting_width(FittingWidth::new(b_k[i], a[i]).unwrap());
+                let f = own.evaluate_at_height(x[0] + x[2], x[1]).unwrap();
+                let scale = f.drag_n.abs().max(f.lift_n.abs()).max(1.0);
+                in_medium += usize::from(f.lift_n != 0.0);
+                for (k, (got, want)) in [d[i], l[i], t[i]]
+                    .into_iter()
+                    .zip([f.drag_n, f.lift_n, f.hip_torque_nm])
+                    .enumerate()
+                {
+                    assert!(
+                        (got - want).abs() <= 1e-13 * scale,
+                        "{isa:?}, leg {i} {x:?}, b_k {} a {}, output {k}: {got} against {want}",
+                        b_k[i],
+                        a[i]
+                    );
+                }
+            }
+            assert!(in_medium > n / 4, "{in_medium} of {n} legs in the medium");
+        }
+        // A width that is no width is named with its leg.
+        let mut bad = a.clone();
+        bad[101] = -1.0;
+        let kernel = LegKernel::new(ForceModel::Terzaghi(model));
+        let (mut d, mut l, mut t) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        let e = kernel
+            .forces(
+                &Legs {
+                    a: Some(&bad),
+                    ..input
+                },
+                0,
+                LegForcesOut {
+                    drag_n: &mut d,
+                    lift_n: &mut l,
+                    hip_torque_nm: &mut t,
+                },
+            )
+            .unwrap_err();
+        assert_eq!(e.index, 101);
+        assert!(e.to_string().contains("-1"), "{e}");
     }
 
     #[test]
