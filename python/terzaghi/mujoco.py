@@ -206,9 +206,10 @@ def _state_offset(model, spec: int, part: int) -> int:
 
 class BatchCoupling:
     """terzaghi's forces on the legs of many environments of one MuJoCo model, stepped together
-    by MuJoCo's own rollout (``mujoco.rollout``, on ``threads`` threads): one call per step
-    reads every environment's legs, evaluates them with one :class:`terzaghi.batch.LegBatch`
-    call and writes every leg's wrench, with no Python loop over environments.
+    by MuJoCo's own rollout (``mujoco.rollout``, on ``threads`` threads): one native call per
+    step reads every environment's legs, evaluates them with the kernel of ``leg_model`` (a
+    :class:`terzaghi.batch.LegBatch`) and writes every leg's wrench, a chunk of environments at
+    a time on every core, with no Python loop over environments.
 
     The robot is a torso on a free joint with legs hinged to it (:class:`LegMap`): each leg's
     body a child of the torso, its hinge at the body's origin (the hip) about the torso's +y
@@ -294,6 +295,8 @@ class BatchCoupling:
             _state_offset(model, spec, mujoco.mjtState.mjSTATE_QVEL.value) + model.jnt_dofadr[j],
             nstate, qpos, dofs, hips, coms, xfrc, ncontrol, float(surface_z_m))
         self._spec, self._control_spec = spec, control_spec
+        # The legs' xfrc_applied columns in a control row.
+        self._leg_xfrc = np.array([x + k for x in xfrc for k in range(6)], dtype=np.intp)
         data = mujoco.MjData(model)
         mujoco.mj_forward(model, data)
         first = np.empty(nstate)
@@ -338,17 +341,19 @@ class BatchCoupling:
         """Evaluates every environment's legs at ``state`` and writes their wrenches into the
         control of the next step (``xfrc_applied``)."""
         x = self._in
-        self._layout.legs_in(self.state, x["beta"], x["h"], x["pitch"], x["omega"], x["fwd"], x["up"])
-        self.leg_model.forces(x["beta"], x["h"], pitch_rad=x["pitch"], omega_rad_s=x["omega"],
-                              forward_m_s=x["fwd"], up_m_s=x["up"], b_k=self._media[0],
-                              a=self._media[1], out=(self.drag_n, self.lift_n, self.hip_torque_nm))
-        self._layout.wrenches_out(self.state, self.drag_n, self.lift_n, self.hip_torque_nm, self.control)
+        # One native call: a chunk of environments at a time read, evaluated by the leg
+        # model's kernel and written, on every core.
+        self._layout.apply(self.state, self.leg_model._inner, self._media[0], self._media[1],
+                           x["beta"], x["h"], x["pitch"], x["omega"], x["fwd"], x["up"],
+                           self.drag_n, self.lift_n, self.hip_torque_nm, self.control)
 
     def step(self, coupled: bool = True) -> None:
         """One step of every environment: :meth:`apply` (unless ``coupled`` is false: the legs
         then feel nothing) and MuJoCo's step with ``ctrl``; ``state`` is then the new state."""
         if coupled:
             self.apply()
+        else:
+            self.control[:, self._leg_xfrc] = 0.0
         self._rollout.rollout(self._models, self._datas, self._buf[0][:, 0, :], self._control,
                               control_spec=self._control_spec, skip_checks=True, nstep=1,
                               state=self._buf[1], sensordata=self._sensors)

@@ -351,6 +351,15 @@ def test_a_batch_of_environments_steps_as_each_would_alone():
         np.testing.assert_allclose(batch.state[e, 1:1 + model.nq], data.qpos, atol=1e-6)
         # The robot walked: its torso moved forward on the sand's forces.
         assert data.qpos[0] - start[e, 1] > 0.005, data.qpos[0]
+    # A step without the coupling applies no force, not the last step's.
+    before = batch.state.copy()
+    batch.step(coupled=False)
+    for e in range(n):
+        data = mujoco.MjData(model)
+        mujoco.mj_setState(model, data, before[e], mujoco.mjtState.mjSTATE_FULLPHYSICS)
+        data.ctrl[act] = speeds[e]
+        mujoco.mj_step(model, data)
+        np.testing.assert_allclose(batch.state[e, 1:1 + model.nq], data.qpos, atol=1e-9)
 
 
 def test_a_medium_per_environment_changes_only_its_own_legs():

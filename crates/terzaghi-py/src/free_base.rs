@@ -9,6 +9,7 @@ use pyo3::prelude::*;
 use rayon::prelude::*;
 
 use crate::TerzaghiError;
+use terzaghi::model::batch::{LANES, sin_cos_lanes};
 
 /// Environments per task.
 const ENVS_PER_TASK: usize = 256;
@@ -75,7 +76,8 @@ impl Torso {
         ];
         let v = [row[qvel0], row[qvel0 + 1], row[qvel0 + 2]];
         let w = rotate(&r, [row[qvel0 + 3], row[qvel0 + 4], row[qvel0 + 5]]);
-        let norm = r[0][0].hypot(r[1][0]);
+        // The columns are of unit length: no overflow to guard against.
+        let norm = (r[0][0] * r[0][0] + r[1][0] * r[1][0]).sqrt();
         let fwd = if norm > 0.0 {
             [r[0][0] / norm, r[1][0] / norm]
         } else {
@@ -241,6 +243,7 @@ impl FreeBase {
                     for (e, row) in s.chunks(self.nstate).enumerate() {
                         let legs = e * n_leg..(e + 1) * n_leg;
                         self.env_in(
+                            Torso::from_state(row, self.qpos0, self.qvel0).as_ref(),
                             row,
                             &mut beta[legs.clone()],
                             &mut h[legs.clone()],
@@ -253,6 +256,122 @@ impl FreeBase {
                 })
         });
         Ok(())
+    }
+
+    /// One step's coupling in one call: each environment's legs read from `state` into the
+    /// six input arrays, evaluated by `batch` (with `b_k` and `a` per leg where given) into
+    /// `drag_n`, `lift_n` and `hip_torque_nm`, and their wrenches written into `control`, a
+    /// chunk of environments at a time on every core. A leg the model refuses is an error
+    /// naming its environment and leg.
+    #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (state, batch, b_k, a, beta_rad, hip_height_m, pitch_rad, omega_rad_s, forward_m_s, up_m_s, drag_n, lift_n, hip_torque_nm, control))]
+    fn apply(
+        &self,
+        py: Python<'_>,
+        state: &Bound<'_, PyArray2<f64>>,
+        batch: PyRef<'_, crate::Batch>,
+        b_k: Option<&Bound<'_, PyArray2<f64>>>,
+        a: Option<&Bound<'_, PyArray2<f64>>>,
+        beta_rad: &Bound<'_, PyArray2<f64>>,
+        hip_height_m: &Bound<'_, PyArray2<f64>>,
+        pitch_rad: &Bound<'_, PyArray2<f64>>,
+        omega_rad_s: &Bound<'_, PyArray2<f64>>,
+        forward_m_s: &Bound<'_, PyArray2<f64>>,
+        up_m_s: &Bound<'_, PyArray2<f64>>,
+        drag_n: &Bound<'_, PyArray2<f64>>,
+        lift_n: &Bound<'_, PyArray2<f64>>,
+        hip_torque_nm: &Bound<'_, PyArray2<f64>>,
+        control: &Bound<'_, PyArray2<f64>>,
+    ) -> PyResult<()> {
+        let n_env = state.shape()[0];
+        let n_leg = self.joint_qpos.len();
+        rows("state", state, n_env, self.nstate)?;
+        rows("control", control, n_env, self.ncontrol)?;
+        let media = [("b_k", b_k), ("a", a)];
+        for (name, m) in media {
+            if let Some(m) = m {
+                rows(name, m, n_env, n_leg)?;
+            }
+        }
+        let arrays = [
+            ("beta_rad", beta_rad),
+            ("hip_height_m", hip_height_m),
+            ("pitch_rad", pitch_rad),
+            ("omega_rad_s", omega_rad_s),
+            ("forward_m_s", forward_m_s),
+            ("up_m_s", up_m_s),
+            ("drag_n", drag_n),
+            ("lift_n", lift_n),
+            ("hip_torque_nm", hip_torque_nm),
+        ];
+        for (name, x) in arrays {
+            rows(name, x, n_env, n_leg)?;
+        }
+        let state = state.readonly();
+        let (b_k, a) = (b_k.map(|x| x.readonly()), a.map(|x| x.readonly()));
+        let mut w: Vec<_> = arrays
+            .iter()
+            .map(|(name, x)| {
+                x.try_readwrite().map_err(|_| {
+                    TerzaghiError::new_err(format!("{name}: not writeable, or given twice"))
+                })
+            })
+            .collect::<PyResult<_>>()?;
+        let mut c = control
+            .try_readwrite()
+            .map_err(|_| TerzaghiError::new_err("control: not writeable"))?;
+        let state = state.as_slice().expect("checked C-contiguous");
+        let b_k = b_k
+            .as_ref()
+            .map(|x| x.as_slice().expect("checked C-contiguous"));
+        let a = a
+            .as_ref()
+            .map(|x| x.as_slice().expect("checked C-contiguous"));
+        let c = c.as_slice_mut().expect("checked C-contiguous");
+        let mut slices: Vec<&mut [f64]> = w
+            .iter_mut()
+            .map(|x| x.as_slice_mut().expect("checked C-contiguous"))
+            .collect();
+        let [beta, h, pitch, omega, fwd, up, d, l, t] = &mut slices[..] else {
+            unreachable!("nine arrays")
+        };
+        let kernel = &batch.kernel;
+        let chunk = ENVS_PER_TASK * n_leg.max(1);
+        let failed = py.detach(|| {
+            state
+                .par_chunks(ENVS_PER_TASK * self.nstate)
+                .zip(c.par_chunks_mut(ENVS_PER_TASK * self.ncontrol))
+                .zip(beta.par_chunks_mut(chunk))
+                .zip(h.par_chunks_mut(chunk))
+                .zip(pitch.par_chunks_mut(chunk))
+                .zip(omega.par_chunks_mut(chunk))
+                .zip(fwd.par_chunks_mut(chunk))
+                .zip(up.par_chunks_mut(chunk))
+                .zip(d.par_chunks_mut(chunk))
+                .zip(l.par_chunks_mut(chunk))
+                .zip(t.par_chunks_mut(chunk))
+                .enumerate()
+                .map(
+                    |(k, ((((((((((s, c), beta), h), pitch), omega), fwd), up), d), l), t))| {
+                        let first = k * chunk;
+                        let span = first..first + beta.len();
+                        let media = (b_k.map(|m| &m[span.clone()]), a.map(|m| &m[span.clone()]));
+                        let ins = [beta, h, pitch, omega, fwd, up];
+                        self.chunk(kernel, s, c, ins, [d, l, t], media)
+                            .map(|(leg, why)| {
+                                let leg = first + leg;
+                                let n = n_leg.max(1);
+                                format!("environment {}, leg {}: {why}", leg / n, leg % n)
+                            })
+                    },
+                )
+                .find_first(Option::is_some)
+                .flatten()
+        });
+        match failed {
+            Some(e) => Err(TerzaghiError::new_err(e)),
+            None => Ok(()),
+        }
     }
 
     /// Each leg's wrench at its body's centre of mass (world frame: force, then moment) into
@@ -310,7 +429,11 @@ impl FreeBase {
                         .enumerate()
                     {
                         let legs = e * n_leg..(e + 1) * n_leg;
-                        self.env_out(row, &d[legs.clone()], &l[legs.clone()], &t[legs], c);
+                        let torso = Torso::from_state(row, self.qpos0, self.qvel0);
+                        let sin_cos: Vec<(f64, f64)> =
+                            self.joint_qpos.iter().map(|&q| row[q].sin_cos()).collect();
+                        let (d, l, t) = (&d[legs.clone()], &l[legs.clone()], &t[legs]);
+                        self.env_out(torso.as_ref(), &sin_cos, d, l, t, c);
                     }
                 })
         });
@@ -319,9 +442,80 @@ impl FreeBase {
 }
 
 impl FreeBase {
+    /// [`FreeBase::apply`] for the environments of `state` (whole rows) and their legs' slices:
+    /// `None`, or the failing leg (its index among these legs) and why.
+    fn chunk(
+        &self,
+        kernel: &terzaghi::model::batch::LegKernel,
+        state: &[f64],
+        control: &mut [f64],
+        ins: [&mut [f64]; 6],
+        outs: [&mut [f64]; 3],
+        media: (Option<&[f64]>, Option<&[f64]>),
+    ) -> Option<(usize, String)> {
+        use terzaghi::model::batch::{LegForcesOut, Legs};
+        let n_leg = self.joint_qpos.len();
+        let [beta, h, pitch, omega, fwd, up] = ins;
+        let torsos: Vec<Option<Torso>> = state
+            .chunks(self.nstate)
+            .map(|row| Torso::from_state(row, self.qpos0, self.qvel0))
+            .collect();
+        for (e, (row, torso)) in state.chunks(self.nstate).zip(&torsos).enumerate() {
+            let legs = e * n_leg..(e + 1) * n_leg;
+            self.env_in(
+                torso.as_ref(),
+                row,
+                &mut beta[legs.clone()],
+                &mut h[legs.clone()],
+                &mut pitch[legs.clone()],
+                &mut omega[legs.clone()],
+                &mut fwd[legs.clone()],
+                &mut up[legs],
+            );
+        }
+        // The legs' joint angles' sines and cosines, sixteen at a time, to turn their centres
+        // of mass.
+        let mut sin_cos = vec![(0.0, 0.0); beta.len()];
+        for (b, sc) in beta.chunks(LANES).zip(sin_cos.chunks_mut(LANES)) {
+            let mut x = [0.0; LANES];
+            x[..b.len()].copy_from_slice(b);
+            let (s, c) = sin_cos_lanes(&x);
+            for (k, sc) in sc.iter_mut().enumerate() {
+                *sc = (s[k], c[k]);
+            }
+        }
+        let [d, l, t] = outs;
+        let input = Legs {
+            beta_rad: beta,
+            hip_height_m: h,
+            pitch_rad: Some(pitch),
+            omega_rad_s: Some(omega),
+            forward_m_s: Some(fwd),
+            up_m_s: Some(up),
+            b_k: media.0,
+            a: media.1,
+        };
+        let out = LegForcesOut {
+            drag_n: d,
+            lift_n: l,
+            hip_torque_nm: t,
+        };
+        if let Err(e) = kernel.forces(&input, 0, out) {
+            return Some((e.index, e.problem.to_string()));
+        }
+        let rows = control.chunks_mut(self.ncontrol).zip(&torsos);
+        for (e, (c, torso)) in rows.enumerate() {
+            let legs = e * n_leg..(e + 1) * n_leg;
+            let (d, l, t) = (&d[legs.clone()], &l[legs.clone()], &t[legs.clone()]);
+            self.env_out(torso.as_ref(), &sin_cos[legs], d, l, t, c);
+        }
+        None
+    }
+
     #[allow(clippy::too_many_arguments)]
     fn env_in(
         &self,
+        torso: Option<&Torso>,
         row: &[f64],
         beta: &mut [f64],
         h: &mut [f64],
@@ -330,7 +524,7 @@ impl FreeBase {
         fwd: &mut [f64],
         up: &mut [f64],
     ) {
-        let Some(torso) = Torso::from_state(row, self.qpos0, self.qvel0) else {
+        let Some(torso) = torso else {
             for x in [beta, h, pitch, omega, fwd, up] {
                 x.fill(f64::NAN);
             }
@@ -353,8 +547,16 @@ impl FreeBase {
         }
     }
 
-    fn env_out(&self, row: &[f64], d: &[f64], l: &[f64], t: &[f64], control: &mut [f64]) {
-        let Some(torso) = Torso::from_state(row, self.qpos0, self.qvel0) else {
+    fn env_out(
+        &self,
+        torso: Option<&Torso>,
+        sin_cos: &[(f64, f64)],
+        d: &[f64],
+        l: &[f64],
+        t: &[f64],
+        control: &mut [f64],
+    ) {
+        let Some(torso) = torso else {
             for &x in &self.xfrc {
                 control[x..x + 6].fill(0.0);
             }
@@ -364,7 +566,7 @@ impl FreeBase {
         for (i, com) in self.com_m.iter().enumerate() {
             let f = [d[i] * torso.fwd[0], d[i] * torso.fwd[1], l[i]];
             // The leg's centre of mass turned about the hip's +y by the joint angle.
-            let (s, c) = row[self.joint_qpos[i]].sin_cos();
+            let (s, c) = sin_cos[i];
             let local = [c * com[0] + s * com[2], com[1], c * com[2] - s * com[0]];
             let hip_from_com = rotate(&torso.r, local).map(|x| -x);
             // xfrc_applied acts at the centre of mass: M_com = M_hip + (r_hip - r_com) x F.

@@ -142,6 +142,28 @@ fn inv_sqrt_f32_avx512(v2: &[f32; LANES]) -> [f32; LANES] {
 /// Elements the vector loop takes at once (each of its accumulators is this wide).
 pub const LANES: usize = 16;
 
+/// The sines and cosines of [`LANES`] angles (rad) at once, in vector registers (the kernel's
+/// own, within two units in the last place of `f64::sin_cos`); an angle of `2^20` rad or more,
+/// or one that is no number, by `f64::sin_cos`.
+///
+/// ```
+/// use terzaghi_core::model::batch::{LANES, sin_cos_lanes};
+/// let x: [f64; LANES] = std::array::from_fn(|i| i as f64 * 0.4 - 3.0);
+/// let (s, c) = sin_cos_lanes(&x);
+/// assert!((s[3] - x[3].sin()).abs() < 1e-15 && (c[3] - x[3].cos()).abs() < 1e-15);
+/// ```
+pub fn sin_cos_lanes(x: &[f64; LANES]) -> ([f64; LANES], [f64; LANES]) {
+    // Within the lanes' reach: a number below 2^20 in size (NaN is not).
+    let near = |v: f64| v.abs() < 1_048_576.0;
+    let (mut s, mut c) = vmath::sin_cos(x);
+    if !x.iter().all(|&v| near(v)) {
+        for l in (0..LANES).filter(|&l| !near(x[l])) {
+            (s[l], c[l]) = x[l].sin_cos();
+        }
+    }
+    (s, c)
+}
+
 /// A leg's elements as columns, padded with empty elements to a multiple of [`LANES`].
 #[derive(Debug, Clone)]
 pub struct Soa<T> {
@@ -1453,6 +1475,20 @@ mod tests {
                 assert!(e.to_string().contains(what), "{name}: {e}");
             }
         }
+    }
+
+    #[test]
+    fn sines_of_angles_beyond_the_lanes_reach_are_libm_s() {
+        let mut x = [0.5; LANES];
+        x[2] = 3.0e6;
+        x[7] = -1.0e9;
+        x[9] = f64::NAN;
+        let (s, c) = sin_cos_lanes(&x);
+        for l in [2, 7] {
+            assert_eq!((s[l], c[l]), x[l].sin_cos(), "lane {l}");
+        }
+        assert!((s[0] - 0.5f64.sin()).abs() < 1e-15 && (c[0] - 0.5f64.cos()).abs() < 1e-15);
+        assert!(s[9].is_nan() && c[9].is_nan());
     }
 
     #[test]
