@@ -8,8 +8,7 @@ inside it, in one run.
 Each round times, alternating: the step without forces, the step with them, the coupling's
 one call (apply: reading the legs, the leg model's kernel and writing the wrenches, a chunk of
 environments at a time), and, alone, the LegBatch call on the same legs (with each
-environment's medium, and with one medium for all) and the reading and writing. Medians over
-the rounds.
+environment's medium, and with one medium for all). Medians over the rounds.
 """
 
 import argparse
@@ -63,29 +62,21 @@ def main():
     def step_without():
         c.step(coupled=False)
 
-    def legbatch_one_medium():
-        legs.forces(x["beta"], x["h"], pitch_rad=x["pitch"], omega_rad_s=x["omega"],
-                    forward_m_s=x["fwd"], up_m_s=x["up"], out=(c.drag_n, c.lift_n, c.hip_torque_nm))
-
-    def read_legs():
-        c._layout.legs_in(c.state, x["beta"], x["h"], x["pitch"], x["omega"], x["fwd"], x["up"])
-
     def legbatch():
         legs.forces(x["beta"], x["h"], pitch_rad=x["pitch"], omega_rad_s=x["omega"],
                     forward_m_s=x["fwd"], up_m_s=x["up"], b_k=c._media[0], a=c._media[1],
                     out=(c.drag_n, c.lift_n, c.hip_torque_nm))
 
-    def write_wrenches():
-        c._layout.wrenches_out(c.state, c.drag_n, c.lift_n, c.hip_torque_nm, c.control)
+    def legbatch_one_medium():
+        legs.forces(x["beta"], x["h"], pitch_rad=x["pitch"], omega_rad_s=x["omega"],
+                    forward_m_s=x["fwd"], up_m_s=x["up"], out=(c.drag_n, c.lift_n, c.hip_torque_nm))
 
     def coupling():
         c.apply()
 
     contestants = {"step without forces": step_without, "step with terzaghi": step_with,
                    "coupling (apply)": coupling, "  LegBatch.forces alone": legbatch,
-                   "  the same, one medium": legbatch_one_medium,
-                   "  reading the legs alone": read_legs,
-                   "  writing the wrenches alone": write_wrenches}
+                   "  the same, one medium": legbatch_one_medium}
     times = {k: [] for k in contestants}
     for _ in range(args.rounds):
         for name, fn in contestants.items():

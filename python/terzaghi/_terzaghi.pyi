@@ -188,16 +188,6 @@ class FreeBase:
         ncontrol: int,
         surface_z_m: float,
     ) -> None: ...
-    def legs_in(
-        self,
-        state: npt.NDArray[np.float64],
-        beta_rad: npt.NDArray[np.float64],
-        hip_height_m: npt.NDArray[np.float64],
-        pitch_rad: npt.NDArray[np.float64],
-        omega_rad_s: npt.NDArray[np.float64],
-        forward_m_s: npt.NDArray[np.float64],
-        up_m_s: npt.NDArray[np.float64],
-    ) -> None: ...
     def apply(
         self,
         state: npt.NDArray[np.float64],
@@ -210,14 +200,6 @@ class FreeBase:
         omega_rad_s: npt.NDArray[np.float64],
         forward_m_s: npt.NDArray[np.float64],
         up_m_s: npt.NDArray[np.float64],
-        drag_n: npt.NDArray[np.float64],
-        lift_n: npt.NDArray[np.float64],
-        hip_torque_nm: npt.NDArray[np.float64],
-        control: npt.NDArray[np.float64],
-    ) -> None: ...
-    def wrenches_out(
-        self,
-        state: npt.NDArray[np.float64],
         drag_n: npt.NDArray[np.float64],
         lift_n: npt.NDArray[np.float64],
         hip_torque_nm: npt.NDArray[np.float64],
