@@ -231,7 +231,7 @@ class BatchCoupling:
         ctrl: ``(n_envs, nu)``, each environment's actuator controls for the next step.
         drag_n, lift_n, hip_torque_nm: ``(n_envs, legs)``, the forces of the last step.
         b_k, a: ``None``, or ``(n_envs,)`` arrays: the improved model's medium per environment
-            (domain randomisation); set them with :meth:`set_media`.
+            (domain randomisation); read-only, set by :meth:`set_media`.
     """
 
     def __init__(self, model, legs: Sequence[LegMap], leg_model: LegBatch, *, n_envs: int,
@@ -312,8 +312,6 @@ class BatchCoupling:
         shape = (self.n_envs, len(self.legs))
         self._in = {k: np.zeros(shape) for k in ["beta", "h", "pitch", "omega", "fwd", "up"]}
         self.drag_n, self.lift_n, self.hip_torque_nm = (np.zeros(shape) for _ in range(3))
-        self.b_k: Optional[np.ndarray] = None
-        self.a: Optional[np.ndarray] = None
         self._media: Tuple = (None, None)
         self._rollout = rollout.Rollout(nthread=threads if threads > 1 else 0)
         self._datas = [mujoco.MjData(model) for _ in range(threads)]
@@ -333,9 +331,18 @@ class BatchCoupling:
             if v.shape != (self.n_envs,):
                 raise ValueError(f"{label} has shape {v.shape}, the environments ({self.n_envs},)")
             per_leg.append(np.ascontiguousarray(np.repeat(v[:, None], legs, axis=1)))
-        self.b_k = None if b_k is None else np.asarray(b_k, dtype=np.float64)
-        self.a = None if a is None else np.asarray(a, dtype=np.float64)
         self._media = tuple(per_leg)
+
+    @property
+    def b_k(self) -> Optional[np.ndarray]:
+        """Each environment's ``b_k`` (``(n_envs,)``), or ``None`` for the leg model's own
+        (read-only: :meth:`set_media` sets it)."""
+        return None if self._media[0] is None else self._media[0][:, 0].copy()
+
+    @property
+    def a(self) -> Optional[np.ndarray]:
+        """Each environment's ``a``, as :attr:`b_k`."""
+        return None if self._media[1] is None else self._media[1][:, 0].copy()
 
     def apply(self) -> None:
         """Evaluates every environment's legs at ``state`` and writes their wrenches into the
