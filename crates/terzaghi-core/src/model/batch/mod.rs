@@ -295,15 +295,6 @@ struct LaneWidths {
     width_b_k_m: [f64; LANES],
 }
 
-impl LaneWidths {
-    fn of(imp: &Improved) -> LaneWidths {
-        LaneWidths {
-            ln_a: [imp.ln_a; LANES],
-            width_b_k_m: [imp.width_b_k_m; LANES],
-        }
-    }
-}
-
 /// Leg `i`'s fitting width: its own `b_k` and `a` where `legs` gives them, else `model`'s.
 fn leg_width<T: Real>(
     model: &TerzaghiModel,
@@ -477,7 +468,7 @@ impl LegKernel {
 
     /// Writes the forces of legs `first..first + out.drag_n.len()` of `legs` into `out`. A
     /// non-finite input, a per-leg width the model does not take or that is not positive, or a
-    /// force that overflows, is an error naming the leg (the outputs before it are written).
+    /// force that overflows, is an error naming the leg (the outputs are then partly written).
     ///
     /// # Panics
     /// If an input slice is shorter than `first + out.drag_n.len()`, or the outputs differ in
@@ -504,6 +495,9 @@ impl LegKernel {
         };
         match (&self.plan, widths) {
             (Plan::Terzaghi(imp), w) => return self.terzaghi_blocks(imp, legs, first, out, w),
+            (Plan::Profile(e, fit), None) if self.depth_law().is_none() => {
+                return self.profile_blocks(e, fit, legs, first, out);
+            }
             (Plan::Profile(..) | Plan::Plate(..), None) => {
                 return self.rft_blocks(legs, first, out);
             }
@@ -556,10 +550,35 @@ impl LegKernel {
         Ok(())
     }
 
-    /// [`Self::forces`] of a Terzaghi model, [`LANES`] legs at a time; a leg the lanes cannot
-    /// take (an exponent beyond their range, a spiral so thin that `e^2x - 1` needs `expm1`, a
-    /// force that is no number) by [`super::TerzaghiModel::evaluate_at_height`].
+    /// [`Self::forces`] of a Terzaghi model, [`LANES`] legs at a time: the legs whose plate
+    /// may reach the medium, packed into the lanes (the others are zero without a sum); a leg
+    /// the lanes cannot take (an exponent beyond their range, a spiral so thin that `e^2x - 1`
+    /// needs `expm1`, a force that is no number) by
+    /// [`super::TerzaghiModel::evaluate_at_height`].
     fn terzaghi_blocks<T: Real>(
+        &self,
+        imp: &Improved,
+        legs: &Legs<'_, T>,
+        first: usize,
+        out: LegForcesOut<'_, T>,
+        per_leg: Option<&TerzaghiModel>,
+    ) -> Result<(), LegError> {
+        // The whole loop compiled for the kernel's instructions (its reading, checks and
+        // packing too, not only the lanes' equations).
+        match self.isa {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: the kernel's ISA is one the processor has (`LegKernel::on`).
+            Isa::Avx512 => unsafe { terzaghi_avx512(self, imp, legs, first, out, per_leg) },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: as above.
+            Isa::Avx2 => unsafe { terzaghi_avx2(self, imp, legs, first, out, per_leg) },
+            _ => self.terzaghi_run(imp, legs, first, out, per_leg),
+        }
+    }
+
+    /// [`Self::terzaghi_blocks`]' loop.
+    #[inline(always)]
+    fn terzaghi_run<T: Real>(
         &self,
         imp: &Improved,
         legs: &Legs<'_, T>,
@@ -572,67 +591,317 @@ impl LegKernel {
         };
         let n = out.drag_n.len();
         let mut block = Block::new();
-        let (mut clamped, mut f, mut scalar) = ([0.0; LANES], [[0.0; LANES]; 3], [false; LANES]);
-        let mut lanes = LaneWidths::of(imp);
+        let mut packed = Packed::new(imp, model.fitting_width());
         let mut widths = [model.fitting_width(); LANES];
         // The last leg's `a` and its logarithm: an environment's legs share a medium.
         let mut last_a = (model.fitting_width().a(), imp.ln_a);
+        let mut keep = [false; LANES];
         for start in (0..n).step_by(LANES) {
             let m = LANES.min(n - start);
             block.gather(legs, first + start, m)?;
-            for (c, h) in clamped.iter_mut().zip(&block.h) {
-                *c = h.max(0.0);
-            }
             if let Some(own) = per_leg {
+                // Every leg's width is checked, in the medium or not.
                 for (l, width) in widths.iter_mut().enumerate().take(m) {
                     let i = first + start + l;
-                    let w = leg_width(own, legs, i).map_err(|e| LegError {
+                    *width = leg_width(own, legs, i).map_err(|e| LegError {
                         index: i,
                         problem: e.into(),
                     })?;
+                }
+            }
+            for o in [&mut *out.drag_n, &mut *out.lift_n, &mut *out.hip_torque_nm] {
+                zero(&mut o[start..start + m]);
+            }
+            // A plate pointing up (sine not positive), or a hip at or above its length
+            // (`length - h / sin` not positive), has nothing in the medium.
+            for (l, k) in keep.iter_mut().enumerate() {
+                let b = block.beta[l];
+                *k =
+                    (b > 0.0) & (b <= std::f64::consts::PI) & (block.h[l] < imp.length_m) & (l < m);
+            }
+            let clamped = block.h.map(|h| h.max(0.0));
+            let beta_pitch: [f64; LANES] =
+                std::array::from_fn(|l| block.beta_given[l] + block.pitch[l]);
+            let p = if per_leg.is_some() {
+                let (mut ln_a, mut width_b_k_m) = ([0.0; LANES], [0.0; LANES]);
+                let (mut b_k, mut a) = ([1.0; LANES], [1.0; LANES]);
+                for l in 0..m {
+                    let w = widths[l];
                     if w.a() != last_a.0 {
                         last_a = (w.a(), w.a().ln());
                     }
-                    *width = w;
-                    lanes.ln_a[l] = last_a.1;
-                    lanes.width_b_k_m[l] = imp.width_m * w.b_k();
+                    (b_k[l], a[l]) = (w.b_k(), w.a());
+                    ln_a[l] = last_a.1;
+                    width_b_k_m[l] = imp.width_m * w.b_k();
                 }
+                let q = &mut packed;
+                pack(
+                    self.isa,
+                    &keep,
+                    start,
+                    q.m,
+                    &mut q.at,
+                    [
+                        (&block.beta, &mut q.beta),
+                        (&clamped, &mut q.clamped),
+                        (&block.h, &mut q.h),
+                        (&beta_pitch, &mut q.beta_pitch),
+                        (&b_k, &mut q.b_k),
+                        (&a, &mut q.a),
+                        (&ln_a, &mut q.ln_a),
+                        (&width_b_k_m, &mut q.width_b_k_m),
+                    ],
+                )
+            } else {
+                let q = &mut packed;
+                pack(
+                    self.isa,
+                    &keep,
+                    start,
+                    q.m,
+                    &mut q.at,
+                    [
+                        (&block.beta, &mut q.beta),
+                        (&clamped, &mut q.clamped),
+                        (&block.h, &mut q.h),
+                        (&beta_pitch, &mut q.beta_pitch),
+                    ],
+                )
+            };
+            packed.m = p;
+            if p >= LANES {
+                self.terzaghi_packed(
+                    imp,
+                    model,
+                    per_leg.is_some(),
+                    &packed,
+                    LANES,
+                    first,
+                    &mut out,
+                )?;
+                packed.shift();
             }
-            match self.isa {
-                #[cfg(target_arch = "x86_64")]
-                // SAFETY: the kernel's ISA is one the processor has (`LegKernel::on`).
-                Isa::Avx512 => unsafe {
-                    improved_avx512(imp, &lanes, &block.beta, &clamped, &mut f, &mut scalar)
-                },
-                #[cfg(target_arch = "x86_64")]
-                // SAFETY: as above.
-                Isa::Avx2 => unsafe {
-                    improved_avx2(imp, &lanes, &block.beta, &clamped, &mut f, &mut scalar)
-                },
-                _ => improved_lanes(imp, &lanes, &block.beta, &clamped, &mut f, &mut scalar),
-            }
-            if scalar[..m].iter().any(|s| *s) {
-                for l in (0..m).filter(|&l| scalar[l]) {
-                    let own;
-                    let leg_model = match per_leg {
-                        Some(m) => {
-                            own = m.with_fitting_width(widths[l]);
-                            &own
-                        }
-                        None => model,
-                    };
-                    let r = leg_model
-                        .evaluate_at_height(block.beta_given[l] + block.pitch[l], block.h[l])
-                        .map_err(|e| LegError {
-                            index: first + start + l,
-                            problem: e.into(),
-                        })?;
-                    [f[0][l], f[1][l], f[2][l]] = [r.drag_n, r.lift_n, r.hip_torque_nm];
-                }
-            }
-            write_block(&f, m, first + start, start, &mut out)?;
+        }
+        let m = packed.m;
+        if m > 0 {
+            // Past the legs: pointing up, out of the medium.
+            packed.beta[m..LANES].fill(4.0);
+            packed.clamped[m..LANES].fill(0.0);
+            self.terzaghi_packed(imp, model, per_leg.is_some(), &packed, m, first, &mut out)?;
         }
         Ok(())
+    }
+
+    /// The forces of the first `m` of `packed`'s legs into `out` (its first [`LANES`] lanes
+    /// evaluated).
+    #[allow(clippy::too_many_arguments)]
+    fn terzaghi_packed<T: Real>(
+        &self,
+        imp: &Improved,
+        model: &TerzaghiModel,
+        per_leg: bool,
+        p: &Packed,
+        m: usize,
+        first: usize,
+        out: &mut LegForcesOut<'_, T>,
+    ) -> Result<(), LegError> {
+        let (mut f, mut scalar) = ([[0.0; LANES]; 3], [false; LANES]);
+        let lanes = LaneWidths {
+            ln_a: first_lanes(&p.ln_a),
+            width_b_k_m: first_lanes(&p.width_b_k_m),
+        };
+        let (beta, clamped) = (first_lanes(&p.beta), first_lanes(&p.clamped));
+        match self.isa {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: the kernel's ISA is one the processor has (`LegKernel::on`).
+            Isa::Avx512 => unsafe {
+                improved_avx512(imp, &lanes, &beta, &clamped, &mut f, &mut scalar)
+            },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: as above.
+            Isa::Avx2 => unsafe {
+                improved_avx2(imp, &lanes, &beta, &clamped, &mut f, &mut scalar)
+            },
+            _ => improved_lanes(imp, &lanes, &beta, &clamped, &mut f, &mut scalar),
+        }
+        for l in (0..m).filter(|&l| scalar[l]) {
+            let own;
+            let leg_model = if per_leg {
+                let w = FittingWidth::new(p.b_k[l], p.a[l]).map_err(|e| LegError {
+                    index: first + p.at[l],
+                    problem: e.into(),
+                })?;
+                own = model.with_fitting_width(w);
+                &own
+            } else {
+                model
+            };
+            let r = leg_model
+                .evaluate_at_height(p.beta_pitch[l], p.h[l])
+                .map_err(|e| LegError {
+                    index: first + p.at[l],
+                    problem: e.into(),
+                })?;
+            [f[0][l], f[1][l], f[2][l]] = [r.drag_n, r.lift_n, r.hip_torque_nm];
+        }
+        scatter(&f, &p.at[..m], first, out)
+    }
+
+    /// [`Self::forces`] of a profile's legs (RFT with the fitted coefficients, no law in
+    /// depth), [`LANES`] legs at a time: the legs that may reach the medium are packed into
+    /// the lanes (the others are zero without a sum), and each lane sums its leg's elements
+    /// in order, in the batch's type; a leg whose speeds are out of the type's range by
+    /// [`ForceModel::predict_moving`].
+    fn profile_blocks<T: Real>(
+        &self,
+        e: &Elements,
+        fit: &Fit,
+        legs: &Legs<'_, T>,
+        first: usize,
+        out: LegForcesOut<'_, T>,
+    ) -> Result<(), LegError> {
+        match self.isa {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: the kernel's ISA is one the processor has (`LegKernel::on`).
+            Isa::Avx512 => unsafe { profile_blocks_avx512(self, e, fit, legs, first, out) },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: as above.
+            Isa::Avx2 => unsafe { profile_blocks_avx2(self, e, fit, legs, first, out) },
+            _ => self.profile_run(e, fit, legs, first, out),
+        }
+    }
+
+    /// [`Self::profile_blocks`]' loop.
+    #[inline(always)]
+    fn profile_run<T: Real>(
+        &self,
+        e: &Elements,
+        fit: &Fit,
+        legs: &Legs<'_, T>,
+        first: usize,
+        mut out: LegForcesOut<'_, T>,
+    ) -> Result<(), LegError> {
+        let n = out.drag_n.len();
+        let soa = T::elements(e);
+        let mut block = Block::new();
+        let mut packed = PackedRft::new();
+        let mut keep = [false; LANES];
+        for start in (0..n).step_by(LANES) {
+            let m = LANES.min(n - start);
+            block.gather(legs, first + start, m)?;
+            for o in [&mut *out.drag_n, &mut *out.lift_n, &mut *out.hip_torque_nm] {
+                zero(&mut o[start..start + m]);
+            }
+            let (sin, cos) = vmath::sin_cos(&block.beta);
+            // A leg reaches the medium if a block's circle of elements does (the lowest point
+            // of a circle at `(s, q)` is `s sin + q cos + r` below the hip).
+            let mut reach = [f64::NEG_INFINITY; LANES];
+            for &[bs, bq, br] in &soa.blocks {
+                for l in 0..LANES {
+                    reach[l] = reach[l].max(bs * sin[l] + bq * cos[l] + br);
+                }
+            }
+            for (l, k) in keep.iter_mut().enumerate() {
+                *k = (block.h[l] < reach[l]) & (l < m);
+            }
+            let (mut omega, mut vx, mut vz, mut scalar) =
+                ([1.0; LANES], [0.0; LANES], [0.0; LANES], [0.0; LANES]);
+            for l in 0..LANES {
+                let (x, z) = (-block.forward[l], block.up[l]);
+                // A leg that neither turns nor moves is evaluated as turning forward
+                // (quasi-static), as `Frame::new`.
+                let still = block.omega[l] == 0.0 && x == 0.0 && z == 0.0;
+                let (w, x, z) = if still {
+                    (1.0, 0.0, 0.0)
+                } else {
+                    (block.omega[l], x, z)
+                };
+                let scale = w.abs() * e.reach_m + x.abs() + z.abs();
+                let in_range = scale <= T::MAX_SPEED_SCALE && scale >= T::MIN_SPEED_SCALE;
+                // A leg out of range is evaluated by `predict_moving`; its lane turns still.
+                if in_range {
+                    (omega[l], vx[l], vz[l]) = (w, x, z);
+                } else {
+                    scalar[l] = 1.0;
+                }
+            }
+            let q = &mut packed;
+            let p = pack(
+                self.isa,
+                &keep,
+                start,
+                q.m,
+                &mut q.at,
+                [
+                    (&sin, &mut q.sin),
+                    (&cos, &mut q.cos),
+                    (&block.h, &mut q.h),
+                    (&omega, &mut q.omega),
+                    (&vx, &mut q.vx),
+                    (&vz, &mut q.vz),
+                    (&scalar, &mut q.scalar),
+                ],
+            );
+            packed.m = p;
+            if p >= LANES {
+                self.profile_packed(soa, fit, &packed, LANES, legs, first, &mut out)?;
+                packed.shift();
+            }
+        }
+        let m = packed.m;
+        if m > 0 {
+            // Past the legs: above every element.
+            packed.h[m..LANES].fill(f64::INFINITY);
+            self.profile_packed(soa, fit, &packed, m, legs, first, &mut out)?;
+        }
+        Ok(())
+    }
+
+    /// The forces of the first `m` of `packed`'s legs into `out` (its first [`LANES`] lanes
+    /// evaluated).
+    #[allow(clippy::too_many_arguments)]
+    fn profile_packed<T: Real>(
+        &self,
+        soa: &Soa<T>,
+        fit: &Fit,
+        p: &PackedRft,
+        m: usize,
+        legs: &Legs<'_, T>,
+        first: usize,
+        out: &mut LegForcesOut<'_, T>,
+    ) -> Result<(), LegError> {
+        let frames = LaneFrames::of(p, fit);
+        let mut f = match self.isa {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: the kernel's ISA is one the processor has (`LegKernel::on`).
+            Isa::Avx512 => unsafe { profile_avx512(soa, &frames) },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: as above.
+            Isa::Avx2 => unsafe { profile_avx2(soa, &frames) },
+            _ => profile_lanes::<T, false, false>(soa, &frames),
+        };
+        for l in (0..m).filter(|&l| p.scalar[l] != 0.0) {
+            let i = first + p.at[l];
+            let at = |o: Option<&[T]>| o.map_or(0.0, |v| v[i].to_f64());
+            let hip = HipMotion {
+                height_m: legs.hip_height_m[i].to_f64(),
+                pitch_rad: at(legs.pitch_rad),
+                omega_rad_s: at(legs.omega_rad_s),
+                forward_m_s: at(legs.forward_m_s),
+                up_m_s: at(legs.up_m_s),
+                forward_position_m: 0.0,
+                lateral_m_s: 0.0,
+            };
+            let r = self
+                .model
+                .predict_moving(legs.beta_rad[i].to_f64(), &hip)
+                .map_err(|e| LegError {
+                    index: i,
+                    problem: e.into(),
+                })?;
+            [f[0][l], f[1][l], f[2][l]] = [r.drag_n, r.lift_n, r.hip_torque_nm];
+        }
+        scatter(&f, &p.at[..m], first, out)
     }
 
     /// [`Self::forces`] of RFT's legs by the vector loop, [`LANES`] legs' angles at a time; a
@@ -763,6 +1032,62 @@ impl LegKernel {
     }
 }
 
+/// [`LegKernel::terzaghi_blocks`] compiled for AVX-512F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn terzaghi_avx512<T: Real>(
+    k: &LegKernel,
+    imp: &Improved,
+    legs: &Legs<'_, T>,
+    first: usize,
+    out: LegForcesOut<'_, T>,
+    per_leg: Option<&TerzaghiModel>,
+) -> Result<(), LegError> {
+    k.terzaghi_run(imp, legs, first, out, per_leg)
+}
+
+/// [`LegKernel::terzaghi_blocks`] compiled for AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn terzaghi_avx2<T: Real>(
+    k: &LegKernel,
+    imp: &Improved,
+    legs: &Legs<'_, T>,
+    first: usize,
+    out: LegForcesOut<'_, T>,
+    per_leg: Option<&TerzaghiModel>,
+) -> Result<(), LegError> {
+    k.terzaghi_run(imp, legs, first, out, per_leg)
+}
+
+/// [`LegKernel::profile_blocks`] compiled for AVX-512F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn profile_blocks_avx512<T: Real>(
+    k: &LegKernel,
+    e: &Elements,
+    fit: &Fit,
+    legs: &Legs<'_, T>,
+    first: usize,
+    out: LegForcesOut<'_, T>,
+) -> Result<(), LegError> {
+    k.profile_run(e, fit, legs, first, out)
+}
+
+/// [`LegKernel::profile_blocks`] compiled for AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn profile_blocks_avx2<T: Real>(
+    k: &LegKernel,
+    e: &Elements,
+    fit: &Fit,
+    legs: &Legs<'_, T>,
+    first: usize,
+    out: LegForcesOut<'_, T>,
+) -> Result<(), LegError> {
+    k.profile_run(e, fit, legs, first, out)
+}
+
 /// Writes `m` legs' forces (drag, lift, torque by lane) at `at` of `out`, in its type; one
 /// beyond the type's range is an error naming its leg (`first` the block's first).
 fn write_block<T: Real>(
@@ -789,11 +1114,9 @@ fn write_block<T: Real>(
                 }
             }
         }
-        let check = dst.iter().fold(0.0, |a, d| {
-            let d = d.to_f64();
-            a + d * 0.0
-        });
-        finite &= check == 0.0;
+        // Lane by lane, without a branch: a fold of `&` runs in vector registers, where a
+        // sum's order is fixed and is not.
+        finite &= dst.iter().fold(true, |a, d| a & d.to_f64().is_finite());
     }
     if finite {
         return Ok(());
@@ -815,17 +1138,404 @@ fn write_block<T: Real>(
     unreachable!("a force was beyond the type's range")
 }
 
-/// Copies `from[first..first + m]` into the first `m` lanes of `to`, as `f64`.
+/// Writes lane `l`'s forces (drag, lift, torque by lane) at `at[l]` of `out`, in its type; one
+/// beyond the type's range is an error naming its leg (`first` the batch's first).
 #[inline(always)]
-fn read<T: Real>(from: &[T], first: usize, m: usize, to: &mut [f64; LANES]) {
-    match <&[T; LANES]>::try_from(&from[first..first + m]) {
-        // A whole block: a copy of known size, in registers.
-        Ok(whole) => *to = whole.map(T::to_f64),
-        Err(_) => {
-            for (t, f) in to.iter_mut().zip(&from[first..first + m]) {
-                *t = f.to_f64();
+fn scatter<T: Real>(
+    f: &[[f64; LANES]; 3],
+    at: &[usize],
+    first: usize,
+    out: &mut LegForcesOut<'_, T>,
+) -> Result<(), LegError> {
+    for (l, &k) in at.iter().enumerate() {
+        let v = [T::of(f[0][l]), T::of(f[1][l]), T::of(f[2][l])];
+        if !v.iter().all(|x| x.to_f64().is_finite()) {
+            return write_block(&lane(f, l), 1, first + k, k, out);
+        }
+        out.drag_n[k] = v[0];
+        out.lift_n[k] = v[1];
+        out.hip_torque_nm[k] = v[2];
+    }
+    Ok(())
+}
+
+/// Zeroes `o` (a whole block as one store of known size).
+#[inline(always)]
+fn zero<T: Real>(o: &mut [T]) {
+    match <&mut [T; LANES]>::try_from(&mut *o) {
+        Ok(whole) => *whole = [T::ZERO; LANES],
+        Err(_) => o.iter_mut().for_each(|x| *x = T::ZERO),
+    }
+}
+
+/// Lane `l` of `f` in lane 0.
+#[cold]
+fn lane(f: &[[f64; LANES]; 3], l: usize) -> [[f64; LANES]; 3] {
+    let mut one = [[0.0; LANES]; 3];
+    for (o, f) in one.iter_mut().zip(f) {
+        o[0] = f[l];
+    }
+    one
+}
+
+/// Room for a block of legs packed and the next block's: a block's legs are packed
+/// whole, then the first [`LANES`] evaluated.
+const PACK: usize = 2 * LANES;
+
+/// The first [`LANES`] of `a`.
+#[inline(always)]
+fn first_lanes(a: &[f64; PACK]) -> [f64; LANES] {
+    std::array::from_fn(|l| a[l])
+}
+
+/// Moves the second half of `a` to the first (a copy of known size).
+#[inline(always)]
+fn shift<T: Copy>(a: &mut [T; PACK]) {
+    let (front, back) = a.split_at_mut(LANES);
+    front.copy_from_slice(back);
+}
+
+/// Appends the lanes `keep` marks, of each column's source, to its destination from lane `p`,
+/// in order, and their indices (`start` plus the lane) to `at`; returns the new count. On
+/// AVX-512 by the processor's compressing stores; else every lane is written to the next
+/// place and the place kept only for a lane marked (no branch to mispredict).
+///
+/// # Panics
+/// If `p` is not below [`LANES`].
+#[inline(always)]
+fn pack<const N: usize>(
+    isa: Isa,
+    keep: &[bool; LANES],
+    start: usize,
+    p: usize,
+    at: &mut [usize; PACK],
+    mut cols: [(&[f64; LANES], &mut [f64; PACK]); N],
+) -> usize {
+    assert!(p < LANES);
+    #[cfg(target_arch = "x86_64")]
+    if isa == Isa::Avx512 {
+        // SAFETY: the kernel's ISA is one the processor has (`LegKernel::on`), and `p` is
+        // below `LANES`: the lanes stored fit in `PACK`.
+        return unsafe { pack_avx512(keep, start, p, at, cols) };
+    }
+    let _ = isa;
+    let mut q = p;
+    for l in 0..LANES {
+        at[q] = start + l;
+        for (src, dst) in cols.iter_mut() {
+            dst[q] = src[l];
+        }
+        q += usize::from(keep[l]);
+    }
+    q
+}
+
+/// [`pack`] by AVX-512's compressing stores.
+///
+/// # Safety
+/// The processor has AVX-512F, and `p < LANES`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn pack_avx512<const N: usize>(
+    keep: &[bool; LANES],
+    start: usize,
+    p: usize,
+    at: &mut [usize; PACK],
+    cols: [(&[f64; LANES], &mut [f64; PACK]); N],
+) -> usize {
+    use std::arch::x86_64::*;
+    let bits = keep
+        .iter()
+        .enumerate()
+        .fold(0u16, |m, (l, &k)| m | (u16::from(k) << l));
+    let (lo, hi) = (bits as u8, (bits >> 8) as u8);
+    let mid = p + lo.count_ones() as usize;
+    let end = mid + hi.count_ones() as usize;
+    for (src, dst) in cols {
+        // SAFETY: 8 lanes read from each half of `src`; 8 stored from `p` and from `mid`,
+        // where `p < 16` and `mid <= p + 8 < 24`: each store ends within `PACK` (32).
+        // Compressed in registers and stored whole (the lanes past those kept are
+        // overwritten by the next store or ignored): a compressing store to memory is slow.
+        unsafe {
+            let d = dst.as_mut_ptr();
+            let a = _mm512_maskz_compress_pd(lo, _mm512_loadu_pd(src.as_ptr()));
+            let b = _mm512_maskz_compress_pd(hi, _mm512_loadu_pd(src.as_ptr().add(8)));
+            _mm512_storeu_pd(d.add(p), a);
+            _mm512_storeu_pd(d.add(mid), b);
+        }
+    }
+    let first = _mm512_add_epi64(
+        _mm512_set1_epi64(start as i64),
+        _mm512_set_epi64(7, 6, 5, 4, 3, 2, 1, 0),
+    );
+    let second = _mm512_add_epi64(first, _mm512_set1_epi64(8));
+    // SAFETY: as above; `usize` is 64 bits on x86-64.
+    unsafe {
+        let d = at.as_mut_ptr().cast::<__m512i>();
+        _mm512_storeu_si512(
+            d.cast::<i64>().add(p).cast(),
+            _mm512_maskz_compress_epi64(lo, first),
+        );
+        _mm512_storeu_si512(
+            d.cast::<i64>().add(mid).cast(),
+            _mm512_maskz_compress_epi64(hi, second),
+        );
+    }
+    end
+}
+
+/// Legs of a Terzaghi batch that may touch the medium, packed into the lanes.
+struct Packed {
+    /// How many lanes are legs.
+    m: usize,
+    /// Each lane's index in the outputs.
+    at: [usize; PACK],
+    /// The attack angle with the pitch, wrapped; the hip's height clamped to the surface.
+    beta: [f64; PACK],
+    clamped: [f64; PACK],
+    /// As given: the hip's height, the attack angle plus the pitch.
+    h: [f64; PACK],
+    beta_pitch: [f64; PACK],
+    /// Each lane's fitting width (`b_k`, `a`), its `ln a` and `width b_k` (m), where the legs
+    /// give their own.
+    b_k: [f64; PACK],
+    a: [f64; PACK],
+    ln_a: [f64; PACK],
+    width_b_k_m: [f64; PACK],
+}
+
+impl Packed {
+    fn new(imp: &Improved, width: FittingWidth) -> Packed {
+        Packed {
+            m: 0,
+            at: [0; PACK],
+            beta: [4.0; PACK],
+            clamped: [0.0; PACK],
+            h: [0.0; PACK],
+            beta_pitch: [0.0; PACK],
+            b_k: [width.b_k(); PACK],
+            a: [width.a(); PACK],
+            ln_a: [imp.ln_a; PACK],
+            width_b_k_m: [imp.width_b_k_m; PACK],
+        }
+    }
+
+    /// Drops the first [`LANES`] legs (evaluated), the rest moved to the front.
+    #[inline(always)]
+    fn shift(&mut self) {
+        let rest = self.m - LANES;
+        for a in [
+            &mut self.beta,
+            &mut self.clamped,
+            &mut self.h,
+            &mut self.beta_pitch,
+            &mut self.b_k,
+            &mut self.a,
+            &mut self.ln_a,
+            &mut self.width_b_k_m,
+        ] {
+            shift(a);
+        }
+        shift(&mut self.at);
+        self.m = rest;
+    }
+}
+
+/// Legs of a profile's batch that may reach the medium, packed into the lanes.
+struct PackedRft {
+    /// How many lanes are legs.
+    m: usize,
+    /// Each lane's index in the outputs.
+    at: [usize; PACK],
+    /// The attack angle's (with the pitch) sine and cosine; the hip's height (m).
+    sin: [f64; PACK],
+    cos: [f64; PACK],
+    h: [f64; PACK],
+    /// The leg's rate (rad/s) and the hip's velocity in the leg's frame (m/s), as
+    /// `Frame::new` gives them.
+    omega: [f64; PACK],
+    vx: [f64; PACK],
+    vz: [f64; PACK],
+    /// 1 for speeds out of the type's range: the leg goes to `predict_moving`.
+    scalar: [f64; PACK],
+}
+
+impl PackedRft {
+    fn new() -> PackedRft {
+        PackedRft {
+            m: 0,
+            at: [0; PACK],
+            sin: [0.0; PACK],
+            cos: [1.0; PACK],
+            h: [f64::INFINITY; PACK],
+            omega: [1.0; PACK],
+            vx: [0.0; PACK],
+            vz: [0.0; PACK],
+            scalar: [0.0; PACK],
+        }
+    }
+
+    /// Drops the first [`LANES`] legs (evaluated), the rest moved to the front.
+    #[inline(always)]
+    fn shift(&mut self) {
+        let rest = self.m - LANES;
+        for a in [
+            &mut self.sin,
+            &mut self.cos,
+            &mut self.h,
+            &mut self.omega,
+            &mut self.vx,
+            &mut self.vz,
+            &mut self.scalar,
+        ] {
+            shift(a);
+        }
+        shift(&mut self.at);
+        self.m = rest;
+    }
+}
+
+/// [`LANES`] legs' frames (as [`Frame`]) and the fitted coefficients, as
+/// [`profile_lanes`] reads them.
+struct LaneFrames {
+    sin: [f64; LANES],
+    cos: [f64; LANES],
+    h: [f64; LANES],
+    omega: [f64; LANES],
+    vx: [f64; LANES],
+    vz: [f64; LANES],
+    fit: Fit,
+}
+
+impl LaneFrames {
+    fn of(p: &PackedRft, fit: &Fit) -> LaneFrames {
+        LaneFrames {
+            sin: first_lanes(&p.sin),
+            cos: first_lanes(&p.cos),
+            h: first_lanes(&p.h),
+            omega: first_lanes(&p.omega),
+            vx: first_lanes(&p.vx),
+            vz: first_lanes(&p.vz),
+            fit: *fit,
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn profile_avx512<T: Real>(soa: &Soa<T>, lanes: &LaneFrames) -> [[f64; LANES]; 3] {
+    profile_lanes::<T, true, true>(soa, lanes)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn profile_avx2<T: Real>(soa: &Soa<T>, lanes: &LaneFrames) -> [[f64; LANES]; 3] {
+    profile_lanes::<T, true, false>(soa, lanes)
+}
+
+/// A profile's forces on [`LANES`] legs at once, each lane a leg: [`sum_lanes`]'s equations
+/// per element, the element's numbers shared by the lanes and the leg's by its lane, summed
+/// in the elements' order. A block of elements whose circle lies above every lane's surface
+/// is skipped.
+#[inline(always)]
+fn profile_lanes<T: Real, const FMA: bool, const RSQRT: bool>(
+    soa: &Soa<T>,
+    lanes: &LaneFrames,
+) -> [[f64; LANES]; 3] {
+    let fma = |a: T, b: T, d: T| if FMA { a.mul_add(b, d) } else { a * b + d };
+    let t = |a: &[f64; LANES]| a.map(T::of);
+    let (sin, cos) = (&lanes.sin, &lanes.cos);
+    // The chord's direction `u = (-cos, -sin)`, the travel `n = (sin, -cos)`, as `Frame`.
+    let u0 = cos.map(|c| T::of(-c));
+    let u1 = sin.map(|s| T::of(-s));
+    let n0 = t(sin);
+    let n1 = u0;
+    let c2b: [T; LANES] = std::array::from_fn(|l| T::of(cos[l] * cos[l] - sin[l] * sin[l]));
+    let s2b: [T; LANES] = std::array::from_fn(|l| T::of(2.0 * sin[l] * cos[l]));
+    let (h, omega, vhx, vhz) = (t(&lanes.h), t(&lanes.omega), t(&lanes.vx), t(&lanes.vz));
+    let k = |x: f64| T::of(x);
+    let fit = &lanes.fit;
+    let (a00, a10, b_diff, b_sum, b01) = (
+        k(fit.a00),
+        k(fit.a10),
+        k(fit.b_diff),
+        k(fit.b_sum),
+        k(fit.b01),
+    );
+    let (c_sum, c_diff, c01, d10) = (k(fit.c_sum), k(fit.c_diff), k(fit.c01), k(fit.d10));
+    let z = T::ZERO;
+    let mut drag = [z; LANES];
+    let mut lift = [z; LANES];
+    let mut torque = [z; LANES];
+    for (b, &[bs, bq, br]) in soa.blocks.iter().enumerate() {
+        let reaches = (0..LANES).fold(false, |a, l| {
+            a | (bs * sin[l] + bq * cos[l] + br > lanes.h[l])
+        });
+        if !reaches {
+            continue;
+        }
+        for j in b * LANES..(b + 1) * LANES {
+            let (s, q, wl, c2, s2) = (soa.s[j], soa.q[j], soa.wl[j], soa.c2[j], soa.s2[j]);
+            let mut vx = [z; LANES];
+            let mut vz = [z; LANES];
+            let mut v2 = [z; LANES];
+            for l in 0..LANES {
+                vx[l] = fma(omega[l], s * n0[l] - q * u0[l], vhx[l]);
+                vz[l] = fma(omega[l], s * n1[l] - q * u1[l], vhz[l]);
+                v2[l] = fma(vx[l], vx[l], vz[l] * vz[l]);
+            }
+            let inv = if RSQRT {
+                #[cfg(target_arch = "x86_64")]
+                // SAFETY: `RSQRT` is set only in `profile_avx512`, compiled for AVX-512F and
+                // called where the processor has it.
+                unsafe {
+                    T::inv_sqrt_avx512(&v2)
+                }
+                #[cfg(not(target_arch = "x86_64"))]
+                v2.map(Real::inv_sqrt_or_zero)
+            } else {
+                v2.map(Real::inv_sqrt_or_zero)
+            };
+            for l in 0..LANES {
+                let p0 = fma(s, u0[l], q * n0[l]);
+                let p1 = fma(s, u1[l], q * n1[l]);
+                let d = -(h[l] + p1);
+                // The motion's direction `(x, -sg)`; the tangent's twice-angle `(c2e, sm)`.
+                let x = vx[l] * inv[l];
+                let sg = -(vz[l] * inv[l]);
+                let c2e = c2 * c2b[l] - s2 * s2b[l];
+                let sm = fma(c2, s2b[l], s2 * c2b[l]);
+                let az = fma(
+                    b01,
+                    sg,
+                    fma(b_sum, c2e * sg, fma(b_diff, sm * x, fma(a10, c2e, a00))),
+                );
+                let ax = fma(
+                    d10,
+                    sm,
+                    fma(c01, x, fma(c_diff, sm * sg, c_sum * (c2e * x))),
+                );
+                let kk = if d > z && inv[l] > z { d * wl } else { z };
+                drag[l] = fma(ax, kk, drag[l]);
+                lift[l] = fma(az, kk, lift[l]);
+                torque[l] = torque[l] - fma(p1, ax, p0 * az) * kk;
             }
         }
+    }
+    [
+        drag.map(T::to_f64),
+        lift.map(T::to_f64),
+        torque.map(T::to_f64),
+    ]
+}
+
+/// `from[first..first + m]` as `f64` lanes, `pad` past them (in registers: a whole block is
+/// one load of known size).
+#[inline(always)]
+fn read<T: Real>(from: &[T], first: usize, m: usize, pad: f64) -> [f64; LANES] {
+    match <&[T; LANES]>::try_from(&from[first..first + m]) {
+        Ok(whole) => whole.map(T::to_f64),
+        Err(_) => std::array::from_fn(|l| if l < m { from[first + l].to_f64() } else { pad }),
     }
 }
 
@@ -858,49 +1568,60 @@ impl Block {
 
     /// Reads legs `first..first + m` of `legs` into the block (the lanes past `m` as
     /// [`Block::new`]'s); a non-finite input is an error naming its leg.
+    #[inline(always)]
     fn gather<T: Real>(
         &mut self,
         legs: &Legs<'_, T>,
         first: usize,
         m: usize,
     ) -> Result<(), LegError> {
-        if m < LANES {
-            *self = Block::new();
-        }
-        // Copied, and checked all at once: `0 x` is 0 for a number and NaN for anything
-        // else, and so is their sum (a loop without a branch).
-        read(legs.beta_rad, first, m, &mut self.beta_given);
-        read(legs.hip_height_m, first, m, &mut self.h);
-        let mut check = [0.0; LANES];
-        for (c, (b, h)) in check.iter_mut().zip(self.beta_given.iter().zip(&self.h)) {
-            *c = b * 0.0 + h * 0.0;
-        }
-        for (from, to) in [
-            (legs.pitch_rad, &mut self.pitch),
-            (legs.omega_rad_s, &mut self.omega),
-            (legs.forward_m_s, &mut self.forward),
-            (legs.up_m_s, &mut self.up),
-        ] {
-            if let Some(from) = from {
-                read(from, first, m, to);
-                for (c, x) in check.iter_mut().zip(to.iter()) {
+        // Read, and checked all at once: `0 x` is 0 for a number and NaN for anything else,
+        // and so is their sum (a loop without a branch). Each lane's values are made in
+        // registers and stored once (a store of other widths before a wide load stalls it).
+        let beta_given = read(legs.beta_rad, first, m, 4.0);
+        let h = read(legs.hip_height_m, first, m, 0.0);
+        let mut check: [f64; LANES] = std::array::from_fn(|l| beta_given[l] * 0.0 + h[l] * 0.0);
+        let mut other = |from: Option<&[T]>| match from {
+            Some(from) => {
+                let x = read(from, first, m, 0.0);
+                for (c, x) in check.iter_mut().zip(&x) {
                     *c += x * 0.0;
                 }
+                x
             }
-        }
-        let finite = check.iter().fold(0.0, |a, c| a + c) == 0.0;
+            None => [0.0; LANES],
+        };
+        let pitch = other(legs.pitch_rad);
+        let omega = other(legs.omega_rad_s);
+        let forward = other(legs.forward_m_s);
+        let up = other(legs.up_m_s);
+        (self.beta_given, self.h, self.pitch) = (beta_given, h, pitch);
+        (self.omega, self.forward, self.up) = (omega, forward, up);
+        let finite = check.iter().fold(true, |a, c| a & (*c == 0.0));
         if !finite {
             return Err(Block::first_not_finite(legs, first, m));
         }
-        for l in 0..m {
-            let b = self.beta_given[l] + self.pitch[l];
-            self.beta[l] = if (0.0..std::f64::consts::TAU).contains(&b) {
-                b
-            } else {
-                wrap_beta_rad(b)
-            };
+        // Added in the lanes; an angle beyond a turn wrapped by a call of its own (where it
+        // is inlined, the lanes compute every branch of `wrap_beta_rad`, its `fmod` too).
+        let mut turned = false;
+        for l in 0..LANES {
+            let b = beta_given[l] + pitch[l];
+            self.beta[l] = b;
+            turned |= !(0.0..std::f64::consts::TAU).contains(&b);
+        }
+        if turned {
+            Block::wrap(&mut self.beta[..m]);
         }
         Ok(())
+    }
+
+    /// Wraps the angles beyond a turn.
+    #[cold]
+    #[inline(never)]
+    fn wrap(beta: &mut [f64]) {
+        for b in beta {
+            *b = wrap_beta_rad(*b);
+        }
     }
 
     /// The error of the first non-finite input among legs `first..first + m`.
@@ -1474,6 +2195,65 @@ mod tests {
                 assert_eq!(e.index, index, "{name}");
                 assert!(e.to_string().contains(what), "{name}: {e}");
             }
+        }
+    }
+
+    /// The improved model packs the legs that may touch the medium into its lanes: a leg left
+    /// out is still checked, and one packed is still named by its own index.
+    #[test]
+    fn packed_legs_keep_their_names() {
+        let n = 40;
+        // Every third leg points up, out of the medium; the rest are in it.
+        let beta: Vec<f32> = (0..n).map(|i| if i % 3 == 0 { 4.0 } else { 1.0 }).collect();
+        let hip = vec![0.02f32; n];
+        let mut b_k = vec![30.0f32; n];
+        let mut a = vec![2.3f32; n];
+        let ForceModel::Terzaghi(model) = models()
+            .into_iter()
+            .find(|(name, _)| *name == "improved")
+            .expect("the improved model")
+            .1
+        else {
+            unreachable!()
+        };
+        let run = |b_k: &[f32], a: &[f32], first: usize| {
+            let m = n - first;
+            let (mut d, mut l, mut t) = (vec![0.0f32; m], vec![0.0f32; m], vec![0.0f32; m]);
+            let r = LegKernel::new(ForceModel::Terzaghi(model.clone())).forces(
+                &Legs {
+                    beta_rad: &beta,
+                    hip_height_m: &hip,
+                    pitch_rad: None,
+                    omega_rad_s: None,
+                    forward_m_s: None,
+                    up_m_s: None,
+                    b_k: Some(b_k),
+                    a: Some(a),
+                },
+                first,
+                LegForcesOut {
+                    drag_n: &mut d,
+                    lift_n: &mut l,
+                    hip_torque_nm: &mut t,
+                },
+            );
+            (r, d)
+        };
+        let (ok, d) = run(&b_k, &a, 0);
+        ok.unwrap();
+        assert!((0..n).all(|i| (d[i] == 0.0) == (i % 3 == 0)), "{d:?}");
+        // A width that is no width, on a leg out of the medium.
+        a[21] = -1.0;
+        let e = run(&b_k, &a, 0).0.unwrap_err();
+        assert_eq!(e.index, 21, "{e}");
+        assert!(e.to_string().contains("a"), "{e}");
+        a[21] = 2.3;
+        // A force beyond float32's range, on the seventh leg packed after the first five.
+        b_k[23] = 3e38;
+        for first in [0, 5] {
+            let e = run(&b_k, &a, first).0.unwrap_err();
+            assert_eq!(e.index, 23, "{e}");
+            assert!(matches!(e.problem, LegProblem::Overflow { .. }), "{e}");
         }
     }
 
