@@ -6,11 +6,12 @@ hip moving). Each peer is checked equal to terzaghi.batch first (1e-9 of the lar
 then every contestant is timed in turn, alternating, and the medians and ratios printed.
 
 The peers are the same equations written as a careful lab would:
-  numpy   only the legs within reach of the sand, in place, no double branches;
+  numpy   plates: only the legs within reach of the sand, in place, no double branches;
+          C-legs: per chunk of legs, only the (leg, element) pairs below the surface;
   numba   a plain parallel loop over legs (numba.prange), fastmath, compiled before timing;
   torch   2D RFT over (legs, elements) tensors as Isaac Lab's terrains write it, and the
           improved model over legs (both regimes, torch.where): eager, and under
-          torch.compile (inductor, CPU); C-legs in float64 and float32.
+          torch.compile (inductor, CPU); in float64 and float32.
 
     python python/benchmarks/peers.py --threads 1     # one core
     python python/benchmarks/peers.py --threads 2     # all of this machine's
@@ -128,45 +129,76 @@ def numpy_plates(beta, hip, pitch, out):
     torque.ravel()[idx] = normal * (LEG["length_m"] - l_s + d_perp)
 
 
-def numpy_c_legs(el, beta, hip, pitch, omega, fwd, up, out):
-    """RFT over the elements of the legs whose hip is within the leg's reach of the sand."""
+def numpy_c_legs(el, beta, hip, pitch, omega, fwd, up, out, chunk=512):
+    """RFT over the elements in the sand only: per chunk of legs (its temporaries in cache),
+    the (leg, element) pairs below the surface are found first and every other quantity is
+    computed over those pairs alone, in place, then summed per leg (np.bincount)."""
     import numpy as np
 
     s, q, wl, c2, s2 = el
     drag, lift, torque = out
     drag.fill(0.0), lift.fill(0.0), torque.fill(0.0)
-    reach = np.hypot(s, q).max()
-    idx = np.flatnonzero(hip.ravel() < reach)
-    b = (beta + pitch).ravel()[idx]
-    h, om = hip.ravel()[idx, None], omega.ravel()[idx, None]
-    vhx, vhz = -fwd.ravel()[idx, None], up.ravel()[idx, None]
-    sb, cb = np.sin(b)[:, None], np.cos(b)[:, None]
-    p0 = -s * cb + q * sb
-    p1 = -s * sb - q * cb
-    depth = -(h + p1)
-    vx = om * (s * sb + q * cb) + vhx
-    vz = om * (-s * cb + q * sb) + vhz
-    inv = vx * vx
-    inv += vz * vz
-    np.sqrt(inv, out=inv)
-    with np.errstate(divide="ignore"):
-        np.divide(1.0, inv, out=inv)
-    inv[~np.isfinite(inv)] = 0.0
-    x = vx * inv
-    sg = vz * inv
-    np.negative(sg, out=sg)
-    c2b, s2b = cb * cb - sb * sb, 2 * sb * cb
-    c2e = c2 * c2b - s2 * s2b
-    sm = c2 * s2b + s2 * c2b
-    ax, az = rft_alpha(c2e, sm, x, sg)
-    np.maximum(depth, 0.0, out=depth)
-    depth *= wl
-    drag.ravel()[idx] = np.einsum("ij,ij->i", ax, depth)
-    lift.ravel()[idx] = np.einsum("ij,ij->i", az, depth)
-    p1 *= ax
-    p0 *= az
-    p1 += p0
-    torque.ravel()[idx] = -np.einsum("ij,ij->i", p1, depth)
+    b_all = (beta + pitch).ravel()
+    h_all, om_all = hip.ravel(), omega.ravel()
+    fwd_all, up_all = fwd.ravel(), up.ravel()
+    d_out, l_out, t_out = drag.ravel(), lift.ravel(), torque.ravel()
+    for start in range(0, b_all.size, chunk):
+        sl = slice(start, min(start + chunk, b_all.size))
+        b = b_all[sl]
+        sb, cb = np.sin(b), np.cos(b)
+        # depth = -(h + p1), p1 = -s sin - q cos
+        depth = np.multiply.outer(sb, s)
+        depth += np.multiply.outer(cb, q)
+        depth -= h_all[sl, None]
+        leg, e = np.nonzero(depth > 0)
+        if leg.size == 0:
+            continue
+        k = depth[leg, e]
+        k *= wl[e]
+        sbp, cbp, se, qe = sb[leg], cb[leg], s[e], q[e]
+        om = om_all[sl][leg]
+        # velocity = omega (s n - q u) + v_hip, u = (-cos, -sin), n = (sin, -cos)
+        vx = se * sbp
+        vx += qe * cbp
+        vx *= om
+        vx -= fwd_all[sl][leg]
+        vz = qe * sbp
+        vz -= se * cbp
+        vz *= om
+        vz += up_all[sl][leg]
+        inv = vx * vx
+        inv += vz * vz
+        np.sqrt(inv, out=inv)
+        with np.errstate(divide="ignore"):
+            np.divide(1.0, inv, out=inv)
+        inv[~np.isfinite(inv)] = 0.0
+        vx *= inv
+        vz *= inv
+        np.negative(vz, out=vz)
+        c2b = cbp * cbp
+        c2b -= sbp * sbp
+        s2b = sbp * cbp
+        s2b *= 2
+        c2p, s2p = c2[e], s2[e]
+        c2e = c2p * c2b
+        c2e -= s2p * s2b
+        sm = c2p * s2b
+        sm += s2p * c2b
+        ax, az = rft_alpha(c2e, sm, vx, vz)
+        ax *= k
+        az *= k
+        n = b.size
+        d_out[sl] = np.bincount(leg, weights=ax, minlength=n)
+        l_out[sl] = np.bincount(leg, weights=az, minlength=n)
+        # torque = -(p1 ax + p0 az) k, p0 = -s cos + q sin, p1 = -s sin - q cos
+        p1 = se * sbp
+        p1 += qe * cbp
+        p1 *= ax
+        p0 = qe * sbp
+        p0 -= se * cbp
+        p0 *= az
+        p1 -= p0
+        t_out[sl] = np.bincount(leg, weights=p1, minlength=n)
 
 
 # ---------------------------------------------------------------- numba
@@ -392,6 +424,8 @@ def main():
 
     contestants = {
         "plates: terzaghi.batch": lambda: plates.forces(beta, hip, pitch_rad=pitch, out=o_ours),
+        "plates: terzaghi.batch float32": lambda: plates.forces(
+            b32[0], b32[1], pitch_rad=b32[2], out=o32),
         "plates: numpy (careful)": lambda: numpy_plates(beta, hip, pitch, o_peer),
         "plates: numba": lambda: numba_plates(beta, hip, pitch, *o_peer),
         "C-legs: terzaghi.batch": lambda: clegs.forces(
@@ -411,6 +445,7 @@ def main():
         t_comp32 = torch.compile(torch_c_legs_fn(torch, el, torch.float32))
         p_comp = torch.compile(lambda b, h, p: torch_plates(torch, b, h, p))
         contestants["plates: torch.compile"] = lambda: p_comp(tt[0], tt[1], tt[2])
+        contestants["plates: torch.compile float32"] = lambda: p_comp(tt32[0], tt32[1], tt32[2])
         contestants["C-legs: torch.compile"] = lambda: t_comp(*tt)
         contestants["C-legs: torch.compile float32"] = lambda: t_comp32(*tt32)
 
@@ -448,11 +483,19 @@ def main():
     print(f"{SHAPE[0]} x {SHAPE[1]} legs, {args.threads} thread(s), load {load:.2f} at the end; "
           f"in the sand: plates {100 * in_sand[0]:.0f} %, C-legs {100 * in_sand[1]:.0f} %; "
           f"numba {numba.__version__}, torch {torch.__version__}, numpy {np.__version__}")
+    # Each peer against the batch in its own dtype; the batch's float32 against its float64.
     for group in ("plates", "C-legs"):
-        ours = med[f"{group}: terzaghi.batch"]
+        ours, ours32 = med[f"{group}: terzaghi.batch"], med[f"{group}: terzaghi.batch float32"]
         for name, t in med.items():
-            if name.startswith(group):
-                print(f"  {name:34s} {t:8.3f} ms  ({t / ours:5.2f}x terzaghi.batch's time)")
+            if not name.startswith(group):
+                continue
+            if name == f"{group}: terzaghi.batch float32":
+                note = f"float64 takes {ours / t:.2f}x its time"
+            elif "float32" in name:
+                note = f"{t / ours32:5.2f}x terzaghi.batch float32's time"
+            else:
+                note = f"{t / ours:5.2f}x terzaghi.batch's time"
+            print(f"  {name:34s} {t:8.3f} ms  ({note})")
 
 
 if __name__ == "__main__":
