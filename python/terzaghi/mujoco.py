@@ -218,7 +218,9 @@ class BatchCoupling:
 
     Args:
         model: the ``mujoco.MjModel``.
-        legs: the legs (:class:`LegMap`; their ``model`` is not used).
+        legs: the legs (:class:`LegMap`); a map that names its own ``model`` other than
+            ``leg_model`` is refused (every leg here is ``leg_model``'s: use :class:`Coupling`
+            for legs of several models).
         leg_model: the leg model (:class:`terzaghi.batch.LegBatch`) of every leg.
         n_envs: the number of environments.
         torso: the free body the legs hang from.
@@ -251,6 +253,11 @@ class BatchCoupling:
         if threads < 1:
             raise ValueError(f"threads = {threads}: at least 1")
         self.model, self.legs, self.leg_model = model, list(legs), leg_model
+        for leg in self.legs:
+            if leg.model is not None and leg.model is not leg_model:
+                raise ValueError(f"leg {leg.name}: names its own leg model, and BatchCoupling "
+                                 "evaluates every leg with leg_model; use Coupling for legs of "
+                                 "several models")
         self.n_envs = int(n_envs)
         name = lambda kind, n: mujoco.mj_name2id(model, kind, n)
         t = name(mujoco.mjtObj.mjOBJ_BODY, torso)
@@ -320,16 +327,32 @@ class BatchCoupling:
 
     def set_media(self, b_k=None, a=None) -> None:
         """The improved model's ``b_k`` and ``a`` per environment (``(n_envs,)`` arrays, or
-        ``None`` for the leg model's own)."""
+        ``None`` for the leg model's own).
+
+        Raises:
+            ValueError: another shape, a value that is not a positive number (its environment
+                named), or a leg model that is not the improved model; the media are then
+                unchanged.
+        """
         legs = len(self.legs)
         per_leg = []
         for label, v in (("b_k", b_k), ("a", a)):
             if v is None:
                 per_leg.append(None)
                 continue
-            v = np.asarray(v, dtype=np.float64)
+            if not self.leg_model._inner.takes_fitting_width:
+                raise ValueError(f"{label}: a fitting width per environment is the improved "
+                                 "model's, and leg_model is not it")
+            try:
+                v = np.asarray(v, dtype=np.float64)
+            except (TypeError, ValueError) as e:
+                raise ValueError(f"{label}: not an array of numbers ({e})") from None
             if v.shape != (self.n_envs,):
                 raise ValueError(f"{label} has shape {v.shape}, the environments ({self.n_envs},)")
+            bad = np.flatnonzero(~(np.isfinite(v) & (v > 0)))
+            if bad.size:
+                raise ValueError(f"{label}[{bad[0]}] = {v[bad[0]]}: a positive number "
+                                 f"({bad.size} environment(s) so)")
             per_leg.append(np.ascontiguousarray(np.repeat(v[:, None], legs, axis=1)))
         self._media = tuple(per_leg)
 

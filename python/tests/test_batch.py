@@ -127,8 +127,10 @@ def test_each_environment_s_medium_equals_its_own_predict_to_1e_12():
     bad[2, 3] = -1.0
     with pytest.raises(terzaghi.TerzaghiError, match=r"leg 15 \(flat index\).*b_k.*-1"):
         legs.forces(x["beta"], x["hip"], b_k=bad)
-    with pytest.raises(terzaghi.TerzaghiError, match="fitting width"):
-        LegBatch(**LEG, **C_LEG).forces(x["beta"], x["hip"], b_k=b_k)
+    for model_kw in (C_LEG, dict(model="conventional", **MEDIUM)):
+        with pytest.raises(terzaghi.TerzaghiError,
+                           match=r"^a: a fitting width per leg is the improved model's"):
+            LegBatch(**LEG, **model_kw).forces(x["beta"], x["hip"], a=a)
 
 
 def test_shapes_and_dtypes_are_checked_and_named():

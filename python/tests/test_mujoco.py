@@ -382,6 +382,20 @@ def test_a_medium_per_environment_changes_only_its_own_legs():
     assert len({round(float(v), 9) for v in batch.lift_n.sum(axis=1)}) == n
     with pytest.raises(ValueError, match=r"b_k has shape \(3,\), the environments \(8,\)"):
         batch.set_media(np.ones(3))
+    # A value that is no medium is refused when it is set, naming its environment, and the
+    # media are left as they were.
+    for bad, what in ((np.nan, "nan"), (-1.0, "-1.0"), (0.0, "0.0")):
+        wrong = a.copy()
+        wrong[5] = bad
+        with pytest.raises(ValueError, match=rf"^a\[5\] = {what}: a positive number"):
+            batch.set_media(b_k, wrong)
+    np.testing.assert_array_equal(batch.a, a)
+    # A leg model without a fitting width refuses media when they are set.
+    rft = tm.BatchCoupling(model, tm.hexapod_legs(), LegBatch(length_m=0.1, width_m=0.025,
+                                                              model="rft", medium="poppy_lp"),
+                           n_envs=n, torso="torso", threads=1)
+    with pytest.raises(ValueError, match="b_k: a fitting width per environment is the improved"):
+        rft.set_media(b_k, a)
 
 
 def test_a_model_the_batch_cannot_couple_is_refused_by_name():
@@ -398,6 +412,13 @@ def test_a_model_the_batch_cannot_couple_is_refused_by_name():
     for bad in (0, -3, 2.5, True):
         with pytest.raises(ValueError, match="n_envs"):
             tm.BatchCoupling(model, tm.hexapod_legs(), legs, n_envs=bad, torso="torso")
+    # A leg that names a model of its own would be evaluated as leg_model: refused.
+    own = [tm.LegMap(m.name, m.joint, m.body,
+                     LegBatch(length_m=0.1, width_m=0.025, model="rft", medium="poppy_lp",
+                              shape="c_leg") if m.name == "middle_left" else None)
+           for m in tm.hexapod_legs()]
+    with pytest.raises(ValueError, match="leg middle_left: names its own leg model"):
+        tm.BatchCoupling(model, own, legs, n_envs=2, torso="torso")
 
 
 def test_the_vectorised_environment_walks_each_copy_on_its_own_medium():

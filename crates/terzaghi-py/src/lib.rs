@@ -839,6 +839,15 @@ impl Batch {
             .cast::<numpy::PyUntypedArray>()
             .map(|u| u.shape().to_vec())
             .map_err(|_| TerzaghiError::new_err("beta_rad must be a numpy array"))?;
+        if !self.kernel.takes_fitting_width() {
+            for (name, a) in [("b_k", inputs[6]), ("a", inputs[7])] {
+                if a.is_some() {
+                    return Err(TerzaghiError::new_err(format!(
+                        "{name}: a fitting width per leg is the improved model's, and this batch's model is not it"
+                    )));
+                }
+            }
+        }
         let mut ins = Vec::with_capacity(8);
         for (name, a) in BATCH_INPUTS.iter().zip(inputs) {
             ins.push(
@@ -970,6 +979,12 @@ impl Batch {
     #[getter]
     fn vectorised(&self) -> bool {
         self.kernel.is_vectorised()
+    }
+
+    /// Whether the model takes `b_k` and `a` per leg (the improved model).
+    #[getter]
+    fn takes_fitting_width(&self) -> bool {
+        self.kernel.takes_fitting_width()
     }
 
     /// Writes the forces at every element of the inputs (one shape and dtype, float64 or

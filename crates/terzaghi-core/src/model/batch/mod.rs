@@ -460,6 +460,12 @@ impl LegKernel {
         &self.model
     }
 
+    /// Whether the model takes a fitting width per leg (`Legs::b_k`, `Legs::a`): the improved
+    /// Terzaghi model's.
+    pub fn takes_fitting_width(&self) -> bool {
+        matches!(&self.model, ForceModel::Terzaghi(m) if m.fitting_width() != FittingWidth::CONVENTIONAL)
+    }
+
     /// Whether legs go through their own vector loop (RFT with the fitted coefficients),
     /// rather than [`ForceModel::predict_moving`] one by one.
     pub fn is_vectorised(&self) -> bool {
