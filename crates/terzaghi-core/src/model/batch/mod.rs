@@ -16,7 +16,7 @@ mod vmath;
 use super::rft::{N_CM3_TO_N_M3, RftParts};
 use super::terzaghi::MediumConstants;
 use super::{FittingWidth, ForceModel, HipMotion, ModelError, TerzaghiModel, wrap_beta_rad};
-use std::ops::{Add, Mul, Neg, Sub};
+use std::ops::{Add, Div, Mul, Neg, Sub};
 
 /// A number a batch is given in: `f64` or `f32`.
 pub trait Real:
@@ -25,6 +25,7 @@ pub trait Real:
     + Add<Output = Self>
     + Sub<Output = Self>
     + Mul<Output = Self>
+    + Div<Output = Self>
     + Neg<Output = Self>
     + Send
     + Sync
@@ -46,6 +47,22 @@ pub trait Real:
     fn elements(e: &Elements) -> &Soa<Self>;
     /// `self a + b`, rounded once (only where the processor fuses it: else libm's is slow).
     fn mul_add(self, a: Self, b: Self) -> Self;
+    /// The largest `|x|` of [`Real::exp_lanes`].
+    const EXP_REACH: f64;
+    /// Whether this is a number (not infinite, not NaN).
+    fn finite(self) -> bool;
+    /// `sin` and `cos` of every lane in this type (`|x| < 2^16`; the kernel's own, within two
+    /// units in the last place).
+    fn sin_cos_lanes(x: &[Self; LANES]) -> ([Self; LANES], [Self; LANES]);
+    /// `exp` of every lane in this type (`|x| <=` [`Real::EXP_REACH`]).
+    fn exp_lanes(x: &[Self; LANES]) -> [Self; LANES];
+    /// Stores the lanes of `src` that `bits` marks, in order, at `dst[p..]` (what follows them,
+    /// to at most `p + LANES`, is overwritten).
+    ///
+    /// # Safety
+    /// The processor has AVX-512F, and `p < LANES`.
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn compress_avx512(bits: u16, src: &[Self; LANES], dst: &mut [Self; PACK], p: usize);
     /// [`Real::inv_sqrt_or_zero`] of every lane, by the processor's reciprocal square root
     /// estimate and Newton's steps to the type's precision (a few units in the last place).
     ///
@@ -56,11 +73,35 @@ pub trait Real:
 }
 
 macro_rules! real {
-    ($t:ty, $max:expr, $min:expr, $field:ident, $inv:ident) => {
+    ($t:ty, $max:expr, $min:expr, $field:ident, $inv:ident, $sin_cos:path, $exp:path, $reach:expr, $compress:ident) => {
         impl Real for $t {
             const ZERO: Self = 0.0;
             const MAX_SPEED_SCALE: f64 = $max;
             const MIN_SPEED_SCALE: f64 = $min;
+            const EXP_REACH: f64 = $reach;
+            #[inline(always)]
+            fn finite(self) -> bool {
+                self.is_finite()
+            }
+            #[inline(always)]
+            fn sin_cos_lanes(x: &[Self; LANES]) -> ([Self; LANES], [Self; LANES]) {
+                $sin_cos(x)
+            }
+            #[inline(always)]
+            fn exp_lanes(x: &[Self; LANES]) -> [Self; LANES] {
+                $exp(x)
+            }
+            #[cfg(target_arch = "x86_64")]
+            #[inline(always)]
+            unsafe fn compress_avx512(
+                bits: u16,
+                src: &[Self; LANES],
+                dst: &mut [Self; PACK],
+                p: usize,
+            ) {
+                // SAFETY: the caller's promise.
+                unsafe { $compress(bits, src, dst, p) }
+            }
             #[inline(always)]
             fn of(x: f64) -> Self {
                 x as $t
@@ -90,8 +131,62 @@ macro_rules! real {
         }
     };
 }
-real!(f64, 1e100, 1e-100, f64s, inv_sqrt_f64_avx512);
-real!(f32, 1e15, 1e-8, f32s, inv_sqrt_f32_avx512);
+real!(
+    f64,
+    1e100,
+    1e-100,
+    f64s,
+    inv_sqrt_f64_avx512,
+    vmath::sin_cos,
+    vmath::exp,
+    700.0,
+    compress_f64_avx512
+);
+real!(
+    f32,
+    1e15,
+    1e-8,
+    f32s,
+    inv_sqrt_f32_avx512,
+    vmath::sin_cos_f32,
+    vmath::exp_f32,
+    80.0,
+    compress_f32_avx512
+);
+
+/// [`Real::compress_avx512`] of `f64`: two registers of eight.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+fn compress_f64_avx512(bits: u16, src: &[f64; LANES], dst: &mut [f64; PACK], p: usize) {
+    use std::arch::x86_64::*;
+    let (lo, hi) = (bits as u8, (bits >> 8) as u8);
+    let mid = p + lo.count_ones() as usize;
+    // SAFETY: 8 lanes read from each half of `src`; 8 stored from `p` and from `mid`, where
+    // `p < 16` (the caller's promise) and `mid <= p + 8 < 24`: each store ends within `PACK`.
+    // Compressed in registers and stored whole: a compressing store to memory is slow.
+    unsafe {
+        let d = dst.as_mut_ptr();
+        let a = _mm512_maskz_compress_pd(lo, _mm512_loadu_pd(src.as_ptr()));
+        let b = _mm512_maskz_compress_pd(hi, _mm512_loadu_pd(src.as_ptr().add(8)));
+        _mm512_storeu_pd(d.add(p), a);
+        _mm512_storeu_pd(d.add(mid), b);
+    }
+}
+
+/// [`Real::compress_avx512`] of `f32`: one register of sixteen.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+fn compress_f32_avx512(bits: u16, src: &[f32; LANES], dst: &mut [f32; PACK], p: usize) {
+    use std::arch::x86_64::*;
+    // SAFETY: 16 lanes read from `src`, 16 stored from `p < 16` (the caller's promise): the
+    // store ends within `PACK`.
+    unsafe {
+        let a = _mm512_maskz_compress_ps(bits, _mm512_loadu_ps(src.as_ptr()));
+        _mm512_storeu_ps(dst.as_mut_ptr().add(p), a);
+    }
+}
 
 /// [`Real::inv_sqrt_avx512`] of `f64`: `vrsqrt14pd` (14 bits) and two Newton steps.
 #[cfg(target_arch = "x86_64")]
@@ -287,12 +382,6 @@ struct Improved {
     width_b_k_m: f64,
     width_m: f64,
     length_m: f64,
-}
-
-/// Each lane's fitting width: `ln a` and `width b_k` (m), the model's or the leg's own.
-struct LaneWidths {
-    ln_a: [f64; LANES],
-    width_b_k_m: [f64; LANES],
 }
 
 /// Leg `i`'s fitting width: its own `b_k` and `a` where `legs` gives them, else `model`'s.
@@ -582,7 +671,7 @@ impl LegKernel {
         }
     }
 
-    /// [`Self::terzaghi_blocks`]' loop.
+    /// [`Self::terzaghi_blocks`]' loop, in the batch's type.
     #[inline(always)]
     fn terzaghi_run<T: Real>(
         &self,
@@ -592,55 +681,76 @@ impl LegKernel {
         mut out: LegForcesOut<'_, T>,
         per_leg: Option<&TerzaghiModel>,
     ) -> Result<(), LegError> {
-        let ForceModel::Terzaghi(model) = &self.model else {
-            unreachable!("a Terzaghi plan is a Terzaghi model's")
-        };
         let n = out.drag_n.len();
-        let mut block = Block::new();
-        let mut packed = Packed::new(imp, model.fitting_width());
-        let mut widths = [model.fitting_width(); LANES];
+        let c = LaneConsts::<T>::of(imp);
+        let mut packed = Packed::<T>::new(imp);
+        let (mut ln_a, mut width_b_k_m) = ([c.ln_a; LANES], [c.width_b_k_m; LANES]);
         // The last leg's `a` and its logarithm: an environment's legs share a medium.
-        let mut last_a = (model.fitting_width().a(), imp.ln_a);
+        let mut last_a = (f64::NAN, c.ln_a);
         let mut keep = [false; LANES];
         for start in (0..n).step_by(LANES) {
             let m = LANES.min(n - start);
-            block.gather(legs, first + start, m)?;
+            let at = first + start;
+            // Read, and checked all at once: `0 x` is 0 for a number and NaN for anything
+            // else, and so is their sum (a loop without a branch).
+            let beta_given = read_as(legs.beta_rad, at, m, T::of(4.0));
+            let h = read_as(legs.hip_height_m, at, m, T::ZERO);
+            let mut check: [T; LANES] =
+                std::array::from_fn(|l| beta_given[l] * T::ZERO + h[l] * T::ZERO);
+            let mut other = |from: Option<&[T]>| match from {
+                Some(from) => {
+                    let x = read_as(from, at, m, T::ZERO);
+                    for (c, x) in check.iter_mut().zip(&x) {
+                        *c = *c + *x * T::ZERO;
+                    }
+                    x
+                }
+                None => [T::ZERO; LANES],
+            };
+            let pitch = other(legs.pitch_rad);
+            // Not the model's, but checked as every batch checks them.
+            for o in [legs.omega_rad_s, legs.forward_m_s, legs.up_m_s] {
+                other(o);
+            }
+            if !check.iter().fold(true, |a, c| a & (*c == T::ZERO)) {
+                return Err(Block::first_not_finite(legs, at, m));
+            }
             if let Some(own) = per_leg {
                 // Every leg's width is checked, in the medium or not.
-                for (l, width) in widths.iter_mut().enumerate().take(m) {
-                    let i = first + start + l;
-                    *width = leg_width(own, legs, i).map_err(|e| LegError {
-                        index: i,
+                for l in 0..m {
+                    let w = leg_width(own, legs, at + l).map_err(|e| LegError {
+                        index: at + l,
                         problem: e.into(),
                     })?;
+                    if w.a() != last_a.0 {
+                        last_a = (w.a(), T::of(w.a().ln()));
+                    }
+                    ln_a[l] = last_a.1;
+                    width_b_k_m[l] = T::of(imp.width_m * w.b_k());
                 }
             }
             for o in [&mut *out.drag_n, &mut *out.lift_n, &mut *out.hip_torque_nm] {
                 zero(&mut o[start..start + m]);
             }
+            // Added in the lanes; an angle beyond a turn wrapped by a call of its own (where
+            // it is inlined, the lanes compute every branch of `wrap_beta_rad`, its `fmod`
+            // too).
+            let mut beta: [T; LANES] = std::array::from_fn(|l| beta_given[l] + pitch[l]);
+            let turned = beta
+                .iter()
+                .fold(false, |a, b| a | !(*b >= T::ZERO && *b < c.tau));
+            if turned {
+                wrap_lanes(&mut beta[..m]);
+            }
             // A plate pointing up (sine not positive), or a hip at or above its length
             // (`length - h / sin` not positive), has nothing in the medium.
             for (l, k) in keep.iter_mut().enumerate() {
-                let b = block.beta[l];
-                *k =
-                    (b > 0.0) & (b <= std::f64::consts::PI) & (block.h[l] < imp.length_m) & (l < m);
+                let b = beta[l];
+                *k = (b > T::ZERO) & (b <= c.pi) & (h[l] < c.length_m) & (l < m);
             }
-            let clamped = block.h.map(|h| h.max(0.0));
-            let beta_pitch: [f64; LANES] =
-                std::array::from_fn(|l| block.beta_given[l] + block.pitch[l]);
-            let p = if per_leg.is_some() {
-                let (mut ln_a, mut width_b_k_m) = ([0.0; LANES], [0.0; LANES]);
-                let (mut b_k, mut a) = ([1.0; LANES], [1.0; LANES]);
-                for l in 0..m {
-                    let w = widths[l];
-                    if w.a() != last_a.0 {
-                        last_a = (w.a(), w.a().ln());
-                    }
-                    (b_k[l], a[l]) = (w.b_k(), w.a());
-                    ln_a[l] = last_a.1;
-                    width_b_k_m[l] = imp.width_m * w.b_k();
-                }
-                let q = &mut packed;
+            let clamped = h.map(|h| if h > T::ZERO { h } else { T::ZERO });
+            let q = &mut packed;
+            q.m = if per_leg.is_some() {
                 pack(
                     self.isa,
                     &keep,
@@ -648,109 +758,115 @@ impl LegKernel {
                     q.m,
                     &mut q.at,
                     [
-                        (&block.beta, &mut q.beta),
+                        (&beta, &mut q.beta),
                         (&clamped, &mut q.clamped),
-                        (&block.h, &mut q.h),
-                        (&beta_pitch, &mut q.beta_pitch),
-                        (&b_k, &mut q.b_k),
-                        (&a, &mut q.a),
                         (&ln_a, &mut q.ln_a),
                         (&width_b_k_m, &mut q.width_b_k_m),
                     ],
                 )
             } else {
-                let q = &mut packed;
                 pack(
                     self.isa,
                     &keep,
                     start,
                     q.m,
                     &mut q.at,
-                    [
-                        (&block.beta, &mut q.beta),
-                        (&clamped, &mut q.clamped),
-                        (&block.h, &mut q.h),
-                        (&beta_pitch, &mut q.beta_pitch),
-                    ],
+                    [(&beta, &mut q.beta), (&clamped, &mut q.clamped)],
                 )
             };
-            packed.m = p;
-            if p >= LANES {
-                self.terzaghi_packed(
-                    imp,
-                    model,
-                    per_leg.is_some(),
-                    &packed,
-                    LANES,
-                    first,
-                    &mut out,
-                )?;
+            if packed.m >= LANES {
+                self.terzaghi_packed(&c, legs, per_leg, &packed, LANES, first, &mut out)?;
                 packed.shift();
             }
         }
         let m = packed.m;
         if m > 0 {
             // Past the legs: pointing up, out of the medium.
-            packed.beta[m..LANES].fill(4.0);
-            packed.clamped[m..LANES].fill(0.0);
-            self.terzaghi_packed(imp, model, per_leg.is_some(), &packed, m, first, &mut out)?;
+            packed.beta[m..LANES].fill(T::of(4.0));
+            packed.clamped[m..LANES].fill(T::ZERO);
+            self.terzaghi_packed(&c, legs, per_leg, &packed, m, first, &mut out)?;
         }
         Ok(())
     }
 
     /// The forces of the first `m` of `packed`'s legs into `out` (its first [`LANES`] lanes
-    /// evaluated).
+    /// evaluated); a lane the lanes cannot take by
+    /// [`super::TerzaghiModel::evaluate_at_height`], from the leg's inputs as given.
     #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
     fn terzaghi_packed<T: Real>(
         &self,
-        imp: &Improved,
-        model: &TerzaghiModel,
-        per_leg: bool,
-        p: &Packed,
+        c: &LaneConsts<T>,
+        legs: &Legs<'_, T>,
+        per_leg: Option<&TerzaghiModel>,
+        p: &Packed<T>,
         m: usize,
         first: usize,
         out: &mut LegForcesOut<'_, T>,
     ) -> Result<(), LegError> {
-        let (mut f, mut scalar) = ([[0.0; LANES]; 3], [false; LANES]);
-        let lanes = LaneWidths {
-            ln_a: first_lanes(&p.ln_a),
-            width_b_k_m: first_lanes(&p.width_b_k_m),
+        let ForceModel::Terzaghi(model) = &self.model else {
+            unreachable!("a Terzaghi plan is a Terzaghi model's")
         };
-        let (beta, clamped) = (first_lanes(&p.beta), first_lanes(&p.clamped));
+        let (mut f, mut scalar) = ([[T::ZERO; LANES]; 3], [false; LANES]);
+        let lanes = |a: &[T; PACK]| -> [T; LANES] { std::array::from_fn(|l| a[l]) };
+        let (ln_a, width_b_k_m) = (lanes(&p.ln_a), lanes(&p.width_b_k_m));
+        let (beta, clamped) = (lanes(&p.beta), lanes(&p.clamped));
         match self.isa {
             #[cfg(target_arch = "x86_64")]
             // SAFETY: the kernel's ISA is one the processor has (`LegKernel::on`).
             Isa::Avx512 => unsafe {
-                improved_avx512(imp, &lanes, &beta, &clamped, &mut f, &mut scalar)
+                improved_avx512(c, &ln_a, &width_b_k_m, &beta, &clamped, &mut f, &mut scalar)
             },
             #[cfg(target_arch = "x86_64")]
             // SAFETY: as above.
             Isa::Avx2 => unsafe {
-                improved_avx2(imp, &lanes, &beta, &clamped, &mut f, &mut scalar)
+                improved_avx2(c, &ln_a, &width_b_k_m, &beta, &clamped, &mut f, &mut scalar)
             },
-            _ => improved_lanes(imp, &lanes, &beta, &clamped, &mut f, &mut scalar),
+            _ => improved_lanes(c, &ln_a, &width_b_k_m, &beta, &clamped, &mut f, &mut scalar),
         }
         for l in (0..m).filter(|&l| scalar[l]) {
-            let own;
-            let leg_model = if per_leg {
-                let w = FittingWidth::new(p.b_k[l], p.a[l]).map_err(|e| LegError {
-                    index: first + p.at[l],
-                    problem: e.into(),
-                })?;
-                own = model.with_fitting_width(w);
-                &own
-            } else {
-                model
+            let i = first + p.at[l];
+            let fail = |e: ModelError| LegError {
+                index: i,
+                problem: e.into(),
             };
+            let own;
+            let leg_model = match per_leg {
+                Some(own_model) => {
+                    own =
+                        own_model.with_fitting_width(leg_width(own_model, legs, i).map_err(fail)?);
+                    &own
+                }
+                None => model,
+            };
+            let pitch = legs.pitch_rad.map_or(0.0, |v| v[i].to_f64());
             let r = leg_model
-                .evaluate_at_height(p.beta_pitch[l], p.h[l])
-                .map_err(|e| LegError {
-                    index: first + p.at[l],
-                    problem: e.into(),
-                })?;
-            [f[0][l], f[1][l], f[2][l]] = [r.drag_n, r.lift_n, r.hip_torque_nm];
+                .evaluate_at_height(
+                    legs.beta_rad[i].to_f64() + pitch,
+                    legs.hip_height_m[i].to_f64(),
+                )
+                .map_err(fail)?;
+            for (k, (output, v)) in ["drag", "lift", "hip torque"]
+                .into_iter()
+                .zip([r.drag_n, r.lift_n, r.hip_torque_nm])
+                .enumerate()
+            {
+                if !T::of(v).finite() {
+                    return Err(LegError {
+                        index: i,
+                        problem: LegProblem::Overflow { output, value: v },
+                    });
+                }
+                f[k][l] = T::of(v);
+            }
         }
-        scatter(&f, &p.at[..m], first, out)
+        // Every value is a number: the lanes' are checked, the others just above.
+        for (l, &k) in p.at[..m].iter().enumerate() {
+            out.drag_n[k] = f[0][l];
+            out.lift_n[k] = f[1][l];
+            out.hip_torque_nm[k] = f[2][l];
+        }
+        Ok(())
     }
 
     /// [`Self::forces`] of a profile's legs (RFT with the fitted coefficients, no law in
@@ -1203,25 +1319,25 @@ fn shift<T: Copy>(a: &mut [T; PACK]) {
 
 /// Appends the lanes `keep` marks, of each column's source, to its destination from lane `p`,
 /// in order, and their indices (`start` plus the lane) to `at`; returns the new count. On
-/// AVX-512 by the processor's compressing stores; else every lane is written to the next
-/// place and the place kept only for a lane marked (no branch to mispredict).
+/// AVX-512 by the processor's compress; else every lane is written to the next place and the
+/// place kept only for a lane marked (no branch to mispredict).
 ///
 /// # Panics
 /// If `p` is not below [`LANES`].
 #[inline(always)]
-fn pack<const N: usize>(
+fn pack<T: Real, const N: usize>(
     isa: Isa,
     keep: &[bool; LANES],
     start: usize,
     p: usize,
     at: &mut [usize; PACK],
-    mut cols: [(&[f64; LANES], &mut [f64; PACK]); N],
+    mut cols: [(&[T; LANES], &mut [T; PACK]); N],
 ) -> usize {
     assert!(p < LANES);
     #[cfg(target_arch = "x86_64")]
     if isa == Isa::Avx512 {
         // SAFETY: the kernel's ISA is one the processor has (`LegKernel::on`), and `p` is
-        // below `LANES`: the lanes stored fit in `PACK`.
+        // below `LANES`.
         return unsafe { pack_avx512(keep, start, p, at, cols) };
     }
     let _ = isa;
@@ -1236,93 +1352,69 @@ fn pack<const N: usize>(
     q
 }
 
-/// [`pack`] by AVX-512's compressing stores.
+/// [`pack`] by AVX-512's compress.
 ///
 /// # Safety
 /// The processor has AVX-512F, and `p < LANES`.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
-fn pack_avx512<const N: usize>(
+fn pack_avx512<T: Real, const N: usize>(
     keep: &[bool; LANES],
     start: usize,
     p: usize,
     at: &mut [usize; PACK],
-    cols: [(&[f64; LANES], &mut [f64; PACK]); N],
+    cols: [(&[T; LANES], &mut [T; PACK]); N],
 ) -> usize {
     use std::arch::x86_64::*;
     let bits = keep
         .iter()
         .enumerate()
         .fold(0u16, |m, (l, &k)| m | (u16::from(k) << l));
+    for (src, dst) in cols {
+        // SAFETY: the caller's promise.
+        unsafe { T::compress_avx512(bits, src, dst, p) };
+    }
     let (lo, hi) = (bits as u8, (bits >> 8) as u8);
     let mid = p + lo.count_ones() as usize;
-    let end = mid + hi.count_ones() as usize;
-    for (src, dst) in cols {
-        // SAFETY: 8 lanes read from each half of `src`; 8 stored from `p` and from `mid`,
-        // where `p < 16` and `mid <= p + 8 < 24`: each store ends within `PACK` (32).
-        // Compressed in registers and stored whole (the lanes past those kept are
-        // overwritten by the next store or ignored): a compressing store to memory is slow.
-        unsafe {
-            let d = dst.as_mut_ptr();
-            let a = _mm512_maskz_compress_pd(lo, _mm512_loadu_pd(src.as_ptr()));
-            let b = _mm512_maskz_compress_pd(hi, _mm512_loadu_pd(src.as_ptr().add(8)));
-            _mm512_storeu_pd(d.add(p), a);
-            _mm512_storeu_pd(d.add(mid), b);
-        }
-    }
     let first = _mm512_add_epi64(
         _mm512_set1_epi64(start as i64),
         _mm512_set_epi64(7, 6, 5, 4, 3, 2, 1, 0),
     );
     let second = _mm512_add_epi64(first, _mm512_set1_epi64(8));
-    // SAFETY: as above; `usize` is 64 bits on x86-64.
+    // SAFETY: 8 stored from `p < 16` and from `mid <= p + 8 < 24`: each store ends within
+    // `PACK`; `usize` is 64 bits on x86-64.
     unsafe {
-        let d = at.as_mut_ptr().cast::<__m512i>();
-        _mm512_storeu_si512(
-            d.cast::<i64>().add(p).cast(),
-            _mm512_maskz_compress_epi64(lo, first),
-        );
-        _mm512_storeu_si512(
-            d.cast::<i64>().add(mid).cast(),
-            _mm512_maskz_compress_epi64(hi, second),
-        );
+        let d = at.as_mut_ptr().cast::<i64>();
+        _mm512_storeu_si512(d.add(p).cast(), _mm512_maskz_compress_epi64(lo, first));
+        _mm512_storeu_si512(d.add(mid).cast(), _mm512_maskz_compress_epi64(hi, second));
     }
-    end
+    mid + hi.count_ones() as usize
 }
 
-/// Legs of a Terzaghi batch that may touch the medium, packed into the lanes.
-struct Packed {
+/// Legs of a Terzaghi batch that may touch the medium, packed into the lanes, in the batch's
+/// type.
+struct Packed<T> {
     /// How many lanes are legs.
     m: usize,
     /// Each lane's index in the outputs.
     at: [usize; PACK],
     /// The attack angle with the pitch, wrapped; the hip's height clamped to the surface.
-    beta: [f64; PACK],
-    clamped: [f64; PACK],
-    /// As given: the hip's height, the attack angle plus the pitch.
-    h: [f64; PACK],
-    beta_pitch: [f64; PACK],
-    /// Each lane's fitting width (`b_k`, `a`), its `ln a` and `width b_k` (m), where the legs
-    /// give their own.
-    b_k: [f64; PACK],
-    a: [f64; PACK],
-    ln_a: [f64; PACK],
-    width_b_k_m: [f64; PACK],
+    beta: [T; PACK],
+    clamped: [T; PACK],
+    /// Each lane's `ln a` and `width b_k` (m).
+    ln_a: [T; PACK],
+    width_b_k_m: [T; PACK],
 }
 
-impl Packed {
-    fn new(imp: &Improved, width: FittingWidth) -> Packed {
+impl<T: Real> Packed<T> {
+    fn new(imp: &Improved) -> Packed<T> {
         Packed {
             m: 0,
             at: [0; PACK],
-            beta: [4.0; PACK],
-            clamped: [0.0; PACK],
-            h: [0.0; PACK],
-            beta_pitch: [0.0; PACK],
-            b_k: [width.b_k(); PACK],
-            a: [width.a(); PACK],
-            ln_a: [imp.ln_a; PACK],
-            width_b_k_m: [imp.width_b_k_m; PACK],
+            beta: [T::of(4.0); PACK],
+            clamped: [T::ZERO; PACK],
+            ln_a: [T::of(imp.ln_a); PACK],
+            width_b_k_m: [T::of(imp.width_b_k_m); PACK],
         }
     }
 
@@ -1333,10 +1425,6 @@ impl Packed {
         for a in [
             &mut self.beta,
             &mut self.clamped,
-            &mut self.h,
-            &mut self.beta_pitch,
-            &mut self.b_k,
-            &mut self.a,
             &mut self.ln_a,
             &mut self.width_b_k_m,
         ] {
@@ -1968,109 +2056,188 @@ fn sum_lanes<T: Real, const FMA: bool, const RSQRT: bool>(
     [total(&drag), total(&lift), total(&torque)]
 }
 
-/// Forces of a Terzaghi model, each lane one leg: `beta` wrapped to `[0, 2pi)` with the
-/// pitch, `h` the hip's height (>= 0). Drag, lift and torque per lane, and which lanes
-/// [`LegKernel::terzaghi_blocks`] must evaluate one by one. The expressions are
-/// [`super::TerzaghiModel::evaluate_at_height`]'s, in its order, with every branch taken and
-/// the answer chosen.
+/// A Terzaghi model's numbers in the batch's type, as [`improved_lanes`] reads them (each
+/// product of constants formed in `f64` first, as the model forms it).
+struct LaneConsts<T> {
+    lambda: T,
+    k: T,
+    theta_end: T,
+    cos_phi: T,
+    sin_alpha: T,
+    cos_alpha: T,
+    k_p: T,
+    inv_spiral_den: T,
+    inv_4k: T,
+    tan_delta: T,
+    /// `3 k`, and `3 k cos alpha - sin alpha`.
+    three_k: T,
+    sf_tail: T,
+    length_m: T,
+    /// The model's own `ln a` and `width b_k` (m).
+    ln_a: T,
+    width_b_k_m: T,
+    /// The largest `|x|` the lanes' `exp` takes.
+    reach: T,
+    pi: T,
+    tau: T,
+}
+
+impl<T: Real> LaneConsts<T> {
+    fn of(imp: &Improved) -> LaneConsts<T> {
+        let c = &imp.c;
+        let t = T::of;
+        LaneConsts {
+            lambda: t(c.lambda),
+            k: t(c.k),
+            theta_end: t(c.theta_end),
+            cos_phi: t(c.cos_phi),
+            sin_alpha: t(c.sin_alpha),
+            cos_alpha: t(c.cos_alpha),
+            k_p: t(c.k_p),
+            inv_spiral_den: t(c.inv_spiral_den),
+            inv_4k: t(c.inv_4k),
+            tan_delta: t(c.tan_delta),
+            three_k: t(3.0 * c.k),
+            sf_tail: t(3.0 * c.k * c.cos_alpha - c.sin_alpha),
+            length_m: t(imp.length_m),
+            ln_a: t(imp.ln_a),
+            width_b_k_m: t(imp.width_b_k_m),
+            reach: t(T::EXP_REACH),
+            pi: t(std::f64::consts::PI),
+            tau: t(std::f64::consts::TAU),
+        }
+    }
+}
+
+/// `from[first..first + m]` as lanes of its type, `pad` past them.
 #[inline(always)]
-fn improved_lanes(
-    imp: &Improved,
-    widths: &LaneWidths,
-    beta: &[f64; LANES],
-    h: &[f64; LANES],
-    f: &mut [[f64; LANES]; 3],
+fn read_as<T: Real>(from: &[T], first: usize, m: usize, pad: T) -> [T; LANES] {
+    match <&[T; LANES]>::try_from(&from[first..first + m]) {
+        Ok(whole) => *whole,
+        Err(_) => std::array::from_fn(|l| if l < m { from[first + l] } else { pad }),
+    }
+}
+
+/// Wraps the angles beyond a turn (in `f64`, as [`wrap_beta_rad`]).
+#[cold]
+#[inline(never)]
+fn wrap_lanes<T: Real>(beta: &mut [T]) {
+    for b in beta {
+        *b = T::of(wrap_beta_rad(b.to_f64()));
+    }
+}
+
+/// Forces of a Terzaghi model, each lane one leg, in the batch's type: `beta` wrapped to
+/// `[0, 2pi)` with the pitch, `h` the hip's height (>= 0), each lane's `ln a` and `width b_k`
+/// (m). Drag, lift and torque per lane, and which lanes [`LegKernel::terzaghi_packed`] must
+/// evaluate one by one. The expressions are [`super::TerzaghiModel::evaluate_at_height`]'s, in
+/// its order, with every branch taken and the answer chosen (in `f64`, its very operations).
+#[inline(always)]
+fn improved_lanes<T: Real>(
+    c: &LaneConsts<T>,
+    ln_a: &[T; LANES],
+    width_b_k_m: &[T; LANES],
+    beta: &[T; LANES],
+    h: &[T; LANES],
+    f: &mut [[T; LANES]; 3],
     scalar: &mut [bool; LANES],
 ) {
-    let c = &imp.c;
-    let (sin, cos) = vmath::sin_cos(beta);
-    let mut x_width = [0.0; LANES];
-    let mut x_spiral = [0.0; LANES];
+    let (z, one, t) = (T::ZERO, T::of(1.0), T::of);
+    let (quarter, half, minus_half) = (t(0.25), t(0.5), t(-0.5));
+    let (two_thirds, minus_two_thirds) = (t(2.0 / 3.0), t(-2.0 / 3.0));
+    let thin_below = t(1e-3);
+    let (sin, cos) = T::sin_cos_lanes(beta);
+    let mut x_width = [z; LANES];
+    let mut x_spiral = [z; LANES];
     for l in 0..LANES {
-        x_width[l] = -beta[l] * widths.ln_a[l];
+        x_width[l] = -beta[l] * ln_a[l];
         x_spiral[l] = (c.theta_end - beta[l]) * c.k;
     }
-    let e_width = vmath::exp(&x_width);
-    let e_spiral = vmath::exp(&x_spiral);
+    let e_width = T::exp_lanes(&x_width);
+    let e_spiral = T::exp_lanes(&x_spiral);
     for l in 0..LANES {
         let b = beta[l];
-        let pointing_down = b <= std::f64::consts::PI;
-        let sin_b = if pointing_down { sin[l] } else { 0.0 };
-        let cos_b = if pointing_down { cos[l] } else { 1.0 };
-        let l_s = if sin_b <= 0.0 {
-            0.0
+        let pointing_down = b <= c.pi;
+        let sin_b = if pointing_down { sin[l] } else { z };
+        let cos_b = if pointing_down { cos[l] } else { one };
+        let l_s = if sin_b <= z {
+            z
         } else {
-            (imp.length_m - h[l] / sin_b).max(0.0)
+            let v = c.length_m - h[l] / sin_b;
+            if v > z { v } else { z }
         };
-        let w = widths.width_b_k_m[l] * e_width[l] * c.lambda;
+        let w = width_b_k_m[l] * e_width[l] * c.lambda;
         let theta = c.theta_end - b;
-        let d_perp = 2.0 / 3.0 * l_s;
-        let spiral = theta > 0.0;
+        let d_perp = two_thirds * l_s;
+        let spiral = theta > z;
         let e1 = e_spiral[l];
         let r_b = l_s * e1;
-        let e2_m1 = e1 * e1 - 1.0;
+        let e2_m1 = e1 * e1 - one;
         let g_lg = w * l_s * l_s * e2_m1 * c.inv_4k;
-        let sf = sin_b + 3.0 * c.k * cos_b + e1 * e1 * e1 * (3.0 * c.k * c.cos_alpha - c.sin_alpha);
+        let sf = sin_b + c.three_k * cos_b + e1 * e1 * e1 * c.sf_tail;
         let moment_lg = w * l_s * l_s * l_s * sf * c.inv_spiral_den;
         let rs = r_b * c.sin_alpha;
         let ls = l_s * sin_b;
         let (g_t, d_tg, f_l, d_l) = if spiral {
             (
-                0.25 * w * r_b * r_b * c.cos_phi,
-                2.0 / 3.0 * r_b * c.cos_alpha,
-                0.5 * w * (rs * rs) * c.k_p,
-                2.0 / 3.0 * r_b * c.sin_alpha,
+                quarter * w * r_b * r_b * c.cos_phi,
+                two_thirds * r_b * c.cos_alpha,
+                half * w * (rs * rs) * c.k_p,
+                two_thirds * r_b * c.sin_alpha,
             )
         } else {
             (
-                -0.5 * w * l_s * l_s * sin_b * cos_b,
-                -2.0 / 3.0 * l_s * cos_b,
-                0.5 * w * (ls * ls) * c.k_p,
-                2.0 / 3.0 * l_s * sin_b,
+                minus_half * w * l_s * l_s * sin_b * cos_b,
+                minus_two_thirds * l_s * cos_b,
+                half * w * (ls * ls) * c.k_p,
+                two_thirds * l_s * sin_b,
             )
         };
-        let m_lg = if spiral && g_lg > 0.0 { moment_lg } else { 0.0 };
+        let m_lg = if spiral && g_lg > z { moment_lg } else { z };
         let moment = g_t * d_tg + f_l * d_l + m_lg;
         let normal = moment / d_perp;
         let tangential = normal * c.tan_delta;
         let drag = normal * sin_b - tangential * cos_b;
         let lift = normal * cos_b + tangential * sin_b;
-        let torque = normal * (imp.length_m - l_s + d_perp);
-        let in_medium = l_s > 0.0;
-        f[0][l] = if in_medium { drag } else { 0.0 };
-        f[1][l] = if in_medium { lift } else { 0.0 };
-        f[2][l] = if in_medium { torque } else { 0.0 };
-        let thin = spiral && x_spiral[l] < 1e-3;
-        let far = x_width[l].abs() > 700.0 || x_spiral[l].abs() > 700.0;
-        let bad = !(drag.is_finite() && lift.is_finite() && torque.is_finite());
+        let torque = normal * (c.length_m - l_s + d_perp);
+        let in_medium = l_s > z;
+        f[0][l] = if in_medium { drag } else { z };
+        f[1][l] = if in_medium { lift } else { z };
+        f[2][l] = if in_medium { torque } else { z };
+        let thin = spiral && x_spiral[l] < thin_below;
+        let beyond = |x: T| x > c.reach || -x > c.reach;
+        let far = beyond(x_width[l]) || beyond(x_spiral[l]);
+        let bad = !(drag.finite() && lift.finite() && torque.finite());
         scalar[l] = in_medium && (thin || far || bad);
     }
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
-fn improved_avx512(
-    imp: &Improved,
-    widths: &LaneWidths,
-    beta: &[f64; LANES],
-    h: &[f64; LANES],
-    f: &mut [[f64; LANES]; 3],
+fn improved_avx512<T: Real>(
+    c: &LaneConsts<T>,
+    ln_a: &[T; LANES],
+    width_b_k_m: &[T; LANES],
+    beta: &[T; LANES],
+    h: &[T; LANES],
+    f: &mut [[T; LANES]; 3],
     scalar: &mut [bool; LANES],
 ) {
-    improved_lanes(imp, widths, beta, h, f, scalar)
+    improved_lanes(c, ln_a, width_b_k_m, beta, h, f, scalar)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-fn improved_avx2(
-    imp: &Improved,
-    widths: &LaneWidths,
-    beta: &[f64; LANES],
-    h: &[f64; LANES],
-    f: &mut [[f64; LANES]; 3],
+fn improved_avx2<T: Real>(
+    c: &LaneConsts<T>,
+    ln_a: &[T; LANES],
+    width_b_k_m: &[T; LANES],
+    beta: &[T; LANES],
+    h: &[T; LANES],
+    f: &mut [[T; LANES]; 3],
     scalar: &mut [bool; LANES],
 ) {
-    improved_lanes(imp, widths, beta, h, f, scalar)
+    improved_lanes(c, ln_a, width_b_k_m, beta, h, f, scalar)
 }
 
 #[cfg(test)]

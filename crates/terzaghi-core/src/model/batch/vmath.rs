@@ -117,6 +117,81 @@ pub fn exp(x: &[f64; LANES]) -> [f64; LANES] {
     out
 }
 
+// ---------------------------------------------------------------- float32
+
+// Cephes' sinf, cosf and expf (their reductions and polynomials), for a batch in float32: within
+// two units in the last place of float32 (`tests::the_float32_ones_are_within_two_units`).
+
+/// `pi/2` in three parts, the first two of few bits (their products by a small integer exact).
+const PIO2_1F: f32 = 1.570_312_5;
+const PIO2_2F: f32 = 4.837_512_969_970_703_125e-4;
+const PIO2_3F: f32 = 7.549_789_954_891_882_16e-8;
+
+const S1F: f32 = -1.666_665_461_1e-1;
+const S2F: f32 = 8.332_160_873_6e-3;
+const S3F: f32 = -1.951_529_589_1e-4;
+const C1F: f32 = 4.166_664_568_298_827e-2;
+const C2F: f32 = -1.388_731_625_493_765e-3;
+const C3F: f32 = 2.443_315_711_809_948e-5;
+
+/// `1.5 2^23`: added and taken off, a float rounds to the nearest integer, which its low
+/// mantissa bits then hold.
+const ROUND_F: f32 = 12_582_912.0;
+
+/// `sin` and `cos` of every lane (`|x| < 2^16`: the batch's wrapped angles).
+#[inline(always)]
+pub fn sin_cos_f32(x: &[f32; LANES]) -> ([f32; LANES], [f32; LANES]) {
+    let mut s = [0.0f32; LANES];
+    let mut c = [0.0f32; LANES];
+    let round_bits = ROUND_F.to_bits() as i32;
+    for l in 0..LANES {
+        let x = x[l];
+        let t = x * std::f32::consts::FRAC_2_PI + ROUND_F;
+        let n = t - ROUND_F;
+        let q = (t.to_bits() as i32).wrapping_sub(round_bits);
+        let y = ((x - n * PIO2_1F) - n * PIO2_2F) - n * PIO2_3F;
+        let z = y * y;
+        let sy = y + y * z * (S1F + z * (S2F + z * S3F));
+        let cy = 1.0 - 0.5 * z + z * z * (C1F + z * (C2F + z * C3F));
+        let odd = q & 1 != 0;
+        let (a, b) = if odd { (cy, sy) } else { (sy, cy) };
+        let sin_neg = q & 2 != 0;
+        let cos_neg = (q + 1) & 2 != 0;
+        s[l] = if sin_neg { -a } else { a };
+        c[l] = if cos_neg { -b } else { b };
+    }
+    (s, c)
+}
+
+const LN2_HI_F: f32 = 0.693_359_375;
+const LN2_LO_F: f32 = -2.121_944_4e-4;
+const EXP_F: [f32; 6] = [
+    1.987_569_150_0e-4,
+    1.398_199_950_7e-3,
+    8.333_451_907_3e-3,
+    4.166_579_589_4e-2,
+    1.666_666_545_9e-1,
+    5.000_000_120_1e-1,
+];
+
+/// `exp` of every lane (`|x| <= 80`).
+#[inline(always)]
+pub fn exp_f32(x: &[f32; LANES]) -> [f32; LANES] {
+    let mut out = [0.0f32; LANES];
+    let round_bits = ROUND_F.to_bits() as i32;
+    for l in 0..LANES {
+        let x = x[l];
+        let t = x * std::f32::consts::LOG2_E + ROUND_F;
+        let k = t - ROUND_F;
+        let ki = (t.to_bits() as i32).wrapping_sub(round_bits);
+        let r = (x - k * LN2_HI_F) - k * LN2_LO_F;
+        let p = EXP_F.iter().fold(0.0f32, |acc, c| acc * r + c);
+        let e = p * r * r + r + 1.0;
+        out[l] = e * f32::from_bits(((ki + 127) as u32) << 23);
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -162,6 +237,43 @@ mod tests {
         assert!(
             worst.iter().all(|w| *w <= 2.0),
             "sin, cos, exp off by {worst:?} ulp"
+        );
+    }
+
+    #[test]
+    fn the_float32_ones_are_within_two_units() {
+        let ulps32 = |a: f32, b: f64| {
+            let spacing = f32::EPSILON as f64 * b.abs().max(f32::MIN_POSITIVE as f64);
+            (a as f64 - b).abs() / spacing
+        };
+        let mut worst = [0.0f64; 3];
+        let mut x = [0.0f32; LANES];
+        for i in 0..20_000 {
+            for (l, v) in x.iter_mut().enumerate() {
+                *v = (-4.0 * std::f64::consts::PI
+                    + (i * LANES + l) as f64
+                        * (8.0 * std::f64::consts::PI / (20_000 * LANES) as f64))
+                    as f32;
+            }
+            let (s, c) = sin_cos_f32(&x);
+            for l in 0..LANES {
+                let (ws, wc) = (x[l] as f64).sin_cos();
+                // Near a zero of sin or cos, against the argument's scale (float32's half unit).
+                let floor = f32::EPSILON as f64 * 0.5;
+                worst[0] = worst[0].max(ulps32(s[l], ws).min((s[l] as f64 - ws).abs() / floor));
+                worst[1] = worst[1].max(ulps32(c[l], wc).min((c[l] as f64 - wc).abs() / floor));
+            }
+            for (l, v) in x.iter_mut().enumerate() {
+                *v = (-80.0 + (i * LANES + l) as f64 * (160.0 / (20_000 * LANES) as f64)) as f32;
+            }
+            let e = exp_f32(&x);
+            for l in 0..LANES {
+                worst[2] = worst[2].max(ulps32(e[l], (x[l] as f64).exp()));
+            }
+        }
+        assert!(
+            worst.iter().all(|w| *w <= 2.0),
+            "sin, cos, exp off by {worst:?} units of float32"
         );
     }
 }
