@@ -389,6 +389,11 @@ def main():
     args = ap.parse_args()
     for v in ("RAYON_NUM_THREADS", "NUMBA_NUM_THREADS", "OMP_NUM_THREADS"):
         os.environ[v] = str(args.threads)
+    # The contestants take turns in one process: one runtime's idle threads must not spin on
+    # the cores while another is timed (OpenMP's, torch's, spin after each parallel region by
+    # default; numpy's OpenBLAS threads, which no contestant uses, poll).
+    os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     import numpy as np
     import torch
 

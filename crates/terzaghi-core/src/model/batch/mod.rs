@@ -687,7 +687,6 @@ impl LegKernel {
         let (mut ln_a, mut width_b_k_m) = ([c.ln_a; LANES], [c.width_b_k_m; LANES]);
         // The last leg's `a` and its logarithm: an environment's legs share a medium.
         let mut last_a = (f64::NAN, c.ln_a);
-        let mut keep = [false; LANES];
         for start in (0..n).step_by(LANES) {
             let m = LANES.min(n - start);
             let at = first + start;
@@ -695,24 +694,22 @@ impl LegKernel {
             // else, and so is their sum (a loop without a branch).
             let beta_given = read_as(legs.beta_rad, at, m, T::of(4.0));
             let h = read_as(legs.hip_height_m, at, m, T::ZERO);
-            let mut check: [T; LANES] =
-                std::array::from_fn(|l| beta_given[l] * T::ZERO + h[l] * T::ZERO);
-            let mut other = |from: Option<&[T]>| match from {
-                Some(from) => {
-                    let x = read_as(from, at, m, T::ZERO);
-                    for (c, x) in check.iter_mut().zip(&x) {
-                        *c = *c + *x * T::ZERO;
-                    }
-                    x
-                }
-                None => [T::ZERO; LANES],
-            };
-            let pitch = other(legs.pitch_rad);
+            let given =
+                |from: Option<&[T]>| from.map_or([T::ZERO; LANES], |v| read_as(v, at, m, T::ZERO));
+            let pitch = given(legs.pitch_rad);
             // Not the model's, but checked as every batch checks them.
-            for o in [legs.omega_rad_s, legs.forward_m_s, legs.up_m_s] {
-                other(o);
+            let (omega, forward, up) = (
+                given(legs.omega_rad_s),
+                given(legs.forward_m_s),
+                given(legs.up_m_s),
+            );
+            let mut finite = true;
+            for l in 0..LANES {
+                let z = T::ZERO;
+                let c = beta_given[l] * z + h[l] * z + pitch[l] * z;
+                finite &= c + omega[l] * z + forward[l] * z + up[l] * z == z;
             }
-            if !check.iter().fold(true, |a, c| a & (*c == T::ZERO)) {
+            if !finite {
                 return Err(Block::first_not_finite(legs, at, m));
             }
             if let Some(own) = per_leg {
@@ -744,16 +741,18 @@ impl LegKernel {
             }
             // A plate pointing up (sine not positive), or a hip at or above its length
             // (`length - h / sin` not positive), has nothing in the medium.
-            for (l, k) in keep.iter_mut().enumerate() {
+            let mut keep = 0u16;
+            for l in 0..LANES {
                 let b = beta[l];
-                *k = (b > T::ZERO) & (b <= c.pi) & (h[l] < c.length_m) & (l < m);
+                keep |= u16::from((b > T::ZERO) & (b <= c.pi) & (h[l] < c.length_m)) << l;
             }
+            keep &= first_lanes_mask(m);
             let clamped = h.map(|h| if h > T::ZERO { h } else { T::ZERO });
             let q = &mut packed;
             q.m = if per_leg.is_some() {
                 pack(
                     self.isa,
-                    &keep,
+                    keep,
                     start,
                     q.m,
                     &mut q.at,
@@ -767,7 +766,7 @@ impl LegKernel {
             } else {
                 pack(
                     self.isa,
-                    &keep,
+                    keep,
                     start,
                     q.m,
                     &mut q.at,
@@ -907,7 +906,6 @@ impl LegKernel {
         let soa = T::elements(e);
         let mut block = Block::new();
         let mut packed = PackedRft::new();
-        let mut keep = [false; LANES];
         for start in (0..n).step_by(LANES) {
             let m = LANES.min(n - start);
             block.gather(legs, first + start, m)?;
@@ -923,9 +921,11 @@ impl LegKernel {
                     reach[l] = reach[l].max(bs * sin[l] + bq * cos[l] + br);
                 }
             }
-            for (l, k) in keep.iter_mut().enumerate() {
-                *k = (block.h[l] < reach[l]) & (l < m);
+            let mut keep = 0u16;
+            for (l, (h, r)) in block.h.iter().zip(&reach).enumerate() {
+                keep |= u16::from(h < r) << l;
             }
+            keep &= first_lanes_mask(m);
             let (mut omega, mut vx, mut vz, mut scalar) =
                 ([1.0; LANES], [0.0; LANES], [0.0; LANES], [0.0; LANES]);
             for l in 0..LANES {
@@ -950,7 +950,7 @@ impl LegKernel {
             let q = &mut packed;
             let p = pack(
                 self.isa,
-                &keep,
+                keep,
                 start,
                 q.m,
                 &mut q.at,
@@ -1317,17 +1317,27 @@ fn shift<T: Copy>(a: &mut [T; PACK]) {
     front.copy_from_slice(back);
 }
 
-/// Appends the lanes `keep` marks, of each column's source, to its destination from lane `p`,
-/// in order, and their indices (`start` plus the lane) to `at`; returns the new count. On
-/// AVX-512 by the processor's compress; else every lane is written to the next place and the
-/// place kept only for a lane marked (no branch to mispredict).
+/// The mask of the first `m` lanes.
+#[inline(always)]
+fn first_lanes_mask(m: usize) -> u16 {
+    if m >= LANES {
+        u16::MAX
+    } else {
+        (1u16 << m) - 1
+    }
+}
+
+/// Appends the lanes `keep` marks (a bit each), of each column's source, to its destination
+/// from lane `p`, in order, and their indices (`start` plus the lane) to `at`; returns the new
+/// count. On AVX-512 by the processor's compress; else every lane is written to the next place
+/// and the place kept only for a lane marked (no branch to mispredict).
 ///
 /// # Panics
 /// If `p` is not below [`LANES`].
 #[inline(always)]
 fn pack<T: Real, const N: usize>(
     isa: Isa,
-    keep: &[bool; LANES],
+    keep: u16,
     start: usize,
     p: usize,
     at: &mut [usize; PACK],
@@ -1347,7 +1357,7 @@ fn pack<T: Real, const N: usize>(
         for (src, dst) in cols.iter_mut() {
             dst[q] = src[l];
         }
-        q += usize::from(keep[l]);
+        q += usize::from(keep >> l & 1 == 1);
     }
     q
 }
@@ -1359,17 +1369,13 @@ fn pack<T: Real, const N: usize>(
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
 fn pack_avx512<T: Real, const N: usize>(
-    keep: &[bool; LANES],
+    bits: u16,
     start: usize,
     p: usize,
     at: &mut [usize; PACK],
     cols: [(&[T; LANES], &mut [T; PACK]); N],
 ) -> usize {
     use std::arch::x86_64::*;
-    let bits = keep
-        .iter()
-        .enumerate()
-        .fold(0u16, |m, (l, &k)| m | (u16::from(k) << l));
     for (src, dst) in cols {
         // SAFETY: the caller's promise.
         unsafe { T::compress_avx512(bits, src, dst, p) };
@@ -2112,10 +2118,14 @@ impl<T: Real> LaneConsts<T> {
 /// `from[first..first + m]` as lanes of its type, `pad` past them.
 #[inline(always)]
 fn read_as<T: Real>(from: &[T], first: usize, m: usize, pad: T) -> [T; LANES] {
-    match <&[T; LANES]>::try_from(&from[first..first + m]) {
-        Ok(whole) => *whole,
-        Err(_) => std::array::from_fn(|l| if l < m { from[first + l] } else { pad }),
+    if let Ok(whole) = <&[T; LANES]>::try_from(&from[first..first + m]) {
+        // A whole block: one load of known size, in registers (a copy of unknown size is a
+        // call, and its stores stall the loads that follow).
+        return *whole;
     }
+    let mut x = [pad; LANES];
+    x[..m].copy_from_slice(&from[first..first + m]);
+    x
 }
 
 /// Wraps the angles beyond a turn (in `f64`, as [`wrap_beta_rad`]).
