@@ -9,7 +9,7 @@ work=${FUZZ_WORK:-/tmp/terzaghi-fuzz}
 runs=${FUZZ_RUNS:-10000000}
 seconds=${FUZZ_SECONDS:-3600}
 targets=("$@")
-[ ${#targets[@]} -eq 0 ] && targets=(node_wire params csv_log plate_test intrusion_test medium_file mcap steady_runs mesh_file)
+[ ${#targets[@]} -eq 0 ] && targets=(node_wire params csv_log plate_test intrusion_test medium_file mcap steady_runs mesh_file batch_legs)
 for t in "${targets[@]}"; do
   mkdir -p "$work/$t"
   start=$(date +%s)

@@ -798,3 +798,211 @@ pub fn mesh_file(data: &[u8]) {
         );
     }
 }
+
+// ----------------------------------------------------------------------------------------------
+// The batch kernel: the arrays Python's `LegBatch.forces` hands it.
+
+/// A batch of legs as `LegBatch.forces` gives them (any numbers, float64 or float32, a fitting
+/// width per leg or not, a chunk's offset): improved-model plates, RFT C-legs or RFT plates.
+/// The kernel on the processor's instructions and on the baseline's agree, the same leg named
+/// where one refuses; every force given is finite; and with inputs of a robot's size each leg's
+/// float64 forces are `predict_moving`'s (or the improved model's at its own width).
+pub fn batch_legs(data: &[u8]) {
+    use crate::model::batch::{Isa, LegForcesOut, LegKernel, Legs, Real};
+    use crate::model::{
+        FittingWidth, ForceModel, Medium, Plate, RftCoefficients, RftFit, RftModel, TerzaghiModel,
+        c_leg_profile,
+    };
+    let mut u = Unstructured::new(data);
+    let (Ok(kind), Ok(float32), Ok(widths), Ok(n)) = (
+        u.int_in_range(0u8..=2),
+        u.arbitrary::<bool>(),
+        u.arbitrary::<bool>(),
+        u.int_in_range(0usize..=80),
+    ) else {
+        return;
+    };
+    let Ok(first) = u.int_in_range(0..=n) else {
+        return;
+    };
+    let plate = Plate::new(0.1, 0.025, 0.0).expect("a plate");
+    let fit = RftCoefficients::Fit(RftFit::POPPY_LP);
+    let model = match kind {
+        0 => ForceModel::Terzaghi(TerzaghiModel::new(
+            plate,
+            Medium::new(13000.0, 30.0, 20.0).expect("a medium"),
+            FittingWidth::new(30.0, 2.3).expect("a width"),
+        )),
+        1 => ForceModel::Rft(
+            RftModel::with_profile(
+                plate,
+                fit,
+                96,
+                c_leg_profile(0.05, std::f64::consts::PI, 32),
+            )
+            .expect("a C-leg"),
+        ),
+        _ => ForceModel::Rft(RftModel::new(plate, fit, 50).expect("an RFT plate")),
+    };
+    let widths = widths && kind == 0;
+    // Each value a robot's (a byte over its range) or any number at all.
+    let mut value = |lo: f64, hi: f64| -> Option<f64> {
+        let tag = u.arbitrary::<u8>().ok()?;
+        if tag < 200 {
+            Some(lo + (hi - lo) * f64::from(tag) / 199.0)
+        } else {
+            u.arbitrary::<f64>().ok()
+        }
+    };
+    let ranges = [
+        (-7.0, 13.0),  // beta
+        (-0.02, 0.12), // hip height
+        (-0.3, 0.3),   // pitch
+        (-9.0, 9.0),   // omega
+        (-0.5, 0.5),   // forward
+        (-0.2, 0.2),   // up
+        (0.5, 60.0),   // b_k
+        (1.05, 4.0),   // a
+    ];
+    let mut cols: Vec<Vec<f64>> = (0..8).map(|_| Vec::with_capacity(n)).collect();
+    for _ in 0..n {
+        for (col, &(lo, hi)) in cols.iter_mut().zip(&ranges) {
+            let Some(v) = value(lo, hi) else {
+                return;
+            };
+            col.push(v);
+        }
+    }
+    let robot = cols
+        .iter()
+        .zip(&ranges)
+        .all(|(c, &(lo, hi))| c.iter().all(|v| (lo..=hi).contains(v)));
+    let kernel = LegKernel::new(model.clone());
+    let baseline = LegKernel::new(model.clone())
+        .on(Isa::Baseline)
+        .expect("the baseline");
+    if float32 {
+        let cols: Vec<Vec<f32>> = cols
+            .iter()
+            .map(|c| c.iter().map(|&v| v as f32).collect())
+            .collect();
+        batch_agree::<f32>(&kernel, &baseline, &cols, first, widths, 1e-4);
+    } else {
+        let got = batch_agree::<f64>(&kernel, &baseline, &cols, first, widths, 1e-9);
+        if let (Some(got), true) = (got, robot) {
+            let scale = got.iter().flatten().fold(1e-9f64, |a, f| a.max(f.abs()));
+            for (k, f) in got.iter().enumerate() {
+                let i = first + k;
+                let c = |j: usize| cols[j][i];
+                let want = match (&model, widths) {
+                    (ForceModel::Terzaghi(m), true) => {
+                        let w = FittingWidth::new(c(6), c(7)).expect("a width in range");
+                        let r = m
+                            .with_fitting_width(w)
+                            .evaluate_at_height(c(0) + c(2), c(1))
+                            .expect("a leg of a robot's size");
+                        [r.drag_n, r.lift_n, r.hip_torque_nm]
+                    }
+                    _ => {
+                        let hip = HipMotion {
+                            height_m: c(1),
+                            pitch_rad: c(2),
+                            omega_rad_s: c(3),
+                            forward_m_s: c(4),
+                            up_m_s: c(5),
+                            ..HipMotion::default()
+                        };
+                        let p = model
+                            .predict_moving(c(0), &hip)
+                            .expect("a leg of a robot's size");
+                        [p.drag_n, p.lift_n, p.hip_torque_nm]
+                    }
+                };
+                for (g, w) in f.iter().zip(want) {
+                    assert!(
+                        (g - w).abs() <= 1e-9 * scale,
+                        "leg {i}: the batch gives {f:?}, predict {want:?}"
+                    );
+                }
+            }
+        }
+    }
+
+    /// Runs both kernels on the legs from `first`: they agree (the same error, or forces within
+    /// `tol` of the largest: the fused, estimated and rounded operations of one against the
+    /// other's), every force is finite; the forces, where given.
+    fn batch_agree<T: Real>(
+        kernel: &LegKernel,
+        baseline: &LegKernel,
+        cols: &[Vec<T>],
+        first: usize,
+        widths: bool,
+        tol: f64,
+    ) -> Option<Vec<[f64; 3]>> {
+        let n = cols[0].len();
+        let run = |k: &LegKernel| {
+            let m = n - first;
+            let (mut d, mut l, mut t) = (vec![T::ZERO; m], vec![T::ZERO; m], vec![T::ZERO; m]);
+            let legs = Legs {
+                beta_rad: &cols[0],
+                hip_height_m: &cols[1],
+                pitch_rad: Some(&cols[2]),
+                omega_rad_s: Some(&cols[3]),
+                forward_m_s: Some(&cols[4]),
+                up_m_s: Some(&cols[5]),
+                b_k: widths.then_some(&cols[6][..]),
+                a: widths.then_some(&cols[7][..]),
+            };
+            let out = LegForcesOut {
+                drag_n: &mut d,
+                lift_n: &mut l,
+                hip_torque_nm: &mut t,
+            };
+            k.forces(&legs, first, out).map(|()| {
+                (0..m)
+                    .map(|i| [d[i].to_f64(), l[i].to_f64(), t[i].to_f64()])
+                    .collect::<Vec<_>>()
+            })
+        };
+        match (run(kernel), run(baseline)) {
+            (Ok(a), Ok(b)) => {
+                let scale = a.iter().flatten().fold(1e-9f64, |s, f| s.max(f.abs()));
+                for (i, (x, y)) in a.iter().zip(&b).enumerate() {
+                    for (p, q) in x.iter().zip(y) {
+                        finite("a batch's force", *p);
+                        assert!(
+                            (p - q).abs() <= tol * scale,
+                            "leg {}: {x:?} on {:?}, {y:?} on the baseline",
+                            first + i,
+                            kernel.isa()
+                        );
+                    }
+                }
+                Some(a)
+            }
+            (Err(a), Err(b)) => {
+                assert_eq!(
+                    a.index,
+                    b.index,
+                    "{a} on {:?}, {b} on the baseline",
+                    kernel.isa()
+                );
+                assert!(
+                    (first..n).contains(&a.index),
+                    "{a} is not a leg of the batch"
+                );
+                None
+            }
+            (Err(e), _) | (_, Err(e)) => {
+                let leg: Vec<f64> = cols.iter().map(|c| c[e.index].to_f64()).collect();
+                panic!(
+                    "{:?} on {:?}, {:?} on the baseline: leg {} {leg:?} (beta, h, pitch, omega, forward, up, b_k, a)",
+                    run(kernel).err(),
+                    kernel.isa(),
+                    run(baseline).err(),
+                    e.index
+                )
+            }
+        }
+    }
+}

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 /// A target's name and what it runs on an input.
 type Target = (&'static str, fn(&[u8]));
 
-const TARGETS: [Target; 9] = [
+const TARGETS: [Target; 10] = [
     ("node_wire", terzaghi::fuzzing::node_wire),
     ("params", terzaghi::fuzzing::params),
     ("csv_log", terzaghi::fuzzing::csv_log),
@@ -19,6 +19,7 @@ const TARGETS: [Target; 9] = [
     ("medium_file", terzaghi::fuzzing::medium_file),
     ("mcap", terzaghi::fuzzing::mcap),
     ("mesh_file", terzaghi::fuzzing::mesh_file),
+    ("batch_legs", terzaghi::fuzzing::batch_legs),
 ];
 
 fn inputs(dir: &Path) -> Vec<PathBuf> {

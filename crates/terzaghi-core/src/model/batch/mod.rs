@@ -196,6 +196,8 @@ fn inv_sqrt_f64_avx512(v2: &[f64; LANES]) -> [f64; LANES] {
     use std::arch::x86_64::*;
     let mut out = [0.0; LANES];
     let (half, three_halves) = (_mm512_set1_pd(0.5), _mm512_set1_pd(1.5));
+    let min_normal = _mm512_set1_pd(f64::MIN_POSITIVE);
+    let mut tiny = 0u8;
     for k in 0..LANES / 8 {
         // SAFETY: 8 values from a slice of 8.
         let x = unsafe { _mm512_loadu_pd(v2[8 * k..8 * k + 8].as_ptr()) };
@@ -208,10 +210,25 @@ fn inv_sqrt_f64_avx512(v2: &[f64; LANES]) -> [f64; LANES] {
         // Zero (no motion) and what is not positive give 0, as `inv_sqrt_or_zero`.
         let positive = _mm512_cmp_pd_mask::<_CMP_GT_OQ>(x, _mm512_setzero_pd());
         let y = _mm512_maskz_mov_pd(positive, y);
+        tiny |= _mm512_mask_cmp_pd_mask::<_CMP_LT_OQ>(positive, x, min_normal);
         // SAFETY: 8 values into a slice of 8.
         unsafe { _mm512_storeu_pd(out[8 * k..8 * k + 8].as_mut_ptr(), y) };
     }
+    if tiny != 0 {
+        subnormal_inv_sqrt(v2, &mut out);
+    }
     out
+}
+
+/// Every lane of `v2` by division, where one is below the smallest normal number (a speed that
+/// cancels to about 1e-154 m/s, or 1e-19 in `f32`): the estimate reads it as zero, and Newton's
+/// steps make its infinity NaN.
+#[cold]
+#[inline(never)]
+fn subnormal_inv_sqrt<T: Real>(v2: &[T; LANES], out: &mut [T; LANES]) {
+    for (o, &x) in out.iter_mut().zip(v2) {
+        *o = x.inv_sqrt_or_zero();
+    }
 }
 
 /// [`Real::inv_sqrt_avx512`] of `f32`: `vrsqrt14ps` and one Newton step.
@@ -229,8 +246,13 @@ fn inv_sqrt_f32_avx512(v2: &[f32; LANES]) -> [f32; LANES] {
     let y = _mm512_mul_ps(y, _mm512_fnmadd_ps(hx, yy, _mm512_set1_ps(1.5)));
     let positive = _mm512_cmp_ps_mask::<_CMP_GT_OQ>(x, _mm512_setzero_ps());
     let y = _mm512_maskz_mov_ps(positive, y);
+    let tiny =
+        _mm512_mask_cmp_ps_mask::<_CMP_LT_OQ>(positive, x, _mm512_set1_ps(f32::MIN_POSITIVE));
     // SAFETY: 16 values into an array of 16.
     unsafe { _mm512_storeu_ps(out.as_mut_ptr(), y) };
+    if tiny != 0 {
+        subnormal_inv_sqrt(v2, &mut out);
+    }
     out
 }
 
@@ -2437,6 +2459,57 @@ mod tests {
             let e = run(&b_k, &a, first).0.unwrap_err();
             assert_eq!(e.index, 23, "{e}");
             assert!(matches!(e.problem, LegProblem::Overflow { .. }), "{e}");
+        }
+    }
+
+    /// A hip moving at 1e-157 m/s with a leg turning: an RFT plate's padding element, at the
+    /// hip, moves at the hip's speed, whose square is below the smallest normal number. The
+    /// AVX-512 estimate read it as zero and gave NaN for every force (fuzz/regressions).
+    #[test]
+    fn a_speed_whose_square_is_subnormal_gives_the_baselines_forces() {
+        let leg = [
+            -4.0854,
+            0.0567,
+            -0.2427,
+            -5.0201,
+            8.306_867e-158,
+            5.284_598_565_89e-312,
+        ];
+        let cols: Vec<Vec<f64>> = leg.iter().map(|v| vec![*v; 3]).collect();
+        let input = Legs {
+            beta_rad: &cols[0],
+            hip_height_m: &cols[1],
+            pitch_rad: Some(&cols[2]),
+            omega_rad_s: Some(&cols[3]),
+            forward_m_s: Some(&cols[4]),
+            up_m_s: Some(&cols[5]),
+            b_k: None,
+            a: None,
+        };
+        for (name, model) in models() {
+            let run = |isa: Isa| {
+                let kernel = LegKernel::new(model.clone()).on(isa)?;
+                let (mut d, mut l, mut t) = (vec![0.0; 3], vec![0.0; 3], vec![0.0; 3]);
+                let out = LegForcesOut {
+                    drag_n: &mut d,
+                    lift_n: &mut l,
+                    hip_torque_nm: &mut t,
+                };
+                kernel.forces(&input, 0, out).unwrap();
+                Some([d[2], l[2], t[2]])
+            };
+            let want = run(Isa::Baseline).unwrap();
+            assert!(want[1] != 0.0, "{name}: in the medium");
+            for isa in [Isa::Avx2, Isa::Avx512] {
+                if let Some(got) = run(isa) {
+                    for (g, w) in got.iter().zip(want) {
+                        assert!(
+                            (g - w).abs() <= 1e-12,
+                            "{name} on {isa:?}: {got:?}, {want:?}"
+                        );
+                    }
+                }
+            }
         }
     }
 
