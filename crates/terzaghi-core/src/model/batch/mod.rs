@@ -259,6 +259,36 @@ fn inv_sqrt_f32_avx512(v2: &[f32; LANES]) -> [f32; LANES] {
 /// Elements the vector loop takes at once (each of its accumulators is this wide).
 pub const LANES: usize = 16;
 
+/// A function twice: compiled for AVX-512F (`$avx512`, where `RSQRT` is true: AVX-512's
+/// reciprocal square root estimate may be used) and for AVX2 and FMA (`$avx2`, `RSQRT` false),
+/// the same body. Each is safe to call only where the processor has its instructions.
+macro_rules! compiled_for {
+    (
+        $(#[$doc:meta])*
+        fn $avx512:ident / $avx2:ident <$t:ident: $bound:ident>
+        ($($arg:ident: $ty:ty),* $(,)?) -> $ret:ty $body:block
+    ) => {
+        $(#[$doc])*
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx512f")]
+        #[allow(clippy::unused_unit)]
+        fn $avx512<$t: $bound>($($arg: $ty),*) -> $ret {
+            #[allow(dead_code)]
+            const RSQRT: bool = true;
+            $body
+        }
+        $(#[$doc])*
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx2,fma")]
+        #[allow(clippy::unused_unit)]
+        fn $avx2<$t: $bound>($($arg: $ty),*) -> $ret {
+            #[allow(dead_code)]
+            const RSQRT: bool = false;
+            $body
+        }
+    };
+}
+
 /// The sines and cosines of [`LANES`] angles (rad) at once, in vector registers (the kernel's
 /// own, within two units in the last place of `f64::sin_cos`); an angle of `2^20` rad or more,
 /// or one that is no number, by `f64::sin_cos`.
@@ -1176,60 +1206,32 @@ impl LegKernel {
     }
 }
 
-/// [`LegKernel::terzaghi_blocks`] compiled for AVX-512F.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-fn terzaghi_avx512<T: Real>(
-    k: &LegKernel,
-    imp: &Improved,
-    legs: &Legs<'_, T>,
-    first: usize,
-    out: LegForcesOut<'_, T>,
-    per_leg: Option<&TerzaghiModel>,
-) -> Result<(), LegError> {
-    k.terzaghi_run(imp, legs, first, out, per_leg)
+compiled_for! {
+    /// [`LegKernel::terzaghi_blocks`] compiled for the processor's instructions.
+    fn terzaghi_avx512 / terzaghi_avx2 <T: Real>(
+        k: &LegKernel,
+        imp: &Improved,
+        legs: &Legs<'_, T>,
+        first: usize,
+        out: LegForcesOut<'_, T>,
+        per_leg: Option<&TerzaghiModel>,
+    ) -> Result<(), LegError> {
+        k.terzaghi_run(imp, legs, first, out, per_leg)
+    }
 }
 
-/// [`LegKernel::terzaghi_blocks`] compiled for AVX2 and FMA.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-fn terzaghi_avx2<T: Real>(
-    k: &LegKernel,
-    imp: &Improved,
-    legs: &Legs<'_, T>,
-    first: usize,
-    out: LegForcesOut<'_, T>,
-    per_leg: Option<&TerzaghiModel>,
-) -> Result<(), LegError> {
-    k.terzaghi_run(imp, legs, first, out, per_leg)
-}
-
-/// [`LegKernel::profile_blocks`] compiled for AVX-512F.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-fn profile_blocks_avx512<T: Real>(
-    k: &LegKernel,
-    e: &Elements,
-    fit: &Fit,
-    legs: &Legs<'_, T>,
-    first: usize,
-    out: LegForcesOut<'_, T>,
-) -> Result<(), LegError> {
-    k.profile_run(e, fit, legs, first, out)
-}
-
-/// [`LegKernel::profile_blocks`] compiled for AVX2 and FMA.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-fn profile_blocks_avx2<T: Real>(
-    k: &LegKernel,
-    e: &Elements,
-    fit: &Fit,
-    legs: &Legs<'_, T>,
-    first: usize,
-    out: LegForcesOut<'_, T>,
-) -> Result<(), LegError> {
-    k.profile_run(e, fit, legs, first, out)
+compiled_for! {
+    /// [`LegKernel::profile_blocks`] compiled for the processor's instructions.
+    fn profile_blocks_avx512 / profile_blocks_avx2 <T: Real>(
+        k: &LegKernel,
+        e: &Elements,
+        fit: &Fit,
+        legs: &Legs<'_, T>,
+        first: usize,
+        out: LegForcesOut<'_, T>,
+    ) -> Result<(), LegError> {
+        k.profile_run(e, fit, legs, first, out)
+    }
 }
 
 /// Writes `m` legs' forces (drag, lift, torque by lane) at `at` of `out`, in its type; one
@@ -1543,16 +1545,12 @@ impl LaneFrames {
     }
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-fn profile_avx512<T: Real>(soa: &Soa<T>, lanes: &LaneFrames) -> [[f64; LANES]; 3] {
-    profile_lanes::<T, true, true>(soa, lanes)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-fn profile_avx2<T: Real>(soa: &Soa<T>, lanes: &LaneFrames) -> [[f64; LANES]; 3] {
-    profile_lanes::<T, true, false>(soa, lanes)
+compiled_for! {
+    /// [`profile_lanes`] compiled for the processor's instructions (`RSQRT`: AVX-512's
+    /// estimate).
+    fn profile_avx512 / profile_avx2 <T: Real>(soa: &Soa<T>, lanes: &LaneFrames) -> [[f64; LANES]; 3] {
+        profile_lanes::<T, true, RSQRT>(soa, lanes)
+    }
 }
 
 /// A profile's forces on [`LANES`] legs at once, each lane a leg: [`sum_lanes`]'s equations
@@ -1973,16 +1971,16 @@ struct Consts<T> {
     d10: T,
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-fn sum_avx512<T: Real>(soa: &Soa<T>, depth: Option<&[T]>, c: &Consts<T>, h: f64) -> [f64; 3] {
-    sum_lanes::<T, true, true>(soa, depth, c, h)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-fn sum_avx2<T: Real>(soa: &Soa<T>, depth: Option<&[T]>, c: &Consts<T>, h: f64) -> [f64; 3] {
-    sum_lanes::<T, true, false>(soa, depth, c, h)
+compiled_for! {
+    /// [`sum_lanes`] compiled for the processor's instructions (`RSQRT`: AVX-512's estimate).
+    fn sum_avx512 / sum_avx2 <T: Real>(
+        soa: &Soa<T>,
+        depth: Option<&[T]>,
+        c: &Consts<T>,
+        h: f64,
+    ) -> [f64; 3] {
+        sum_lanes::<T, true, RSQRT>(soa, depth, c, h)
+    }
 }
 
 /// The element loop, [`LANES`] elements at a time, each lane its own sums (so that it needs
@@ -2244,32 +2242,19 @@ fn improved_lanes<T: Real>(
     }
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-fn improved_avx512<T: Real>(
-    c: &LaneConsts<T>,
-    ln_a: &[T; LANES],
-    width_b_k_m: &[T; LANES],
-    beta: &[T; LANES],
-    h: &[T; LANES],
-    f: &mut [[T; LANES]; 3],
-    scalar: &mut [bool; LANES],
-) {
-    improved_lanes(c, ln_a, width_b_k_m, beta, h, f, scalar)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-fn improved_avx2<T: Real>(
-    c: &LaneConsts<T>,
-    ln_a: &[T; LANES],
-    width_b_k_m: &[T; LANES],
-    beta: &[T; LANES],
-    h: &[T; LANES],
-    f: &mut [[T; LANES]; 3],
-    scalar: &mut [bool; LANES],
-) {
-    improved_lanes(c, ln_a, width_b_k_m, beta, h, f, scalar)
+compiled_for! {
+    /// [`improved_lanes`] compiled for the processor's instructions.
+    fn improved_avx512 / improved_avx2 <T: Real>(
+        c: &LaneConsts<T>,
+        ln_a: &[T; LANES],
+        width_b_k_m: &[T; LANES],
+        beta: &[T; LANES],
+        h: &[T; LANES],
+        f: &mut [[T; LANES]; 3],
+        scalar: &mut [bool; LANES],
+    ) -> () {
+        improved_lanes(c, ln_a, width_b_k_m, beta, h, f, scalar)
+    }
 }
 
 #[cfg(test)]
