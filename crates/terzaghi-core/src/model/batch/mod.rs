@@ -859,9 +859,8 @@ impl LegKernel {
             unreachable!("a Terzaghi plan is a Terzaghi model's")
         };
         let (mut f, mut scalar) = ([[T::ZERO; LANES]; 3], [false; LANES]);
-        let lanes = |a: &[T; PACK]| -> [T; LANES] { std::array::from_fn(|l| a[l]) };
-        let (ln_a, width_b_k_m) = (lanes(&p.ln_a), lanes(&p.width_b_k_m));
-        let (beta, clamped) = (lanes(&p.beta), lanes(&p.clamped));
+        let (ln_a, width_b_k_m) = (first_lanes(&p.ln_a), first_lanes(&p.width_b_k_m));
+        let (beta, clamped) = (first_lanes(&p.beta), first_lanes(&p.clamped));
         match self.isa {
             #[cfg(target_arch = "x86_64")]
             // SAFETY: the kernel's ISA is one the processor has (`LegKernel::on`).
@@ -1330,7 +1329,7 @@ const PACK: usize = 2 * LANES;
 
 /// The first [`LANES`] of `a`.
 #[inline(always)]
-fn first_lanes(a: &[f64; PACK]) -> [f64; LANES] {
+fn first_lanes<T: Copy>(a: &[T; PACK]) -> [T; LANES] {
     std::array::from_fn(|l| a[l])
 }
 
@@ -1653,10 +1652,7 @@ fn profile_lanes<T: Real, const FMA: bool, const RSQRT: bool>(
 /// one load of known size).
 #[inline(always)]
 fn read<T: Real>(from: &[T], first: usize, m: usize, pad: f64) -> [f64; LANES] {
-    match <&[T; LANES]>::try_from(&from[first..first + m]) {
-        Ok(whole) => whole.map(T::to_f64),
-        Err(_) => std::array::from_fn(|l| if l < m { from[first + l].to_f64() } else { pad }),
-    }
+    read_as(from, first, m, T::of(pad)).map(T::to_f64)
 }
 
 /// Up to [`LANES`] legs' inputs, checked finite, as `f64`; past the legs, one pointing up.
@@ -1730,18 +1726,9 @@ impl Block {
             turned |= !(0.0..std::f64::consts::TAU).contains(&b);
         }
         if turned {
-            Block::wrap(&mut self.beta[..m]);
+            wrap_lanes(&mut self.beta[..m]);
         }
         Ok(())
-    }
-
-    /// Wraps the angles beyond a turn.
-    #[cold]
-    #[inline(never)]
-    fn wrap(beta: &mut [f64]) {
-        for b in beta {
-            *b = wrap_beta_rad(*b);
-        }
     }
 
     /// The error of the first non-finite input among legs `first..first + m`.
