@@ -3,13 +3,14 @@
 //!
 //! [`LegKernel::forces`] evaluates what [`ForceModel::predict_moving`] gives for each leg
 //! (equal to rounding: to about 1e-15 of the largest element's force in `f64`), without
-//! building a [`super::Prediction`] per leg. RFT of a plate or a profile (a C-leg) with the
-//! fitted coefficients, its planar motion, and a law in depth if the medium has one, is
-//! integrated by its own loop over the leg's elements, eight or sixteen at once in the
-//! processor's vector registers; a leg whose hip is above the reach of its elements costs a
-//! comparison. In `f32` that loop runs in `f32` (twice the lanes; the rest of a leg in `f64`).
-//! Every other model (the Terzaghi models, sinkage, bodies, RFT's measured grid or speed law)
-//! goes through [`ForceModel::predict_moving`] leg by leg.
+//! building a [`super::Prediction`] per leg, [`LANES`] legs at a time in the processor's vector
+//! registers, in the batch's type. The legs that cannot reach the medium are zero without a
+//! sum; the others are packed into the lanes. The Terzaghi models (one medium, or a fitting
+//! width per leg) evaluate their equations in the lanes; RFT of a profile (a C-leg) with the
+//! fitted coefficients sums each lane's leg's elements in order; RFT of a flat plate, or with a
+//! law in depth, integrates each leg's elements sixteen at once. Every other model (sinkage,
+//! bodies, RFT's measured grid or speed law) goes through [`ForceModel::predict_moving`] leg
+//! by leg.
 
 mod vmath;
 
@@ -56,13 +57,20 @@ pub trait Real:
     fn sin_cos_lanes(x: &[Self; LANES]) -> ([Self; LANES], [Self; LANES]);
     /// `exp` of every lane in this type (`|x| <=` [`Real::EXP_REACH`]).
     fn exp_lanes(x: &[Self; LANES]) -> [Self; LANES];
-    /// Stores the lanes of `src` that `bits` marks, in order, at `dst[p..]` (what follows them,
-    /// to at most `p + LANES`, is overwritten).
+    /// Stores the lanes of `src` that `bits` marks, in order, at the front of `dst` (the rest
+    /// of `dst` is overwritten).
     ///
     /// # Safety
-    /// The processor has AVX-512F, and `p < LANES`.
+    /// The processor has AVX-512F.
     #[cfg(target_arch = "x86_64")]
-    unsafe fn compress_avx512(bits: u16, src: &[Self; LANES], dst: &mut [Self; PACK], p: usize);
+    unsafe fn compress_avx512(bits: u16, src: &[Self; LANES], dst: &mut [Self; LANES]);
+    /// The lanes that `bits` marks from `src`'s front, in order; the others zero (the inverse
+    /// of [`Real::compress_avx512`]).
+    ///
+    /// # Safety
+    /// The processor has AVX-512F.
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn expand_avx512(bits: u16, src: &[Self; LANES]) -> [Self; LANES];
     /// [`Real::inv_sqrt_or_zero`] of every lane, by the processor's reciprocal square root
     /// estimate and Newton's steps to the type's precision (a few units in the last place).
     ///
@@ -73,7 +81,7 @@ pub trait Real:
 }
 
 macro_rules! real {
-    ($t:ty, $max:expr, $min:expr, $field:ident, $inv:ident, $sin_cos:path, $exp:path, $reach:expr, $compress:ident) => {
+    ($t:ty, $max:expr, $min:expr, $field:ident, $inv:ident, $sin_cos:path, $exp:path, $reach:expr, $compress:ident, $expand:ident) => {
         impl Real for $t {
             const ZERO: Self = 0.0;
             const MAX_SPEED_SCALE: f64 = $max;
@@ -93,14 +101,15 @@ macro_rules! real {
             }
             #[cfg(target_arch = "x86_64")]
             #[inline(always)]
-            unsafe fn compress_avx512(
-                bits: u16,
-                src: &[Self; LANES],
-                dst: &mut [Self; PACK],
-                p: usize,
-            ) {
+            unsafe fn compress_avx512(bits: u16, src: &[Self; LANES], dst: &mut [Self; LANES]) {
                 // SAFETY: the caller's promise.
-                unsafe { $compress(bits, src, dst, p) }
+                unsafe { $compress(bits, src, dst) }
+            }
+            #[cfg(target_arch = "x86_64")]
+            #[inline(always)]
+            unsafe fn expand_avx512(bits: u16, src: &[Self; LANES]) -> [Self; LANES] {
+                // SAFETY: the caller's promise.
+                unsafe { $expand(bits, src) }
             }
             #[inline(always)]
             fn of(x: f64) -> Self {
@@ -140,7 +149,8 @@ real!(
     vmath::sin_cos,
     vmath::exp,
     700.0,
-    compress_f64_avx512
+    compress_f64_avx512,
+    expand_f64_avx512
 );
 real!(
     f32,
@@ -151,41 +161,77 @@ real!(
     vmath::sin_cos_f32,
     vmath::exp_f32,
     80.0,
-    compress_f32_avx512
+    compress_f32_avx512,
+    expand_f32_avx512
 );
 
 /// [`Real::compress_avx512`] of `f64`: two registers of eight.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
 #[inline]
-fn compress_f64_avx512(bits: u16, src: &[f64; LANES], dst: &mut [f64; PACK], p: usize) {
+fn compress_f64_avx512(bits: u16, src: &[f64; LANES], dst: &mut [f64; LANES]) {
     use std::arch::x86_64::*;
     let (lo, hi) = (bits as u8, (bits >> 8) as u8);
-    let mid = p + lo.count_ones() as usize;
-    // SAFETY: 8 lanes read from each half of `src`; 8 stored from `p` and from `mid`, where
-    // `p < 16` (the caller's promise) and `mid <= p + 8 < 24`: each store ends within `PACK`.
-    // Compressed in registers and stored whole: a compressing store to memory is slow.
+    let mid = lo.count_ones() as usize;
+    // SAFETY: 8 lanes read from each half of `src`; 8 stored from 0 and from `mid <= 8`: each
+    // store ends within `dst`. Compressed in registers and stored whole (a compressing store
+    // to memory is slow); the second store overwrites the first's zeros past `mid`.
     unsafe {
         let d = dst.as_mut_ptr();
         let a = _mm512_maskz_compress_pd(lo, _mm512_loadu_pd(src.as_ptr()));
         let b = _mm512_maskz_compress_pd(hi, _mm512_loadu_pd(src.as_ptr().add(8)));
-        _mm512_storeu_pd(d.add(p), a);
+        _mm512_storeu_pd(d, a);
         _mm512_storeu_pd(d.add(mid), b);
     }
+}
+
+/// [`Real::expand_avx512`] of `f64`: two registers of eight.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+fn expand_f64_avx512(bits: u16, src: &[f64; LANES]) -> [f64; LANES] {
+    use std::arch::x86_64::*;
+    let (lo, hi) = (bits as u8, (bits >> 8) as u8);
+    let mid = lo.count_ones() as usize;
+    let mut out = [0.0; LANES];
+    // SAFETY: 8 read from 0 and from `mid <= 8` of `src`'s 16, 8 stored into each half of
+    // `out`.
+    unsafe {
+        let s = src.as_ptr();
+        let a = _mm512_maskz_expand_pd(lo, _mm512_loadu_pd(s));
+        let b = _mm512_maskz_expand_pd(hi, _mm512_loadu_pd(s.add(mid)));
+        _mm512_storeu_pd(out.as_mut_ptr(), a);
+        _mm512_storeu_pd(out.as_mut_ptr().add(8), b);
+    }
+    out
 }
 
 /// [`Real::compress_avx512`] of `f32`: one register of sixteen.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
 #[inline]
-fn compress_f32_avx512(bits: u16, src: &[f32; LANES], dst: &mut [f32; PACK], p: usize) {
+fn compress_f32_avx512(bits: u16, src: &[f32; LANES], dst: &mut [f32; LANES]) {
     use std::arch::x86_64::*;
-    // SAFETY: 16 lanes read from `src`, 16 stored from `p < 16` (the caller's promise): the
-    // store ends within `PACK`.
+    // SAFETY: 16 lanes read from `src`, 16 stored into `dst`.
     unsafe {
         let a = _mm512_maskz_compress_ps(bits, _mm512_loadu_ps(src.as_ptr()));
-        _mm512_storeu_ps(dst.as_mut_ptr().add(p), a);
+        _mm512_storeu_ps(dst.as_mut_ptr(), a);
     }
+}
+
+/// [`Real::expand_avx512`] of `f32`: one register of sixteen.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+fn expand_f32_avx512(bits: u16, src: &[f32; LANES]) -> [f32; LANES] {
+    use std::arch::x86_64::*;
+    let mut out = [0.0; LANES];
+    // SAFETY: 16 lanes read from `src`, 16 stored into `out`.
+    unsafe {
+        let a = _mm512_maskz_expand_ps(bits, _mm512_loadu_ps(src.as_ptr()));
+        _mm512_storeu_ps(out.as_mut_ptr(), a);
+    }
+    out
 }
 
 /// [`Real::inv_sqrt_avx512`] of `f64`: `vrsqrt14pd` (14 bits) and two Newton steps.
@@ -270,7 +316,7 @@ macro_rules! compiled_for {
     ) => {
         $(#[$doc])*
         #[cfg(target_arch = "x86_64")]
-        #[target_feature(enable = "avx512f")]
+        #[target_feature(enable = "avx512f,popcnt")]
         #[allow(clippy::unused_unit)]
         fn $avx512<$t: $bound>($($arg: $ty),*) -> $ret {
             #[allow(dead_code)]
@@ -279,7 +325,7 @@ macro_rules! compiled_for {
         }
         $(#[$doc])*
         #[cfg(target_arch = "x86_64")]
-        #[target_feature(enable = "avx2,fma")]
+        #[target_feature(enable = "avx2,fma,popcnt")]
         #[allow(clippy::unused_unit)]
         fn $avx2<$t: $bound>($($arg: $ty),*) -> $ret {
             #[allow(dead_code)]
@@ -723,159 +769,192 @@ impl LegKernel {
         }
     }
 
-    /// [`Self::terzaghi_blocks`]' loop, in the batch's type.
+    /// [`Self::terzaghi_blocks`]' loop, in the batch's type, [`SPAN`] legs at a time in three
+    /// passes: each block of [`LANES`] legs read, checked and its legs that may reach the
+    /// medium packed to the span's front (each block's marked by a bit); the packed legs
+    /// evaluated [`LANES`] at a time; each block's forces expanded back to its legs' places,
+    /// zero where no leg was packed. Nothing is read back soon after it is stored in parts,
+    /// and nothing is scattered leg by leg.
     #[inline(always)]
     fn terzaghi_run<T: Real>(
         &self,
         imp: &Improved,
         legs: &Legs<'_, T>,
         first: usize,
-        mut out: LegForcesOut<'_, T>,
+        out: LegForcesOut<'_, T>,
         per_leg: Option<&TerzaghiModel>,
     ) -> Result<(), LegError> {
         let n = out.drag_n.len();
         let c = LaneConsts::<T>::of(imp);
-        let mut packed = Packed::<T>::new(imp);
+        // The packed legs' columns (angle, clamped height, `ln a`, `width b_k`), the forces
+        // they give, and each block's bits; a block's packing may write a whole window.
+        let mut cols = [[T::ZERO; SPAN + LANES]; 4];
+        let mut f = [[T::ZERO; SPAN + LANES]; 3];
+        let mut keeps = [0u16; SPAN / LANES];
         let (mut ln_a, mut width_b_k_m) = ([c.ln_a; LANES], [c.width_b_k_m; LANES]);
         // The last leg's `a` and its logarithm: an environment's legs share a medium.
         let mut last_a = (f64::NAN, c.ln_a);
-        for start in (0..n).step_by(LANES) {
-            let m = LANES.min(n - start);
-            let at = first + start;
-            // Read, and checked all at once: `0 x` is 0 for a number and NaN for anything
-            // else, and so is their sum (a loop without a branch).
-            let beta_given = read_as(legs.beta_rad, at, m, T::of(4.0));
-            let h = read_as(legs.hip_height_m, at, m, T::ZERO);
-            let given =
-                |from: Option<&[T]>| from.map_or([T::ZERO; LANES], |v| read_as(v, at, m, T::ZERO));
-            let pitch = given(legs.pitch_rad);
-            // Not the model's, but checked as every batch checks them.
-            let (omega, forward, up) = (
-                given(legs.omega_rad_s),
-                given(legs.forward_m_s),
-                given(legs.up_m_s),
-            );
-            let mut finite = true;
-            for l in 0..LANES {
-                let z = T::ZERO;
-                let c = beta_given[l] * z + h[l] * z + pitch[l] * z;
-                finite &= c + omega[l] * z + forward[l] * z + up[l] * z == z;
-            }
-            if !finite {
-                return Err(Block::first_not_finite(legs, at, m));
-            }
-            if let Some(own) = per_leg {
-                // Every leg's width is checked, in the medium or not.
-                for l in 0..m {
-                    let w = leg_width(own, legs, at + l).map_err(|e| LegError {
-                        index: at + l,
-                        problem: e.into(),
-                    })?;
-                    if w.a() != last_a.0 {
-                        last_a = (w.a(), T::of(w.a().ln()));
+        for span in (0..n).step_by(SPAN) {
+            let span_n = SPAN.min(n - span);
+            let mut p = 0;
+            for (b, start) in (span..span + span_n).step_by(LANES).enumerate() {
+                let m = LANES.min(n - start);
+                let at = first + start;
+                // Read, and checked all at once: `0 x` is 0 for a number and NaN for
+                // anything else, and so is their sum (a loop without a branch).
+                let beta_given = read_as(legs.beta_rad, at, m, T::of(4.0));
+                let h = read_as(legs.hip_height_m, at, m, T::ZERO);
+                let given = |from: Option<&[T]>| {
+                    from.map_or([T::ZERO; LANES], |v| read_as(v, at, m, T::ZERO))
+                };
+                let pitch = given(legs.pitch_rad);
+                // Not the model's, but checked as every batch checks them.
+                let (omega, forward, up) = (
+                    given(legs.omega_rad_s),
+                    given(legs.forward_m_s),
+                    given(legs.up_m_s),
+                );
+                let mut finite = true;
+                for l in 0..LANES {
+                    let z = T::ZERO;
+                    let c = beta_given[l] * z + h[l] * z + pitch[l] * z;
+                    finite &= c + omega[l] * z + forward[l] * z + up[l] * z == z;
+                }
+                if !finite {
+                    return Err(Block::first_not_finite(legs, at, m));
+                }
+                if let Some(own) = per_leg {
+                    // Every leg's width is checked, in the medium or not.
+                    for l in 0..m {
+                        let w = leg_width(own, legs, at + l).map_err(|e| LegError {
+                            index: at + l,
+                            problem: e.into(),
+                        })?;
+                        if w.a() != last_a.0 {
+                            last_a = (w.a(), T::of(w.a().ln()));
+                        }
+                        ln_a[l] = last_a.1;
+                        width_b_k_m[l] = T::of(imp.width_m * w.b_k());
                     }
-                    ln_a[l] = last_a.1;
-                    width_b_k_m[l] = T::of(imp.width_m * w.b_k());
+                }
+                // Added in the lanes; an angle beyond a turn wrapped by a call of its own
+                // (where it is inlined, the lanes compute every branch of `wrap_beta_rad`, its
+                // `fmod` too).
+                // (Loops, not `from_fn` or `map`: those are not always inlined, and out of line
+                // they are compiled without the kernel's instructions.)
+                let mut beta = [T::ZERO; LANES];
+                for l in 0..LANES {
+                    beta[l] = beta_given[l] + pitch[l];
+                }
+                let turned = beta
+                    .iter()
+                    .fold(false, |a, b| a | !(*b >= T::ZERO && *b < c.tau));
+                if turned {
+                    // In a copy: `beta` itself stays in registers.
+                    let mut wrapped = beta;
+                    wrap_lanes(&mut wrapped[..m]);
+                    beta = wrapped;
+                }
+                // A plate pointing up (sine not positive), or a hip at or above its length
+                // (`length - h / sin` not positive), has nothing in the medium.
+                let (mut reaches, mut clamped) = ([false; LANES], [T::ZERO; LANES]);
+                for l in 0..LANES {
+                    reaches[l] = (beta[l] > T::ZERO) & (beta[l] <= c.pi) & (h[l] < c.length_m);
+                    clamped[l] = if h[l] > T::ZERO { h[l] } else { T::ZERO };
+                }
+                let keep = bits_of(&reaches) & first_lanes_mask(m);
+                keeps[b] = keep;
+                let [c_beta, c_clamped, c_ln_a, c_width] = &mut cols;
+                compress(self.isa, keep, &beta, window(c_beta, p));
+                compress(self.isa, keep, &clamped, window(c_clamped, p));
+                if per_leg.is_some() {
+                    compress(self.isa, keep, &ln_a, window(c_ln_a, p));
+                    compress(self.isa, keep, &width_b_k_m, window(c_width, p));
+                }
+                p += keep.count_ones() as usize;
+            }
+            // Past the packed legs: pointing up, out of the medium.
+            window(&mut cols[0], p).fill(T::of(4.0));
+            window(&mut cols[1], p).fill(T::ZERO);
+            for q in (0..p).step_by(LANES) {
+                let lanes = |k: usize| lanes_at(&cols[k], q);
+                let (beta, clamped) = (lanes(0), lanes(1));
+                let (ln_a, width_b_k_m) = if per_leg.is_some() {
+                    (lanes(2), lanes(3))
+                } else {
+                    ([c.ln_a; LANES], [c.width_b_k_m; LANES])
+                };
+                let leg = |l: usize| span + packed_leg(&keeps, q + l);
+                let g = self.terzaghi_lanes(
+                    &c,
+                    legs,
+                    per_leg,
+                    [&ln_a, &width_b_k_m, &beta, &clamped],
+                    LANES.min(p - q),
+                    leg,
+                    first,
+                )?;
+                for (k, g) in g.iter().enumerate() {
+                    *window(&mut f[k], q) = *g;
                 }
             }
-            for o in [&mut *out.drag_n, &mut *out.lift_n, &mut *out.hip_torque_nm] {
-                zero(&mut o[start..start + m]);
+            // Each block's forces back to its legs' places.
+            let mut p = 0;
+            let mut outs = [&mut *out.drag_n, &mut *out.lift_n, &mut *out.hip_torque_nm];
+            for (b, start) in (span..span + span_n).step_by(LANES).enumerate() {
+                let m = LANES.min(n - start);
+                for (o, f) in outs.iter_mut().zip(&f) {
+                    let x = expand(self.isa, keeps[b], window_of(f, p));
+                    if let Ok(whole) = <&mut [T; LANES]>::try_from(&mut o[start..start + m]) {
+                        *whole = x;
+                    } else {
+                        o[start..start + m].copy_from_slice(&x[..m]);
+                    }
+                }
+                p += keeps[b].count_ones() as usize;
             }
-            // Added in the lanes; an angle beyond a turn wrapped by a call of its own (where
-            // it is inlined, the lanes compute every branch of `wrap_beta_rad`, its `fmod`
-            // too).
-            let mut beta: [T; LANES] = std::array::from_fn(|l| beta_given[l] + pitch[l]);
-            let turned = beta
-                .iter()
-                .fold(false, |a, b| a | !(*b >= T::ZERO && *b < c.tau));
-            if turned {
-                wrap_lanes(&mut beta[..m]);
-            }
-            // A plate pointing up (sine not positive), or a hip at or above its length
-            // (`length - h / sin` not positive), has nothing in the medium.
-            let mut keep = 0u16;
-            for l in 0..LANES {
-                let b = beta[l];
-                keep |= u16::from((b > T::ZERO) & (b <= c.pi) & (h[l] < c.length_m)) << l;
-            }
-            keep &= first_lanes_mask(m);
-            let clamped = h.map(|h| if h > T::ZERO { h } else { T::ZERO });
-            let q = &mut packed;
-            q.m = if per_leg.is_some() {
-                pack(
-                    self.isa,
-                    keep,
-                    start,
-                    q.m,
-                    &mut q.at,
-                    [
-                        (&beta, &mut q.beta),
-                        (&clamped, &mut q.clamped),
-                        (&ln_a, &mut q.ln_a),
-                        (&width_b_k_m, &mut q.width_b_k_m),
-                    ],
-                )
-            } else {
-                pack(
-                    self.isa,
-                    keep,
-                    start,
-                    q.m,
-                    &mut q.at,
-                    [(&beta, &mut q.beta), (&clamped, &mut q.clamped)],
-                )
-            };
-            if packed.m >= LANES {
-                self.terzaghi_packed(&c, legs, per_leg, &packed, LANES, first, &mut out)?;
-                packed.shift();
-            }
-        }
-        let m = packed.m;
-        if m > 0 {
-            // Past the legs: pointing up, out of the medium.
-            packed.beta[m..LANES].fill(T::of(4.0));
-            packed.clamped[m..LANES].fill(T::ZERO);
-            self.terzaghi_packed(&c, legs, per_leg, &packed, m, first, &mut out)?;
         }
         Ok(())
     }
 
-    /// The forces of the first `m` of `packed`'s legs into `out` (its first [`LANES`] lanes
-    /// evaluated); a lane the lanes cannot take by
-    /// [`super::TerzaghiModel::evaluate_at_height`], from the leg's inputs as given.
+    /// The forces of `lanes` (`ln a`, `width b_k`, the wrapped angle and the clamped hip
+    /// height), the first `m` of them legs, each the leg `leg(lane)` of the outputs; a lane
+    /// the lanes cannot take by [`super::TerzaghiModel::evaluate_at_height`], from the leg's
+    /// inputs as given. Every value returned for the first `m` lanes is a number.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    fn terzaghi_packed<T: Real>(
+    fn terzaghi_lanes<T: Real>(
         &self,
         c: &LaneConsts<T>,
         legs: &Legs<'_, T>,
         per_leg: Option<&TerzaghiModel>,
-        p: &Packed<T>,
+        [ln_a, width_b_k_m, beta, clamped]: [&[T; LANES]; 4],
         m: usize,
+        leg: impl Fn(usize) -> usize,
         first: usize,
-        out: &mut LegForcesOut<'_, T>,
-    ) -> Result<(), LegError> {
+    ) -> Result<[[T; LANES]; 3], LegError> {
         let ForceModel::Terzaghi(model) = &self.model else {
             unreachable!("a Terzaghi plan is a Terzaghi model's")
         };
         let (mut f, mut scalar) = ([[T::ZERO; LANES]; 3], [false; LANES]);
-        let (ln_a, width_b_k_m) = (first_lanes(&p.ln_a), first_lanes(&p.width_b_k_m));
-        let (beta, clamped) = (first_lanes(&p.beta), first_lanes(&p.clamped));
         match self.isa {
             #[cfg(target_arch = "x86_64")]
             // SAFETY: the kernel's ISA is one the processor has (`LegKernel::on`).
             Isa::Avx512 => unsafe {
-                improved_avx512(c, &ln_a, &width_b_k_m, &beta, &clamped, &mut f, &mut scalar)
+                improved_avx512(c, ln_a, width_b_k_m, beta, clamped, &mut f, &mut scalar)
             },
             #[cfg(target_arch = "x86_64")]
             // SAFETY: as above.
             Isa::Avx2 => unsafe {
-                improved_avx2(c, &ln_a, &width_b_k_m, &beta, &clamped, &mut f, &mut scalar)
+                improved_avx2(c, ln_a, width_b_k_m, beta, clamped, &mut f, &mut scalar)
             },
-            _ => improved_lanes(c, &ln_a, &width_b_k_m, &beta, &clamped, &mut f, &mut scalar),
+            _ => improved_lanes(c, ln_a, width_b_k_m, beta, clamped, &mut f, &mut scalar),
         }
-        for l in (0..m).filter(|&l| scalar[l]) {
-            let i = first + p.at[l];
+        let mut scalar = bits_of(&scalar) & first_lanes_mask(m);
+        while scalar != 0 {
+            let l = scalar.trailing_zeros() as usize;
+            scalar &= scalar - 1;
+            let i = first + leg(l);
             let fail = |e: ModelError| LegError {
                 index: i,
                 problem: e.into(),
@@ -910,13 +989,7 @@ impl LegKernel {
                 f[k][l] = T::of(v);
             }
         }
-        // Every value is a number: the lanes' are checked, the others just above.
-        for (l, &k) in p.at[..m].iter().enumerate() {
-            out.drag_n[k] = f[0][l];
-            out.lift_n[k] = f[1][l];
-            out.hip_torque_nm[k] = f[2][l];
-        }
-        Ok(())
+        Ok(f)
     }
 
     /// [`Self::forces`] of a profile's legs (RFT with the fitted coefficients, no law in
@@ -1333,6 +1406,275 @@ fn first_lanes<T: Copy>(a: &[T; PACK]) -> [T; LANES] {
     std::array::from_fn(|l| a[l])
 }
 
+/// The [`LANES`] of `a` from `p`.
+///
+/// # Panics
+/// If `a` has fewer than `p + LANES`.
+#[inline(always)]
+fn window<T>(a: &mut [T], p: usize) -> &mut [T; LANES] {
+    (&mut a[p..p + LANES])
+        .try_into()
+        .expect("a window of LANES")
+}
+
+/// The [`LANES`] of `a` from `p` (a load of known size).
+///
+/// # Panics
+/// If `a` has fewer than `p + LANES`.
+#[inline(always)]
+fn lanes_at<T: Copy>(a: &[T], p: usize) -> [T; LANES] {
+    *<&[T; LANES]>::try_from(&a[p..p + LANES]).expect("a window of LANES")
+}
+
+/// The [`LANES`] of `a` from `p`, in place (read where they are: a copy of them, then a
+/// load across its parts, would stall).
+///
+/// # Panics
+/// If `a` has fewer than `p + LANES`.
+#[inline(always)]
+fn window_of<T>(a: &[T], p: usize) -> &[T; LANES] {
+    (&a[p..p + LANES]).try_into().expect("a window of LANES")
+}
+
+/// Legs a Terzaghi batch takes at once in [`LegKernel::terzaghi_run`]'s passes: their packed
+/// columns and forces stay in the first level of cache.
+const SPAN: usize = 256;
+
+/// The lanes `bits` marks of `src`, in order, at the front of `dst` (the rest overwritten).
+#[inline(always)]
+fn compress<T: Real>(isa: Isa, bits: u16, src: &[T; LANES], dst: &mut [T; LANES]) {
+    #[cfg(target_arch = "x86_64")]
+    if isa == Isa::Avx512 {
+        // SAFETY: the kernel's ISA is one the processor has (`LegKernel::on`).
+        return unsafe { T::compress_avx512(bits, src, dst) };
+    }
+    #[cfg(target_arch = "x86_64")]
+    if isa == Isa::Avx2 {
+        // SAFETY: as above.
+        return unsafe { compress_avx2(bits, src, dst) };
+    }
+    let _ = isa;
+    // Every lane written to the next place, the place kept only for a lane marked (no
+    // branch to mispredict).
+    let mut q = 0;
+    for (l, &x) in src.iter().enumerate() {
+        dst[q] = x;
+        q += usize::from(bits >> l & 1 == 1);
+        q = q.min(LANES - 1);
+    }
+}
+
+/// [`compress`]' inverse: the lanes `bits` marks taken from `src`'s front, in order; the
+/// others zero.
+#[inline(always)]
+fn expand<T: Real>(isa: Isa, bits: u16, src: &[T; LANES]) -> [T; LANES] {
+    #[cfg(target_arch = "x86_64")]
+    if isa == Isa::Avx512 {
+        // SAFETY: the kernel's ISA is one the processor has (`LegKernel::on`).
+        return unsafe { T::expand_avx512(bits, src) };
+    }
+    #[cfg(target_arch = "x86_64")]
+    if isa == Isa::Avx2 {
+        // SAFETY: as above.
+        return unsafe { expand_avx2(bits, src) };
+    }
+    let _ = isa;
+    let (mut out, mut q) = ([T::ZERO; LANES], 0);
+    for (l, o) in out.iter_mut().enumerate() {
+        let marked = bits >> l & 1 == 1;
+        *o = if marked {
+            src[q.min(LANES - 1)]
+        } else {
+            T::ZERO
+        };
+        q += usize::from(marked);
+    }
+    out
+}
+
+/// For each mask of a group of `G` lanes (`N = 2^G` masks) of `8 / G` words each: the source
+/// word of each word of the group's compress (the marked lanes in order, then lane 0).
+const fn compress_words<const G: usize, const N: usize>() -> [[u8; 8]; N] {
+    let w = 8 / G;
+    let mut t = [[0u8; 8]; N];
+    let mut m = 0;
+    while m < N {
+        let (mut j, mut l) = (0, 0);
+        while l < G {
+            if m >> l & 1 == 1 {
+                let mut k = 0;
+                while k < w {
+                    t[m][j * w + k] = (l * w + k) as u8;
+                    k += 1;
+                }
+                j += 1;
+            }
+            l += 1;
+        }
+        m += 1;
+    }
+    t
+}
+
+/// [`compress_words`]' inverse: the source word of each word of the group's expand (a marked
+/// lane takes the next of the packed lanes; an unmarked one word 0, zeroed after).
+const fn expand_words<const G: usize, const N: usize>() -> [[u8; 8]; N] {
+    let w = 8 / G;
+    let mut t = [[0u8; 8]; N];
+    let mut m = 0;
+    while m < N {
+        let (mut j, mut l) = (0, 0);
+        while l < G {
+            if m >> l & 1 == 1 {
+                let mut k = 0;
+                while k < w {
+                    t[m][l * w + k] = (j * w + k) as u8;
+                    k += 1;
+                }
+                j += 1;
+            }
+            l += 1;
+        }
+        m += 1;
+    }
+    t
+}
+
+/// The words of a compress or an expand of eight `f32` lanes, and of four `f64` lanes.
+static COMPRESS_8: [[u8; 8]; 256] = compress_words::<8, 256>();
+static EXPAND_8: [[u8; 8]; 256] = expand_words::<8, 256>();
+static COMPRESS_4: [[u8; 8]; 16] = compress_words::<4, 16>();
+static EXPAND_4: [[u8; 8]; 16] = expand_words::<4, 16>();
+
+/// A group's word indices for `_mm256_permutevar8x32_ps`, and the lanes per group.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn group_words<T>(compress: bool, m: usize) -> (&'static [u8; 8], usize) {
+    match (std::mem::size_of::<T>(), compress) {
+        (4, true) => (&COMPRESS_8[m], 8),
+        (4, false) => (&EXPAND_8[m], 8),
+        (_, true) => (&COMPRESS_4[m], 4),
+        (_, false) => (&EXPAND_4[m], 4),
+    }
+}
+
+/// [`compress`] on AVX2: a group of lanes (eight `f32`, four `f64`) at a time, permuted by a
+/// table and stored whole where the previous group's marked lanes end (over its others).
+///
+/// # Safety
+/// The processor has AVX2, and `T` is `f32` or `f64`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,popcnt")]
+#[inline]
+fn compress_avx2<T: Real>(bits: u16, src: &[T; LANES], dst: &mut [T; LANES]) {
+    use std::arch::x86_64::*;
+    let g = group_words::<T>(true, 0).1;
+    let mut pos = 0;
+    for k in 0..LANES / g {
+        let m = (bits as usize >> (k * g)) & ((1 << g) - 1);
+        let (words, _) = group_words::<T>(true, m);
+        // SAFETY: a group of 32 bytes read from lane `k g` of `src` and stored from lane
+        // `pos <= k g` of `dst` (no more lanes are marked before it than there are): each ends
+        // within its array of `LANES`; the table's row is 8 bytes.
+        unsafe {
+            let v = _mm256_loadu_ps(src.as_ptr().add(k * g).cast());
+            let idx = _mm256_cvtepu8_epi32(_mm_loadl_epi64(words.as_ptr().cast()));
+            _mm256_storeu_ps(
+                dst.as_mut_ptr().add(pos).cast(),
+                _mm256_permutevar8x32_ps(v, idx),
+            );
+        }
+        pos += m.count_ones() as usize;
+    }
+}
+
+/// [`expand`] on AVX2: a group of lanes at a time, read from where the previous group's marked
+/// lanes end, permuted by a table, the unmarked lanes zeroed.
+///
+/// # Safety
+/// The processor has AVX2, and `T` is `f32` or `f64`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,popcnt")]
+#[inline]
+fn expand_avx2<T: Real>(bits: u16, src: &[T; LANES]) -> [T; LANES] {
+    use std::arch::x86_64::*;
+    let g = group_words::<T>(false, 0).1;
+    let w = 8 / g;
+    let mut out = [T::ZERO; LANES];
+    let mut pos = 0;
+    // Each word's lane's bit within its group.
+    let lane_bit = _mm256_setr_epi32(
+        1,
+        1 << (1 / w),
+        1 << (2 / w),
+        1 << (3 / w),
+        1 << (4 / w),
+        1 << (5 / w),
+        1 << (6 / w),
+        1 << (7 / w),
+    );
+    for k in 0..LANES / g {
+        let m = (bits as usize >> (k * g)) & ((1 << g) - 1);
+        let (words, _) = group_words::<T>(false, m);
+        // SAFETY: 32 bytes read from lane `pos <= k g` of `src` and stored at lane `k g` of
+        // `out`: each ends within its array of `LANES`; the table's row is 8 bytes.
+        unsafe {
+            let v = _mm256_loadu_ps(src.as_ptr().add(pos).cast());
+            let idx = _mm256_cvtepu8_epi32(_mm_loadl_epi64(words.as_ptr().cast()));
+            let marked = _mm256_cmpeq_epi32(
+                _mm256_and_si256(_mm256_set1_epi32(m as i32), lane_bit),
+                lane_bit,
+            );
+            let x = _mm256_and_ps(
+                _mm256_permutevar8x32_ps(v, idx),
+                _mm256_castsi256_ps(marked),
+            );
+            _mm256_storeu_ps(out.as_mut_ptr().add(k * g).cast(), x);
+        }
+        pos += m.count_ones() as usize;
+    }
+    out
+}
+
+/// The bits of `b`, lane `l` bit `l`.
+#[inline(always)]
+fn bits_of(b: &[bool; LANES]) -> u16 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        // SAFETY: SSE2 is x86-64's baseline; 16 bools (each byte 0 or 1) read as 16 bytes,
+        // each one's bit moved to its top, where `movemask` takes it.
+        unsafe {
+            let v = _mm_loadu_si128(b.as_ptr().cast());
+            _mm_movemask_epi8(_mm_slli_epi64::<7>(v)) as u16
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    b.iter()
+        .enumerate()
+        .fold(0, |k, (l, &x)| k | u16::from(x) << l)
+}
+
+/// Where the packed lane `q` of a span came from: its leg's place in the span, by the blocks'
+/// bits (a leg the lanes hand to the scalar path, so seldom).
+#[cold]
+#[inline(never)]
+fn packed_leg(keeps: &[u16], q: usize) -> usize {
+    let mut left = q;
+    for (b, &k) in keeps.iter().enumerate() {
+        let here = k.count_ones() as usize;
+        if left < here {
+            let lane = (0..LANES)
+                .filter(|&l| k >> l & 1 == 1)
+                .nth(left)
+                .expect("fewer marked lanes than counted");
+            return b * LANES + lane;
+        }
+        left -= here;
+    }
+    unreachable!("packed lane {q} beyond the span's marked legs")
+}
+
 /// Moves the second half of `a` to the first (a copy of known size).
 #[inline(always)]
 fn shift<T: Copy>(a: &mut [T; PACK]) {
@@ -1401,7 +1743,7 @@ fn pack_avx512<T: Real, const N: usize>(
     use std::arch::x86_64::*;
     for (src, dst) in cols {
         // SAFETY: the caller's promise.
-        unsafe { T::compress_avx512(bits, src, dst, p) };
+        unsafe { T::compress_avx512(bits, src, window(dst, p)) };
     }
     let (lo, hi) = (bits as u8, (bits >> 8) as u8);
     let mid = p + lo.count_ones() as usize;
@@ -1418,50 +1760,6 @@ fn pack_avx512<T: Real, const N: usize>(
         _mm512_storeu_si512(d.add(mid).cast(), _mm512_maskz_compress_epi64(hi, second));
     }
     mid + hi.count_ones() as usize
-}
-
-/// Legs of a Terzaghi batch that may touch the medium, packed into the lanes, in the batch's
-/// type.
-struct Packed<T> {
-    /// How many lanes are legs.
-    m: usize,
-    /// Each lane's index in the outputs.
-    at: [usize; PACK],
-    /// The attack angle with the pitch, wrapped; the hip's height clamped to the surface.
-    beta: [T; PACK],
-    clamped: [T; PACK],
-    /// Each lane's `ln a` and `width b_k` (m).
-    ln_a: [T; PACK],
-    width_b_k_m: [T; PACK],
-}
-
-impl<T: Real> Packed<T> {
-    fn new(imp: &Improved) -> Packed<T> {
-        Packed {
-            m: 0,
-            at: [0; PACK],
-            beta: [T::of(4.0); PACK],
-            clamped: [T::ZERO; PACK],
-            ln_a: [T::of(imp.ln_a); PACK],
-            width_b_k_m: [T::of(imp.width_b_k_m); PACK],
-        }
-    }
-
-    /// Drops the first [`LANES`] legs (evaluated), the rest moved to the front.
-    #[inline(always)]
-    fn shift(&mut self) {
-        let rest = self.m - LANES;
-        for a in [
-            &mut self.beta,
-            &mut self.clamped,
-            &mut self.ln_a,
-            &mut self.width_b_k_m,
-        ] {
-            shift(a);
-        }
-        shift(&mut self.at);
-        self.m = rest;
-    }
 }
 
 /// Legs of a profile's batch that may reach the medium, packed into the lanes.
@@ -1922,6 +2220,10 @@ impl Isa {
     pub fn detected() -> Isa {
         #[cfg(target_arch = "x86_64")]
         {
+            // Every processor with AVX2 counts bits in one instruction (popcnt).
+            if !std::arch::is_x86_feature_detected!("popcnt") {
+                return Isa::Baseline;
+            }
             if std::arch::is_x86_feature_detected!("avx512f") {
                 return Isa::Avx512;
             }
@@ -2373,6 +2675,44 @@ mod tests {
                 assert!(e.to_string().contains(what), "{name}: {e}");
             }
         }
+    }
+
+    /// Packing a block's marked lanes to the front and expanding them back puts every marked
+    /// lane where it was and zero elsewhere, on every instruction set and in both types, for
+    /// every one of the 65,536 marks.
+    #[test]
+    fn every_packing_of_a_block_unpacks_to_its_own_lanes() {
+        fn check<T: Real + std::fmt::Debug>() {
+            let src: [T; LANES] = std::array::from_fn(|l| T::of(l as f64 + 1.0));
+            for isa in [Isa::Baseline, Isa::Avx2, Isa::Avx512] {
+                if LegKernel::new(ForceModel::Terzaghi(TerzaghiModel::conventional(
+                    Plate::new(0.1, 0.025, 0.0).unwrap(),
+                    Medium::new(16170.0, 30.0, 19.0).unwrap(),
+                )))
+                .on(isa)
+                .is_none()
+                {
+                    continue;
+                }
+                for bits in 0..=u16::MAX {
+                    let mut packed = [T::ZERO; LANES];
+                    compress(isa, bits, &src, &mut packed);
+                    let n = bits.count_ones() as usize;
+                    let marked: Vec<T> = (0..LANES)
+                        .filter(|l| bits >> l & 1 == 1)
+                        .map(|l| src[l])
+                        .collect();
+                    assert_eq!(&packed[..n], &marked[..], "{isa:?} packed {bits:#06x}");
+                    let back = expand(isa, bits, &packed);
+                    for l in 0..LANES {
+                        let want = if bits >> l & 1 == 1 { src[l] } else { T::ZERO };
+                        assert_eq!(back[l], want, "{isa:?} lane {l} of {bits:#06x}");
+                    }
+                }
+            }
+        }
+        check::<f64>();
+        check::<f32>();
     }
 
     /// The improved model packs the legs that may touch the medium into its lanes: a leg left
