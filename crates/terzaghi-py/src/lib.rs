@@ -823,6 +823,61 @@ fn batch_array<'py, T: numpy::Element>(
     Ok(arr.clone())
 }
 
+/// `run(c, ...)` over each chunk `c` of [`CHUNK`] legs of the three outputs, the calling
+/// thread taking chunks beside rayon's threads (each takes the next chunk not yet taken): the
+/// caller neither sleeps while the pool works nor waits for a thread to wake before starting,
+/// and a robot's few legs or a pool of one thread run on the caller alone. The error of the
+/// first chunk that failed (by its place), if any.
+fn shared_chunks<T: Send, E: Send>(
+    d: &mut [T],
+    l: &mut [T],
+    t: &mut [T],
+    run: impl Fn(usize, &mut [T], &mut [T], &mut [T]) -> Option<E> + Sync,
+) -> Option<E> {
+    use std::sync::Mutex;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    let chunks: Vec<_> = d
+        .chunks_mut(CHUNK)
+        .zip(l.chunks_mut(CHUNK))
+        .zip(t.chunks_mut(CHUNK))
+        .map(|((d, l), t)| Mutex::new((d, l, t)))
+        .collect();
+    let helpers = rayon::current_num_threads()
+        .min(chunks.len())
+        .saturating_sub(1);
+    let next = AtomicUsize::new(0);
+    let failed: Mutex<Option<(usize, E)>> = Mutex::new(None);
+    let work = || {
+        loop {
+            let c = next.fetch_add(1, Ordering::Relaxed);
+            let Some(chunk) = chunks.get(c) else { break };
+            // Each chunk is taken once: its lock is never contended.
+            let mut guard = chunk.lock().unwrap_or_else(|e| e.into_inner());
+            let (d, l, t) = &mut *guard;
+            if let Some(e) = run(c, d, l, t) {
+                let mut f = failed.lock().unwrap_or_else(|e| e.into_inner());
+                if f.as_ref().is_none_or(|(first, _)| c < *first) {
+                    *f = Some((c, e));
+                }
+            }
+        }
+    };
+    if helpers == 0 {
+        work();
+    } else {
+        rayon::in_place_scope(|s| {
+            for _ in 0..helpers {
+                s.spawn(|_| work());
+            }
+            work();
+        });
+    }
+    failed
+        .into_inner()
+        .unwrap_or_else(|e| e.into_inner())
+        .map(|(_, e)| e)
+}
+
 impl Batch {
     /// [`Batch::forces_into`] in `T`.
     fn forces_as<T: numpy::Element + terzaghi::model::batch::Real>(
@@ -832,7 +887,6 @@ impl Batch {
         outputs: [&Bound<'_, PyAny>; 3],
     ) -> PyResult<()> {
         use numpy::PyArrayMethods;
-        use rayon::prelude::*;
         use terzaghi::model::batch::{LegForcesOut, Legs};
         let beta = inputs[0].expect("beta_rad is required");
         let shape = beta
@@ -903,18 +957,7 @@ impl Batch {
                     )
                     .err()
             };
-            // A robot's few legs are done here: waking the pool would cost more than they do.
-            if d.len() <= CHUNK {
-                run(0, d, l, t)
-            } else {
-                d.par_chunks_mut(CHUNK)
-                    .zip(l.par_chunks_mut(CHUNK))
-                    .zip(t.par_chunks_mut(CHUNK))
-                    .enumerate()
-                    .map(|(c, ((d, l), t))| run(c, d, l, t))
-                    .find_first(Option::is_some)
-                    .flatten()
-            }
+            shared_chunks(d, l, t, run)
         });
         match failed {
             Some(e) => Err(TerzaghiError::new_err(e.to_string())),
