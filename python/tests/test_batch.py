@@ -54,6 +54,13 @@ def test_out_arrays_are_written_in_place_and_bad_inputs_are_named():
     bad[3, 2] = np.nan
     with pytest.raises(terzaghi.TerzaghiError, match=r"leg 20 \(flat index\)"):
         legs.forces(bad, hip)
+    # Across the chunks the threads share, the first bad leg is the one named, every time.
+    many = np.full((4096, 6), 0.5)
+    many.flat[20000] = np.nan
+    many.flat[5000] = np.inf
+    for _ in range(10):
+        with pytest.raises(terzaghi.TerzaghiError, match=r"leg 5000 \(flat index\)"):
+            legs.forces(many, 0.01)
     with pytest.raises(terzaghi.TerzaghiError, match=r"hip_height_m has shape \(47,\)"):
         legs.forces(beta, np.zeros(47))
     # Shapes, not counts: as many values in another shape are refused, a transposed array named
