@@ -346,6 +346,29 @@ macro_rules! compiled_for {
 /// assert!((s[3] - x[3].sin()).abs() < 1e-15 && (c[3] - x[3].cos()).abs() < 1e-15);
 /// ```
 pub fn sin_cos_lanes(x: &[f64; LANES]) -> ([f64; LANES], [f64; LANES]) {
+    // Compiled for the processor's vector instructions where it has them (the same
+    // operations: the same values).
+    #[cfg(target_arch = "x86_64")]
+    match Isa::detected() {
+        // SAFETY: the processor has the instructions it was detected to have.
+        Isa::Avx512 => return unsafe { sin_cos_avx512::<f64>(x) },
+        // SAFETY: as above.
+        Isa::Avx2 => return unsafe { sin_cos_avx2::<f64>(x) },
+        Isa::Baseline => {}
+    }
+    sin_cos_any(x)
+}
+
+compiled_for! {
+    /// [`sin_cos_lanes`] compiled for the processor's instructions.
+    fn sin_cos_avx512 / sin_cos_avx2 <T: Real>(x: &[f64; LANES]) -> ([f64; LANES], [f64; LANES]) {
+        sin_cos_any(x)
+    }
+}
+
+/// [`sin_cos_lanes`], for any processor.
+#[inline(always)]
+fn sin_cos_any(x: &[f64; LANES]) -> ([f64; LANES], [f64; LANES]) {
     // Within the lanes' reach: a number below 2^20 in size (NaN is not).
     let near = |v: f64| v.abs() < 1_048_576.0;
     let (mut s, mut c) = vmath::sin_cos(x);
@@ -355,6 +378,73 @@ pub fn sin_cos_lanes(x: &[f64; LANES]) -> ([f64; LANES], [f64; LANES]) {
         }
     }
     (s, c)
+}
+
+/// `atan2(y, x)` of [`LANES`] pairs at once: where `x` is positive and both are finite, the
+/// kernel's own arc tangent of `y / x` (within three units in the last place of `f64::atan2`,
+/// compiled for the processor's vector instructions); any other pair by `f64::atan2`.
+///
+/// ```
+/// use terzaghi_core::model::batch::{LANES, atan2_lanes};
+/// let y: [f64; LANES] = std::array::from_fn(|i| i as f64 * 0.3 - 2.0);
+/// let x: [f64; LANES] = std::array::from_fn(|i| 1.5 - i as f64 * 0.2);
+/// let a = atan2_lanes(&y, &x);
+/// assert!((a[3] - y[3].atan2(x[3])).abs() < 1e-15 && a[12] == y[12].atan2(x[12]));
+/// ```
+pub fn atan2_lanes(y: &[f64; LANES], x: &[f64; LANES]) -> [f64; LANES] {
+    #[cfg(target_arch = "x86_64")]
+    match Isa::detected() {
+        // SAFETY: the processor has the instructions it was detected to have.
+        Isa::Avx512 => return unsafe { atan2_avx512::<f64>(y, x) },
+        // SAFETY: as above.
+        Isa::Avx2 => return unsafe { atan2_avx2::<f64>(y, x) },
+        Isa::Baseline => {}
+    }
+    atan2_any(y, x)
+}
+
+compiled_for! {
+    /// [`atan2_lanes`] compiled for the processor's instructions.
+    fn atan2_avx512 / atan2_avx2 <T: Real>(y: &[f64; LANES], x: &[f64; LANES]) -> [f64; LANES] {
+        atan2_any(y, x)
+    }
+}
+
+/// [`atan2_lanes`], for any processor.
+#[inline(always)]
+fn atan2_any(y: &[f64; LANES], x: &[f64; LANES]) -> [f64; LANES] {
+    let mut ratio = [0.0; LANES];
+    let mut half_plane = true;
+    for l in 0..LANES {
+        let ok = x[l] > 0.0 && x[l] < f64::INFINITY && y[l].abs() < f64::INFINITY;
+        half_plane &= ok;
+        ratio[l] = y[l] / x[l];
+    }
+    let mut out = vmath::atan(&ratio);
+    if !half_plane {
+        for l in 0..LANES {
+            if !(x[l] > 0.0 && x[l] < f64::INFINITY && y[l].abs() < f64::INFINITY) {
+                out[l] = y[l].atan2(x[l]);
+            }
+        }
+    }
+    out
+}
+
+/// `ln` of every lane (each positive: a fitting width's `a`), in the lanes (within a unit in
+/// the last place of `f64::ln`); a number below the smallest normal one by `f64::ln`.
+#[inline(always)]
+fn ln_lanes(x: &[f64; LANES]) -> [f64; LANES] {
+    let mut out = vmath::ln(x);
+    let normal = x.iter().fold(true, |k, &v| k & (v >= f64::MIN_POSITIVE));
+    if !normal {
+        for (o, &v) in out.iter_mut().zip(x) {
+            if v < f64::MIN_POSITIVE {
+                *o = v.ln();
+            }
+        }
+    }
+    out
 }
 
 /// A leg's elements as columns, padded with empty elements to a multiple of [`LANES`].
@@ -792,8 +882,6 @@ impl LegKernel {
         let mut f = [[T::ZERO; SPAN + LANES]; 3];
         let mut keeps = [0u16; SPAN / LANES];
         let (mut ln_a, mut width_b_k_m) = ([c.ln_a; LANES], [c.width_b_k_m; LANES]);
-        // The last leg's `a` and its logarithm: an environment's legs share a medium.
-        let mut last_a = (f64::NAN, c.ln_a);
         for span in (0..n).step_by(SPAN) {
             let span_n = SPAN.min(n - span);
             let mut p = 0;
@@ -804,9 +892,9 @@ impl LegKernel {
                 // anything else, and so is their sum (a loop without a branch).
                 let beta_given = read_as(legs.beta_rad, at, m, T::of(4.0));
                 let h = read_as(legs.hip_height_m, at, m, T::ZERO);
-                let given = |from: Option<&[T]>| {
-                    from.map_or([T::ZERO; LANES], |v| read_as(v, at, m, T::ZERO))
-                };
+                let given_or =
+                    |from: Option<&[T]>, or: T| from.map_or([or; LANES], |v| read_as(v, at, m, or));
+                let given = |from: Option<&[T]>| given_or(from, T::ZERO);
                 let pitch = given(legs.pitch_rad);
                 // Not the model's, but checked as every batch checks them.
                 let (omega, forward, up) = (
@@ -824,17 +912,40 @@ impl LegKernel {
                     return Err(Block::first_not_finite(legs, at, m));
                 }
                 if let Some(own) = per_leg {
-                    // Every leg's width is checked, in the medium or not.
-                    for l in 0..m {
-                        let w = leg_width(own, legs, at + l).map_err(|e| LegError {
-                            index: at + l,
-                            problem: e.into(),
-                        })?;
-                        if w.a() != last_a.0 {
-                            last_a = (w.a(), T::of(w.a().ln()));
+                    // Every leg's width is checked, in the medium or not: all at once (positive
+                    // and finite), and leg by leg for the error where one is not.
+                    let (model_b_k, model_a) = (own.fitting_width().b_k(), own.fitting_width().a());
+                    let b_k = given_or(legs.b_k, T::of(model_b_k));
+                    let a = given_or(legs.a, T::of(model_a));
+                    let mut fit = true;
+                    for l in 0..LANES {
+                        fit &= (b_k[l] > T::ZERO)
+                            & (a[l] > T::ZERO)
+                            & (b_k[l] * T::ZERO == T::ZERO)
+                            & (a[l] * T::ZERO == T::ZERO);
+                    }
+                    if !fit {
+                        for l in 0..m {
+                            leg_width(own, legs, at + l).map_err(|e| LegError {
+                                index: at + l,
+                                problem: e.into(),
+                            })?;
                         }
-                        ln_a[l] = last_a.1;
-                        width_b_k_m[l] = T::of(imp.width_m * w.b_k());
+                    }
+                    // As `FittingWidth` holds them: in `f64` (the model's as it has them).
+                    let (mut b_k64, mut a64) = ([model_b_k; LANES], [model_a; LANES]);
+                    for l in 0..LANES {
+                        if legs.b_k.is_some() {
+                            b_k64[l] = b_k[l].to_f64();
+                        }
+                        if legs.a.is_some() {
+                            a64[l] = a[l].to_f64();
+                        }
+                    }
+                    let ln = ln_lanes(&a64);
+                    for l in 0..LANES {
+                        ln_a[l] = T::of(ln[l]);
+                        width_b_k_m[l] = T::of(imp.width_m * b_k64[l]);
                     }
                 }
                 // Added in the lanes; an angle beyond a turn wrapped by a call of its own
@@ -2675,6 +2786,40 @@ mod tests {
                 assert!(e.to_string().contains(what), "{name}: {e}");
             }
         }
+    }
+
+    /// The lanes' `atan2` is libm's to three units in the last place in the right half plane
+    /// (the torso's pitch of the MuJoCo coupling), and libm's own elsewhere.
+    #[test]
+    fn the_lanes_atan2_is_libm_s() {
+        let mut worst = 0.0f64;
+        for i in 0..20_000 {
+            let u = |l: usize| (i * LANES + l) as f64 / (20_000 * LANES) as f64;
+            let y: [f64; LANES] =
+                std::array::from_fn(|l| (u(l) * 40.0 - 20.0).exp2() * (u(l) - 0.5));
+            let x: [f64; LANES] = std::array::from_fn(|l| match (i + l) % 7 {
+                0 => -1.0 + u(l),
+                1 => 0.0,
+                _ => (u(l) * 60.0 - 30.0).exp2(),
+            });
+            let got = atan2_lanes(&y, &x);
+            for l in 0..LANES {
+                let want = y[l].atan2(x[l]);
+                if x[l] > 0.0 {
+                    let spacing = f64::EPSILON * want.abs().max(f64::MIN_POSITIVE);
+                    worst = worst.max((got[l] - want).abs() / spacing);
+                } else {
+                    assert_eq!(
+                        got[l].to_bits(),
+                        want.to_bits(),
+                        "atan2({}, {})",
+                        y[l],
+                        x[l]
+                    );
+                }
+            }
+        }
+        assert!(worst <= 3.0, "atan2 off by {worst} ulp");
     }
 
     /// Packing a block's marked lanes to the front and expanding them back puts every marked

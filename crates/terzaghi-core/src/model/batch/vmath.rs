@@ -122,6 +122,104 @@ pub fn exp(x: &[f64; LANES]) -> [f64; LANES] {
 // Cephes' sinf, cosf and expf (their reductions and polynomials), for a batch in float32: within
 // two units in the last place of float32 (`tests::the_float32_ones_are_within_two_units`).
 
+// The natural logarithm: FreeBSD's `e_log.c` (as musl's `log`), within one unit in the last
+// place, for normal positive numbers (the caller takes the others to `f64::ln`).
+const LN2_HI_LOG: f64 = 6.931_471_803_691_238_164_90e-01;
+const LN2_LO_LOG: f64 = 1.908_214_929_270_587_700_02e-10;
+const LG: [f64; 7] = [
+    6.666_666_666_666_735_130e-01,
+    3.999_999_999_940_941_908e-01,
+    2.857_142_874_366_239_149e-01,
+    2.222_219_843_214_978_396e-01,
+    1.818_357_216_161_805_012e-01,
+    1.531_383_769_920_937_332e-01,
+    1.479_819_860_511_658_591e-01,
+];
+
+/// `ln` of every lane (a normal positive number).
+#[inline(always)]
+pub fn ln(x: &[f64; LANES]) -> [f64; LANES] {
+    let mut out = [0.0; LANES];
+    for l in 0..LANES {
+        // x = 2^k (1 + f), 1 + f within [sqrt(2)/2, sqrt(2)).
+        let bits = x[l].to_bits();
+        let hx = ((bits >> 32) as u32).wrapping_add(0x3ff0_0000 - 0x3fe6_a09e);
+        let k = (hx >> 20) as i32 - 0x3ff;
+        let hx = (hx & 0x000f_ffff) + 0x3fe6_a09e;
+        let m = f64::from_bits(((hx as u64) << 32) | (bits & 0xffff_ffff));
+        let f = m - 1.0;
+        let hfsq = 0.5 * f * f;
+        let s = f / (2.0 + f);
+        let z = s * s;
+        let w = z * z;
+        let t1 = w * (LG[1] + w * (LG[3] + w * LG[5]));
+        let t2 = z * (LG[0] + w * (LG[2] + w * (LG[4] + w * LG[6])));
+        let r = t2 + t1;
+        let dk = k as f64;
+        out[l] = s * (hfsq + r) + dk * LN2_LO_LOG - hfsq + f + dk * LN2_HI_LOG;
+    }
+    out
+}
+
+// The arc tangent: Cephes' `atan` (Moshier), within about two units in the last place: a third
+// of the half turn reduced to |x| <= 0.66 by tan(pi/4) or tan(pi/2), a rational function there.
+const T3P8: f64 = 2.414_213_562_373_095_048_80;
+const MOREBITS: f64 = 6.123_233_995_736_765_886_130e-17;
+const ATAN_P: [f64; 5] = [
+    -8.750_608_600_031_904_122_785e-1,
+    -1.615_753_718_733_365_076_637e1,
+    -7.500_855_792_314_704_667_340e1,
+    -1.228_866_684_490_136_173_410e2,
+    -6.485_021_904_942_025_371_773e1,
+];
+const ATAN_Q: [f64; 5] = [
+    2.485_846_490_142_306_297_962e1,
+    1.650_270_098_316_988_542_046e2,
+    4.328_810_604_912_902_668_951e2,
+    4.853_903_996_359_136_964_868e2,
+    1.945_506_571_482_613_964_425e2,
+];
+
+/// `atan` of every lane (any number but NaN).
+#[inline(always)]
+pub fn atan(x: &[f64; LANES]) -> [f64; LANES] {
+    let mut out = [0.0; LANES];
+    for l in 0..LANES {
+        let a = x[l].abs();
+        let big = a > T3P8;
+        let mid = !big & (a > 0.66);
+        // Every branch computed, the answer chosen (no branch to mispredict).
+        let r = if big {
+            -1.0 / a
+        } else if mid {
+            (a - 1.0) / (a + 1.0)
+        } else {
+            a
+        };
+        let base = if big {
+            std::f64::consts::FRAC_PI_2
+        } else if mid {
+            std::f64::consts::FRAC_PI_4
+        } else {
+            0.0
+        };
+        let extra = if big {
+            MOREBITS
+        } else if mid {
+            0.5 * MOREBITS
+        } else {
+            0.0
+        };
+        let z = r * r;
+        let p = (((ATAN_P[0] * z + ATAN_P[1]) * z + ATAN_P[2]) * z + ATAN_P[3]) * z + ATAN_P[4];
+        let q =
+            ((((z + ATAN_Q[0]) * z + ATAN_Q[1]) * z + ATAN_Q[2]) * z + ATAN_Q[3]) * z + ATAN_Q[4];
+        let y = base + ((r * (z * p / q) + r) + extra);
+        out[l] = if x[l].is_sign_negative() { -y } else { y };
+    }
+    out
+}
+
 /// `pi/2` in three parts, the first two of few bits (their products by a small integer exact).
 const PIO2_1F: f32 = 1.570_312_5;
 const PIO2_2F: f32 = 4.837_512_969_970_703_125e-4;
@@ -238,6 +336,64 @@ mod tests {
             worst.iter().all(|w| *w <= 2.0),
             "sin, cos, exp off by {worst:?} ulp"
         );
+    }
+
+    #[test]
+    fn the_logarithm_is_libm_s_to_one_unit_in_the_last_place() {
+        let mut worst = 0.0f64;
+        let mut x = [0.0; LANES];
+        // From the smallest normal number to the largest, and closely about 1.
+        for i in 0..40_000 {
+            for (l, v) in x.iter_mut().enumerate() {
+                let u = (i * LANES + l) as f64 / (40_000 * LANES) as f64;
+                *v = if i % 2 == 0 {
+                    (u * 1416.0 - 708.0).exp() * (1.0 + u)
+                } else {
+                    0.9 + 0.2 * u
+                };
+            }
+            x[0] = 1.0;
+            x[1] = f64::MIN_POSITIVE;
+            x[2] = f64::MAX;
+            let got = ln(&x);
+            for l in 0..LANES {
+                worst = worst.max(ulps(got[l], x[l].ln()));
+            }
+        }
+        assert!(worst <= 1.0, "ln off by {worst} ulp");
+    }
+
+    #[test]
+    fn the_arc_tangent_is_libm_s_to_two_units_in_the_last_place() {
+        let mut worst = 0.0f64;
+        let mut x = [0.0; LANES];
+        for i in 0..40_000 {
+            for (l, v) in x.iter_mut().enumerate() {
+                let u = (i * LANES + l) as f64 / (40_000 * LANES) as f64;
+                // Both signs, from 1e-300 to 1e300, and closely about the reductions' bounds.
+                *v = match i % 3 {
+                    0 => (u * 1381.0 - 690.0).exp() * if l % 2 == 0 { 1.0 } else { -1.0 },
+                    1 => -4.0 + 8.0 * u,
+                    _ => 0.6 + 2.0 * u,
+                };
+            }
+            x[0] = 0.0;
+            x[1] = -0.0;
+            x[2] = f64::INFINITY;
+            x[3] = f64::NEG_INFINITY;
+            let got = atan(&x);
+            for l in 0..LANES {
+                let want = x[l].atan();
+                assert_eq!(
+                    got[l].is_sign_negative(),
+                    want.is_sign_negative(),
+                    "atan({})",
+                    x[l]
+                );
+                worst = worst.max(ulps(got[l], want));
+            }
+        }
+        assert!(worst <= 2.0, "atan off by {worst} ulp");
     }
 
     #[test]
