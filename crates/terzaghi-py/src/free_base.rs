@@ -9,7 +9,7 @@ use pyo3::prelude::*;
 use rayon::prelude::*;
 
 use crate::TerzaghiError;
-use terzaghi::model::batch::{LANES, sin_cos_lanes};
+use terzaghi::model::batch::{LANES, atan2_lanes, sin_cos_lanes};
 
 /// Environments per task.
 const ENVS_PER_TASK: usize = 256;
@@ -30,6 +30,7 @@ struct Torso {
     pitch_rad: f64,
 }
 
+#[inline(always)]
 fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [
         a[1] * b[2] - a[2] * b[1],
@@ -38,6 +39,7 @@ fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     ]
 }
 
+#[inline(always)]
 fn rotate(r: &[[f64; 3]; 3], x: [f64; 3]) -> [f64; 3] {
     [
         r[0][0] * x[0] + r[0][1] * x[1] + r[0][2] * x[2],
@@ -49,6 +51,7 @@ fn rotate(r: &[[f64; 3]; 3], x: [f64; 3]) -> [f64; 3] {
 impl Torso {
     /// From a state row: the free joint's position and quaternion (w, x, y, z) at `qpos0`, its
     /// world linear and local angular velocity at `qvel0`. `None` for a quaternion of no length.
+    #[inline(always)]
     fn from_state(row: &[f64], qpos0: usize, qvel0: usize) -> Option<Torso> {
         let p = [row[qpos0], row[qpos0 + 1], row[qpos0 + 2]];
         let q = &row[qpos0 + 3..qpos0 + 7];
@@ -83,15 +86,35 @@ impl Torso {
         } else {
             [1.0, 0.0]
         };
-        let pitch_rad = (-r[2][0]).atan2(norm);
         Some(Torso {
             p,
             r,
             v,
             w,
             fwd,
-            pitch_rad,
+            // Set by `Torso::pitch_all`, sixteen at a time.
+            pitch_rad: f64::NAN,
         })
+    }
+
+    /// Each torso's pitch, `atan2(-r20, |r00, r10|)`, sixteen at a time.
+    #[inline(always)]
+    fn pitch_all(torsos: &mut [Option<Torso>]) {
+        for block in torsos.chunks_mut(LANES) {
+            let (mut y, mut x) = ([0.0; LANES], [1.0; LANES]);
+            for (k, t) in block.iter().enumerate() {
+                if let Some(t) = t {
+                    y[k] = -t.r[2][0];
+                    x[k] = (t.r[0][0] * t.r[0][0] + t.r[1][0] * t.r[1][0]).sqrt();
+                }
+            }
+            let pitch = atan2_lanes(&y, &x);
+            for (t, p) in block.iter_mut().zip(pitch) {
+                if let Some(t) = t {
+                    t.pitch_rad = p;
+                }
+            }
+        }
     }
 }
 
@@ -300,9 +323,44 @@ impl FreeBase {
 }
 
 impl FreeBase {
+    /// [`FreeBase::chunk_any`], compiled for AVX2 and FMA where the processor has them.
+    fn chunk(
+        &self,
+        kernel: &terzaghi::model::batch::LegKernel,
+        state: &[f64],
+        control: &mut [f64],
+        ins: [&mut [f64]; 6],
+        outs: [&mut [f64]; 3],
+        media: (Option<&[f64]>, Option<&[f64]>),
+    ) -> Option<(usize, String)> {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+        {
+            // SAFETY: the processor has the instructions it is compiled for.
+            return unsafe { self.chunk_avx2(kernel, state, control, ins, outs, media) };
+        }
+        self.chunk_any(kernel, state, control, ins, outs, media)
+    }
+
+    /// [`FreeBase::chunk_any`] compiled for AVX2 and FMA.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn chunk_avx2(
+        &self,
+        kernel: &terzaghi::model::batch::LegKernel,
+        state: &[f64],
+        control: &mut [f64],
+        ins: [&mut [f64]; 6],
+        outs: [&mut [f64]; 3],
+        media: (Option<&[f64]>, Option<&[f64]>),
+    ) -> Option<(usize, String)> {
+        self.chunk_any(kernel, state, control, ins, outs, media)
+    }
+
     /// [`FreeBase::apply`] for the environments of `state` (whole rows) and their legs' slices:
     /// `None`, or the failing leg (its index among these legs) and why.
-    fn chunk(
+    #[inline(always)]
+    fn chunk_any(
         &self,
         kernel: &terzaghi::model::batch::LegKernel,
         state: &[f64],
@@ -314,10 +372,11 @@ impl FreeBase {
         use terzaghi::model::batch::{LegForcesOut, Legs};
         let n_leg = self.joint_qpos.len();
         let [beta, h, pitch, omega, fwd, up] = ins;
-        let torsos: Vec<Option<Torso>> = state
+        let mut torsos: Vec<Option<Torso>> = state
             .chunks(self.nstate)
             .map(|row| Torso::from_state(row, self.qpos0, self.qvel0))
             .collect();
+        Torso::pitch_all(&mut torsos);
         for (e, (row, torso)) in state.chunks(self.nstate).zip(&torsos).enumerate() {
             let legs = e * n_leg..(e + 1) * n_leg;
             self.env_in(
@@ -335,8 +394,12 @@ impl FreeBase {
         // of mass.
         let mut sin_cos = vec![(0.0, 0.0); beta.len()];
         for (b, sc) in beta.chunks(LANES).zip(sin_cos.chunks_mut(LANES)) {
-            let mut x = [0.0; LANES];
-            x[..b.len()].copy_from_slice(b);
+            // A whole block by a load of known size (a copy of unknown size is a call).
+            let x = <[f64; LANES]>::try_from(b).unwrap_or_else(|_| {
+                let mut x = [0.0; LANES];
+                x[..b.len()].copy_from_slice(b);
+                x
+            });
             let (s, c) = sin_cos_lanes(&x);
             for (k, sc) in sc.iter_mut().enumerate() {
                 *sc = (s[k], c[k]);
@@ -371,6 +434,7 @@ impl FreeBase {
     }
 
     #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
     fn env_in(
         &self,
         torso: Option<&Torso>,
@@ -405,6 +469,7 @@ impl FreeBase {
         }
     }
 
+    #[inline(always)]
     fn env_out(
         &self,
         torso: Option<&Torso>,
