@@ -304,12 +304,18 @@ impl FreeBase {
                         let span = first..first + beta.len();
                         let media = (b_k.map(|m| &m[span.clone()]), a.map(|m| &m[span.clone()]));
                         let ins = [beta, h, pitch, omega, fwd, up];
-                        self.chunk(kernel, s, c, ins, [d, l, t], media)
-                            .map(|(leg, why)| {
-                                let leg = first + leg;
-                                let n = n_leg.max(1);
-                                format!("environment {}, leg {}: {why}", leg / n, leg % n)
-                            })
+                        let task = Chunk {
+                            state: s,
+                            control: c,
+                            ins,
+                            outs: [d, l, t],
+                            media,
+                        };
+                        self.chunk(kernel, task).map(|(leg, why)| {
+                            let leg = first + leg;
+                            let n = n_leg.max(1);
+                            format!("environment {}, leg {}: {why}", leg / n, leg % n)
+                        })
                     },
                 )
                 .find_first(Option::is_some)
@@ -322,24 +328,31 @@ impl FreeBase {
     }
 }
 
+/// One task's environments: their state and control rows (whole rows), their legs' slices of
+/// the model's inputs (`[beta, h, pitch, omega, fwd, up]`) and outputs (`[drag, lift, hip
+/// torque]`), and their media (`b_k`, `a`) if given.
+struct Chunk<'a> {
+    state: &'a [f64],
+    control: &'a mut [f64],
+    ins: [&'a mut [f64]; 6],
+    outs: [&'a mut [f64]; 3],
+    media: (Option<&'a [f64]>, Option<&'a [f64]>),
+}
+
 impl FreeBase {
     /// [`FreeBase::chunk_any`], compiled for AVX2 and FMA where the processor has them.
     fn chunk(
         &self,
         kernel: &terzaghi::model::batch::LegKernel,
-        state: &[f64],
-        control: &mut [f64],
-        ins: [&mut [f64]; 6],
-        outs: [&mut [f64]; 3],
-        media: (Option<&[f64]>, Option<&[f64]>),
+        task: Chunk<'_>,
     ) -> Option<(usize, String)> {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
         {
             // SAFETY: the processor has the instructions it is compiled for.
-            return unsafe { self.chunk_avx2(kernel, state, control, ins, outs, media) };
+            return unsafe { self.chunk_avx2(kernel, task) };
         }
-        self.chunk_any(kernel, state, control, ins, outs, media)
+        self.chunk_any(kernel, task)
     }
 
     /// [`FreeBase::chunk_any`] compiled for AVX2 and FMA.
@@ -348,27 +361,26 @@ impl FreeBase {
     fn chunk_avx2(
         &self,
         kernel: &terzaghi::model::batch::LegKernel,
-        state: &[f64],
-        control: &mut [f64],
-        ins: [&mut [f64]; 6],
-        outs: [&mut [f64]; 3],
-        media: (Option<&[f64]>, Option<&[f64]>),
+        task: Chunk<'_>,
     ) -> Option<(usize, String)> {
-        self.chunk_any(kernel, state, control, ins, outs, media)
+        self.chunk_any(kernel, task)
     }
 
-    /// [`FreeBase::apply`] for the environments of `state` (whole rows) and their legs' slices:
-    /// `None`, or the failing leg (its index among these legs) and why.
+    /// [`FreeBase::apply`] for one task's environments: `None`, or the failing leg (its index
+    /// among these legs) and why.
     #[inline(always)]
     fn chunk_any(
         &self,
         kernel: &terzaghi::model::batch::LegKernel,
-        state: &[f64],
-        control: &mut [f64],
-        ins: [&mut [f64]; 6],
-        outs: [&mut [f64]; 3],
-        media: (Option<&[f64]>, Option<&[f64]>),
+        task: Chunk<'_>,
     ) -> Option<(usize, String)> {
+        let Chunk {
+            state,
+            control,
+            ins,
+            outs,
+            media,
+        } = task;
         use terzaghi::model::batch::{LegForcesOut, Legs};
         let n_leg = self.joint_qpos.len();
         let [beta, h, pitch, omega, fwd, up] = ins;

@@ -1604,42 +1604,22 @@ fn expand<T: Real>(isa: Isa, bits: u16, src: &[T; LANES]) -> [T; LANES] {
 }
 
 /// For each mask of a group of `G` lanes (`N = 2^G` masks) of `8 / G` words each: the source
-/// word of each word of the group's compress (the marked lanes in order, then lane 0).
-const fn compress_words<const G: usize, const N: usize>() -> [[u8; 8]; N] {
+/// word of each word of the group's compress (the marked lanes in order, then word 0), or of
+/// its `expand` (a marked lane takes the next of the packed lanes; an unmarked one word 0,
+/// zeroed after).
+const fn word_table<const G: usize, const N: usize>(expand: bool) -> [[u8; 8]; N] {
     let w = 8 / G;
     let mut t = [[0u8; 8]; N];
     let mut m = 0;
     while m < N {
+        // Lane `l` of the group is the `j`-th marked one.
         let (mut j, mut l) = (0, 0);
         while l < G {
             if m >> l & 1 == 1 {
+                let (to, from) = if expand { (l, j) } else { (j, l) };
                 let mut k = 0;
                 while k < w {
-                    t[m][j * w + k] = (l * w + k) as u8;
-                    k += 1;
-                }
-                j += 1;
-            }
-            l += 1;
-        }
-        m += 1;
-    }
-    t
-}
-
-/// [`compress_words`]' inverse: the source word of each word of the group's expand (a marked
-/// lane takes the next of the packed lanes; an unmarked one word 0, zeroed after).
-const fn expand_words<const G: usize, const N: usize>() -> [[u8; 8]; N] {
-    let w = 8 / G;
-    let mut t = [[0u8; 8]; N];
-    let mut m = 0;
-    while m < N {
-        let (mut j, mut l) = (0, 0);
-        while l < G {
-            if m >> l & 1 == 1 {
-                let mut k = 0;
-                while k < w {
-                    t[m][l * w + k] = (j * w + k) as u8;
+                    t[m][to * w + k] = (from * w + k) as u8;
                     k += 1;
                 }
                 j += 1;
@@ -1652,10 +1632,10 @@ const fn expand_words<const G: usize, const N: usize>() -> [[u8; 8]; N] {
 }
 
 /// The words of a compress or an expand of eight `f32` lanes, and of four `f64` lanes.
-static COMPRESS_8: [[u8; 8]; 256] = compress_words::<8, 256>();
-static EXPAND_8: [[u8; 8]; 256] = expand_words::<8, 256>();
-static COMPRESS_4: [[u8; 8]; 16] = compress_words::<4, 16>();
-static EXPAND_4: [[u8; 8]; 16] = expand_words::<4, 16>();
+static COMPRESS_8: [[u8; 8]; 256] = word_table::<8, 256>(false);
+static EXPAND_8: [[u8; 8]; 256] = word_table::<8, 256>(true);
+static COMPRESS_4: [[u8; 8]; 16] = word_table::<4, 16>(false);
+static EXPAND_4: [[u8; 8]; 16] = word_table::<4, 16>(true);
 
 /// A group's word indices for `_mm256_permutevar8x32_ps`, and the lanes per group.
 #[cfg(target_arch = "x86_64")]
