@@ -1565,13 +1565,12 @@ fn compress<T: Real>(isa: Isa, bits: u16, src: &[T; LANES], dst: &mut [T; LANES]
         return unsafe { compress_avx2(bits, src, dst) };
     }
     let _ = isa;
-    // Every lane written to the next place, the place kept only for a lane marked (no
-    // branch to mispredict).
+    // Every lane written to the next place, the place kept only for a lane marked (no branch
+    // to mispredict; the place is at most the lane's own).
     let mut q = 0;
     for (l, &x) in src.iter().enumerate() {
         dst[q] = x;
         q += usize::from(bits >> l & 1 == 1);
-        q = q.min(LANES - 1);
     }
 }
 
@@ -1590,14 +1589,13 @@ fn expand<T: Real>(isa: Isa, bits: u16, src: &[T; LANES]) -> [T; LANES] {
         return unsafe { expand_avx2(bits, src) };
     }
     let _ = isa;
+    // Every lane takes the next packed one, or zero (no branch to mispredict; the place is at
+    // most the lane's own).
     let (mut out, mut q) = ([T::ZERO; LANES], 0);
     for (l, o) in out.iter_mut().enumerate() {
         let marked = bits >> l & 1 == 1;
-        *o = if marked {
-            src[q.min(LANES - 1)]
-        } else {
-            T::ZERO
-        };
+        let x = src[q];
+        *o = if marked { x } else { T::ZERO };
         q += usize::from(marked);
     }
     out
