@@ -944,14 +944,9 @@ pub fn batch_legs(data: &[u8]) {
             let m = n - first;
             let (mut d, mut l, mut t) = (vec![T::ZERO; m], vec![T::ZERO; m], vec![T::ZERO; m]);
             let legs = Legs {
-                beta_rad: &cols[0],
-                hip_height_m: &cols[1],
-                pitch_rad: Some(&cols[2]),
-                omega_rad_s: Some(&cols[3]),
-                forward_m_s: Some(&cols[4]),
-                up_m_s: Some(&cols[5]),
                 b_k: widths.then_some(&cols[6][..]),
                 a: widths.then_some(&cols[7][..]),
+                ..Legs::moving(std::array::from_fn(|k| &cols[k][..]))
             };
             let out = LegForcesOut {
                 drag_n: &mut d,

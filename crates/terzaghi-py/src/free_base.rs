@@ -419,14 +419,9 @@ impl FreeBase {
         }
         let [d, l, t] = outs;
         let input = Legs {
-            beta_rad: beta,
-            hip_height_m: h,
-            pitch_rad: Some(pitch),
-            omega_rad_s: Some(omega),
-            forward_m_s: Some(fwd),
-            up_m_s: Some(up),
             b_k: media.0,
             a: media.1,
+            ..Legs::moving([beta, h, pitch, omega, fwd, up])
         };
         let out = LegForcesOut {
             drag_n: d,

@@ -413,19 +413,15 @@ compiled_for! {
 /// [`atan2_lanes`], for any processor.
 #[inline(always)]
 fn atan2_any(y: &[f64; LANES], x: &[f64; LANES]) -> [f64; LANES] {
-    let mut ratio = [0.0; LANES];
-    let mut half_plane = true;
+    let (mut ratio, mut lanes) = ([0.0; LANES], [false; LANES]);
     for l in 0..LANES {
-        let ok = x[l] > 0.0 && x[l] < f64::INFINITY && y[l].abs() < f64::INFINITY;
-        half_plane &= ok;
+        lanes[l] = x[l] > 0.0 && x[l] < f64::INFINITY && y[l].abs() < f64::INFINITY;
         ratio[l] = y[l] / x[l];
     }
     let mut out = vmath::atan(&ratio);
-    if !half_plane {
-        for l in 0..LANES {
-            if !(x[l] > 0.0 && x[l] < f64::INFINITY && y[l].abs() < f64::INFINITY) {
-                out[l] = y[l].atan2(x[l]);
-            }
+    if !lanes.iter().all(|&ok| ok) {
+        for l in (0..LANES).filter(|&l| !lanes[l]) {
+            out[l] = y[l].atan2(x[l]);
         }
     }
     out
@@ -613,6 +609,24 @@ pub struct Legs<'a, T> {
     pub b_k: Option<&'a [T]>,
     /// See `b_k`.
     pub a: Option<&'a [T]>,
+}
+
+impl<'a, T> Legs<'a, T> {
+    /// Legs of which every motion is given: `[beta_rad, hip_height_m, pitch_rad, omega_rad_s,
+    /// forward_m_s, up_m_s]`, with the model's fitting width (set `b_k` and `a` after for one
+    /// per leg).
+    pub fn moving([beta, h, pitch, omega, forward, up]: [&'a [T]; 6]) -> Legs<'a, T> {
+        Legs {
+            beta_rad: beta,
+            hip_height_m: h,
+            pitch_rad: Some(pitch),
+            omega_rad_s: Some(omega),
+            forward_m_s: Some(forward),
+            up_m_s: Some(up),
+            b_k: None,
+            a: None,
+        }
+    }
 }
 
 /// What a batch writes: each leg's drag, lift (N) and hip torque (N m).
@@ -2911,16 +2925,7 @@ mod tests {
             5.284_598_565_89e-312,
         ];
         let cols: Vec<Vec<f64>> = leg.iter().map(|v| vec![*v; 3]).collect();
-        let input = Legs {
-            beta_rad: &cols[0],
-            hip_height_m: &cols[1],
-            pitch_rad: Some(&cols[2]),
-            omega_rad_s: Some(&cols[3]),
-            forward_m_s: Some(&cols[4]),
-            up_m_s: Some(&cols[5]),
-            b_k: None,
-            a: None,
-        };
+        let input = Legs::moving(std::array::from_fn(|k| &cols[k][..]));
         for (name, model) in models() {
             let run = |isa: Isa| {
                 let kernel = LegKernel::new(model.clone()).on(isa)?;
@@ -3055,16 +3060,7 @@ mod tests {
         let legs = legs();
         let col = |k: usize| legs.iter().map(|l| l[k]).collect::<Vec<f64>>();
         let cols: Vec<Vec<f64>> = (0..6).map(col).collect();
-        let input = Legs {
-            beta_rad: &cols[0],
-            hip_height_m: &cols[1],
-            pitch_rad: Some(&cols[2]),
-            omega_rad_s: Some(&cols[3]),
-            forward_m_s: Some(&cols[4]),
-            up_m_s: Some(&cols[5]),
-            b_k: None,
-            a: None,
-        };
+        let input = Legs::moving(std::array::from_fn(|k| &cols[k][..]));
         let isas = [Isa::Baseline, Isa::Avx2, Isa::Avx512];
         let cases = models()
             .into_iter()
@@ -3121,16 +3117,7 @@ mod tests {
                 .iter()
                 .map(|c| c.iter().map(|&v| v as f32).collect())
                 .collect();
-            let input32 = Legs {
-                beta_rad: &cols32[0],
-                hip_height_m: &cols32[1],
-                pitch_rad: Some(&cols32[2]),
-                omega_rad_s: Some(&cols32[3]),
-                forward_m_s: Some(&cols32[4]),
-                up_m_s: Some(&cols32[5]),
-                b_k: None,
-                a: None,
-            };
+            let input32 = Legs::moving(std::array::from_fn(|k| &cols32[k][..]));
             let (mut d32, mut l32, mut t32) = (vec![0.0f32; n], vec![0.0f32; n], vec![0.0f32; n]);
             kernel
                 .forces(
