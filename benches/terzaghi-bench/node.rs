@@ -19,7 +19,7 @@ use crate::print_out;
 use anyhow::{Context as _, Result, anyhow, bail};
 use clap::Args;
 use terzaghi::msgs::{Header, JointState, LegForce, TfMessage, Time, WrenchStamped};
-use terzaghi::node::dds::{RunSummary, publisher, subscription, tool_node};
+use terzaghi::node::dds::{RunSummary, SequenceGaps, publisher, subscription, tool_node};
 use terzaghi::node::latency::Histogram;
 
 use std::collections::HashMap;
@@ -176,6 +176,10 @@ struct Report {
     round_trip_ratio_p99: f64,
     node_dropped: u64,
     node_lost_replies: u64,
+    /// Of the node's wrenches, those lost on the way back to the benchmark's client (gaps in
+    /// their writers' sequence numbers): a reply lost with one of them is the transport's loss,
+    /// not the node's.
+    node_reply_gaps: u64,
     echo_lost_replies: u64,
     /// The node's diagnoses of its own strokes during the run, and those superseded by a newer
     /// one of their leg while they waited for its diagnosis thread; none from a node without
@@ -484,6 +488,7 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
         echo_round_trip: er,
         node_dropped: summary.dropped,
         node_lost_replies: lost_node,
+        node_reply_gaps: load.node_reply_gaps,
         echo_lost_replies: lost_echo,
         node_gap_checks: gap_line(&text),
         tf_hz: a.tf_hz,
@@ -556,12 +561,13 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
         s += &format!("processing with /tf / at fixed heights: p50 {p50:.2}x, p99 {p99:.2}x\n");
     }
     s += &format!(
-        "round trip node / {}: p50 {:.2}x, p99 {:.2}x; node dropped {} inputs; replies lost: node {}, {} {}\n",
+        "round trip node / {}: p50 {:.2}x, p99 {:.2}x; node dropped {} inputs; replies lost: node {} ({} wrenches lost on the way back), {} {}\n",
         second,
         report.round_trip_ratio_p50,
         report.round_trip_ratio_p99,
         report.node_dropped,
         report.node_lost_replies,
+        report.node_reply_gaps,
         second,
         report.echo_lost_replies
     );
@@ -685,12 +691,20 @@ async fn client(
     let node_hist = Arc::new(Mutex::new(Histogram::default()));
     let echo_hist = Arc::new(Mutex::new(Histogram::default()));
     let n_legs = legs.joints.len();
-    let mut tasks = collect_wrenches(wrench_subs, n_legs, node_sent.clone(), node_hist.clone());
+    let node_reply_gaps = Arc::new(std::sync::atomic::AtomicU64::new(0));
+    let mut tasks = collect_wrenches(
+        wrench_subs,
+        n_legs,
+        node_sent.clone(),
+        node_hist.clone(),
+        node_reply_gaps.clone(),
+    );
     tasks.extend(collect_wrenches(
         second_wrench_subs,
         n_legs,
         echo_sent.clone(),
         echo_hist.clone(),
+        Arc::default(),
     ));
     if let Some(from_echo) = from_echo {
         let (sent, hist) = (echo_sent.clone(), echo_hist.clone());
@@ -832,6 +846,7 @@ async fn client(
     }
     node.stop_spinner();
     let _ = tokio::time::timeout(Duration::from_secs(1), spin).await;
+    figures.node_reply_gaps = node_reply_gaps.load(std::sync::atomic::Ordering::Relaxed);
     let lost_node = node_sent.lock().map(|m| m.len() as u64).unwrap_or(0);
     let lost_echo = echo_sent.lock().map(|m| m.len() as u64).unwrap_or(0);
     let nh = node_hist
@@ -846,21 +861,26 @@ async fn client(
 }
 
 /// Times each stamp from its `sent` instant to the last of `n_legs` predicted wrenches on
-/// `subs`, into `hist`.
+/// `subs`, into `hist`; adds to `gaps_seen` the wrenches lost on the way from their writers
+/// (gaps in each writer's sequence numbers).
 fn collect_wrenches(
     subs: Vec<ros2_client::Subscription<WrenchStamped>>,
     n_legs: usize,
     sent: Sent,
     hist: Arc<Mutex<Histogram>>,
+    gaps_seen: Arc<std::sync::atomic::AtomicU64>,
 ) -> Vec<tokio::task::JoinHandle<()>> {
     // Per stamp, how many legs answered so far.
     let answers: Arc<Mutex<HashMap<i64, usize>>> = Arc::default();
     subs.into_iter()
         .map(|sub| {
             let (sent, hist, answers) = (sent.clone(), hist.clone(), answers.clone());
+            let gaps_seen = gaps_seen.clone();
             tokio::spawn(async move {
-                while let Ok((w, _)) = sub.async_take().await {
+                let mut gaps = SequenceGaps::default();
+                while let Ok((w, info)) = sub.async_take().await {
                     let now = Instant::now();
+                    gaps_seen.fetch_add(gaps.lost(&info), std::sync::atomic::Ordering::Relaxed);
                     let stamp = w.header.stamp.to_nanos();
                     let mut ans = answers.lock().unwrap_or_else(|p| p.into_inner());
                     let n = ans.entry(stamp).or_insert(0);
@@ -887,6 +907,9 @@ fn collect_wrenches(
 #[derive(Debug, Default, serde::Serialize)]
 struct LoadFigures {
     sent: u64,
+    /// The node's wrenches lost on the way to this client: gaps in the sequence numbers of
+    /// their writers (a best-effort reader's datagrams the loaded loopback drops).
+    node_reply_gaps: u64,
     /// With `/tf`: the first leg's `leg_force` messages received, and those whose hip the node
     /// placed by `/tf`.
     forces_seen: u64,

@@ -179,10 +179,11 @@ async fn next_sample<M: serde::de::DeserializeOwned + 'static>(
 
 /// Samples lost before they reached us: gaps in each writer's sequence numbers.
 #[derive(Default)]
-struct SequenceGaps(HashMap<ros2_client::Gid, i64>);
+pub struct SequenceGaps(HashMap<ros2_client::Gid, i64>);
 
 impl SequenceGaps {
-    fn lost(&mut self, info: &ros2_client::MessageInfo) -> u64 {
+    /// How many samples of this sample's writer were lost since the last one taken from it.
+    pub fn lost(&mut self, info: &ros2_client::MessageInfo) -> u64 {
         let seq = info.sequence_number();
         match self.0.insert(info.publisher_gid(), seq) {
             Some(prev) if seq > prev + 1 => (seq - prev - 1) as u64,
