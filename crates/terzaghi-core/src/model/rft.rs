@@ -134,7 +134,8 @@ impl RftFit {
     /// [`RftFit::alpha`] from the cosine and sine of twice the attack angle (`c2b`, `s2b`)
     /// and of the intrusion angle (`cg`, `sg`): the sums of angles by their addition formulas,
     /// so that no trigonometric function is evaluated.
-    fn alpha_trig(&self, (c2b, s2b): (f64, f64), (cg, sg): (f64, f64)) -> (f64, f64) {
+    #[inline(always)]
+    pub(crate) fn alpha_trig(&self, (c2b, s2b): (f64, f64), (cg, sg): (f64, f64)) -> (f64, f64) {
         let sin_plus = s2b * cg + c2b * sg; // sin(2 beta + gamma)
         let sin_minus = sg * c2b - s2b * cg; // sin(-2 beta + gamma)
         let cos_plus = c2b * cg - s2b * sg; // cos(2 beta + gamma)
@@ -916,6 +917,17 @@ impl RftDepthLaw {
         self.scale
             * Self::REF_DEPTH_M
             * ((depth_m + self.offset_m) / Self::REF_DEPTH_M).powf(self.exponent)
+    }
+
+    /// [`Self::effective_depth_m`] of [`LANES`](super::batch::LANES) depths at once, the power
+    /// in the lanes ([`super::batch::powf_lanes`]: within 1e-14 of the power).
+    #[inline]
+    pub fn effective_depths_m(
+        &self,
+        depth_m: &[f64; super::batch::LANES],
+    ) -> [f64; super::batch::LANES] {
+        let x = depth_m.map(|d| (d + self.offset_m) / Self::REF_DEPTH_M);
+        super::batch::powf_lanes(&x, self.exponent).map(|p| self.scale * Self::REF_DEPTH_M * p)
     }
 }
 

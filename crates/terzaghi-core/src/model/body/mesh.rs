@@ -217,6 +217,7 @@ impl Body {
         }
         Ok(Body {
             planar: Vec::new(),
+            planar_blocks: Vec::new(),
             spatial: elements,
             reach_m: -lo[2],
             top_m: hi[2],
