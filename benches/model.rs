@@ -163,6 +163,48 @@ fn models(c: &mut Criterion) {
             })
         });
     }
+    // A batch of 4,096 x 6 C-legs (96 elements, chord 0.125 m) in the plate runs' medium (its
+    // law in depth: a power per element in the sand), as a learning user's environments give
+    // them: angles over the turn, hips 0-12 cm up (about half the legs in the sand).
+    {
+        use terzaghi::model::batch::{LegForcesOut, LegKernel, Legs};
+        let kernel = LegKernel::new(ForceModel::Rft(
+            RftModel::with_profile(
+                Plate::new(0.125, 0.03, 0.06).unwrap(),
+                plate_runs.coefficients.clone(),
+                96,
+                c_leg_profile(0.0625, std::f64::consts::PI, 32),
+            )
+            .unwrap()
+            .with_depth_law(Some(plate_runs.depth_law)),
+        ));
+        let n = 4096 * 6;
+        let col = |f: &dyn Fn(f64) -> f64| -> Vec<f64> {
+            (0..n)
+                .map(|i| f((i as f64 * 0.618_033_988_75).fract()))
+                .collect()
+        };
+        let beta = col(&|u| (2.0 * u - 1.0) * std::f64::consts::PI);
+        let h = col(&|u| 0.12 * ((u * 7.0).fract()));
+        let (pitch, omega, fwd, up) = (vec![0.0; n], vec![1.0; n], vec![0.1; n], vec![0.0; n]);
+        let (mut drag, mut lift, mut torque) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        c.bench_function("batch_c_legs_4096x6_plate_runs_medium", |b| {
+            b.iter(|| {
+                kernel
+                    .forces(
+                        &Legs::moving([&beta, &h, &pitch, &omega, &fwd, &up]),
+                        0,
+                        LegForcesOut {
+                            drag_n: &mut drag,
+                            lift_n: &mut lift,
+                            hip_torque_nm: &mut torque,
+                        },
+                    )
+                    .unwrap();
+                black_box(lift[7])
+            })
+        });
+    }
     for (name, model, hip) in [
         ("body_wheel_rolling_evaluate", &smooth, &rolling),
         ("body_wheel_pressed_evaluate", &smooth, &pressed),

@@ -2310,19 +2310,23 @@ fn sum<T: Real>(
         t(frame.n.1),
         t(frame.h),
     );
-    // A depth law's power, once per element below the surface, before the vector loop.
+    // A depth law's power, once per element below the surface, before the vector loop:
+    // sixteen at a time in the lanes (the columns are padded to whole lanes).
     let depth = depth_law.map(|law| {
         scratch.depth.clear();
-        scratch
-            .depth
-            .extend(soa.s.iter().zip(&soa.q).map(|(&s, &q)| {
-                let d = -(h + (s * u1 + q * n1));
-                if d > T::ZERO {
-                    T::of(law.effective_depth_m(d.to_f64()))
-                } else {
-                    T::ZERO
-                }
-            }));
+        for (s, q) in soa.s.chunks_exact(LANES).zip(soa.q.chunks_exact(LANES)) {
+            let d: [T; LANES] = std::array::from_fn(|l| -(h + (s[l] * u1 + q[l] * n1)));
+            if d.iter().all(|&d| !(d > T::ZERO)) {
+                scratch.depth.extend([T::ZERO; LANES]);
+                continue;
+            }
+            // A lane above the surface takes 1 cm, then zero.
+            let x = d.map(|d| if d > T::ZERO { d.to_f64() } else { 0.01 });
+            let p = law.effective_depths_m(&x);
+            scratch
+                .depth
+                .extend((0..LANES).map(|l| if d[l] > T::ZERO { T::of(p[l]) } else { T::ZERO }));
+        }
         scratch.depth.as_slice()
     });
     let c = Consts {
