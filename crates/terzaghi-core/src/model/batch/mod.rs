@@ -2316,7 +2316,7 @@ fn sum<T: Real>(
         scratch.depth.clear();
         for (s, q) in soa.s.chunks_exact(LANES).zip(soa.q.chunks_exact(LANES)) {
             let d: [T; LANES] = std::array::from_fn(|l| -(h + (s[l] * u1 + q[l] * n1)));
-            if d.iter().all(|&d| !(d > T::ZERO)) {
+            if !d.iter().any(|&d| d > T::ZERO) {
                 scratch.depth.extend([T::ZERO; LANES]);
                 continue;
             }
