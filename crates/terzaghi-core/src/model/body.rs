@@ -590,8 +590,9 @@ impl Body {
         self.planar_sum_any(stress, hub, at)
     }
 
-    /// The planar elements that may be below the sand at `at`: those of every block whose
-    /// circle reaches below the surface (a rut only lies lower than the surface's level).
+    /// The planar elements that may be below the sand at `at`: all but those of the blocks whose
+    /// circle stays above the surface (a rut only lies lower than the surface's level; a height
+    /// that is no number skips none, and its forces come out no number, as the sum's).
     #[inline(always)]
     fn planar_in_reach<'a>(&'a self, at: &'a Place) -> impl Iterator<Item = &'a Element> + 'a {
         self.planar
@@ -599,7 +600,8 @@ impl Body {
             .zip(&self.planar_blocks)
             .filter(move |&(_, &[x, z, r])| {
                 let z = if at.turned { at.turn(x, z).1 } else { z };
-                at.height_m + z - r < 0.0
+                let above = at.height_m + z - r >= 0.0;
+                !above
             })
             .flat_map(|(block, _)| block)
     }
@@ -1407,6 +1409,22 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("hip forward velocity"), "{e}");
+    }
+
+    #[test]
+    fn a_hub_height_that_is_no_number_gives_forces_that_are_no_number() {
+        // `Body::forces` takes what its callers checked; a NaN it is given must not come out
+        // as a number (the blocks of the rim above the sand are skipped only for a number).
+        let (fit, law) = sand();
+        let wheel = Body::wheel(0.058, 0.05, None, 360).unwrap();
+        let hub = HubMotion {
+            height_m: f64::NAN,
+            velocity_m_s: [0.01, 0.0, 0.0],
+            omega_rad_s: 0.345,
+            angle_rad: 0.0,
+        };
+        let f = wheel.forces(&fit, Some(&law), None, &hub);
+        assert!(f.force_n[0].is_nan() && f.force_n[2].is_nan(), "{f:?}");
     }
 
     #[test]
