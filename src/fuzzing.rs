@@ -803,7 +803,8 @@ pub fn mesh_file(data: &[u8]) {
 // The batch kernel: the arrays Python's `LegBatch.forces` hands it.
 
 /// A batch of legs as `LegBatch.forces` gives them (any numbers, float64 or float32, a fitting
-/// width per leg or not, a chunk's offset): improved-model plates, RFT C-legs or RFT plates.
+/// width per leg or not, a chunk's offset): improved-model plates, RFT C-legs (in poppy seeds,
+/// or in the plate runs' medium with its law in depth) or RFT plates.
 /// The kernel on the processor's instructions and on the baseline's agree, the same leg named
 /// where one refuses; every force given is finite; and with inputs of a robot's size each leg's
 /// float64 forces are `predict_moving`'s (or the improved model's at its own width).
@@ -815,7 +816,7 @@ pub fn batch_legs(data: &[u8]) {
     };
     let mut u = Unstructured::new(data);
     let (Ok(kind), Ok(float32), Ok(widths), Ok(n)) = (
-        u.int_in_range(0u8..=2),
+        u.int_in_range(0u8..=3),
         u.arbitrary::<bool>(),
         u.arbitrary::<bool>(),
         u.int_in_range(0usize..=80),
@@ -841,6 +842,18 @@ pub fn batch_legs(data: &[u8]) {
                 c_leg_profile(0.05, std::f64::consts::PI, 32),
             )
             .expect("a C-leg"),
+        ),
+        3 => ForceModel::Rft(
+            RftModel::with_profile(
+                plate,
+                fit,
+                96,
+                c_leg_profile(0.05, std::f64::consts::PI, 32),
+            )
+            .expect("a C-leg")
+            .with_depth_law(Some(
+                crate::model::RftDepthLaw::new(4.546, 1.219).expect("the plate runs' law"),
+            )),
         ),
         _ => ForceModel::Rft(RftModel::new(plate, fit, 50).expect("an RFT plate")),
     };
