@@ -156,6 +156,7 @@ class Batch:
         c_leg_span_deg: Optional[float],
         profile: Optional[List[Tuple[float, float]]],
         medium_file: Optional[str],
+        body: Optional[BodyArgs] = None,
     ) -> None: ...
     @property
     def vectorised(self) -> bool: ...
@@ -174,6 +175,10 @@ class Batch:
         drag_n: npt.NDArray[np.floating],
         lift_n: npt.NDArray[np.floating],
         hip_torque_nm: npt.NDArray[np.floating],
+        lateral_m_s: Optional[npt.NDArray[np.floating]] = None,
+        side_n: Optional[npt.NDArray[np.floating]] = None,
+        roll_moment_nm: Optional[npt.NDArray[np.floating]] = None,
+        yaw_moment_nm: Optional[npt.NDArray[np.floating]] = None,
     ) -> None: ...
 
 class FreeBase:

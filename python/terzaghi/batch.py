@@ -22,11 +22,15 @@ from typing import Any, Optional, Tuple
 
 import numpy as np
 
-from . import TerzaghiError, _medium, _model_tail, _terzaghi
+from . import BODY_SHAPES, TerzaghiError, _body, _medium, _model_tail, _terzaghi
 
-__all__ = ["LegBatch"]
+__all__ = ["LegBatch", "WRENCH"]
 
 Arrays = Tuple[Any, Any, Any]
+Wrenches = Tuple[Any, Any, Any, Any, Any, Any]
+
+#: The names of :meth:`LegBatch.wrenches`' outputs, in their order.
+WRENCH = ("drag_n", "lift_n", "hip_torque_nm", "side_n", "roll_moment_nm", "yaw_moment_nm")
 
 
 def _kind(x) -> str:
@@ -138,14 +142,20 @@ class LegBatch:
             ``medium_file`` of the ``rft_depth_power`` law scales RFT's stresses in depth.
         shape: ``"plate"``, ``"c_leg"`` (``c_leg_radius_m``, ``c_leg_span_deg``) or
             ``"polyline"`` (``profile``, ``[(s, q), ...]`` in metres); the curved ones RFT only.
+            Or a body about the hip, its hub (``"wheel"``, ``"disc"``, ``"sphere"``, ``"box"``,
+            ``"mesh"``) with the values :func:`terzaghi.predict` takes for one (``radius_m``,
+            ``width_m``, ``thickness_m``, ``size_m``, ``mesh_file``, ``mesh_scale``,
+            ``element_m``, the grousers, ``rim_elements``): RFT in ``medium_file``'s medium,
+            without ``length_m`` (its reach is its own), leg by leg (a wheel of 360 rim
+            elements takes a few microseconds).
         b_k, a, rft_coeffs, rft_zeta, rft_elements: as for :func:`terzaghi.predict`.
     """
 
     def __init__(
         self,
         *,
-        length_m: float,
-        width_m: float,
+        length_m: Optional[float] = None,
+        width_m: Optional[float] = None,
         medium: Optional[str] = None,
         unit_weight_n_m3: Optional[float] = None,
         phi_deg: Optional[float] = None,
@@ -161,7 +171,36 @@ class LegBatch:
         c_leg_span_deg: Optional[float] = None,
         profile=None,
         medium_file=None,
+        radius_m: Optional[float] = None,
+        thickness_m: Optional[float] = None,
+        size_m=None,
+        mesh_file=None,
+        mesh_scale: Optional[float] = None,
+        element_m: Optional[float] = None,
+        grouser_count: Optional[int] = None,
+        grouser_height_m: Optional[float] = None,
+        grouser_thickness_m: Optional[float] = None,
+        rim_elements: Optional[int] = None,
     ) -> None:
+        body_values = dict(radius_m=radius_m, thickness_m=thickness_m, size_m=size_m,
+                           mesh_file=mesh_file, mesh_scale=mesh_scale, element_m=element_m,
+                           grouser_count=grouser_count, grouser_height_m=grouser_height_m,
+                           grouser_thickness_m=grouser_thickness_m, rim_elements=rim_elements)
+        body = None
+        if shape in BODY_SHAPES:
+            if length_m is not None:
+                raise TerzaghiError(f"length_m is not given for a body ({shape}): its reach is its own")
+            if model != "rft":
+                raise TerzaghiError(f"model {model!r}: a body ({shape}) is RFT's (model=\"rft\")")
+            body = _body(shape, width_m=width_m, **body_values)
+            length_m, width_m, shape = 1.0, 1.0, "plate"  # the body's own, in the native call
+        else:
+            given = [k for k, v in body_values.items() if v is not None]
+            if given:
+                raise TerzaghiError(f"{given[0]} is for a body (shape one of {', '.join(BODY_SHAPES)})")
+            if length_m is None or width_m is None:
+                raise TerzaghiError("length_m and width_m are needed (the leg, m)")
+        self.is_body = body is not None
         self._inner = _terzaghi.Batch(
             model,
             float(length_m),
@@ -169,12 +208,13 @@ class LegBatch:
             *_medium(medium, unit_weight_n_m3, phi_deg, delta_deg),
             *_model_tail(b_k, a, rft_coeffs, rft_zeta, rft_elements, shape, c_leg_radius_m,
                          c_leg_span_deg, profile, medium_file),
+            body,
         )
 
     @property
     def vectorised(self) -> bool:
         """Whether legs go through the kernel's vector loop (RFT with fitted coefficients);
-        other models are evaluated leg by leg, as :func:`terzaghi.predict` does."""
+        other models (and bodies) are evaluated leg by leg, as :func:`terzaghi.predict` does."""
         return self._inner.vectorised
 
     def forces(
@@ -213,6 +253,43 @@ class LegBatch:
                 whose shape differs from ``beta_rad``'s (its name and both shapes), an output of
                 another dtype, or an array on an accelerator.
         """
+        return self._run(beta_rad, hip_height_m, pitch_rad, omega_rad_s, forward_m_s, up_m_s,
+                         b_k, a, None, WRENCH[:3], out)
+
+    def wrenches(
+        self,
+        beta_rad,
+        hip_height_m,
+        *,
+        pitch_rad=None,
+        omega_rad_s=None,
+        forward_m_s=None,
+        up_m_s=None,
+        lateral_m_s=None,
+        b_k=None,
+        a=None,
+        out: Optional[Wrenches] = None,
+    ) -> Wrenches:
+        """Every leg's whole wrench at its hip: drag, lift, hip torque, and the side force and
+        the moments about the hip frame's ``x`` (the robot's backward) and ``z`` (up), as
+        :func:`terzaghi.predict` gives them (``side_n`` + toward the robot's right).
+
+        Args:
+            lateral_m_s: each hip's velocity to the robot's left (m/s), the shape of
+                ``beta_rad`` or a scalar; zero if left out. A body, or an RFT leg moving
+                sideways, feels it (leg by leg); a planar leg moving in its plane has
+                :meth:`forces`' values and no side force.
+            out: six C-contiguous arrays of the batch's dtype and shape to write into.
+            The rest as :meth:`forces`.
+
+        Returns:
+            The six arrays (:data:`WRENCH` names them), as :meth:`forces` returns three.
+        """
+        return self._run(beta_rad, hip_height_m, pitch_rad, omega_rad_s, forward_m_s, up_m_s,
+                         b_k, a, lateral_m_s, WRENCH, out)
+
+    def _run(self, beta_rad, hip_height_m, pitch_rad, omega_rad_s, forward_m_s, up_m_s, b_k, a,
+             lateral_m_s, names, out):
         kind = _kind(beta_rad)
         beta = _view("beta_rad", beta_rad)
         dtype = np.float32 if getattr(beta, "dtype", None) == np.float32 else np.float64
@@ -227,13 +304,15 @@ class LegBatch:
                          ("forward_m_s", forward_m_s), ("up_m_s", up_m_s), ("b_k", b_k),
                          ("a", a)]
         ]
+        lateral = None if lateral_m_s is None else _input("lateral_m_s", lateral_m_s, dtype, shape)
         if out is None:
-            arrays_out = tuple(_aligned_empty(shape, dtype) for _ in range(3))
-            self._inner.forces_into(beta, *arrays, *arrays_out)
+            arrays_out = tuple(_aligned_empty(shape, dtype) for _ in names)
+        else:
+            if len(out) != len(names):
+                raise TerzaghiError(f"out: {len(names)} arrays ({', '.join(names)}), got {len(out)}")
+            arrays_out = tuple(_output(n, o, dtype, shape) for n, o in zip(names, out))
+        more = arrays_out[3:] if len(names) == 6 else (None, None, None)
+        self._inner.forces_into(beta, *arrays, *arrays_out[:3], lateral, *more)
+        if out is None:
             return tuple(_as_kind(kind, o) for o in arrays_out)
-        if len(out) != 3:
-            raise TerzaghiError(f"out: three arrays (drag, lift, torque), got {len(out)}")
-        arrays_out = tuple(_output(n, o, dtype, shape)
-                           for n, o in zip(("drag_n", "lift_n", "hip_torque_nm"), out))
-        self._inner.forces_into(beta, *arrays, *arrays_out)
         return tuple(out)

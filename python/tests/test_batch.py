@@ -160,3 +160,76 @@ def test_shapes_and_dtypes_are_checked_and_named():
     with pytest.raises(terzaghi.TerzaghiError, match=r"hip_torque_nm is float32 \[4, 6\]"):
         legs._inner.forces_into(beta, np.zeros((4, 6)), None, None, None, None, None, None,
                                 np.empty((4, 6)), np.empty((4, 6)), out32[2])
+
+
+WHEEL_MEDIUM = Path(__file__).resolve().parents[2] / "tests" / "data" / "medium_without_shape.yaml"
+WHEEL = dict(model="rft", shape="wheel", radius_m=0.058, width_m=0.05, medium_file=WHEEL_MEDIUM)
+
+
+def test_a_batch_of_wheels_and_feet_gives_predict_s_whole_wrench():
+    rng = np.random.default_rng(3)
+    shape = (40, 6)
+    x = dict(beta=rng.uniform(0.0, 6.3, shape), hip=rng.uniform(-0.01, 0.07, shape),
+             omega=rng.uniform(-1.0, 1.0, shape), fwd=rng.uniform(-0.02, 0.05, shape),
+             up=rng.uniform(-0.01, 0.01, shape), lat=rng.uniform(-0.02, 0.02, shape))
+    bodies = [WHEEL,
+              dict(WHEEL, grouser_count=8, grouser_height_m=0.01, grouser_thickness_m=0.004),
+              dict(model="rft", shape="box", size_m=(0.05, 0.02, 0.05), medium_file=WHEEL_MEDIUM)]
+    for kw in bodies:
+        legs = LegBatch(**kw)
+        assert legs.is_body and not legs.vectorised
+        got = legs.wrenches(x["beta"], x["hip"], omega_rad_s=x["omega"], forward_m_s=x["fwd"],
+                            up_m_s=x["up"], lateral_m_s=x["lat"])
+        want = terzaghi.predict(x["beta"], hip_height_m=x["hip"], omega_rad_s=x["omega"],
+                                forward_m_s=x["fwd"], up_m_s=x["up"], lateral_m_s=x["lat"], **kw)
+        for name, g in zip(terzaghi.batch.WRENCH, got):
+            np.testing.assert_array_equal(g, want[name], err_msg=f"{kw['shape']} {name}")
+        assert np.count_nonzero(np.abs(got[3]) > 1e-3) > 20, kw  # bodies pushed sideways
+        # forces() is the wrench's first three, the hips moving in their plane.
+        three = legs.forces(x["beta"], x["hip"], omega_rad_s=x["omega"], forward_m_s=x["fwd"])
+        plane = legs.wrenches(x["beta"], x["hip"], omega_rad_s=x["omega"], forward_m_s=x["fwd"])
+        for a, b in zip(three, plane):
+            np.testing.assert_array_equal(a, b)
+    # float32 in, float32 out, to float32's rounding of the same wrench.
+    legs = LegBatch(**WHEEL)
+    w64 = legs.wrenches(x["beta"], x["hip"], omega_rad_s=x["omega"], forward_m_s=x["fwd"],
+                        lateral_m_s=x["lat"])
+    w32 = legs.wrenches(x["beta"].astype(np.float32), x["hip"], omega_rad_s=x["omega"],
+                        forward_m_s=x["fwd"], lateral_m_s=x["lat"])
+    for a, b in zip(w64, w32):
+        assert b.dtype == np.float32
+        np.testing.assert_allclose(b, a, rtol=1e-4, atol=1e-4 * np.abs(a).max())
+
+
+def test_a_plate_batch_moving_sideways_and_a_body_s_bad_values_are_named():
+    beta = np.radians(np.arange(10.0, 170.0, 5.0))
+    lat = np.linspace(-0.05, 0.05, beta.size)
+    plate = LegBatch(**LEG, model="rft", medium="poppy_lp")
+    got = plate.wrenches(beta, 0.03, forward_m_s=0.1, lateral_m_s=lat)
+    want = terzaghi.predict(beta, **LEG, model="rft", medium="poppy_lp", hip_height_m=0.03,
+                            forward_m_s=0.1, lateral_m_s=lat)
+    for name, g in zip(terzaghi.batch.WRENCH, got):
+        np.testing.assert_allclose(g, want[name], rtol=1e-12, atol=1e-12, err_msg=name)
+    # A leg in the sand moving left is pushed to its right (+), as the docs give.
+    moving = (lat != 0) & (want["depth_m"] > 0)
+    assert moving.sum() > 10 and (np.sign(got[3][moving]) == np.sign(lat[moving])).all()
+    # In its plane: forces' values, no side force, no moments.
+    d, l, t, s, r, y = plate.wrenches(beta, 0.03, forward_m_s=0.1)
+    np.testing.assert_array_equal(d, plate.forces(beta, 0.03, forward_m_s=0.1)[0])
+    assert not s.any() and not r.any() and not y.any()
+    bad = lat.copy()
+    bad[7] = np.inf
+    with pytest.raises(terzaghi.TerzaghiError, match=r"leg 7 \(flat index\).*lateral velocity"):
+        plate.wrenches(beta, 0.03, lateral_m_s=bad)
+    with pytest.raises(terzaghi.TerzaghiError, match=r"out: 6 arrays"):
+        plate.wrenches(beta, 0.03, out=tuple(np.empty(beta.shape) for _ in range(3)))
+    with pytest.raises(terzaghi.TerzaghiError, match="length_m is not given for a body"):
+        LegBatch(**WHEEL, length_m=0.1)
+    with pytest.raises(terzaghi.TerzaghiError, match=r"a body \(wheel\) is RFT's"):
+        LegBatch(**dict(WHEEL, model="improved"))
+    with pytest.raises(terzaghi.TerzaghiError, match="radius_m is for a body"):
+        LegBatch(**LEG, model="rft", medium="poppy_lp", radius_m=0.05)
+    with pytest.raises(terzaghi.TerzaghiError, match="wheel radius"):
+        LegBatch(**dict(WHEEL, radius_m=-0.058))
+    with pytest.raises(terzaghi.TerzaghiError, match=r"leg 3 \(flat index\).*hip height"):
+        LegBatch(**WHEEL).wrenches(np.zeros(5), np.array([0.03, 0.03, 0.03, np.nan, 0.03]))

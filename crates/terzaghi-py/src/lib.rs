@@ -316,6 +316,17 @@ fn body_of(b: BodyArgs) -> PyResult<terzaghi::model::Body> {
     terzaghi::session::steady::build_body(&spec, str::to_string).map_err(err)
 }
 
+/// `spec` with its leg the body `b` (by RFT, the body's reach and width its length and width).
+fn with_body(
+    mut spec: terzaghi::model_spec::ModelSpec,
+    b: BodyArgs,
+) -> PyResult<terzaghi::model_spec::ModelSpec> {
+    let body = body_of(b)?;
+    (spec.length_m, spec.width_m) = (body.reach_m(), body.width_m());
+    spec.shape = terzaghi::model_spec::LegShape::Body(Box::new(body));
+    Ok(spec)
+}
+
 /// [`predict`] with each sample's own hip: heights (m above the surface, negative below it),
 /// velocities (forward, to the left and up, m/s) and the leg's rotation rate (rad/s) beside the
 /// angles, flat arrays of one length. The sinkage model's path (its depth is the hip's height
@@ -387,9 +398,7 @@ fn predict_moving<'py>(
         medium_file,
     )?;
     if let Some(b) = body {
-        let body = body_of(b)?;
-        (spec.length_m, spec.width_m) = (body.reach_m(), body.width_m());
-        spec.shape = terzaghi::model_spec::LegShape::Body(Box::new(body));
+        spec = with_body(spec, b)?;
     }
     let m: ForceModel = spec.build().map_err(err)?;
     py.detach(move || {
@@ -771,7 +780,7 @@ struct Batch {
 const CHUNK: usize = 1024;
 
 /// The names of [`Batch::forces_into`]'s inputs, in its order.
-const BATCH_INPUTS: [&str; 8] = [
+const BATCH_INPUTS: [&str; 9] = [
     "beta_rad",
     "hip_height_m",
     "pitch_rad",
@@ -780,10 +789,18 @@ const BATCH_INPUTS: [&str; 8] = [
     "up_m_s",
     "b_k",
     "a",
+    "lateral_m_s",
 ];
 
-/// The names of its outputs.
-const BATCH_OUTPUTS: [&str; 3] = ["drag_n", "lift_n", "hip_torque_nm"];
+/// The names of its outputs: the forces, then the rest of the wrench.
+const BATCH_OUTPUTS: [&str; 6] = [
+    "drag_n",
+    "lift_n",
+    "hip_torque_nm",
+    "side_n",
+    "roll_moment_nm",
+    "yaw_moment_nm",
+];
 
 /// `a` as a C-contiguous array of `T` of `shape`, or an error naming it, its shape and dtype,
 /// and the batch's.
@@ -823,25 +840,26 @@ fn batch_array<'py, T: numpy::Element>(
     Ok(arr.clone())
 }
 
-/// `run(c, ...)` over each chunk `c` of [`CHUNK`] legs of the three outputs, the calling
-/// thread taking chunks beside rayon's threads (each takes the next chunk not yet taken): the
-/// caller neither sleeps while the pool works nor waits for a thread to wake before starting,
-/// and a robot's few legs or a pool of one thread run on the caller alone. The error of the
-/// first chunk that failed (by its place), if any.
+/// `run(c, outputs)` over each chunk `c` of [`CHUNK`] legs of the outputs (each the same
+/// length), the calling thread taking chunks beside rayon's threads (each takes the next chunk
+/// not yet taken): the caller neither sleeps while the pool works nor waits for a thread to
+/// wake before starting, and a robot's few legs or a pool of one thread run on the caller
+/// alone. The error of the first chunk that failed (by its place), if any.
 fn shared_chunks<T: Send, E: Send>(
-    d: &mut [T],
-    l: &mut [T],
-    t: &mut [T],
-    run: impl Fn(usize, &mut [T], &mut [T], &mut [T]) -> Option<E> + Sync,
+    outputs: Vec<&mut [T]>,
+    run: impl Fn(usize, &mut [&mut [T]]) -> Option<E> + Sync,
 ) -> Option<E> {
     use std::sync::Mutex;
     use std::sync::atomic::{AtomicUsize, Ordering};
-    let chunks: Vec<_> = d
-        .chunks_mut(CHUNK)
-        .zip(l.chunks_mut(CHUNK))
-        .zip(t.chunks_mut(CHUNK))
-        .map(|((d, l), t)| Mutex::new((d, l, t)))
-        .collect();
+    let mut parts: Vec<_> = outputs.into_iter().map(|o| o.chunks_mut(CHUNK)).collect();
+    let mut chunks = Vec::new();
+    loop {
+        let chunk: Vec<&mut [T]> = parts.iter_mut().filter_map(Iterator::next).collect();
+        if chunk.is_empty() {
+            break;
+        }
+        chunks.push(Mutex::new(chunk));
+    }
     let helpers = rayon::current_num_threads()
         .min(chunks.len())
         .saturating_sub(1);
@@ -853,8 +871,7 @@ fn shared_chunks<T: Send, E: Send>(
             let Some(chunk) = chunks.get(c) else { break };
             // Each chunk is taken once: its lock is never contended.
             let mut guard = chunk.lock().unwrap_or_else(|e| e.into_inner());
-            let (d, l, t) = &mut *guard;
-            if let Some(e) = run(c, d, l, t) {
+            if let Some(e) = run(c, &mut guard) {
                 let mut f = failed.lock().unwrap_or_else(|e| e.into_inner());
                 if f.as_ref().is_none_or(|(first, _)| c < *first) {
                     *f = Some((c, e));
@@ -879,15 +896,15 @@ fn shared_chunks<T: Send, E: Send>(
 }
 
 impl Batch {
-    /// [`Batch::forces_into`] in `T`.
+    /// [`Batch::forces_into`] in `T`: three outputs (the forces) or six (the whole wrench).
     fn forces_as<T: numpy::Element + terzaghi::model::batch::Real>(
         &self,
         py: Python<'_>,
-        inputs: [Option<&Bound<'_, PyAny>>; 8],
-        outputs: [&Bound<'_, PyAny>; 3],
+        inputs: [Option<&Bound<'_, PyAny>>; 9],
+        outputs: &[&Bound<'_, PyAny>],
     ) -> PyResult<()> {
         use numpy::PyArrayMethods;
-        use terzaghi::model::batch::{LegForcesOut, Legs};
+        use terzaghi::model::batch::{LegForcesOut, LegSideOut, Legs};
         let beta = inputs[0].expect("beta_rad is required");
         let shape = beta
             .cast::<numpy::PyUntypedArray>()
@@ -902,14 +919,20 @@ impl Batch {
                 }
             }
         }
-        let mut ins = Vec::with_capacity(8);
+        let wrench = outputs.len() == 6;
+        if !wrench && inputs[8].is_some() {
+            return Err(TerzaghiError::new_err(
+                "lateral_m_s: a sideways motion gives a side force and moments; ask for the whole wrench (wrenches) to have them",
+            ));
+        }
+        let mut ins = Vec::with_capacity(9);
         for (name, a) in BATCH_INPUTS.iter().zip(inputs) {
             ins.push(
                 a.map(|a| batch_array::<T>(name, a, &shape).map(|a| a.readonly()))
                     .transpose()?,
             );
         }
-        let mut outs = Vec::with_capacity(3);
+        let mut outs = Vec::with_capacity(outputs.len());
         for (name, a) in BATCH_OUTPUTS.iter().zip(outputs) {
             let a = batch_array::<T>(name, a, &shape)?;
             outs.push(a.try_readwrite().map_err(|_| {
@@ -934,30 +957,40 @@ impl Batch {
             b_k: slice(6),
             a: slice(7),
         };
-        let [d, l, t] = &mut outs[..] else {
-            unreachable!("three outputs")
-        };
-        let (d, l, t) = (
-            d.as_slice_mut().expect("checked C-contiguous"),
-            l.as_slice_mut().expect("checked C-contiguous"),
-            t.as_slice_mut().expect("checked C-contiguous"),
-        );
+        let lateral = slice(8);
+        let slices: Vec<&mut [T]> = outs
+            .iter_mut()
+            .map(|o| o.as_slice_mut().expect("checked C-contiguous"))
+            .collect();
         let kernel = &self.kernel;
         let failed = py.detach(|| {
-            let run = |c: usize, d: &mut [T], l: &mut [T], t: &mut [T]| {
-                kernel
-                    .forces(
+            let run = |c: usize, o: &mut [&mut [T]]| {
+                let (forces, more) = o.split_at_mut(3);
+                let [d, l, t] = forces else {
+                    unreachable!("three forces")
+                };
+                let out = LegForcesOut {
+                    drag_n: d,
+                    lift_n: l,
+                    hip_torque_nm: t,
+                };
+                match more {
+                    [s, r, y] => kernel.wrenches(
                         &legs,
+                        lateral,
                         c * CHUNK,
-                        LegForcesOut {
-                            drag_n: d,
-                            lift_n: l,
-                            hip_torque_nm: t,
+                        out,
+                        LegSideOut {
+                            side_n: s,
+                            roll_moment_nm: r,
+                            yaw_moment_nm: y,
                         },
-                    )
-                    .err()
+                    ),
+                    _ => kernel.forces(&legs, c * CHUNK, out),
+                }
+                .err()
             };
-            shared_chunks(d, l, t, run)
+            shared_chunks(slices, run)
         });
         match failed {
             Some(e) => Err(TerzaghiError::new_err(e.to_string())),
@@ -969,7 +1002,7 @@ impl Batch {
 #[pymethods]
 impl Batch {
     #[new]
-    #[pyo3(signature = (model, length_m, width_m, medium, unit_weight_n_m3, phi_deg, delta_deg, b_k, a, rft_coeffs, rft_zeta, rft_elements, shape, c_leg_radius_m, c_leg_span_deg, profile, medium_file))]
+    #[pyo3(signature = (model, length_m, width_m, medium, unit_weight_n_m3, phi_deg, delta_deg, b_k, a, rft_coeffs, rft_zeta, rft_elements, shape, c_leg_radius_m, c_leg_span_deg, profile, medium_file, body=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         model: &str,
@@ -989,9 +1022,10 @@ impl Batch {
         c_leg_span_deg: Option<f64>,
         profile: Option<Vec<(f64, f64)>>,
         medium_file: Option<std::path::PathBuf>,
+        body: Option<BodyArgs>,
     ) -> PyResult<Self> {
         // The hip height is given per leg and step; 0 to build.
-        let model = spec(
+        let mut model = spec(
             model,
             length_m,
             width_m,
@@ -1010,9 +1044,11 @@ impl Batch {
             c_leg_span_deg,
             profile,
             medium_file,
-        )?
-        .build()
-        .map_err(err)?;
+        )?;
+        if let Some(b) = body {
+            model = with_body(model, b)?;
+        }
+        let model = model.build().map_err(err)?;
         Ok(Batch {
             kernel: terzaghi::model::batch::LegKernel::new(model),
         })
@@ -1032,9 +1068,11 @@ impl Batch {
 
     /// Writes the forces at every element of the inputs (one shape and dtype, float64 or
     /// float32, C-contiguous: `beta_rad`'s) into `drag_n`, `lift_n` and `hip_torque_nm` (the
-    /// same). Inputs left out are zero (`b_k`, `a`: the model's). A non-finite input is an
-    /// error naming its flat index (the outputs are then partly written).
-    #[pyo3(signature = (beta_rad, hip_height_m, pitch_rad, omega_rad_s, forward_m_s, up_m_s, b_k, a, drag_n, lift_n, hip_torque_nm))]
+    /// same), and with `side_n`, `roll_moment_nm` and `yaw_moment_nm` (all three or none) the
+    /// rest of the wrench, the hips moving to their left at `lateral_m_s` (only with them).
+    /// Inputs left out are zero (`b_k`, `a`: the model's). A non-finite input is an error
+    /// naming its flat index (the outputs are then partly written).
+    #[pyo3(signature = (beta_rad, hip_height_m, pitch_rad, omega_rad_s, forward_m_s, up_m_s, b_k, a, drag_n, lift_n, hip_torque_nm, lateral_m_s=None, side_n=None, roll_moment_nm=None, yaw_moment_nm=None))]
     #[allow(clippy::too_many_arguments)]
     fn forces_into(
         &self,
@@ -1050,6 +1088,10 @@ impl Batch {
         drag_n: &Bound<'_, PyAny>,
         lift_n: &Bound<'_, PyAny>,
         hip_torque_nm: &Bound<'_, PyAny>,
+        lateral_m_s: Option<&Bound<'_, PyAny>>,
+        side_n: Option<&Bound<'_, PyAny>>,
+        roll_moment_nm: Option<&Bound<'_, PyAny>>,
+        yaw_moment_nm: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<()> {
         let inputs = [
             Some(beta_rad),
@@ -1060,12 +1102,22 @@ impl Batch {
             up_m_s,
             b_k,
             a,
+            lateral_m_s,
         ];
-        let outputs = [drag_n, lift_n, hip_torque_nm];
+        let mut outputs = vec![drag_n, lift_n, hip_torque_nm];
+        match (side_n, roll_moment_nm, yaw_moment_nm) {
+            (Some(s), Some(r), Some(y)) => outputs.extend([s, r, y]),
+            (None, None, None) => {}
+            _ => {
+                return Err(TerzaghiError::new_err(
+                    "side_n, roll_moment_nm, yaw_moment_nm: give all three or none",
+                ));
+            }
+        }
         if beta_rad.cast::<PyArrayDyn<f32>>().is_ok() {
-            self.forces_as::<f32>(py, inputs, outputs)
+            self.forces_as::<f32>(py, inputs, &outputs)
         } else {
-            self.forces_as::<f64>(py, inputs, outputs)
+            self.forces_as::<f64>(py, inputs, &outputs)
         }
     }
 }

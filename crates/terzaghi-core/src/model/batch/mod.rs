@@ -692,6 +692,17 @@ pub struct LegForcesOut<'a, T> {
     pub hip_torque_nm: &'a mut [T],
 }
 
+/// Where [`LegKernel::wrenches`] writes the rest of each leg's wrench (one value per leg).
+#[derive(Debug)]
+pub struct LegSideOut<'a, T> {
+    /// The side force along the hip frame's `y`, the robot's right (N).
+    pub side_n: &'a mut [T],
+    /// The moment about the hip frame's `x`, the robot's backward (N m).
+    pub roll_moment_nm: &'a mut [T],
+    /// The moment about the vertical (N m).
+    pub yaw_moment_nm: &'a mut [T],
+}
+
 /// A leg a batch could not evaluate: its index in the inputs, and why.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("leg {index} (flat index): {problem}")]
@@ -830,7 +841,6 @@ impl LegKernel {
     ) -> Result<(), LegError> {
         let n = out.drag_n.len();
         assert!(out.lift_n.len() == n && out.hip_torque_nm.len() == n);
-        let at = |o: Option<&[T]>, i: usize| o.map_or(0.0, |v| v[i].to_f64());
         let widths = match &self.model {
             _ if legs.b_k.is_none() && legs.a.is_none() => None,
             ForceModel::Terzaghi(m) if m.fitting_width() != FittingWidth::CONVENTIONAL => Some(m),
@@ -853,6 +863,82 @@ impl LegKernel {
             _ => {}
         }
         // Leg by leg: the models without a vector plan (`Plan::EachLeg`).
+        self.each_leg(legs, None, first, out, None, widths)
+    }
+
+    /// [`Self::forces`] with the rest of each leg's wrench: `lateral_m_s` is each hip's
+    /// velocity to its left (m/s; `None`: zero), and `more` takes the side force and the
+    /// moments about the hip frame's `x` and `z` ([`super::Prediction`]'s `side_n`,
+    /// `roll_moment_nm`, `yaw_moment_nm`). A planar leg moving in its plane (the flat-plate
+    /// models always; an RFT leg where every `lateral_m_s` is zero) goes through the vector
+    /// loop, its side force and moments zero; a body, or an RFT leg moving across its plane,
+    /// leg by leg through [`ForceModel::predict_moving`]. Errors as [`Self::forces`]'s; a
+    /// lateral velocity that is not finite names its leg.
+    ///
+    /// # Panics
+    /// As [`Self::forces`], and if `lateral_m_s` or an output of `more` is shorter.
+    pub fn wrenches<T: Real>(
+        &self,
+        legs: &Legs<'_, T>,
+        lateral_m_s: Option<&[T]>,
+        first: usize,
+        out: LegForcesOut<'_, T>,
+        more: LegSideOut<'_, T>,
+    ) -> Result<(), LegError> {
+        let n = out.drag_n.len();
+        assert!(
+            more.side_n.len() == n
+                && more.roll_moment_nm.len() == n
+                && more.yaw_moment_nm.len() == n
+        );
+        let lateral = lateral_m_s.map(|v| &v[first..first + n]);
+        if let Some(k) = lateral.and_then(|v| v.iter().position(|x| !x.to_f64().is_finite())) {
+            let v = lateral.map_or(0.0, |v| v[k].to_f64());
+            return Err(LegError {
+                index: first + k,
+                problem: ModelError::NotFinite {
+                    name: "hip lateral velocity (m/s)",
+                    value: v,
+                }
+                .into(),
+            });
+        }
+        let in_plane = match &self.model {
+            ForceModel::Terzaghi(_) | ForceModel::Sinkage(_) => true,
+            ForceModel::Rft(_) => lateral.is_none_or(|v| v.iter().all(|x| x.to_f64() == 0.0)),
+            ForceModel::Body(_) => false,
+        };
+        if in_plane {
+            self.forces(legs, first, out)?;
+            for o in [more.side_n, more.roll_moment_nm, more.yaw_moment_nm] {
+                o.fill(T::ZERO);
+            }
+            return Ok(());
+        }
+        if legs.b_k.is_some() || legs.a.is_some() {
+            // Only the improved model takes them, and it is planar (above).
+            return Err(LegError {
+                index: first,
+                problem: LegProblem::NoFittingWidth,
+            });
+        }
+        self.each_leg(legs, lateral_m_s, first, out, Some(more), None)
+    }
+
+    /// Legs `first..` one by one through [`ForceModel::predict_moving`] (or the improved
+    /// model's own width, `widths`), with the hips' lateral velocity where given, writing the
+    /// rest of the wrench into `more` where given.
+    fn each_leg<T: Real>(
+        &self,
+        legs: &Legs<'_, T>,
+        lateral_m_s: Option<&[T]>,
+        first: usize,
+        out: LegForcesOut<'_, T>,
+        mut more: Option<LegSideOut<'_, T>>,
+        widths: Option<&TerzaghiModel>,
+    ) -> Result<(), LegError> {
+        let n = out.drag_n.len();
+        let at = |o: Option<&[T]>, i: usize| o.map_or(0.0, |v| v[i].to_f64());
         for k in 0..n {
             let i = first + k;
             let fail = |error: ModelError| LegError {
@@ -868,7 +954,7 @@ impl LegKernel {
                 forward_m_s: named("hip forward velocity (m/s)", at(legs.forward_m_s, i))?,
                 up_m_s: named("hip up velocity (m/s)", at(legs.up_m_s, i))?,
                 forward_position_m: 0.0,
-                lateral_m_s: 0.0,
+                lateral_m_s: named("hip lateral velocity (m/s)", at(lateral_m_s, i))?,
             };
             let f = match widths {
                 Some(m) => {
@@ -877,14 +963,30 @@ impl LegKernel {
                         .with_fitting_width(w)
                         .evaluate_at_height(beta + hip.pitch_rad, hip.height_m)
                         .map_err(fail)?;
-                    [f.drag_n, f.lift_n, f.hip_torque_nm]
+                    [f.drag_n, f.lift_n, f.hip_torque_nm, 0.0, 0.0, 0.0]
                 }
                 None => {
                     let p = self.model.predict_moving(beta, &hip).map_err(fail)?;
-                    [p.drag_n, p.lift_n, p.hip_torque_nm]
+                    [
+                        p.drag_n,
+                        p.lift_n,
+                        p.hip_torque_nm,
+                        p.side_n,
+                        p.roll_moment_nm,
+                        p.yaw_moment_nm,
+                    ]
                 }
             };
-            for (output, v) in ["drag", "lift", "hip torque"].into_iter().zip(f) {
+            let names = [
+                "drag",
+                "lift",
+                "hip torque",
+                "side force",
+                "roll moment",
+                "yaw moment",
+            ];
+            let checked = if more.is_some() { 6 } else { 3 };
+            for (output, &v) in names.into_iter().zip(&f).take(checked) {
                 if !T::of(v).to_f64().is_finite() {
                     return Err(LegError {
                         index: i,
@@ -895,6 +997,11 @@ impl LegKernel {
             out.drag_n[k] = T::of(f[0]);
             out.lift_n[k] = T::of(f[1]);
             out.hip_torque_nm[k] = T::of(f[2]);
+            if let Some(m) = more.as_mut() {
+                m.side_n[k] = T::of(f[3]);
+                m.roll_moment_nm[k] = T::of(f[4]);
+                m.yaw_moment_nm[k] = T::of(f[5]);
+            }
         }
         Ok(())
     }
@@ -3233,6 +3340,156 @@ mod tests {
                 worst <= 1e-3 * scale,
                 "{name}: f32 off by {worst} of {scale}"
             );
+        }
+    }
+
+    /// A batch of wheels (a body), and of RFT plates moving across their plane, gives each
+    /// leg's whole wrench as `predict_moving` does, side force and moments included; a planar
+    /// leg moving in its plane has `forces`' values and no side force; a lateral velocity that
+    /// is no number names its leg.
+    #[test]
+    fn wrenches_are_predict_moving_s_for_bodies_and_legs_moving_across() {
+        use crate::model::body::{Body, BodyLeg};
+        let wheel = ForceModel::Body(Box::new(BodyLeg::new(
+            Body::wheel(0.058, 0.05, None, 360).unwrap(),
+            RftCoefficients::Fit(RftFit::POPPY_LP),
+            Some(RftDepthLaw::new(4.546, 1.219).unwrap()),
+            None,
+            Plate::new(0.058, 0.05, 0.0).unwrap(),
+        )));
+        let plate = models().into_iter().next().unwrap().1;
+        let n = 37;
+        let col = |f: &dyn Fn(f64) -> f64| -> Vec<f64> { (0..n).map(|i| f(i as f64)).collect() };
+        let beta = col(&|i| 0.1 * i);
+        let height = col(&|i| 0.04 - 0.0012 * i);
+        let omega = col(&|i| 0.35 * (i % 5.0 - 1.0));
+        let forward = col(&|i| 0.01 * (i % 3.0));
+        let up = col(&|i| -0.002 * (i % 2.0));
+        let lateral = col(&|i| 0.004 * (i % 7.0 - 3.0));
+        let legs = Legs {
+            beta_rad: &beta,
+            hip_height_m: &height,
+            pitch_rad: None,
+            omega_rad_s: Some(&omega),
+            forward_m_s: Some(&forward),
+            up_m_s: Some(&up),
+            b_k: None,
+            a: None,
+        };
+        for (name, model) in [("wheel", wheel), ("rft plate", plate)] {
+            let kernel = LegKernel::new(model.clone());
+            let mut out = vec![vec![0.0f64; n]; 6];
+            let [d, l, t, s, r, y] = &mut out[..] else {
+                unreachable!()
+            };
+            kernel
+                .wrenches(
+                    &legs,
+                    Some(&lateral),
+                    0,
+                    LegForcesOut {
+                        drag_n: d,
+                        lift_n: l,
+                        hip_torque_nm: t,
+                    },
+                    LegSideOut {
+                        side_n: s,
+                        roll_moment_nm: r,
+                        yaw_moment_nm: y,
+                    },
+                )
+                .unwrap();
+            let mut sideways = 0;
+            for i in 0..n {
+                let hip = HipMotion {
+                    omega_rad_s: omega[i],
+                    forward_m_s: forward[i],
+                    up_m_s: up[i],
+                    lateral_m_s: lateral[i],
+                    ..HipMotion::still(height[i])
+                };
+                let p = model.predict_moving(beta[i], &hip).unwrap();
+                let want = [
+                    p.drag_n,
+                    p.lift_n,
+                    p.hip_torque_nm,
+                    p.side_n,
+                    p.roll_moment_nm,
+                    p.yaw_moment_nm,
+                ];
+                for (c, w) in want.iter().enumerate() {
+                    assert_eq!(out[c][i], *w, "{name}, leg {i}, output {c}");
+                }
+                sideways += usize::from(p.side_n.abs() > 1e-3);
+            }
+            assert!(sideways >= 5, "{name}: {sideways} legs with a side force");
+            // In the plane: forces' values, nothing sideways.
+            let mut planar = vec![vec![1.0f64; n]; 6];
+            let [d, l, t, s, r, y] = &mut planar[..] else {
+                unreachable!()
+            };
+            kernel
+                .wrenches(
+                    &legs,
+                    None,
+                    0,
+                    LegForcesOut {
+                        drag_n: d,
+                        lift_n: l,
+                        hip_torque_nm: t,
+                    },
+                    LegSideOut {
+                        side_n: s,
+                        roll_moment_nm: r,
+                        yaw_moment_nm: y,
+                    },
+                )
+                .unwrap();
+            let mut three = vec![vec![0.0f64; n]; 3];
+            let [d, l, t] = &mut three[..] else {
+                unreachable!()
+            };
+            kernel
+                .forces(
+                    &legs,
+                    0,
+                    LegForcesOut {
+                        drag_n: d,
+                        lift_n: l,
+                        hip_torque_nm: t,
+                    },
+                )
+                .unwrap();
+            assert_eq!(&planar[..3], &three[..], "{name}");
+            if name != "wheel" {
+                assert!(planar[3..].iter().flatten().all(|v| *v == 0.0), "{name}");
+            }
+            // A lateral velocity that is no number names its leg.
+            let mut bad = lateral.clone();
+            bad[11] = f64::NAN;
+            let mut o = vec![vec![0.0f64; n]; 6];
+            let [d, l, t, s, r, y] = &mut o[..] else {
+                unreachable!()
+            };
+            let e = kernel
+                .wrenches(
+                    &legs,
+                    Some(&bad),
+                    0,
+                    LegForcesOut {
+                        drag_n: d,
+                        lift_n: l,
+                        hip_torque_nm: t,
+                    },
+                    LegSideOut {
+                        side_n: s,
+                        roll_moment_nm: r,
+                        yaw_moment_nm: y,
+                    },
+                )
+                .unwrap_err();
+            assert_eq!(e.index, 11, "{name}: {e}");
+            assert!(e.to_string().contains("lateral velocity"), "{name}: {e}");
         }
     }
 }
