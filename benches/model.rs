@@ -127,6 +127,12 @@ fn models(c: &mut Criterion) {
         forward_m_s: 0.01,
         ..HipMotion::default()
     };
+    // Rolling as above with the hub moving sideways too (a slip angle of 27 degrees): every
+    // element of the rim across its width and of the side faces, in three dimensions.
+    let sideways = HipMotion {
+        lateral_m_s: 0.005,
+        ..rolling
+    };
     let pressed = HipMotion {
         height_m: 0.033,
         up_m_s: -0.003,
@@ -209,6 +215,7 @@ fn models(c: &mut Criterion) {
         ("body_wheel_rolling_evaluate", &smooth, &rolling),
         ("body_wheel_pressed_evaluate", &smooth, &pressed),
         ("body_wheel_grousers_rolling_evaluate", &grousered, &rolling),
+        ("body_wheel_sideways_evaluate", &smooth, &sideways),
     ] {
         c.bench_function(name, |b| {
             b.iter(|| model.predict_moving(black_box(0.3), hip).unwrap())

@@ -218,6 +218,9 @@ impl Body {
         Ok(Body {
             planar: Vec::new(),
             planar_blocks: Vec::new(),
+            spatial_blocks: super::circles_about(&elements),
+            strips: 0,
+            strip_width_m: 0.0,
             spatial: elements,
             reach_m: -lo[2],
             top_m: hi[2],
