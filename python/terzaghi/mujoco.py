@@ -14,6 +14,12 @@ points forward along the torso, at pi/2 straight down. The attack angle is the j
 the torso's pitch (nose down positive), the hip's height its height above the surface, and the
 medium's drag pushes the hip forward, its lift up, its torque resists the leg's rotation.
 
+A leg model that is a body (a wheel, a foot or a mesh: ``LegBatch(shape="wheel", ...)``) is
+the body about the hip, its hub, turned by the joint (+ rolling forward); with it
+:class:`Coupling` reads each hip's velocity across the torso's heading too, and applies the
+whole wrench (:meth:`terzaghi.batch.LegBatch.wrenches`): the side force, and the moments about
+the heading and the vertical, beside the drag, lift and torque.
+
 Needs the ``mujoco`` package (``pip install mujoco``).
 """
 
@@ -114,9 +120,14 @@ class Coupling:
         self._body = np.array(self._body, dtype=np.intp)
         self._qpos = np.array(self._qpos, dtype=np.intp)
         self._dof = np.array(self._dof, dtype=np.intp)
-        self._in = {k: np.zeros(n) for k in ["beta", "h", "pitch", "omega", "fwd", "up"]}
+        self._in = {k: np.zeros(n) for k in ["beta", "h", "pitch", "omega", "fwd", "up", "lat"]}
         self.drag_n, self.lift_n, self.hip_torque_nm = (np.zeros(n) for _ in range(3))
-        # The legs of each model, with arrays kept from step to step for their inputs and forces.
+        #: The rest of each leg's wrench at its hip (zero for a planar leg): the side force
+        #: (+ toward the torso's right) and the moments about the torso's backward and the
+        #: vertical (terzaghi.predict's ``side_n``, ``roll_moment_nm``, ``yaw_moment_nm``).
+        self.side_n, self.roll_moment_nm, self.yaw_moment_nm = (np.zeros(n) for _ in range(3))
+        # The legs of each model, with arrays kept from step to step for their inputs and
+        # forces (a body's six, a planar leg's three).
         groups: Dict[int, list] = {}
         for i, leg in enumerate(self.legs):
             m = leg.model or leg_model
@@ -124,7 +135,7 @@ class Coupling:
                 groups.setdefault(id(m), [m, []])[1].append(i)
         self._groups = [(m, np.array(idx, dtype=np.intp),
                          {k: np.zeros(len(idx)) for k in self._in},
-                         tuple(np.zeros(len(idx)) for _ in range(3)))
+                         tuple(np.zeros(len(idx)) for _ in range(6 if m.is_body else 3)))
                         for m, idx in groups.values()]
         self._vel = np.zeros((n, 6))
         self._fwd = np.array([1.0, 0.0, 0.0])
@@ -156,6 +167,8 @@ class Coupling:
         x["omega"][:] = data.qvel[self._dof]
         x["fwd"][:] = self._vel[:, 3] * self._fwd[0] + self._vel[:, 4] * self._fwd[1]
         x["up"][:] = self._vel[:, 5]
+        # Across the heading, toward the torso's left (z x forward).
+        x["lat"][:] = -self._vel[:, 3] * self._fwd[1] + self._vel[:, 4] * self._fwd[0]
         return x
 
     def apply(self, data) -> None:
@@ -171,8 +184,9 @@ class Coupling:
                            ("hip_torque_nm", self.hip_torque_nm)):
                 # A leg the node did not predict (no pose yet) feels nothing.
                 out[:] = np.nan_to_num(f[k][self._node_index], nan=0.0)
-        elif len(self._groups) == 1 and len(self._groups[0][1]) == len(self.legs):
-            # One model for every leg: in place, no copies.
+        elif (len(self._groups) == 1 and len(self._groups[0][1]) == len(self.legs)
+              and not self._groups[0][0].is_body):
+            # One planar model for every leg: in place, no copies.
             self._groups[0][0].forces(x["beta"], x["h"], pitch_rad=x["pitch"],
                                       omega_rad_s=x["omega"], forward_m_s=x["fwd"], up_m_s=x["up"],
                                       out=(self.drag_n, self.lift_n, self.hip_torque_nm))
@@ -180,16 +194,25 @@ class Coupling:
             for m, idx, g, out in self._groups:
                 for k, v in g.items():
                     np.take(x[k], idx, out=v)
-                m.forces(g["beta"], g["h"], pitch_rad=g["pitch"], omega_rad_s=g["omega"],
-                         forward_m_s=g["fwd"], up_m_s=g["up"], out=out)
-                self.drag_n[idx], self.lift_n[idx], self.hip_torque_nm[idx] = out
+                motion = dict(pitch_rad=g["pitch"], omega_rad_s=g["omega"], forward_m_s=g["fwd"],
+                              up_m_s=g["up"], out=out)
+                if m.is_body:
+                    m.wrenches(g["beta"], g["h"], lateral_m_s=g["lat"], **motion)
+                    self.side_n[idx], self.roll_moment_nm[idx], self.yaw_moment_nm[idx] = out[3:]
+                else:
+                    m.forces(g["beta"], g["h"], **motion)
+                self.drag_n[idx], self.lift_n[idx], self.hip_torque_nm[idx] = out[:3]
         axis = data.xmat[self._torso].reshape(3, 3)[:, 1]  # the hips' +y axis: the legs turn about it
-        f = self.drag_n[:, None] * self._fwd[None, :]
+        # The hip frame: x the torso's backward (-forward), y its right, z up.
+        right = np.array([self._fwd[1], -self._fwd[0], 0.0])
+        f = self.drag_n[:, None] * self._fwd[None, :] + self.side_n[:, None] * right[None, :]
         f[:, 2] += self.lift_n
         # xfrc_applied acts at the body's centre of mass: move the hip's moment there,
         # M_com = M_hip + (r_hip - r_com) x F.
         r = data.xpos[self._body] - data.xipos[self._body]
-        m = -self.hip_torque_nm[:, None] * axis[None, :]
+        m = (-self.hip_torque_nm[:, None] * axis[None, :]
+             - self.roll_moment_nm[:, None] * self._fwd[None, :])
+        m[:, 2] += self.yaw_moment_nm
         m[:, 0] += r[:, 1] * f[:, 2] - r[:, 2] * f[:, 1]
         m[:, 1] += r[:, 2] * f[:, 0] - r[:, 0] * f[:, 2]
         m[:, 2] += r[:, 0] * f[:, 1] - r[:, 1] * f[:, 0]
@@ -252,6 +275,10 @@ class BatchCoupling:
         threads = (os.cpu_count() or 1) if threads is None else int(threads)
         if threads < 1:
             raise ValueError(f"threads = {threads}: at least 1")
+        if leg_model.is_body:
+            raise ValueError("leg_model is a body (a wheel, foot or mesh): BatchCoupling applies a "
+                             "planar leg's drag, lift and torque only, and a body's side force and "
+                             "moments would be lost; use Coupling, which applies its whole wrench")
         self.model, self.legs, self.leg_model = model, list(legs), leg_model
         for leg in self.legs:
             if leg.model is not None and leg.model is not leg_model:

@@ -457,3 +457,65 @@ def test_the_vectorised_environment_walks_each_copy_on_its_own_medium():
         bad[2, 3] = np.nan
         env.step(bad)
     env.close()
+
+
+WHEEL_ON_A_TORSO = """
+<mujoco>
+  <option timestep="0.002"/>
+  <worldbody>
+    <body name="torso" pos="0 0 0.035">
+      <freejoint name="root"/>
+      <geom type="box" size="0.1 0.05 0.01" mass="2" contype="0" conaffinity="0"/>
+      <body name="wheel">
+        <joint name="wheel_joint" type="hinge" axis="0 1 0"/>
+        <geom type="cylinder" size="0.058 0.025" zaxis="0 1 0" mass="0.3" contype="0" conaffinity="0"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_a_wheel_moving_sideways_feels_its_whole_wrench_in_the_world():
+    from pathlib import Path
+
+    medium = Path(__file__).resolve().parents[2] / "tests" / "data" / "medium_without_shape.yaml"
+    wheel = dict(model="rft", shape="wheel", radius_m=0.058, width_m=0.05, medium_file=medium)
+    model = mujoco.MjModel.from_xml_string(WHEEL_ON_A_TORSO)
+    data = mujoco.MjData(model)
+    c = tm.Coupling(model, [tm.LegMap("wheel", "wheel_joint", "wheel")], LegBatch(**wheel),
+                    torso="torso")
+    body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "wheel")
+    # The torso headed 30 degrees left of the world's x; the hub moving 10 mm/s along the
+    # heading and 5 mm/s to its left, the wheel rolling at 0.345 rad/s, turned 0.2 rad.
+    yaw = math.radians(30.0)
+    fwd = np.array([math.cos(yaw), math.sin(yaw), 0.0])
+    left = np.array([-math.sin(yaw), math.cos(yaw), 0.0])
+    data.qpos[3:7] = [math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)]
+    data.qvel[0:3] = 0.01 * fwd + 0.005 * left
+    data.qpos[7], data.qvel[6] = 0.2, 0.345
+    mujoco.mj_forward(model, data)
+    c.apply(data)
+    want = terzaghi.predict(0.2, hip_height_m=0.035, forward_m_s=0.01, lateral_m_s=0.005,
+                            omega_rad_s=0.345, **wheel)
+    got = dict(drag_n=c.drag_n[0], lift_n=c.lift_n[0], hip_torque_nm=c.hip_torque_nm[0],
+               side_n=c.side_n[0], roll_moment_nm=c.roll_moment_nm[0],
+               yaw_moment_nm=c.yaw_moment_nm[0])
+    for k, v in got.items():
+        assert abs(v - float(want[k])) <= 1e-9 * max(1.0, abs(float(want[k]))), (k, v, want[k])
+    assert got["lift_n"] > 5 and got["side_n"] > 0.5  # borne, and pushed to its right
+    # In the world: drag along the heading, the side force to the right, lift up; about the
+    # hub (the wheel's centre of mass) the torque about the axle, the roll moment about the
+    # heading's backward and the yaw moment about the vertical.
+    right = -left
+    np.testing.assert_allclose(
+        data.xfrc_applied[body, :3],
+        got["drag_n"] * fwd + got["side_n"] * right + [0.0, 0.0, got["lift_n"]], atol=1e-12)
+    np.testing.assert_allclose(
+        data.xfrc_applied[body, 3:],
+        -got["hip_torque_nm"] * left - got["roll_moment_nm"] * fwd
+        + [0.0, 0.0, got["yaw_moment_nm"]], atol=1e-12)
+    # A batch of environments would drop the side force and moments: refused.
+    with pytest.raises(ValueError, match="leg_model is a body"):
+        tm.BatchCoupling(model, [tm.LegMap("wheel", "wheel_joint", "wheel")], LegBatch(**wheel),
+                         n_envs=2, torso="torso")
