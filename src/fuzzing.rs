@@ -804,10 +804,13 @@ pub fn mesh_file(data: &[u8]) {
 
 /// A batch of legs as `LegBatch.forces` gives them (any numbers, float64 or float32, a fitting
 /// width per leg or not, a chunk's offset): improved-model plates, RFT C-legs (in poppy seeds,
-/// or in the plate runs' medium with its law in depth) or RFT plates.
+/// or in the plate runs' medium with its law in depth), RFT plates or wheels.
 /// The kernel on the processor's instructions and on the baseline's agree, the same leg named
 /// where one refuses; every force given is finite; and with inputs of a robot's size each leg's
-/// float64 forces are `predict_moving`'s (or the improved model's at its own width).
+/// float64 forces are `predict_moving`'s (or the improved model's at its own width). And as
+/// `LegBatch.wrenches` gives them, the hips moving sideways too: every value given is finite,
+/// a refusal names a leg of the batch, and with a robot's inputs each leg's whole wrench is
+/// `predict_moving`'s.
 pub fn batch_legs(data: &[u8]) {
     use crate::model::batch::{Isa, LegForcesOut, LegKernel, Legs, Real};
     use crate::model::{
@@ -816,7 +819,7 @@ pub fn batch_legs(data: &[u8]) {
     };
     let mut u = Unstructured::new(data);
     let (Ok(kind), Ok(float32), Ok(widths), Ok(n)) = (
-        u.int_in_range(0u8..=3),
+        u.int_in_range(0u8..=4),
         u.arbitrary::<bool>(),
         u.arbitrary::<bool>(),
         u.int_in_range(0usize..=80),
@@ -855,6 +858,13 @@ pub fn batch_legs(data: &[u8]) {
                 crate::model::RftDepthLaw::new(4.546, 1.219).expect("the plate runs' law"),
             )),
         ),
+        4 => ForceModel::Body(Box::new(crate::model::body::BodyLeg::new(
+            crate::model::Body::wheel(0.058, 0.05, None, 360).expect("a wheel"),
+            fit,
+            Some(crate::model::RftDepthLaw::new(4.546, 1.219).expect("the plate runs' law")),
+            None,
+            Plate::new(0.058, 0.05, 0.0).expect("the wheel's plate"),
+        ))),
         _ => ForceModel::Rft(RftModel::new(plate, fit, 50).expect("an RFT plate")),
     };
     let widths = widths && kind == 0;
@@ -876,8 +886,9 @@ pub fn batch_legs(data: &[u8]) {
         (-0.2, 0.2),   // up
         (0.5, 60.0),   // b_k
         (1.05, 4.0),   // a
+        (-0.2, 0.2),   // lateral
     ];
-    let mut cols: Vec<Vec<f64>> = (0..8).map(|_| Vec::with_capacity(n)).collect();
+    let mut cols: Vec<Vec<f64>> = (0..9).map(|_| Vec::with_capacity(n)).collect();
     for _ in 0..n {
         for (col, &(lo, hi)) in cols.iter_mut().zip(&ranges) {
             let Some(v) = value(lo, hi) else {
@@ -901,6 +912,9 @@ pub fn batch_legs(data: &[u8]) {
             .collect();
         batch_agree::<f32>(&kernel, &baseline, &cols, first, widths, 1e-4);
     } else {
+        if !widths {
+            batch_wrenches(&kernel, &model, &cols, first, robot);
+        }
         let got = batch_agree::<f64>(&kernel, &baseline, &cols, first, widths, 1e-9);
         if let (Some(got), true) = (got, robot) {
             let scale = got.iter().flatten().fold(1e-9f64, |a, f| a.max(f.abs()));
@@ -937,6 +951,95 @@ pub fn batch_legs(data: &[u8]) {
                         "leg {i}: the batch gives {f:?}, predict {want:?}"
                     );
                 }
+            }
+        }
+    }
+
+    /// `LegKernel::wrenches` of the legs from `first`, the hips moving sideways at column 8:
+    /// finite where given, a refusal naming a leg of the batch, and with a robot's inputs
+    /// (`robot`) each leg's whole wrench `predict_moving`'s.
+    fn batch_wrenches(
+        kernel: &LegKernel,
+        model: &ForceModel,
+        cols: &[Vec<f64>],
+        first: usize,
+        robot: bool,
+    ) {
+        use crate::model::batch::LegSideOut;
+        let n = cols[0].len();
+        let m = n - first;
+        let mut o = vec![vec![0.0; m]; 6];
+        let [d, l, t, s, r, y] = &mut o[..] else {
+            unreachable!("six outputs")
+        };
+        let legs = Legs::moving(std::array::from_fn(|k| &cols[k][..]));
+        let got = kernel.wrenches(
+            &legs,
+            Some(&cols[8]),
+            first,
+            LegForcesOut {
+                drag_n: d,
+                lift_n: l,
+                hip_torque_nm: t,
+            },
+            LegSideOut {
+                side_n: s,
+                roll_moment_nm: r,
+                yaw_moment_nm: y,
+            },
+        );
+        if let Err(e) = got {
+            assert!(
+                (first..n).contains(&e.index),
+                "{e} is not a leg of the batch"
+            );
+            let leg: Vec<f64> = cols.iter().map(|c| c[e.index]).collect();
+            assert!(
+                !robot,
+                "a robot's legs refused: {e}: {leg:?} (beta, h, pitch, omega, forward, up, b_k, a, lateral) of {model:?}"
+            );
+            return;
+        }
+        let scale = o.iter().flatten().fold(1e-9f64, |a, f| a.max(f.abs()));
+        for k in 0..m {
+            let i = first + k;
+            let f: Vec<f64> = o.iter().map(|c| c[k]).collect();
+            for v in &f {
+                finite("a batch's wrench", *v);
+            }
+            if !robot {
+                continue;
+            }
+            let c = |j: usize| cols[j][i];
+            let hip = HipMotion {
+                height_m: c(1),
+                pitch_rad: c(2),
+                omega_rad_s: c(3),
+                forward_m_s: c(4),
+                up_m_s: c(5),
+                lateral_m_s: c(8),
+                ..HipMotion::default()
+            };
+            let p = model
+                .predict_moving(c(0), &hip)
+                .expect("a leg of a robot's size");
+            let want = [
+                p.drag_n,
+                p.lift_n,
+                p.hip_torque_nm,
+                p.side_n,
+                p.roll_moment_nm,
+                p.yaw_moment_nm,
+            ];
+            // A planar leg moving in its plane takes the kernel (to rounding), the rest
+            // predict_moving itself; the flat-plate models have no side force.
+            let planar = matches!(model, ForceModel::Terzaghi(_));
+            for (j, (g, w)) in f.iter().zip(want).enumerate() {
+                let w = if planar && j >= 3 { 0.0 } else { w };
+                assert!(
+                    (g - w).abs() <= 1e-9 * scale,
+                    "leg {i}: the batch's wrench {f:?}, predict's {want:?}"
+                );
             }
         }
     }

@@ -1277,10 +1277,12 @@ impl Across {
     /// For an element at in-plane velocity `(vx, vz)`: the share of its speed in the leg's
     /// plane, the share across it, and the speed law's extra depth for the whole velocity (m).
     fn shares(&self, speed_law: Option<&RftSpeedLaw>, vx: f64, vz: f64) -> (f64, f64, f64) {
-        let in_plane = (vx * vx + vz * vz).sqrt();
-        let speed = (in_plane * in_plane + self.vy * self.vy).sqrt();
+        // hypot, not the root of the squares: a speed of 1e-160 m/s or less would square to
+        // zero, and its shares to no number.
+        let in_plane = vx.hypot(vz);
+        let speed = in_plane.hypot(self.vy);
         let extra = speed_law.map_or(0.0, |law| {
-            law.extra_depth_of_velocity_m((vx * vx + self.vy * self.vy).sqrt(), vz)
+            law.extra_depth_of_velocity_m(vx.hypot(self.vy), vz)
         });
         (in_plane / speed, self.vy.abs() / speed, extra)
     }
@@ -1678,6 +1680,45 @@ mod tests {
     /// its sideways motion, and turned the way its submerged part's place says, with the signs
     /// `docs/bodies.md` gives; moving in its plane it has none, and its drag and lift are
     /// today's, bit for bit.
+    /// A leg moving across its plane at a speed whose square is below the smallest number
+    /// (found by fuzzing the batch: a C-leg at 1.6e-306 m/s sideways gave a drag of no number)
+    /// has finite forces, those of its motion in the plane.
+    #[test]
+    fn a_leg_moving_sideways_too_slowly_to_square_has_finite_forces() {
+        let c = RftCoefficients::Fit(RftFit::POPPY_LP);
+        let c_leg = RftModel::with_profile(plate(), c, 96, c_leg_profile(0.125, PI, 16)).unwrap();
+        let hip = |lateral_m_s: f64, forward_m_s: f64| HipMotion {
+            height_m: 0.05,
+            forward_m_s,
+            up_m_s: forward_m_s,
+            lateral_m_s,
+            ..HipMotion::default()
+        };
+        for (lateral, forward) in [(1.6e-306, 2.8e-173), (1e-200, 0.0), (1e-170, 0.05)] {
+            let p = c_leg.evaluate_moving(1.2, &hip(lateral, forward)).unwrap();
+            for v in [
+                p.drag_n,
+                p.lift_n,
+                p.hip_torque_nm,
+                p.side_n,
+                p.roll_moment_nm,
+            ] {
+                assert!(v.is_finite(), "{lateral} {forward}: {p:?}");
+            }
+            // Moving in its plane far faster than across it, it is borne as in its plane;
+            // moving across it alone, it is pushed sideways alone.
+            let (borne, pushed) = (p.lift_n.abs() > 0.1, p.side_n.abs() > 0.1);
+            assert!(
+                if forward > 1e3 * lateral {
+                    borne && !pushed
+                } else {
+                    pushed && !borne
+                },
+                "{lateral} {forward}: {p:?}"
+            );
+        }
+    }
+
     #[test]
     fn a_yawed_planar_leg_has_the_side_force_and_moments_the_docs_give() {
         let c = RftCoefficients::Fit(RftFit::POPPY_LP);
