@@ -255,6 +255,9 @@ class BatchCoupling:
             the model's initial state; write rows to set or reset them).
         ctrl: ``(n_envs, nu)``, each environment's actuator controls for the next step.
         drag_n, lift_n, hip_torque_nm: ``(n_envs, legs)``, the forces of the last step.
+        side_n, roll_moment_nm, yaw_moment_nm: ``(n_envs, legs)``, the rest of the wrench of
+            the last step, for a leg model that is a body (a wheel, foot or mesh; zero for
+            planar legs): applied as :class:`Coupling` applies it.
         b_k, a: ``None``, or ``(n_envs,)`` arrays: the improved model's medium per environment
             (domain randomisation); read-only, set by :meth:`set_media`.
     """
@@ -275,10 +278,6 @@ class BatchCoupling:
         threads = (os.cpu_count() or 1) if threads is None else int(threads)
         if threads < 1:
             raise ValueError(f"threads = {threads}: at least 1")
-        if leg_model.is_body:
-            raise ValueError("leg_model is a body (a wheel, foot or mesh): BatchCoupling applies a "
-                             "planar leg's drag, lift and torque only, and a body's side force and "
-                             "moments would be lost; use Coupling, which applies its whole wrench")
         self.model, self.legs, self.leg_model = model, list(legs), leg_model
         for leg in self.legs:
             if leg.model is not None and leg.model is not leg_model:
@@ -346,6 +345,11 @@ class BatchCoupling:
         shape = (self.n_envs, len(self.legs))
         self._in = {k: np.zeros(shape) for k in ["beta", "h", "pitch", "omega", "fwd", "up"]}
         self.drag_n, self.lift_n, self.hip_torque_nm = (np.zeros(shape) for _ in range(3))
+        # A body's legs: each hip's velocity across the heading in, the rest of the wrench out
+        # (as Coupling's side_n, roll_moment_nm, yaw_moment_nm; zero for planar legs).
+        self.side_n, self.roll_moment_nm, self.yaw_moment_nm = (np.zeros(shape) for _ in range(3))
+        self._wrench = ((np.zeros(shape), self.side_n, self.roll_moment_nm, self.yaw_moment_nm)
+                        if leg_model.is_body else ())
         self._media: Tuple = (None, None)
         self._rollout = rollout.Rollout(nthread=threads if threads > 1 else 0)
         self._datas = [mujoco.MjData(model) for _ in range(threads)]
@@ -402,7 +406,8 @@ class BatchCoupling:
         # model's kernel and written, on every core.
         self._layout.apply(self.state, self.leg_model._inner, self._media[0], self._media[1],
                            x["beta"], x["h"], x["pitch"], x["omega"], x["fwd"], x["up"],
-                           self.drag_n, self.lift_n, self.hip_torque_nm, self.control)
+                           self.drag_n, self.lift_n, self.hip_torque_nm, self.control,
+                           *self._wrench)
 
     def step(self, coupled: bool = True) -> None:
         """One step of every environment: :meth:`apply` (unless ``coupled`` is false: the legs

@@ -515,7 +515,56 @@ def test_a_wheel_moving_sideways_feels_its_whole_wrench_in_the_world():
         data.xfrc_applied[body, 3:],
         -got["hip_torque_nm"] * left - got["roll_moment_nm"] * fwd
         + [0.0, 0.0, got["yaw_moment_nm"]], atol=1e-12)
-    # A batch of environments would drop the side force and moments: refused.
-    with pytest.raises(ValueError, match="leg_model is a body"):
-        tm.BatchCoupling(model, [tm.LegMap("wheel", "wheel_joint", "wheel")], LegBatch(**wheel),
-                         n_envs=2, torso="torso")
+
+
+TWO_WHEELS = """
+<mujoco>
+  <option timestep="0.002"/>
+  <worldbody>
+    <body name="torso" pos="0 0 0.035">
+      <freejoint name="root"/>
+      <geom type="box" size="0.1 0.05 0.01" mass="2" contype="0" conaffinity="0"/>
+      <body name="left" pos="0.02 0.08 0">
+        <joint name="left_joint" type="hinge" axis="0 1 0"/>
+        <geom type="cylinder" size="0.058 0.025" zaxis="0 1 0" mass="0.3" contype="0" conaffinity="0"/>
+      </body>
+      <body name="right" pos="0.02 -0.08 0">
+        <joint name="right_joint" type="hinge" axis="0 1 0"/>
+        <geom type="cylinder" size="0.058 0.025" zaxis="0 1 0" mass="0.3" contype="0" conaffinity="0"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_a_batch_of_wheeled_environments_feels_what_one_coupling_gives_each():
+    from pathlib import Path
+
+    medium = Path(__file__).resolve().parents[2] / "tests" / "data" / "medium_without_shape.yaml"
+    wheel = LegBatch(model="rft", shape="wheel", radius_m=0.058, width_m=0.05, medium_file=medium)
+    model = mujoco.MjModel.from_xml_string(TWO_WHEELS)
+    legs = [tm.LegMap(n, f"{n}_joint", n) for n in ("left", "right")]
+    n = 32
+    batch = tm.BatchCoupling(model, legs, wheel, n_envs=n, torso="torso", threads=2)
+    batch.state[:] = _random_states(model, n, 5)
+    batch.apply()
+    one = tm.Coupling(model, legs, wheel, torso="torso")
+    data = mujoco.MjData(model)
+    bodies = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, leg.body) for leg in legs]
+    xfrc = batch.control[:, model.nu:].reshape(n, model.nbody, 6)
+    sideways = 0
+    for e in range(n):
+        mujoco.mj_setState(model, data, batch.state[e], mujoco.mjtState.mjSTATE_FULLPHYSICS)
+        mujoco.mj_forward(model, data)
+        one.apply(data)
+        scale = max(1.0, np.abs(one.lift_n).max(), np.abs(one.drag_n).max())
+        for name in ("drag_n", "lift_n", "hip_torque_nm", "side_n", "roll_moment_nm",
+                     "yaw_moment_nm"):
+            np.testing.assert_allclose(getattr(batch, name)[e], getattr(one, name), rtol=0,
+                                       atol=1e-12 * scale, err_msg=name)
+        np.testing.assert_allclose(xfrc[e, bodies], data.xfrc_applied[bodies], rtol=0,
+                                   atol=1e-12 * scale)
+        sideways += int((np.abs(one.side_n) > 1e-3).sum())
+    # The states move the wheels every way: many are pushed sideways.
+    assert sideways > n // 2, sideways

@@ -208,10 +208,12 @@ impl FreeBase {
     /// One step's coupling in one call: each environment's legs read from `state` into the
     /// six input arrays, evaluated by `batch` (with `b_k` and `a` per leg where given) into
     /// `drag_n`, `lift_n` and `hip_torque_nm`, and their wrenches written into `control`, a
-    /// chunk of environments at a time on every core. A leg the model refuses is an error
-    /// naming its environment and leg.
+    /// chunk of environments at a time on every core. With `lateral_m_s`, `side_n`,
+    /// `roll_moment_nm` and `yaw_moment_nm` (all four or none: a body's legs) each hip's
+    /// velocity across the torso's heading is read too and the whole wrench applied. A leg the
+    /// model refuses is an error naming its environment and leg.
     #[allow(clippy::too_many_arguments)]
-    #[pyo3(signature = (state, batch, b_k, a, beta_rad, hip_height_m, pitch_rad, omega_rad_s, forward_m_s, up_m_s, drag_n, lift_n, hip_torque_nm, control))]
+    #[pyo3(signature = (state, batch, b_k, a, beta_rad, hip_height_m, pitch_rad, omega_rad_s, forward_m_s, up_m_s, drag_n, lift_n, hip_torque_nm, control, lateral_m_s=None, side_n=None, roll_moment_nm=None, yaw_moment_nm=None))]
     fn apply(
         &self,
         py: Python<'_>,
@@ -229,6 +231,10 @@ impl FreeBase {
         lift_n: &Bound<'_, PyArray2<f64>>,
         hip_torque_nm: &Bound<'_, PyArray2<f64>>,
         control: &Bound<'_, PyArray2<f64>>,
+        lateral_m_s: Option<&Bound<'_, PyArray2<f64>>>,
+        side_n: Option<&Bound<'_, PyArray2<f64>>>,
+        roll_moment_nm: Option<&Bound<'_, PyArray2<f64>>>,
+        yaw_moment_nm: Option<&Bound<'_, PyArray2<f64>>>,
     ) -> PyResult<()> {
         let n_env = state.shape()[0];
         let n_leg = self.joint_qpos.len();
@@ -240,7 +246,7 @@ impl FreeBase {
                 rows(name, m, n_env, n_leg)?;
             }
         }
-        let arrays = [
+        let mut arrays = vec![
             ("beta_rad", beta_rad),
             ("hip_height_m", hip_height_m),
             ("pitch_rad", pitch_rad),
@@ -251,7 +257,24 @@ impl FreeBase {
             ("lift_n", lift_n),
             ("hip_torque_nm", hip_torque_nm),
         ];
-        for (name, x) in arrays {
+        let wrench = match (lateral_m_s, side_n, roll_moment_nm, yaw_moment_nm) {
+            (Some(l), Some(s), Some(r), Some(y)) => {
+                arrays.extend([
+                    ("lateral_m_s", l),
+                    ("side_n", s),
+                    ("roll_moment_nm", r),
+                    ("yaw_moment_nm", y),
+                ]);
+                true
+            }
+            (None, None, None, None) => false,
+            _ => {
+                return Err(TerzaghiError::new_err(
+                    "lateral_m_s, side_n, roll_moment_nm, yaw_moment_nm: give all four or none",
+                ));
+            }
+        };
+        for (name, x) in &arrays {
             rows(name, x, n_env, n_leg)?;
         }
         let state = state.readonly();
@@ -275,49 +298,56 @@ impl FreeBase {
             .as_ref()
             .map(|x| x.as_slice().expect("checked C-contiguous"));
         let c = c.as_slice_mut().expect("checked C-contiguous");
-        let mut slices: Vec<&mut [f64]> = w
-            .iter_mut()
-            .map(|x| x.as_slice_mut().expect("checked C-contiguous"))
-            .collect();
-        let [beta, h, pitch, omega, fwd, up, d, l, t] = &mut slices[..] else {
-            unreachable!("nine arrays")
-        };
         let kernel = &batch.kernel;
         let chunk = ENVS_PER_TASK * n_leg.max(1);
+        // Each task's environments: their rows, and their legs' part of every array.
+        let mut parts: Vec<_> = w
+            .iter_mut()
+            .map(|x| {
+                x.as_slice_mut()
+                    .expect("checked C-contiguous")
+                    .chunks_mut(chunk)
+            })
+            .collect();
+        let mut tasks = Vec::new();
+        let rows = state
+            .chunks(ENVS_PER_TASK * self.nstate)
+            .zip(c.chunks_mut(ENVS_PER_TASK * self.ncontrol));
+        for (k, (s, c)) in rows.enumerate() {
+            // No legs: every leg array is empty, and each task's part of it too.
+            let mut next = parts.iter_mut().map(|p| p.next().unwrap_or_default());
+            let mut take = || next.next().expect("an array per part");
+            let ins: [&mut [f64]; 6] = std::array::from_fn(|_| take());
+            let outs: [&mut [f64]; 3] = std::array::from_fn(|_| take());
+            let more = wrench.then(|| {
+                let lateral = take();
+                (lateral, std::array::from_fn(|_| take()))
+            });
+            let first = k * chunk;
+            let span = first..first + ins[0].len();
+            let media = (b_k.map(|m| &m[span.clone()]), a.map(|m| &m[span]));
+            tasks.push((
+                first,
+                Chunk {
+                    state: s,
+                    control: c,
+                    ins,
+                    outs,
+                    more,
+                    media,
+                },
+            ));
+        }
         let failed = py.detach(|| {
-            state
-                .par_chunks(ENVS_PER_TASK * self.nstate)
-                .zip(c.par_chunks_mut(ENVS_PER_TASK * self.ncontrol))
-                .zip(beta.par_chunks_mut(chunk))
-                .zip(h.par_chunks_mut(chunk))
-                .zip(pitch.par_chunks_mut(chunk))
-                .zip(omega.par_chunks_mut(chunk))
-                .zip(fwd.par_chunks_mut(chunk))
-                .zip(up.par_chunks_mut(chunk))
-                .zip(d.par_chunks_mut(chunk))
-                .zip(l.par_chunks_mut(chunk))
-                .zip(t.par_chunks_mut(chunk))
-                .enumerate()
-                .map(
-                    |(k, ((((((((((s, c), beta), h), pitch), omega), fwd), up), d), l), t))| {
-                        let first = k * chunk;
-                        let span = first..first + beta.len();
-                        let media = (b_k.map(|m| &m[span.clone()]), a.map(|m| &m[span.clone()]));
-                        let ins = [beta, h, pitch, omega, fwd, up];
-                        let task = Chunk {
-                            state: s,
-                            control: c,
-                            ins,
-                            outs: [d, l, t],
-                            media,
-                        };
-                        self.chunk(kernel, task).map(|(leg, why)| {
-                            let leg = first + leg;
-                            let n = n_leg.max(1);
-                            format!("environment {}, leg {}: {why}", leg / n, leg % n)
-                        })
-                    },
-                )
+            tasks
+                .into_par_iter()
+                .map(|(first, task)| {
+                    self.chunk(kernel, task).map(|(leg, why)| {
+                        let leg = first + leg;
+                        let n = n_leg.max(1);
+                        format!("environment {}, leg {}: {why}", leg / n, leg % n)
+                    })
+                })
                 .find_first(Option::is_some)
                 .flatten()
         });
@@ -330,12 +360,14 @@ impl FreeBase {
 
 /// One task's environments: their state and control rows (whole rows), their legs' slices of
 /// the model's inputs (`[beta, h, pitch, omega, fwd, up]`) and outputs (`[drag, lift, hip
-/// torque]`), and their media (`b_k`, `a`) if given.
+/// torque]`), for a body's legs their sideways velocity and the rest of the wrench (`[side,
+/// roll, yaw]`), and their media (`b_k`, `a`) if given.
 struct Chunk<'a> {
     state: &'a [f64],
     control: &'a mut [f64],
     ins: [&'a mut [f64]; 6],
     outs: [&'a mut [f64]; 3],
+    more: Option<(&'a mut [f64], [&'a mut [f64]; 3])>,
     media: (Option<&'a [f64]>, Option<&'a [f64]>),
 }
 
@@ -379,9 +411,10 @@ impl FreeBase {
             control,
             ins,
             outs,
+            mut more,
             media,
         } = task;
-        use terzaghi::model::batch::{LegForcesOut, Legs};
+        use terzaghi::model::batch::{LegForcesOut, LegSideOut, Legs};
         let n_leg = self.joint_qpos.len();
         let [beta, h, pitch, omega, fwd, up] = ins;
         let mut torsos: Vec<Option<Torso>> = state
@@ -399,7 +432,8 @@ impl FreeBase {
                 &mut pitch[legs.clone()],
                 &mut omega[legs.clone()],
                 &mut fwd[legs.clone()],
-                &mut up[legs],
+                &mut up[legs.clone()],
+                more.as_mut().map(|(lateral, _)| &mut lateral[legs]),
             );
         }
         // The legs' joint angles' sines and cosines, sixteen at a time, to turn their centres
@@ -428,14 +462,31 @@ impl FreeBase {
             lift_n: l,
             hip_torque_nm: t,
         };
-        if let Err(e) = kernel.forces(&input, 0, out) {
+        let done = match more.as_mut() {
+            Some((lateral, [s, r, y])) => kernel.wrenches(
+                &input,
+                Some(lateral),
+                0,
+                out,
+                LegSideOut {
+                    side_n: s,
+                    roll_moment_nm: r,
+                    yaw_moment_nm: y,
+                },
+            ),
+            None => kernel.forces(&input, 0, out),
+        };
+        if let Err(e) = done {
             return Some((e.index, e.problem.to_string()));
         }
         let rows = control.chunks_mut(self.ncontrol).zip(&torsos);
         for (e, (c, torso)) in rows.enumerate() {
             let legs = e * n_leg..(e + 1) * n_leg;
-            let (d, l, t) = (&d[legs.clone()], &l[legs.clone()], &t[legs.clone()]);
-            self.env_out(torso.as_ref(), &sin_cos[legs], d, l, t, c);
+            let forces = [&d[legs.clone()], &l[legs.clone()], &t[legs.clone()]];
+            let rest = more
+                .as_ref()
+                .map(|(_, [s, r, y])| [&s[legs.clone()], &r[legs.clone()], &y[legs.clone()]]);
+            self.env_out(torso.as_ref(), &sin_cos[legs], forces, rest, c);
         }
         None
     }
@@ -452,9 +503,13 @@ impl FreeBase {
         omega: &mut [f64],
         fwd: &mut [f64],
         up: &mut [f64],
+        mut lateral: Option<&mut [f64]>,
     ) {
         let Some(torso) = torso else {
             for x in [beta, h, pitch, omega, fwd, up] {
+                x.fill(f64::NAN);
+            }
+            if let Some(x) = lateral {
                 x.fill(f64::NAN);
             }
             return;
@@ -473,6 +528,10 @@ impl FreeBase {
             omega[i] = row[self.joint_dof[i]];
             fwd[i] = v[0] * torso.fwd[0] + v[1] * torso.fwd[1];
             up[i] = v[2];
+            if let Some(x) = lateral.as_mut() {
+                // Toward the torso's left, z x its heading.
+                x[i] = -v[0] * torso.fwd[1] + v[1] * torso.fwd[0];
+            }
         }
     }
 
@@ -481,9 +540,8 @@ impl FreeBase {
         &self,
         torso: Option<&Torso>,
         sin_cos: &[(f64, f64)],
-        d: &[f64],
-        l: &[f64],
-        t: &[f64],
+        [d, l, t]: [&[f64]; 3],
+        rest: Option<[&[f64]; 3]>,
         control: &mut [f64],
     ) {
         let Some(torso) = torso else {
@@ -494,7 +552,15 @@ impl FreeBase {
         };
         let axis = [torso.r[0][1], torso.r[1][1], torso.r[2][1]];
         for (i, com) in self.com_m.iter().enumerate() {
-            let f = [d[i] * torso.fwd[0], d[i] * torso.fwd[1], l[i]];
+            let mut f = [d[i] * torso.fwd[0], d[i] * torso.fwd[1], l[i]];
+            // A body's side force (toward the torso's right) and moments about the heading's
+            // backward and the vertical, at the hip.
+            let mut hip_moment = [0.0; 3];
+            if let Some([s, r, y]) = rest {
+                f[0] += s[i] * torso.fwd[1];
+                f[1] -= s[i] * torso.fwd[0];
+                hip_moment = [-r[i] * torso.fwd[0], -r[i] * torso.fwd[1], y[i]];
+            }
             // The leg's centre of mass turned about the hip's +y by the joint angle.
             let (s, c) = sin_cos[i];
             let local = [c * com[0] + s * com[2], com[1], c * com[2] - s * com[0]];
@@ -503,9 +569,9 @@ impl FreeBase {
             let m = cross(hip_from_com, f);
             let x = self.xfrc[i];
             control[x..x + 3].copy_from_slice(&f);
-            control[x + 3] = m[0] - t[i] * axis[0];
-            control[x + 4] = m[1] - t[i] * axis[1];
-            control[x + 5] = m[2] - t[i] * axis[2];
+            control[x + 3] = m[0] - t[i] * axis[0] + hip_moment[0];
+            control[x + 4] = m[1] - t[i] * axis[1] + hip_moment[1];
+            control[x + 5] = m[2] - t[i] * axis[2] + hip_moment[2];
         }
     }
 }
