@@ -826,27 +826,22 @@ pub fn batch_legs(data: &[u8]) {
     ) else {
         return;
     };
+    // A wheel costs tens of microseconds a leg moving sideways: a few keep the runs many.
+    let n = if kind == 4 { n.min(6) } else { n };
     let Ok(first) = u.int_in_range(0..=n) else {
         return;
     };
     let plate = Plate::new(0.1, 0.025, 0.0).expect("a plate");
     let fit = RftCoefficients::Fit(RftFit::POPPY_LP);
+    // The plate runs' law in depth (their medium file's).
+    let plate_runs = crate::model::RftDepthLaw::new(4.546, 1.219).expect("the plate runs' law");
     let model = match kind {
         0 => ForceModel::Terzaghi(TerzaghiModel::new(
             plate,
             Medium::new(13000.0, 30.0, 20.0).expect("a medium"),
             FittingWidth::new(30.0, 2.3).expect("a width"),
         )),
-        1 => ForceModel::Rft(
-            RftModel::with_profile(
-                plate,
-                fit,
-                96,
-                c_leg_profile(0.05, std::f64::consts::PI, 32),
-            )
-            .expect("a C-leg"),
-        ),
-        3 => ForceModel::Rft(
+        1 | 3 => ForceModel::Rft(
             RftModel::with_profile(
                 plate,
                 fit,
@@ -854,14 +849,12 @@ pub fn batch_legs(data: &[u8]) {
                 c_leg_profile(0.05, std::f64::consts::PI, 32),
             )
             .expect("a C-leg")
-            .with_depth_law(Some(
-                crate::model::RftDepthLaw::new(4.546, 1.219).expect("the plate runs' law"),
-            )),
+            .with_depth_law((kind == 3).then_some(plate_runs)),
         ),
         4 => ForceModel::Body(Box::new(crate::model::body::BodyLeg::new(
             crate::model::Body::wheel(0.058, 0.05, None, 360).expect("a wheel"),
             fit,
-            Some(crate::model::RftDepthLaw::new(4.546, 1.219).expect("the plate runs' law")),
+            Some(plate_runs),
             None,
             Plate::new(0.058, 0.05, 0.0).expect("the wheel's plate"),
         ))),
@@ -931,16 +924,8 @@ pub fn batch_legs(data: &[u8]) {
                         [r.drag_n, r.lift_n, r.hip_torque_nm]
                     }
                     _ => {
-                        let hip = HipMotion {
-                            height_m: c(1),
-                            pitch_rad: c(2),
-                            omega_rad_s: c(3),
-                            forward_m_s: c(4),
-                            up_m_s: c(5),
-                            ..HipMotion::default()
-                        };
                         let p = model
-                            .predict_moving(c(0), &hip)
+                            .predict_moving(c(0), &leg_hip(&cols, i, false))
                             .expect("a leg of a robot's size");
                         [p.drag_n, p.lift_n, p.hip_torque_nm]
                     }
@@ -952,6 +937,21 @@ pub fn batch_legs(data: &[u8]) {
                     );
                 }
             }
+        }
+    }
+
+    /// Leg `i`'s hip in the columns (height, pitch, omega, forward, up; sideways at column 8
+    /// where `lateral`).
+    fn leg_hip(cols: &[Vec<f64>], i: usize, lateral: bool) -> HipMotion {
+        let c = |j: usize| cols[j][i];
+        HipMotion {
+            height_m: c(1),
+            pitch_rad: c(2),
+            omega_rad_s: c(3),
+            forward_m_s: c(4),
+            up_m_s: c(5),
+            lateral_m_s: if lateral { c(8) } else { 0.0 },
+            ..HipMotion::default()
         }
     }
 
@@ -1010,18 +1010,8 @@ pub fn batch_legs(data: &[u8]) {
             if !robot {
                 continue;
             }
-            let c = |j: usize| cols[j][i];
-            let hip = HipMotion {
-                height_m: c(1),
-                pitch_rad: c(2),
-                omega_rad_s: c(3),
-                forward_m_s: c(4),
-                up_m_s: c(5),
-                lateral_m_s: c(8),
-                ..HipMotion::default()
-            };
             let p = model
-                .predict_moving(c(0), &hip)
+                .predict_moving(cols[0][i], &leg_hip(cols, i, true))
                 .expect("a leg of a robot's size");
             let want = [
                 p.drag_n,

@@ -164,6 +164,20 @@ def _body(shape, radius_m, width_m, thickness_m, size_m, mesh_file, mesh_scale, 
             None if rim_elements is None else _whole("rim_elements", rim_elements))
 
 
+def _body_or_leg(shape, length_m, width_m, body_values: Dict[str, Any]) -> tuple:
+    """A body's values for the native calls and the leg's stand-ins there (``(body, 1.0, 1.0,
+    "plate")``: its reach and width are its own), or ``(None, length_m, width_m, shape)`` for a
+    leg; a ``length_m`` given a body, or a body's value given a leg, refused by name."""
+    if shape in BODY_SHAPES:
+        if length_m is not None:
+            raise TerzaghiError(f"length_m is not given for a body ({shape}): its reach is its own")
+        return _body(shape, width_m=width_m, **body_values), 1.0, 1.0, "plate"
+    given = [k for k, v in body_values.items() if v is not None]
+    if given:
+        raise TerzaghiError(f"{given[0]} is for a body (shape one of {', '.join(BODY_SHAPES)})")
+    return None, length_m, width_m, shape
+
+
 def _whole(name: str, v) -> int:
     """``v`` as a whole number, or a TerzaghiError naming ``name``."""
     f = _number(name, v, False)
@@ -256,19 +270,11 @@ def predict(
                        mesh_file=mesh_file, mesh_scale=mesh_scale, element_m=element_m,
                        grouser_count=grouser_count, grouser_height_m=grouser_height_m,
                        grouser_thickness_m=grouser_thickness_m, rim_elements=rim_elements)
-    body = None
-    if shape in BODY_SHAPES:
-        if length_m is not None:
-            raise TerzaghiError(f"length_m is not given for a body ({shape}): its reach is its own")
-        if rft_elements is not None:
-            raise TerzaghiError(f"rft_elements is for a leg's mid-line: a body ({shape}) is cut "
-                                "by element_m or rim_elements")
-        body = _body(shape, width_m=width_m, **body_values)
-        length_m, width_m, shape = 1.0, 1.0, "plate"  # the body's own, in the native call
-    else:
-        given = [k for k, v in body_values.items() if v is not None]
-        if given:
-            raise TerzaghiError(f"{given[0]} is for a body (shape one of {', '.join(BODY_SHAPES)})")
+    if shape in BODY_SHAPES and rft_elements is not None:
+        raise TerzaghiError(f"rft_elements is for a leg's mid-line: a body ({shape}) is cut "
+                            "by element_m or rim_elements")
+    body, length_m, width_m, shape = _body_or_leg(shape, length_m, width_m, body_values)
+    if body is None:
         if width_m is None:
             raise TerzaghiError("width_m is needed (the leg's width, m)")
         if length_m is None:

@@ -22,7 +22,7 @@ from typing import Any, Optional, Tuple
 
 import numpy as np
 
-from . import BODY_SHAPES, TerzaghiError, _body, _medium, _model_tail, _terzaghi
+from . import BODY_SHAPES, TerzaghiError, _body_or_leg, _medium, _model_tail, _terzaghi
 
 __all__ = ["LegBatch", "WRENCH"]
 
@@ -186,20 +186,11 @@ class LegBatch:
                            mesh_file=mesh_file, mesh_scale=mesh_scale, element_m=element_m,
                            grouser_count=grouser_count, grouser_height_m=grouser_height_m,
                            grouser_thickness_m=grouser_thickness_m, rim_elements=rim_elements)
-        body = None
-        if shape in BODY_SHAPES:
-            if length_m is not None:
-                raise TerzaghiError(f"length_m is not given for a body ({shape}): its reach is its own")
-            if model != "rft":
-                raise TerzaghiError(f"model {model!r}: a body ({shape}) is RFT's (model=\"rft\")")
-            body = _body(shape, width_m=width_m, **body_values)
-            length_m, width_m, shape = 1.0, 1.0, "plate"  # the body's own, in the native call
-        else:
-            given = [k for k, v in body_values.items() if v is not None]
-            if given:
-                raise TerzaghiError(f"{given[0]} is for a body (shape one of {', '.join(BODY_SHAPES)})")
-            if length_m is None or width_m is None:
-                raise TerzaghiError("length_m and width_m are needed (the leg, m)")
+        if shape in BODY_SHAPES and model != "rft":
+            raise TerzaghiError(f"model {model!r}: a body ({shape}) is RFT's (model=\"rft\")")
+        body, length_m, width_m, shape = _body_or_leg(shape, length_m, width_m, body_values)
+        if body is None and (length_m is None or width_m is None):
+            raise TerzaghiError("length_m and width_m are needed (the leg, m)")
         self.is_body = body is not None
         self._inner = _terzaghi.Batch(
             model,

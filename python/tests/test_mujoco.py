@@ -459,21 +459,30 @@ def test_the_vectorised_environment_walks_each_copy_on_its_own_medium():
     env.close()
 
 
-WHEEL_ON_A_TORSO = """
+def _wheels_on_a_torso(wheels) -> str:
+    """A 2 kg torso on a free joint, its origin 35 mm up, with the real wheel (radius 58 mm,
+    width 50 mm, colliding with nothing) hinged about its +y at each of ``wheels``' places:
+    ``{name: (x, y)}`` in the torso (m)."""
+    bodies = "".join(
+        f"""
+      <body name="{name}" pos="{x} {y} 0">
+        <joint name="{name}_joint" type="hinge" axis="0 1 0"/>
+        <geom type="cylinder" size="0.058 0.025" zaxis="0 1 0" mass="0.3" contype="0" conaffinity="0"/>
+      </body>""" for name, (x, y) in wheels.items())
+    return f"""
 <mujoco>
   <option timestep="0.002"/>
   <worldbody>
     <body name="torso" pos="0 0 0.035">
       <freejoint name="root"/>
-      <geom type="box" size="0.1 0.05 0.01" mass="2" contype="0" conaffinity="0"/>
-      <body name="wheel">
-        <joint name="wheel_joint" type="hinge" axis="0 1 0"/>
-        <geom type="cylinder" size="0.058 0.025" zaxis="0 1 0" mass="0.3" contype="0" conaffinity="0"/>
-      </body>
+      <geom type="box" size="0.1 0.05 0.01" mass="2" contype="0" conaffinity="0"/>{bodies}
     </body>
   </worldbody>
 </mujoco>
 """
+
+
+WHEEL_ON_A_TORSO = _wheels_on_a_torso({"wheel": (0.0, 0.0)})
 
 
 def test_a_wheel_moving_sideways_feels_its_whole_wrench_in_the_world():
@@ -517,25 +526,7 @@ def test_a_wheel_moving_sideways_feels_its_whole_wrench_in_the_world():
         + [0.0, 0.0, got["yaw_moment_nm"]], atol=1e-12)
 
 
-TWO_WHEELS = """
-<mujoco>
-  <option timestep="0.002"/>
-  <worldbody>
-    <body name="torso" pos="0 0 0.035">
-      <freejoint name="root"/>
-      <geom type="box" size="0.1 0.05 0.01" mass="2" contype="0" conaffinity="0"/>
-      <body name="left" pos="0.02 0.08 0">
-        <joint name="left_joint" type="hinge" axis="0 1 0"/>
-        <geom type="cylinder" size="0.058 0.025" zaxis="0 1 0" mass="0.3" contype="0" conaffinity="0"/>
-      </body>
-      <body name="right" pos="0.02 -0.08 0">
-        <joint name="right_joint" type="hinge" axis="0 1 0"/>
-        <geom type="cylinder" size="0.058 0.025" zaxis="0 1 0" mass="0.3" contype="0" conaffinity="0"/>
-      </body>
-    </body>
-  </worldbody>
-</mujoco>
-"""
+TWO_WHEELS = _wheels_on_a_torso({"left": (0.02, 0.08), "right": (0.02, -0.08)})
 
 
 def test_a_batch_of_wheeled_environments_feels_what_one_coupling_gives_each():

@@ -3376,29 +3376,31 @@ mod tests {
             b_k: None,
             a: None,
         };
-        for (name, model) in [("wheel", wheel), ("rft plate", plate)] {
-            let kernel = LegKernel::new(model.clone());
+        // Every output of `kernel.wrenches` (or its first three, `forces`).
+        let run = |kernel: &LegKernel, lateral: Option<&[f64]>, six: bool| {
             let mut out = vec![vec![0.0f64; n]; 6];
             let [d, l, t, s, r, y] = &mut out[..] else {
                 unreachable!()
             };
-            kernel
-                .wrenches(
-                    &legs,
-                    Some(&lateral),
-                    0,
-                    LegForcesOut {
-                        drag_n: d,
-                        lift_n: l,
-                        hip_torque_nm: t,
-                    },
-                    LegSideOut {
-                        side_n: s,
-                        roll_moment_nm: r,
-                        yaw_moment_nm: y,
-                    },
-                )
-                .unwrap();
+            let forces = LegForcesOut {
+                drag_n: d,
+                lift_n: l,
+                hip_torque_nm: t,
+            };
+            let more = LegSideOut {
+                side_n: s,
+                roll_moment_nm: r,
+                yaw_moment_nm: y,
+            };
+            match six {
+                true => kernel.wrenches(&legs, lateral, 0, forces, more),
+                false => kernel.forces(&legs, 0, forces),
+            }
+            .map(|()| out)
+        };
+        for (name, model) in [("wheel", wheel), ("rft plate", plate)] {
+            let kernel = LegKernel::new(model.clone());
+            let out = run(&kernel, Some(&lateral), true).unwrap();
             let mut sideways = 0;
             for i in 0..n {
                 let hip = HipMotion {
@@ -3424,70 +3426,16 @@ mod tests {
             }
             assert!(sideways >= 5, "{name}: {sideways} legs with a side force");
             // In the plane: forces' values, nothing sideways.
-            let mut planar = vec![vec![1.0f64; n]; 6];
-            let [d, l, t, s, r, y] = &mut planar[..] else {
-                unreachable!()
-            };
-            kernel
-                .wrenches(
-                    &legs,
-                    None,
-                    0,
-                    LegForcesOut {
-                        drag_n: d,
-                        lift_n: l,
-                        hip_torque_nm: t,
-                    },
-                    LegSideOut {
-                        side_n: s,
-                        roll_moment_nm: r,
-                        yaw_moment_nm: y,
-                    },
-                )
-                .unwrap();
-            let mut three = vec![vec![0.0f64; n]; 3];
-            let [d, l, t] = &mut three[..] else {
-                unreachable!()
-            };
-            kernel
-                .forces(
-                    &legs,
-                    0,
-                    LegForcesOut {
-                        drag_n: d,
-                        lift_n: l,
-                        hip_torque_nm: t,
-                    },
-                )
-                .unwrap();
-            assert_eq!(&planar[..3], &three[..], "{name}");
+            let planar = run(&kernel, None, true).unwrap();
+            let three = run(&kernel, None, false).unwrap();
+            assert_eq!(&planar[..3], &three[..3], "{name}");
             if name != "wheel" {
                 assert!(planar[3..].iter().flatten().all(|v| *v == 0.0), "{name}");
             }
             // A lateral velocity that is no number names its leg.
             let mut bad = lateral.clone();
             bad[11] = f64::NAN;
-            let mut o = vec![vec![0.0f64; n]; 6];
-            let [d, l, t, s, r, y] = &mut o[..] else {
-                unreachable!()
-            };
-            let e = kernel
-                .wrenches(
-                    &legs,
-                    Some(&bad),
-                    0,
-                    LegForcesOut {
-                        drag_n: d,
-                        lift_n: l,
-                        hip_torque_nm: t,
-                    },
-                    LegSideOut {
-                        side_n: s,
-                        roll_moment_nm: r,
-                        yaw_moment_nm: y,
-                    },
-                )
-                .unwrap_err();
+            let e = run(&kernel, Some(&bad), true).unwrap_err();
             assert_eq!(e.index, 11, "{name}: {e}");
             assert!(e.to_string().contains("lateral velocity"), "{name}: {e}");
         }
