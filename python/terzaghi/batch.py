@@ -148,7 +148,8 @@ class LegBatch:
             ``element_m``, the grousers, ``rim_elements``): RFT in ``medium_file``'s medium,
             without ``length_m`` (its reach is its own), leg by leg (a wheel of 360 rim
             elements takes a few microseconds).
-        b_k, a, rft_coeffs, rft_zeta, rft_elements: as for :func:`terzaghi.predict`.
+        b_k, a, rft_coeffs, rft_zeta, rft_elements: as for :func:`terzaghi.predict` (RFT's
+            elements over a leg's submerged length, 100 by default; not for a body).
     """
 
     def __init__(
@@ -166,7 +167,7 @@ class LegBatch:
         a: Optional[float] = None,
         rft_coeffs: Optional[str] = None,
         rft_zeta: Optional[float] = None,
-        rft_elements: int = 100,
+        rft_elements: Optional[int] = None,
         c_leg_radius_m: Optional[float] = None,
         c_leg_span_deg: Optional[float] = None,
         profile=None,
@@ -188,6 +189,9 @@ class LegBatch:
                            grouser_thickness_m=grouser_thickness_m, rim_elements=rim_elements)
         if shape in BODY_SHAPES and model != "rft":
             raise TerzaghiError(f"model {model!r}: a body ({shape}) is RFT's (model=\"rft\")")
+        if shape in BODY_SHAPES and rft_elements is not None:
+            raise TerzaghiError(f"rft_elements is for a leg's mid-line: a body ({shape}) is cut "
+                                "by element_m or rim_elements")
         body, length_m, width_m, shape = _body_or_leg(shape, length_m, width_m, body_values)
         if body is None and (length_m is None or width_m is None):
             raise TerzaghiError("length_m and width_m are needed (the leg, m)")
@@ -197,7 +201,8 @@ class LegBatch:
             float(length_m),
             float(width_m),
             *_medium(medium, unit_weight_n_m3, phi_deg, delta_deg),
-            *_model_tail(b_k, a, rft_coeffs, rft_zeta, rft_elements, shape, c_leg_radius_m,
+            *_model_tail(b_k, a, rft_coeffs, rft_zeta,
+                         100 if rft_elements is None else rft_elements, shape, c_leg_radius_m,
                          c_leg_span_deg, profile, medium_file),
             body,
         )

@@ -227,6 +227,8 @@ def test_a_plate_batch_moving_sideways_and_a_body_s_bad_values_are_named():
         LegBatch(**WHEEL, length_m=0.1)
     with pytest.raises(terzaghi.TerzaghiError, match=r"a body \(wheel\) is RFT's"):
         LegBatch(**dict(WHEEL, model="improved"))
+    with pytest.raises(terzaghi.TerzaghiError, match="rft_elements is for a leg's mid-line"):
+        LegBatch(**WHEEL, rft_elements=50)
     with pytest.raises(terzaghi.TerzaghiError, match="radius_m is for a body"):
         LegBatch(**LEG, model="rft", medium="poppy_lp", radius_m=0.05)
     with pytest.raises(terzaghi.TerzaghiError, match="wheel radius"):
