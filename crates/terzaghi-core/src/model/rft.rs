@@ -804,6 +804,14 @@ impl RftCoefficients {
             RftCoefficients::Fit(f) => {
                 let l2 = tx * tx + tz * tz;
                 let v = (vx * vx + vz * vz).sqrt();
+                // A motion so slow that its square underflows (below 1e-154 m/s) taken at a
+                // scale where it does not: only its direction counts.
+                let (vx, vz, v) = if v >= 1e-140 {
+                    (vx, vz, v)
+                } else {
+                    let (x, z) = (vx * 2f64.powi(500), vz * 2f64.powi(500));
+                    (x, z, (x * x + z * z).sqrt())
+                };
                 f.alpha_trig(
                     ((tx * tx - tz * tz) / l2, 2.0 * tx * tz / l2),
                     (vx / v, -vz / v),
@@ -1694,6 +1702,26 @@ mod tests {
             lateral_m_s,
             ..HipMotion::default()
         };
+        let flat = RftModel::new(plate(), RftCoefficients::Fit(RftFit::POPPY_LP), 50).unwrap();
+        // And a plate moving across at 0.2 m/s, in its plane at 1e-219 m/s (found so too).
+        let p = flat
+            .evaluate_moving(
+                1.5,
+                &HipMotion {
+                    omega_rad_s: -3.7e-219,
+                    forward_m_s: -9.9e-234,
+                    up_m_s: 3.7e-317,
+                    ..hip(-0.2, 0.0)
+                },
+            )
+            .unwrap();
+        assert!(
+            p.side_n.abs() > 0.1 && p.roll_moment_nm.is_finite(),
+            "{p:?}"
+        );
+        for v in [p.drag_n, p.lift_n, p.hip_torque_nm] {
+            assert!(v.is_finite() && v.abs() < 1e-100, "{p:?}");
+        }
         for (lateral, forward) in [(1.6e-306, 2.8e-173), (1e-200, 0.0), (1e-170, 0.05)] {
             let p = c_leg.evaluate_moving(1.2, &hip(lateral, forward)).unwrap();
             for v in [
