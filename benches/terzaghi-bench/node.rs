@@ -181,6 +181,12 @@ struct Report {
     /// not the node's.
     node_reply_gaps: u64,
     echo_lost_replies: u64,
+    /// As `node_reply_gaps`, for the second target's replies (the fixed-height node's wrenches
+    /// or the echo's joint states).
+    echo_reply_gaps: u64,
+    /// The fixed-height node's count of its inputs lost on the way to it; none for the echo,
+    /// which does not count them.
+    echo_dropped: Option<u64>,
     /// The node's diagnoses of its own strokes during the run, and those superseded by a newer
     /// one of their leg while they waited for its diagnosis thread; none from a node without
     /// them.
@@ -490,6 +496,8 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
         node_lost_replies: lost_node,
         node_reply_gaps: load.node_reply_gaps,
         echo_lost_replies: lost_echo,
+        echo_reply_gaps: load.echo_reply_gaps,
+        echo_dropped: fixed.as_ref().map(|f| f.dropped),
         node_gap_checks: gap_line(&text),
         tf_hz: a.tf_hz,
         tf_placed: a.tf_hz.map(|_| (load.tf_placed, load.forces_seen)),
@@ -561,7 +569,7 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
         s += &format!("processing with /tf / at fixed heights: p50 {p50:.2}x, p99 {p99:.2}x\n");
     }
     s += &format!(
-        "round trip node / {}: p50 {:.2}x, p99 {:.2}x; node dropped {} inputs; replies lost: node {} ({} wrenches lost on the way back), {} {}\n",
+        "round trip node / {}: p50 {:.2}x, p99 {:.2}x; node dropped {} inputs; replies lost: node {} ({} wrenches lost on the way back), {} {} ({} lost on the way back)\n",
         second,
         report.round_trip_ratio_p50,
         report.round_trip_ratio_p99,
@@ -569,7 +577,8 @@ pub fn run(a: BenchNodeArgs) -> Result<()> {
         report.node_lost_replies,
         report.node_reply_gaps,
         second,
-        report.echo_lost_replies
+        report.echo_lost_replies,
+        report.echo_reply_gaps
     );
     print_out(&s)
 }
@@ -692,6 +701,7 @@ async fn client(
     let echo_hist = Arc::new(Mutex::new(Histogram::default()));
     let n_legs = legs.joints.len();
     let node_reply_gaps = Arc::new(std::sync::atomic::AtomicU64::new(0));
+    let echo_reply_gaps = Arc::new(std::sync::atomic::AtomicU64::new(0));
     let mut tasks = collect_wrenches(
         wrench_subs,
         n_legs,
@@ -704,13 +714,16 @@ async fn client(
         n_legs,
         echo_sent.clone(),
         echo_hist.clone(),
-        Arc::default(),
+        echo_reply_gaps.clone(),
     ));
     if let Some(from_echo) = from_echo {
         let (sent, hist) = (echo_sent.clone(), echo_hist.clone());
+        let gaps_seen = echo_reply_gaps.clone();
         tasks.push(tokio::spawn(async move {
-            while let Ok((m, _)) = from_echo.async_take().await {
+            let mut gaps = SequenceGaps::default();
+            while let Ok((m, info)) = from_echo.async_take().await {
                 let now = Instant::now();
+                gaps_seen.fetch_add(gaps.lost(&info), std::sync::atomic::Ordering::Relaxed);
                 if let Some(t) = sent
                     .lock()
                     .unwrap_or_else(|p| p.into_inner())
@@ -847,6 +860,7 @@ async fn client(
     node.stop_spinner();
     let _ = tokio::time::timeout(Duration::from_secs(1), spin).await;
     figures.node_reply_gaps = node_reply_gaps.load(std::sync::atomic::Ordering::Relaxed);
+    figures.echo_reply_gaps = echo_reply_gaps.load(std::sync::atomic::Ordering::Relaxed);
     let lost_node = node_sent.lock().map(|m| m.len() as u64).unwrap_or(0);
     let lost_echo = echo_sent.lock().map(|m| m.len() as u64).unwrap_or(0);
     let nh = node_hist
@@ -910,6 +924,8 @@ struct LoadFigures {
     /// The node's wrenches lost on the way to this client: gaps in the sequence numbers of
     /// their writers (a best-effort reader's datagrams the loaded loopback drops).
     node_reply_gaps: u64,
+    /// The same for the second target's replies.
+    echo_reply_gaps: u64,
     /// With `/tf`: the first leg's `leg_force` messages received, and those whose hip the node
     /// placed by `/tf`.
     forces_seen: u64,

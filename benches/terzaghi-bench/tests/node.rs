@@ -122,8 +122,9 @@ fn a_warning_per_message_at_10_khz_is_throttled() {
 /// many each, none lost), the first placed its hips by `/tf`, the ratio is of the two nodes' own
 /// processing times, and both exited cleanly. The fixed-height node is run from another
 /// executable (`--fixed-height-exe`, as a previous release is), here a copy of this one. It runs
-/// alone: its joint states and echoes go best effort, and beside the 10 kHz flood on two cores
-/// the loopback lost an echo reply (a CI run), which this test counts as a failure.
+/// alone: its joint states and replies go best effort, and beside the 10 kHz flood on two cores
+/// the loopback lost more than a few; alone, a loaded CI machine still lost 12 of 2,000 replies,
+/// each counted (`assert_losses_counted`).
 #[test]
 fn the_tf_cost_benchmark_compares_two_nodes_in_one_run() {
     let _guard = alone();
@@ -153,8 +154,8 @@ fn the_tf_cost_benchmark_compares_two_nodes_in_one_run() {
         v["tf_placed"][1].as_u64().unwrap(),
     );
     assert!(seen >= 2_500 && placed + 20 >= seen, "{v}");
-    assert_eq!(v["node_lost_replies"], 0, "{v}");
-    assert_eq!(v["echo_lost_replies"], 0, "{v}");
+    assert_losses_counted(&v, "node");
+    assert_losses_counted(&v, "echo");
     let ratio = v["tf_ratio_p99"].as_f64().unwrap();
     let expected = tf["p99_us"].as_f64().unwrap() / fixed["p99_us"].as_f64().unwrap();
     assert!((ratio - expected).abs() < 1e-9 && ratio > 0.0, "{v}");
@@ -189,22 +190,38 @@ fn the_node_wakes_its_dds_loop_once_per_joint_state() {
         v["node_processing"]["count"].as_u64().unwrap() >= 2_500,
         "{v}"
     );
-    // Joint states and the benchmark's wrenches go best effort: a datagram the loaded loopback
-    // loses is a gap in its writer's sequence numbers, counted by the node (joint states
-    // dropped) or by the benchmark (wrenches lost on the way back). Every reply the benchmark
-    // missed is such a counted loss (a reply missing without one is a wrench the node did not
-    // send), and they are rare: at most one reply in a hundred (a loaded machine here lost 44
-    // of 10,000 in a run of ten seconds).
-    let (lost, dropped, gaps) = (
-        v["node_lost_replies"].as_u64().unwrap(),
-        v["node_dropped"].as_u64().unwrap(),
-        v["node_reply_gaps"].as_u64().unwrap(),
-    );
-    let replied = v["node_round_trip"]["count"].as_u64().unwrap();
-    assert!(lost <= dropped + gaps && 100 * lost <= replied, "{v}");
+    // Joint states and the benchmark's wrenches go best effort: lost datagrams are counted.
+    assert_losses_counted(&v, "node");
     let writes = v["node_write_calls_per_joint_state"].as_f64().unwrap();
     assert!(writes < 4.0, "{writes} write calls per JointState: {v}");
     assert_eq!(v["node_exit_clean"], true, "{v}");
+}
+
+/// Of a `terzaghi-bench node --json` run's replies from `target` ("node", or "echo" for the
+/// second target), every one the benchmark missed is a counted loss on the best-effort loopback:
+/// an input the target counted as dropped or a reply lost on the way back (a gap in its writer's
+/// sequence numbers); a reply missing without one is a wrench the target did not send. And they
+/// are rare: at most one reply in a hundred (a loaded machine here lost 44 of 10,000 in a run of
+/// ten seconds; a CI run of the `/tf` benchmark, 12 of 2,000 with 41 gaps counted).
+fn assert_losses_counted(v: &serde_json::Value, target: &str) {
+    let field = |name: &str| &v[format!("{target}_{name}")];
+    let count = |name: &str| {
+        field(name)
+            .as_u64()
+            .unwrap_or_else(|| panic!("{target}_{name}: {v}"))
+    };
+    let (lost, gaps) = (count("lost_replies"), count("reply_gaps"));
+    // The echo does not count the joint states lost on the way to it (null).
+    let dropped = if field("dropped").is_null() {
+        0
+    } else {
+        count("dropped")
+    };
+    let replied = v[format!("{target}_round_trip")]["count"].as_u64().unwrap();
+    assert!(
+        lost <= dropped + gaps && 100 * lost <= replied,
+        "{target}: {v}"
+    );
 }
 
 /// `terzaghi-bench node --load ARGS --json` on ROS_DOMAIN_ID `domain`: what it measured.
