@@ -1013,14 +1013,7 @@ pub fn batch_legs(data: &[u8]) {
             let p = model
                 .predict_moving(cols[0][i], &leg_hip(cols, i, true))
                 .expect("a leg of a robot's size");
-            let want = [
-                p.drag_n,
-                p.lift_n,
-                p.hip_torque_nm,
-                p.side_n,
-                p.roll_moment_nm,
-                p.yaw_moment_nm,
-            ];
+            let want = p.wrench();
             // A planar leg moving in its plane takes the kernel (to rounding), the rest
             // predict_moving itself; the flat-plate models have no side force.
             let planar = matches!(model, ForceModel::Terzaghi(_));

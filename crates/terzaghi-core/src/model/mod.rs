@@ -276,6 +276,21 @@ pub struct Prediction {
     pub regime: Regime,
 }
 
+impl Prediction {
+    /// The whole wrench at the hip, in the order of the batch's outputs: drag, lift (N), hip
+    /// torque (N m), side force (N), roll and yaw moments (N m).
+    pub fn wrench(&self) -> [f64; 6] {
+        [
+            self.drag_n,
+            self.lift_n,
+            self.hip_torque_nm,
+            self.side_n,
+            self.roll_moment_nm,
+            self.yaw_moment_nm,
+        ]
+    }
+}
+
 /// Which model to evaluate: the improved or conventional Terzaghi model, or RFT.
 #[derive(Debug, Clone)]
 pub enum ForceModel {

@@ -967,14 +967,7 @@ impl LegKernel {
                 }
                 None => {
                     let p = self.model.predict_moving(beta, &hip).map_err(fail)?;
-                    [
-                        p.drag_n,
-                        p.lift_n,
-                        p.hip_torque_nm,
-                        p.side_n,
-                        p.roll_moment_nm,
-                        p.yaw_moment_nm,
-                    ]
+                    p.wrench()
                 }
             };
             let names = [
@@ -3411,14 +3404,7 @@ mod tests {
                     ..HipMotion::still(height[i])
                 };
                 let p = model.predict_moving(beta[i], &hip).unwrap();
-                let want = [
-                    p.drag_n,
-                    p.lift_n,
-                    p.hip_torque_nm,
-                    p.side_n,
-                    p.roll_moment_nm,
-                    p.yaw_moment_nm,
-                ];
+                let want = p.wrench();
                 for (c, w) in want.iter().enumerate() {
                     assert_eq!(out[c][i], *w, "{name}, leg {i}, output {c}");
                 }
