@@ -50,6 +50,20 @@ fn models(c: &mut Criterion) {
     c.bench_function("rft_c_leg_evaluate", |b| {
         b.iter(|| c_leg.predict_moving(black_box(beta), &hip).unwrap().drag_n)
     });
+    // The same leg with its hip moving sideways too (a robot turning): each element's planar
+    // stress weighted by its share of speed in the plane, plus the shear across it.
+    let turning = HipMotion {
+        lateral_m_s: 0.05,
+        ..hip
+    };
+    c.bench_function("rft_c_leg_sideways_evaluate", |b| {
+        b.iter(|| {
+            c_leg
+                .predict_moving(black_box(beta), &turning)
+                .unwrap()
+                .side_n
+        })
+    });
     // The same leg with RFT's speed law (the DEM medium's, `launch_configs/dem_cleg.yaml`: a
     // gain per direction of motion, from straight up to straight down).
     let c_leg_speed = c_leg_model(Some(

@@ -806,10 +806,10 @@ impl RftCoefficients {
                 let v = (vx * vx + vz * vz).sqrt();
                 // A motion so slow that its square underflows (below 1e-154 m/s) taken at a
                 // scale where it does not: only its direction counts.
-                let (vx, vz, v) = if v >= 1e-140 {
+                let (vx, vz, v) = if v >= SLOW_M_S {
                     (vx, vz, v)
                 } else {
-                    let (x, z) = (vx * 2f64.powi(500), vz * 2f64.powi(500));
+                    let (x, z) = (vx * SLOW_SCALE, vz * SLOW_SCALE);
                     (x, z, (x * x + z * z).sqrt())
                 };
                 f.alpha_trig(
@@ -1285,12 +1285,12 @@ impl Across {
     /// For an element at in-plane velocity `(vx, vz)`: the share of its speed in the leg's
     /// plane, the share across it, and the speed law's extra depth for the whole velocity (m).
     fn shares(&self, speed_law: Option<&RftSpeedLaw>, vx: f64, vz: f64) -> (f64, f64, f64) {
-        // hypot, not the root of the squares: a speed of 1e-160 m/s or less would square to
-        // zero, and its shares to no number.
-        let in_plane = vx.hypot(vz);
-        let speed = in_plane.hypot(self.vy);
+        // `speed_m_s`: a speed of 1e-160 m/s or less would square to zero, and its shares to
+        // no number.
+        let in_plane = speed_m_s(vx, vz);
+        let speed = speed_m_s(in_plane, self.vy);
         let extra = speed_law.map_or(0.0, |law| {
-            law.extra_depth_of_velocity_m(vx.hypot(self.vy), vz)
+            law.extra_depth_of_velocity_m(speed_m_s(vx, self.vy), vz)
         });
         (in_plane / speed, self.vy.abs() / speed, extra)
     }
@@ -1494,7 +1494,16 @@ fn rft_elements_moving(
     [drag, lift, torque, side[0], side[1], side[2]]
 }
 
-/// The speed of a velocity `(vx, vz)`, not both zero: the square root of the sum of squares,
+/// Below this speed (m/s) a motion's square may underflow: its direction is taken from it
+/// scaled by [`SLOW_SCALE`].
+pub(crate) const SLOW_M_S: f64 = 1e-140;
+
+/// 2^600: scales the slowest motion there is (5e-324 m/s) to one whose square does not
+/// underflow (4e-286), and the fastest one below [`SLOW_M_S`] to one whose square does not
+/// overflow (2e81). A power of two: scaling is exact.
+pub(crate) const SLOW_SCALE: f64 = 4.149515568880993e180;
+
+/// The speed of a velocity `(vx, vz)`: the square root of the sum of squares,
 /// and `hypot` (several times slower, the most of an RFT element's cost) only where the squares
 /// would overflow or underflow.
 #[inline]
