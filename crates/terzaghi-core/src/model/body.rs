@@ -15,7 +15,7 @@
 //! motion; [`steady_sinkage`] finds the sinkage at which the sand bears a given load.
 
 use super::batch::{Isa, LANES};
-use super::rft::{RftCoefficients, RftDepthLaw, RftFit, RftSpeedLaw};
+use super::rft::{RftCoefficients, RftDepthLaw, RftFit, RftSpeedLaw, SLOW_M_S, SLOW_SCALE};
 use super::{HipMotion, ModelError, Plate, Prediction, Regime};
 
 mod mesh;
@@ -405,7 +405,25 @@ impl Body {
         speed_law: Option<&RftSpeedLaw>,
         hub: &HubMotion,
     ) -> BodyForce {
-        let (at, sinkage) = self.place(hub);
+        let (mut at, sinkage) = self.place(hub);
+        // A motion so slow that an element's speed would square to zero (below 1e-154 m/s) is
+        // summed at a scale where it does not: the stress takes its direction alone, the speed
+        // law the real speed (scaled back).
+        let fastest = hub
+            .velocity_m_s
+            .into_iter()
+            .chain([hub.omega_rad_s])
+            .fold(0.0f64, |a, v| a.max(v.abs()));
+        let hub = &if fastest > 0.0 && fastest < SLOW_M_S {
+            at.per_scale = 1.0 / SLOW_SCALE;
+            HubMotion {
+                velocity_m_s: hub.velocity_m_s.map(|v| v * SLOW_SCALE),
+                omega_rad_s: hub.omega_rad_s * SLOW_SCALE,
+                ..*hub
+            }
+        } else {
+            *hub
+        };
         let hy = hub.velocity_m_s[1];
         let stress = Stress {
             coefficients,
@@ -449,6 +467,7 @@ impl Body {
                 (0.0, 0.0)
             },
             moving: travel > 0.0,
+            per_scale: 1.0,
         };
         (place, sinkage)
     }
@@ -596,7 +615,10 @@ impl Body {
             let v1 = v[0] * e1x + v[1] * e1y;
             let v2 = (v[0] * e2x + v[1] * e2y, v[2]);
             let extra = speed_law.map_or(0.0, |law| {
-                law.extra_depth_of_velocity_m((v[0] * v[0] + v[1] * v[1]).sqrt(), v[2])
+                law.extra_depth_of_velocity_m(
+                    (v[0] * v[0] + v[1] * v[1]).sqrt() * at.per_scale,
+                    v[2] * at.per_scale,
+                )
             });
             let k = N_CM3_TO_N_M3 * (stressed + extra) * area / speed;
             let (mut fx, mut fy, mut fz) = (0.0, 0.0, 0.0);
@@ -765,8 +787,9 @@ impl Body {
                 } else {
                     1.0
                 };
-                let extra =
-                    speed_law.map_or(0.0, |law| law.extra_depth_of_velocity_m(vx.abs(), vz));
+                let extra = speed_law.map_or(0.0, |law| {
+                    law.extra_depth_of_velocity_m(vx.abs() * at.per_scale, vz * at.per_scale)
+                });
                 // The stress times the area; the in-plane speed cancels from it.
                 let k = N_CM3_TO_N_M3 * (stressed + extra) * area;
                 let v2x = vx * e2x;
@@ -980,6 +1003,9 @@ struct Place {
     travel: (f64, f64),
     /// Whether the hub travels at all (the rut is behind it).
     moving: bool,
+    /// Multiplies the sums' velocities back to m/s for the speed law: 1, or 2^-600 where the
+    /// motion was scaled up ([`Body::forces`]).
+    per_scale: f64,
 }
 
 impl Place {
@@ -1404,6 +1430,68 @@ mod tests {
             },
         );
         assert!(f.force_n[1] < 0.0, "{f:?}");
+    }
+
+    /// A body moving too slowly for its speed to square (below 1e-154 m/s) feels what it feels
+    /// moving the same way at a speed the law does not tell from it: the stress takes the
+    /// motion's direction alone (it was no number at 1e-200 m/s, and `terzaghi steady` said the
+    /// sand bore at most NaN N).
+    #[test]
+    fn a_body_moving_too_slowly_to_square_feels_its_motions_direction() {
+        let (c, law) = sand();
+        let speed_law = RftSpeedLaw::new(0.01, 0.05, 1.0).unwrap();
+        let wheel = Body::wheel(0.058, 0.05, None, 360).unwrap();
+        // Rolling with slip in its plane (the planar sum), the same and sideways (the general
+        // sum), and skidding sideways without turning.
+        for (v, omega) in [
+            ([1.0, 0.0, -0.2], 10.0),
+            ([1.0, 0.3, -0.2], 10.0),
+            ([0.0, 1.0, 0.0], 0.0),
+        ] {
+            let at = |speed: f64, by_speed: Option<&RftSpeedLaw>| {
+                wheel.forces(
+                    &c,
+                    Some(&law),
+                    by_speed,
+                    &HubMotion {
+                        height_m: 0.035,
+                        velocity_m_s: v.map(|x| x * speed),
+                        omega_rad_s: omega * speed,
+                        angle_rad: 0.0,
+                    },
+                )
+            };
+            for by_speed in [None, Some(&speed_law)] {
+                // The speed law adds depth with speed: at 1e-100 m/s, none that shows.
+                let want = at(1e-100, by_speed);
+                // The slowest motion there is: finite (its parts round to other directions).
+                let slowest = at(5e-324, by_speed);
+                assert!(
+                    slowest
+                        .force_n
+                        .iter()
+                        .chain(&slowest.moment_nm)
+                        .all(|v| v.is_finite()),
+                    "{slowest:?}"
+                );
+                for speed in [1e-150, 1e-200, 1e-300, 1e-305] {
+                    let got = at(speed, by_speed);
+                    for (g, w) in got
+                        .force_n
+                        .iter()
+                        .chain(&got.moment_nm)
+                        .zip(want.force_n.iter().chain(&want.moment_nm))
+                    {
+                        assert!(
+                            (g - w).abs() <= 1e-9 * (1.0 + w.abs()),
+                            "{v:?} at {speed} m/s: {got:?} against {want:?}"
+                        );
+                    }
+                }
+                // Sand that pushes: not a sum of nothing.
+                assert!(want.force_n.iter().any(|f| f.abs() > 1.0), "{want:?}");
+            }
+        }
     }
 
     #[test]
