@@ -79,6 +79,11 @@ pub struct MediumRftShape {
     pub speed_law: Option<MediumSpeedLaw>,
     /// The tests.
     pub tests: Vec<MediumIntrusionTest>,
+    /// Where the shape was borrowed from, where it was (`terzaghi calibrate --shape-from`):
+    /// another medium file's shape, scaled to this file's plate-sinkage law. Its tests are that
+    /// medium's, not this one's.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub borrowed_from: Option<String>,
 }
 
 /// RFT's speed law of a medium file: an element moving at `v` above `ref_speed_m_s` is as if
@@ -209,6 +214,7 @@ impl MediumRftShape {
                     alpha_z_n_cm3: t.measured_alpha_n_cm3[1],
                 })
                 .collect(),
+            borrowed_from: None,
         }
     }
 
@@ -391,6 +397,49 @@ impl MediumFile {
         }
     }
 
+    /// This file's plate-sinkage law (`rft_depth_power`) with the angular shape of `other`, a
+    /// medium file whose shape was calibrated from intrusion tests (`other_name` names it):
+    /// its coefficients scaled so that a horizontal plate pushed straight down feels this
+    /// file's law, and this file's depth exponent, no surface offset and no speed law (plates
+    /// pushed at one speed straight down measure neither). For sand with plate-sinkage tests
+    /// alone, whose shape a lab's or a DEM bed's intrusion tests stand in for.
+    pub fn with_shape_from(mut self, other: &MediumFile, other_name: &str) -> Result<MediumFile> {
+        if self.law != SinkageLaw::RftDepthPower {
+            bail!(
+                "a borrowed shape is scaled to the rft_depth_power law, and this file holds the {} law (give --law rft_depth_power)",
+                self.law.name()
+            );
+        }
+        let Some(shape) = &other.rft_shape else {
+            bail!(
+                "{other_name} carries no RFT shape (it was calibrated from plates pushed straight down: calibrate it with intrusion tests)"
+            );
+        };
+        let theirs = RftCoefficients::Fit(shape.coefficients().context(other_name.to_string())?)
+            .alpha_z_down_n_cm3();
+        let ours = self.params["xi"] * self.rft_alpha_z_n_cm3;
+        let scale = ours / theirs;
+        if !(scale.is_finite() && scale > 0.0) {
+            bail!(
+                "{other_name}'s shape gives {theirs} N/cm^3 for a plate pushed straight down, and these plates {ours}: no scale between them"
+            );
+        }
+        let scaled =
+            |m: &BTreeMap<String, f64>| m.iter().map(|(k, v)| (k.clone(), v * scale)).collect();
+        self.rft_shape = Some(MediumRftShape {
+            coefficients_n_cm3: scaled(&shape.coefficients_n_cm3),
+            std_dev_n_cm3: scaled(&shape.std_dev_n_cm3),
+            depth_exponent: self.params["n"],
+            std_depth_exponent: self.std_dev.get("n").copied().unwrap_or(f64::NAN),
+            surface_offset_m: 0.0,
+            std_surface_offset_m: 0.0,
+            speed_law: None,
+            borrowed_from: Some(format!("{other_name} (medium {:?})", other.name)),
+            ..shape.clone()
+        });
+        Ok(self)
+    }
+
     /// What an RFT leg naming this file uses. With a measured shape: its coefficients, law in
     /// depth and speed law (a coefficient set named beside it, `explicit`, is refused: the file
     /// carries its own). Without: `explicit` or `poppy_lp`'s shape, with the file's
@@ -413,7 +462,7 @@ impl MediumFile {
                 speed_law: shape
                     .speed_law()
                     .with_context(|| format!("medium {:?}", self.name))?,
-                shape_measured: shape.form == ShapeForm::LiNine,
+                shape_measured: shape.form == ShapeForm::LiNine && shape.borrowed_from.is_none(),
             }),
             (None, explicit) => {
                 let coefficients = match explicit {
@@ -433,6 +482,12 @@ impl MediumFile {
     /// Where an RFT leg's angular shape comes from, in words.
     pub fn rft_shape_text(&self) -> String {
         match &self.rft_shape {
+            Some(s) if s.borrowed_from.is_some() => format!(
+                "borrowed from {} ({} intrusion tests there), scaled to this file's plates pushed straight down, depth exponent {:.3}",
+                s.borrowed_from.as_deref().unwrap_or_default(),
+                s.tests.len(),
+                s.depth_exponent,
+            ),
             Some(s) if s.form == ShapeForm::LiNine => format!(
                 "measured: Li's nine coefficients fitted to {} intrusion tests, depth exponent {:.3}{}",
                 s.tests.len(),

@@ -522,3 +522,165 @@ fn a_plate_pulled_up_is_predicted_from_the_other_tests() {
     );
     assert!(common::docs_text().contains(&line), "the docs lack {line}");
 }
+
+/// The nine plate-sinkage runs of the real sand, as `tests/data/medium_without_shape.yaml` was
+/// calibrated on (from the repository's top).
+fn plate_runs() -> Vec<String> {
+    [
+        "run1_D60mm",
+        "run2_D60mm",
+        "run3_D60mm",
+        "run4_D100mm",
+        "run5_D100mm",
+        "run6_D100mm",
+        "run7_D80mm",
+        "run8_D80mm",
+        "run9_D80mm",
+    ]
+    .iter()
+    .map(|r| format!("tests/data/real-plate-sinkage/plate_smallbox_{r}.csv"))
+    .collect()
+}
+
+/// A shape borrowed from another medium (`calibrate PLATES --shape-from MEDIUM`): the real
+/// sand's plates with the DEM bed's measured shape. The command remakes the committed file
+/// (`tests/data/medium_dem_shape.yaml`, docs/bodies.md's figures) to 1e-9; the shape is the
+/// bed's, every coefficient times one scale; a foot pressed straight down feels the plates' law
+/// exactly as the file without a shape gives it; the file says where its shape came from and
+/// that it was not measured in this sand. A medium without a shape, intrusion tests beside the
+/// plates, or another law are refused by name.
+#[test]
+fn a_shape_borrowed_from_another_medium_is_scaled_to_the_plates() {
+    let dir = tempfile::tempdir().unwrap();
+    let remade = dir.path().join("borrowed.yaml");
+    let calibrate = |extra: &[&str], out: &Path| {
+        Command::new(terzaghi())
+            .current_dir(repo())
+            .arg("calibrate")
+            .args(plate_runs())
+            .args(extra)
+            .arg("-o")
+            .arg(out)
+            .output()
+            .unwrap()
+    };
+    let printed = ok(&calibrate(
+        &["--shape-from", DEM_MEDIUM, "--name", "plate_runs_dem_shape"],
+        &remade,
+    ));
+    assert!(printed.contains("RFT's shape borrowed from"), "{printed}");
+    let yaml = |p: &Path| -> serde_yaml_ng::Value {
+        serde_yaml_ng::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+    };
+    let committed = repo().join("tests/data/medium_dem_shape.yaml");
+    let (a, b, bed) = (
+        yaml(&remade),
+        yaml(&committed),
+        yaml(&repo().join(DEM_MEDIUM)),
+    );
+    let coefficient = |v: &serde_yaml_ng::Value, name: &str| {
+        v["rft_shape"]["coefficients_n_cm3"][name].as_f64().unwrap()
+    };
+    let scale = coefficient(&a, "A00") / coefficient(&bed, "A00");
+    assert!(scale > 1.0 && scale.is_finite(), "{scale}");
+    for name in [
+        "A00", "A10", "B11", "B01", "B-11", "C11", "C01", "C-11", "D10",
+    ] {
+        let (x, y) = (coefficient(&a, name), coefficient(&b, name));
+        assert!((x - y).abs() < 1e-9, "{name}: {x} remade, {y} committed");
+        let z = coefficient(&bed, name);
+        assert!(
+            (x - scale * z).abs() <= 1e-12 * x.abs(),
+            "{name}: {x} against {z}"
+        );
+    }
+    // The plates' law in depth, no offset or speed law of the bed's.
+    let shape = &a["rft_shape"];
+    assert_eq!(shape["depth_exponent"], a["params"]["n"]);
+    assert_eq!(shape["surface_offset_m"].as_f64(), Some(0.0));
+    assert!(shape["speed_law"].is_null());
+    assert!(
+        shape["borrowed_from"]
+            .as_str()
+            .unwrap()
+            .contains(DEM_MEDIUM),
+        "{shape:?}"
+    );
+    // Pressed straight down: the plates' law, as the file without a shape gives it.
+    let pressed = |medium: &str| -> f64 {
+        let out = ok(&Command::new(terzaghi())
+            .current_dir(repo())
+            .args([
+                "predict",
+                "--model",
+                "rft",
+                "--shape",
+                "disc",
+                "--radius-m",
+                "0.04",
+                "--thickness-m",
+                "0.005",
+                "--hip-height-m",
+                "-0.02",
+                "--up-m-s",
+                "-0.005",
+                "--beta-deg",
+                "0:0:1",
+                "--medium-file",
+                medium,
+            ])
+            .output()
+            .unwrap());
+        let row = out.lines().nth(1).unwrap();
+        row.split(',').nth(4).unwrap().parse().unwrap()
+    };
+    let (borrowed, plates) = (
+        pressed("tests/data/medium_dem_shape.yaml"),
+        pressed("tests/data/medium_without_shape.yaml"),
+    );
+    assert!(
+        plates > 50.0 && (borrowed - plates).abs() <= 1e-9 * plates,
+        "{borrowed} N with the borrowed shape, {plates} N with the plates' preset"
+    );
+    let listed = ok(&Command::new(terzaghi())
+        .arg("media")
+        .arg(&committed)
+        .output()
+        .unwrap());
+    assert!(
+        listed
+            .contains("RFT's shape: borrowed from tests/dem/campaign/medium_from_intrusions.yaml"),
+        "{listed}"
+    );
+    // Refused by name.
+    let refusal = |extra: &[&str], words: &[&str]| {
+        let out = calibrate(extra, &dir.path().join("refused.yaml"));
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{extra:?}");
+        for w in words {
+            assert!(err.contains(w), "{w:?} not in: {err}");
+        }
+        assert!(!err.contains("panicked"), "{err}");
+    };
+    refusal(
+        &["--shape-from", "tests/data/medium_without_shape.yaml"],
+        &["medium_without_shape.yaml", "carries no RFT shape"],
+    );
+    refusal(
+        &["--shape-from", DEM_MEDIUM, "--law", "bekker"],
+        &["--shape-from", "--law is bekker"],
+    );
+    refusal(
+        &[
+            "--shape-from",
+            DEM_MEDIUM,
+            "tests/dem/campaign/intrusions/it_buried_v005_b+00_g+00.csv",
+        ],
+        &["--shape-from", "9 plate-sinkage and 1 intrusion tests"],
+    );
+    refusal(
+        &["--shape-from", "tests/data/no-such-medium.yaml"],
+        &["no-such-medium.yaml"],
+    );
+    assert!(!dir.path().join("refused.yaml").exists());
+}

@@ -93,6 +93,12 @@ pub struct CalibrateArgs {
     /// grains ahead of it, which RFT does not describe).
     #[arg(long)]
     pub shape_from_buried: bool,
+    /// RFT's angular shape from this medium file (one calibrated from intrusion tests: a lab's,
+    /// a DEM bed's), scaled so that the plate-sinkage tests given (and no intrusion test) set
+    /// its stress pushed straight down and its depth exponent: for a medium whose plates alone
+    /// were pushed. The law written is rft_depth_power.
+    #[arg(long, value_name = "MEDIUM_FILE")]
+    pub shape_from: Option<PathBuf>,
     /// Write an HTML report of RFT's shape here: per direction of motion, each intrusion test's
     /// measured alpha_x, alpha_z against the fitted shape over the attack angle (and, with
     /// --cross-validate, each test as the shape fitted to the others predicts it).
@@ -138,7 +144,9 @@ fn plate_part(a: &CalibrateArgs, files: &[PathBuf]) -> Result<PlatePart> {
     let tests = read_tests(a, files)?;
     let (unit_weight, unit_weight_source) = unit_weight_of(&tests, a.unit_weight_n_m3)?;
     let (fits, failed) = calibrate(&tests, unit_weight);
-    let chosen = match &a.law {
+    // A borrowed shape is scaled to RFT's law in depth.
+    let law = (a.law.as_deref()).or(a.shape_from.as_ref().map(|_| "rft_depth_power"));
+    let chosen = match law {
         Some(name) => fits
             .iter()
             .position(|f| f.model.law.name() == name)
@@ -200,6 +208,19 @@ pub fn run(a: CalibrateArgs) -> Result<()> {
             "--law chooses among plate-sinkage laws, and every test given is an intrusion test (its law in depth is fitted with its shape)"
         );
     }
+    let shape_from = match &a.shape_from {
+        None => None,
+        Some(_) if plate_files.is_empty() || !intrusion_files.is_empty() => bail!(
+            "--shape-from scales another medium's shape to plate-sinkage tests alone ({} plate-sinkage and {} intrusion tests given)",
+            plate_files.len(),
+            intrusion_files.len()
+        ),
+        Some(_) if a.law.as_deref().is_some_and(|l| l != "rft_depth_power") => bail!(
+            "--shape-from scales a shape to the rft_depth_power law, and --law is {}",
+            a.law.as_deref().unwrap_or_default()
+        ),
+        Some(f) => Some((MediumFile::read(f)?, f.display().to_string())),
+    };
     let plates = if plate_files.is_empty() {
         None
     } else {
@@ -257,7 +278,10 @@ pub fn run(a: CalibrateArgs) -> Result<()> {
             m.rft_shape = shape
                 .as_ref()
                 .map(|s| MediumRftShape::of_fit(s, &intrusion_files));
-            m
+            match &shape_from {
+                Some((other, name)) => m.with_shape_from(other, name)?,
+                None => m,
+            }
         }
         (None, Some(s)) => {
             let (w, source) = unit_weight_of_tests(&intrusions, a.unit_weight_n_m3)?.context(
@@ -331,8 +355,9 @@ pub fn run(a: CalibrateArgs) -> Result<()> {
             out.display(),
             medium.law.name(),
             match &medium.rft_shape {
-                Some(r) => r.form.name(),
-                None => "poppy_lp's, not measured",
+                Some(r) if r.borrowed_from.is_some() => medium.rft_shape_text(),
+                Some(r) => r.form.name().to_string(),
+                None => "poppy_lp's, not measured".to_string(),
             }
         );
     }
