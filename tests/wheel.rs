@@ -37,8 +37,19 @@ fn num(row: &std::collections::BTreeMap<String, String>, c: &str) -> f64 {
         .unwrap_or_else(|_| panic!("{c}: {:?}", row[c]))
 }
 
+/// The medium calibrated on the real sand's plate runs alone (RFT's shape `poppy_lp`'s).
+const PLATES: &str = "tests/data/medium_without_shape.yaml";
+
+/// The same plates with the DEM bed's measured shape borrowed (`calibrate --shape-from`).
+const PLATES_DEM_SHAPE: &str = "tests/data/medium_dem_shape.yaml";
+
 /// The command of docs/bodies.md, from the repository's top (and with `extra`, its second).
 fn steady_with(out: &Path, extra: &[&str]) -> std::process::Output {
+    steady_in(PLATES, out, extra)
+}
+
+/// [`steady_with`] in `medium`.
+fn steady_in(medium: &str, out: &Path, extra: &[&str]) -> std::process::Output {
     Command::new(terzaghi())
         .current_dir(repo())
         .args([
@@ -51,7 +62,7 @@ fn steady_with(out: &Path, extra: &[&str]) -> std::process::Output {
             "--width-m",
             "0.05",
             "--medium-file",
-            "tests/data/medium_without_shape.yaml",
+            medium,
             "--group-by",
             "vry_cmd_mm_s",
             "-o",
@@ -183,13 +194,17 @@ fn held_at_its_measured_sinkage_the_drawbar_follows_and_the_load_is_what_a_skid_
     assert!(summary.contains("against load_n over 27 runs"), "{summary}");
 }
 
-/// docs/bodies.md shows what the command prints, line for line (but the output file's path).
+/// docs/bodies.md shows what the command prints, line for line (but the output file's path), in
+/// both media.
 #[test]
 fn the_docs_table_is_the_commands_output() {
     let docs = std::fs::read_to_string(repo().join("docs/bodies.md")).unwrap();
     let dir = tempfile::tempdir().unwrap();
-    for extra in [&[][..], &["--at-sinkage", "sinkage_m"][..]] {
-        let out = steady_with(&dir.path().join("steady.csv"), extra);
+    for (medium, extra) in [PLATES, PLATES_DEM_SHAPE]
+        .into_iter()
+        .flat_map(|m| [(m, &[][..]), (m, &["--at-sinkage", "sinkage_m"][..])])
+    {
+        let out = steady_in(medium, &dir.path().join("steady.csv"), extra);
         ok(&out);
         let text = String::from_utf8_lossy(&out.stderr);
         for line in text.lines().filter(|l| !l.starts_with("written:")) {
@@ -198,6 +213,33 @@ fn the_docs_table_is_the_commands_output() {
                 "docs/bodies.md lacks this line of `terzaghi steady {}`:\n{line}",
                 extra.join(" ")
             );
+        }
+    }
+}
+
+/// The DEM bed's measured shape borrowed in place of `poppy_lp`'s (its scale and law in depth
+/// still the plate runs'): a skid's missing load is not RFT's angular shape. Held at its
+/// measured 50 mm, the locked wheel is still borne three times over or more, and left to sink
+/// it settles at less than half of that.
+#[test]
+fn with_the_dem_beds_shape_borrowed_a_skid_still_misses_its_load() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_csv = dir.path().join("steady.csv");
+    for extra in [&[][..], &["--at-sinkage", "sinkage_m"][..]] {
+        let out = steady_in(PLATES_DEM_SHAPE, &out_csv, extra);
+        let summary = String::from_utf8_lossy(&out.stderr).into_owned();
+        ok(&out);
+        assert!(summary.contains("RFT's shape borrowed from"), "{summary}");
+        let table = rows(&out_csv);
+        assert_eq!(table.len(), 27);
+        for r in table.iter().filter(|r| num(r, "vry_cmd_mm_s") == 0.0) {
+            if extra.is_empty() {
+                let (p, m) = (num(r, "sinkage_m"), num(r, "measured_sinkage_m"));
+                assert!(p < 0.5 * m, "sinkage {p} against {m}: {r:?}");
+            } else {
+                let ratio = num(r, "load_borne_n") / num(r, "load_n");
+                assert!(ratio >= 3.0, "{ratio}: {r:?}");
+            }
         }
     }
 }
@@ -324,19 +366,18 @@ fn r2(pairs: &[(f64, f64)]) -> f64 {
 }
 
 /// The six presses of the smooth wheel with their depth recorded, each replayed through the
-/// node's own code (`replay --reevaluate` of the press as a CSV force log, `shape: wheel`, the
-/// medium calibrated on the plate runs alone, nothing learnt): the loading rows' lift follows
-/// the measured one (R^2 >= 0.8 each, 0.85 in the median); the wheel held or backing off is
-/// given no drag and never a downward force while it is in the sand.
-#[test]
-fn the_shared_presses_replayed_as_a_wheel_leg() {
+/// node's own code (`replay --reevaluate` of the press as a CSV force log, `shape: wheel` in
+/// `medium`, nothing learnt): the table docs/bodies.md shows, and each press's loading rows' lift
+/// R^2 against the measured lift, sorted. Held or backing off, the wheel is given no drag and
+/// never a downward force while it is in the sand (asserted).
+fn presses(medium: &str) -> (Vec<String>, Vec<f64>) {
     let dir = tempfile::tempdir().unwrap();
     let params = dir.path().join("wheel.yaml");
     std::fs::write(
         &params,
         format!(
             "/**:\n  ros__parameters:\n    model: rft\n    legs: [wheel]\n    wheel:\n      joint: wheel_joint\n      shape: wheel\n      wheel:\n        radius_m: 0.058\n      width_m: 0.05\n      hip_height_m: 0.0\n      medium: {}\n      ft_topic: /wheel/ft\n",
-            repo().join("tests/data/medium_without_shape.yaml").display()
+            repo().join(medium).display()
         ),
     )
     .unwrap();
@@ -417,8 +458,30 @@ fn the_shared_presses_replayed_as_a_wheel_leg() {
             "docs/bodies.md lacks the line\n{line}"
         );
     }
+    (table, r2s)
+}
+
+/// The shared presses in the medium of the plate runs alone (`poppy_lp`'s shape): the loading
+/// rows' lift follows the measured one (R^2 >= 0.8 each, 0.85 in the median).
+#[test]
+fn the_shared_presses_replayed_as_a_wheel_leg() {
+    let (_, r2s) = presses(PLATES);
+    let median = (r2s[2] + r2s[3]) / 2.0;
     assert!(
         r2s[0] >= 0.8 && median >= 0.85,
+        "lift R^2 of the loading rows {r2s:?}"
+    );
+}
+
+/// The shared presses with the DEM bed's measured shape borrowed (the plate runs' scale and law
+/// in depth, nothing fitted to the wheel): the lift R^2 the issue asks, 0.9 in the median (and
+/// 0.85 for every press).
+#[test]
+fn the_shared_presses_with_the_dem_beds_shape_borrowed() {
+    let (_, r2s) = presses(PLATES_DEM_SHAPE);
+    let median = (r2s[2] + r2s[3]) / 2.0;
+    assert!(
+        r2s[0] >= 0.85 && median >= 0.9,
         "lift R^2 of the loading rows {r2s:?}"
     );
 }
