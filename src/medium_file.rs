@@ -434,7 +434,14 @@ impl MediumFile {
             surface_offset_m: 0.0,
             std_surface_offset_m: 0.0,
             speed_law: None,
-            borrowed_from: Some(format!("{other_name} (medium {:?})", other.name)),
+            borrowed_from: Some(match &shape.borrowed_from {
+                // Borrowed twice: where it was measured stays said.
+                Some(first) => format!(
+                    "{other_name} (medium {:?}, itself from {first})",
+                    other.name
+                ),
+                None => format!("{other_name} (medium {:?})", other.name),
+            }),
             ..shape.clone()
         });
         Ok(self)

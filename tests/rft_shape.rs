@@ -656,7 +656,7 @@ fn a_shape_borrowed_from_another_medium_is_scaled_to_the_plates() {
     let refusal = |extra: &[&str], words: &[&str]| {
         let out = calibrate(extra, &dir.path().join("refused.yaml"));
         let err = String::from_utf8_lossy(&out.stderr);
-        assert!(!out.status.success(), "{extra:?}");
+        assert_eq!(out.status.code(), Some(2), "{extra:?}: {err}");
         for w in words {
             assert!(err.contains(w), "{w:?} not in: {err}");
         }
@@ -683,4 +683,21 @@ fn a_shape_borrowed_from_another_medium_is_scaled_to_the_plates() {
         &["no-such-medium.yaml"],
     );
     assert!(!dir.path().join("refused.yaml").exists());
+    // Borrowed again, from the borrowed file: where the shape was measured stays said.
+    let again = dir.path().join("again.yaml");
+    ok(&calibrate(
+        &["--shape-from", "tests/data/medium_dem_shape.yaml"],
+        &again,
+    ));
+    let chain = yaml(&again)["rft_shape"]["borrowed_from"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    assert!(
+        chain.starts_with("tests/data/medium_dem_shape.yaml") && chain.contains(DEM_MEDIUM),
+        "{chain}"
+    );
+    // Scaled to the same plates again: the same coefficients (to rounding).
+    let (x, y) = (coefficient(&yaml(&again), "A00"), coefficient(&a, "A00"));
+    assert!((x - y).abs() <= 1e-12 * y, "{x} against {y}");
 }
