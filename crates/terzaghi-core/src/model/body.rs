@@ -15,7 +15,7 @@
 //! motion; [`steady_sinkage`] finds the sinkage at which the sand bears a given load.
 
 use super::batch::{Isa, LANES};
-use super::rft::{RftCoefficients, RftDepthLaw, RftFit, RftSpeedLaw, SLOW_M_S, SLOW_SCALE};
+use super::rft::{RftCoefficients, RftDepthLaw, RftFit, RftSpeedLaw};
 use super::{HipMotion, ModelError, Plate, Prediction, Regime};
 
 mod mesh;
@@ -78,6 +78,15 @@ pub struct Body {
     /// changes nothing.
     round: bool,
 }
+
+/// Below this speed (m/s) an element's speed may square to zero: [`Body::forces`] sums the
+/// motion scaled by [`SLOW_SCALE`].
+const SLOW_M_S: f64 = 1e-140;
+
+/// 2^600: scales the slowest motion there is (5e-324 m/s) to one whose square does not
+/// underflow (4e-286), and the fastest one below [`SLOW_M_S`] to one whose square does not
+/// overflow (2e81). A power of two: scaling is exact.
+const SLOW_SCALE: f64 = 4.149515568880993e180;
 
 /// How a body's hub moves: its height above the undisturbed surface, its velocity, and the
 /// body's rotation rate about its axle.

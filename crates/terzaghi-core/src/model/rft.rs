@@ -803,15 +803,9 @@ impl RftCoefficients {
         match self {
             RftCoefficients::Fit(f) => {
                 let l2 = tx * tx + tz * tz;
-                let v = (vx * vx + vz * vz).sqrt();
-                // A motion so slow that its square underflows (below 1e-154 m/s) taken at a
-                // scale where it does not: only its direction counts.
-                let (vx, vz, v) = if v >= SLOW_M_S {
-                    (vx, vz, v)
-                } else {
-                    let (x, z) = (vx * SLOW_SCALE, vz * SLOW_SCALE);
-                    (x, z, (x * x + z * z).sqrt())
-                };
+                // `speed_m_s`: a motion so slow that its square underflows (below 1e-154 m/s)
+                // still has a speed, and a direction.
+                let v = speed_m_s(vx, vz);
                 f.alpha_trig(
                     ((tx * tx - tz * tz) / l2, 2.0 * tx * tz / l2),
                     (vx / v, -vz / v),
@@ -1493,15 +1487,6 @@ fn rft_elements_moving(
     }
     [drag, lift, torque, side[0], side[1], side[2]]
 }
-
-/// Below this speed (m/s) a motion's square may underflow: its direction is taken from it
-/// scaled by [`SLOW_SCALE`].
-pub(crate) const SLOW_M_S: f64 = 1e-140;
-
-/// 2^600: scales the slowest motion there is (5e-324 m/s) to one whose square does not
-/// underflow (4e-286), and the fastest one below [`SLOW_M_S`] to one whose square does not
-/// overflow (2e81). A power of two: scaling is exact.
-pub(crate) const SLOW_SCALE: f64 = 4.149515568880993e180;
 
 /// The speed of a velocity `(vx, vz)`: the square root of the sum of squares,
 /// and `hypot` (several times slower, the most of an RFT element's cost) only where the squares
