@@ -277,6 +277,25 @@ def test_the_example_runs_and_its_mjcf_is_the_hexapods(tmp_path):
 
 # ---------------------------------------------------------------- many environments at once
 
+def _each_env_against_one(model, legs, leg_model, n, seed):
+    """A ``BatchCoupling`` of ``n`` random states (``_random_states``), applied; then, for each
+    environment ``e``, one ``Coupling`` applied to the same state: yields ``(e, batch, one, data,
+    xfrc, bodies)``, ``xfrc`` the batch's applied forces per environment and body, ``bodies`` the
+    legs' body ids."""
+    batch = tm.BatchCoupling(model, legs, leg_model, n_envs=n, torso="torso", threads=2)
+    batch.state[:] = _random_states(model, n, seed)
+    batch.apply()
+    one = tm.Coupling(model, legs, leg_model, torso="torso")
+    data = mujoco.MjData(model)
+    bodies = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, leg.body) for leg in legs]
+    xfrc = batch.control[:, model.nu:].reshape(n, model.nbody, 6)
+    for e in range(n):
+        mujoco.mj_setState(model, data, batch.state[e], mujoco.mjtState.mjSTATE_FULLPHYSICS)
+        mujoco.mj_forward(model, data)
+        one.apply(data)
+        yield e, batch, one, data, xfrc, bodies
+
+
 def _random_states(model, n, seed):
     """``n`` states of the hexapod, each tilted, turning and moving its own way, as
     ``mjSTATE_FULLPHYSICS`` rows."""
@@ -302,18 +321,9 @@ def test_a_batch_of_environments_feels_what_one_coupling_gives_each():
     model = mujoco.MjModel.from_xml_string(tm.hexapod_xml())
     legs = LegBatch(length_m=0.1, width_m=0.025, medium="poppy_lp")
     n = 64
-    batch = tm.BatchCoupling(model, tm.hexapod_legs(), legs, n_envs=n, torso="torso", threads=2)
-    batch.state[:] = _random_states(model, n, 3)
-    batch.apply()
-    one = tm.Coupling(model, tm.hexapod_legs(), legs, torso="torso")
-    data = mujoco.MjData(model)
-    bodies = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, leg.body) for leg in tm.hexapod_legs()]
-    xfrc = batch.control[:, model.nu:].reshape(n, model.nbody, 6)
     in_sand = 0
-    for e in range(n):
-        mujoco.mj_setState(model, data, batch.state[e], mujoco.mjtState.mjSTATE_FULLPHYSICS)
-        mujoco.mj_forward(model, data)
-        one.apply(data)
+    for e, batch, one, data, xfrc, bodies in _each_env_against_one(model, tm.hexapod_legs(),
+                                                                   legs, n, seed=3):
         scale = max(1.0, np.abs(one.drag_n).max(), np.abs(one.lift_n).max())
         for got, want in ((batch.drag_n[e], one.drag_n), (batch.lift_n[e], one.lift_n),
                           (batch.hip_torque_nm[e], one.hip_torque_nm)):
@@ -537,18 +547,8 @@ def test_a_batch_of_wheeled_environments_feels_what_one_coupling_gives_each():
     model = mujoco.MjModel.from_xml_string(TWO_WHEELS)
     legs = [tm.LegMap(n, f"{n}_joint", n) for n in ("left", "right")]
     n = 32
-    batch = tm.BatchCoupling(model, legs, wheel, n_envs=n, torso="torso", threads=2)
-    batch.state[:] = _random_states(model, n, 5)
-    batch.apply()
-    one = tm.Coupling(model, legs, wheel, torso="torso")
-    data = mujoco.MjData(model)
-    bodies = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, leg.body) for leg in legs]
-    xfrc = batch.control[:, model.nu:].reshape(n, model.nbody, 6)
     sideways = 0
-    for e in range(n):
-        mujoco.mj_setState(model, data, batch.state[e], mujoco.mjtState.mjSTATE_FULLPHYSICS)
-        mujoco.mj_forward(model, data)
-        one.apply(data)
+    for e, batch, one, data, xfrc, bodies in _each_env_against_one(model, legs, wheel, n, seed=5):
         scale = max(1.0, np.abs(one.lift_n).max(), np.abs(one.drag_n).max())
         for name in ("drag_n", "lift_n", "hip_torque_nm", "side_n", "roll_moment_nm",
                      "yaw_moment_nm"):
