@@ -526,6 +526,9 @@ pub fn steady_runs(data: &[u8]) {
         depth_law: RftDepthLaw::new(4.546, 1.219).expect("the plate runs' law"),
         speed_law: None,
         shape_measured: false,
+        // The bearing of sheared sand on half the inputs: its first-depth search too.
+        sheared: (first & 4 == 4)
+            .then(|| crate::model::ShearedBearing::new(0.35, 2.0).expect("a bearing in range")),
     };
     let solve = if first & 2 == 0 {
         Solve::Sinkage
@@ -782,6 +785,7 @@ pub fn mesh_file(data: &[u8]) {
         coefficients: &c,
         depth_law: Some(&law),
         speed_law: None,
+        sheared: None,
     };
     let drive = Drive {
         speed_m_s: 0.01,

@@ -38,6 +38,76 @@ pub struct MediumFile {
     /// RFT's shape measured from intrusion tests, where the file was calibrated on any.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rft_shape: Option<MediumRftShape>,
+    /// The bearing of the sand a body shears, where the file has it (`terzaghi calibrate
+    /// --slip-sweep`); without it, RFT's stress of sand at rest alone.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sheared_bearing: Option<MediumShearedBearing>,
+}
+
+/// The bearing of the sand a body shears ([`crate::model::ShearedBearing`]), with where its
+/// values came from.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MediumShearedBearing {
+    /// `tan delta_w`: the inclination's tangent up to which the sand bears fully.
+    pub interface_tan: f64,
+    /// `m`: the power of the loss past it.
+    pub exponent: f64,
+    /// Their standard deviations (jackknife over the sweep's runs; 0 for the physics alone).
+    pub std_dev: BTreeMap<String, f64>,
+    /// Where the values came from, in words.
+    pub source: String,
+    /// The slip sweep they were fitted to, where they were.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub slip_sweep: Option<MediumSlipSweep>,
+}
+
+/// A slip sweep a medium file's sheared bearing was fitted to.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MediumSlipSweep {
+    /// Its file.
+    pub file: String,
+    /// Its body, as `calibrate`'s flags gave it.
+    pub body: String,
+    /// Its runs.
+    pub runs: usize,
+    /// R^2 of the sinkage and the drawbar over them, with the fitted values.
+    pub r2_sinkage: f64,
+    /// See [`Self::r2_sinkage`].
+    pub r2_drawbar: f64,
+    /// The same with RFT's sand at rest alone (nothing from the sweep).
+    pub r2_sinkage_at_rest: f64,
+    /// See [`Self::r2_sinkage_at_rest`].
+    pub r2_drawbar_at_rest: f64,
+}
+
+impl MediumShearedBearing {
+    /// The law, checked: each value within its physical range, else an error naming it.
+    pub fn bearing(&self) -> Result<crate::model::ShearedBearing> {
+        Ok(crate::model::ShearedBearing::new(
+            self.interface_tan,
+            self.exponent,
+        )?)
+    }
+
+    /// In words, for `media` and the node's start-up line.
+    pub fn text(&self) -> String {
+        let sd = |k: &str| {
+            self.std_dev
+                .get(k)
+                .filter(|v| **v > 0.0)
+                .map_or(String::new(), |v| format!(" +- {v:.3}"))
+        };
+        format!(
+            "sheared sand bears (tan delta_w / tan delta)^m past tan delta_w {:.3}{}, m {:.2}{} ({})",
+            self.interface_tan,
+            sd("interface_tan"),
+            self.exponent,
+            sd("exponent"),
+            self.source
+        )
+    }
 }
 
 /// RFT's angular shape, law in depth and speed law, fitted to intrusion tests
@@ -156,6 +226,8 @@ pub struct RftLaw {
     /// The shape was fitted, coefficient by coefficient, to intrusion tests in several
     /// directions (not a preset's).
     pub shape_measured: bool,
+    /// The bearing of the sand a body shears, where the file has it.
+    pub sheared: Option<crate::model::ShearedBearing>,
 }
 
 impl MediumRftShape {
@@ -354,6 +426,7 @@ impl MediumFile {
                     .collect(),
             },
             rft_shape: None,
+            sheared_bearing: None,
         }
     }
 
@@ -394,6 +467,7 @@ impl MediumFile {
                 tests: Vec::new(),
             },
             rft_shape: Some(MediumRftShape::of_fit(fit, files)),
+            sheared_bearing: None,
         }
     }
 
@@ -452,6 +526,13 @@ impl MediumFile {
     /// carries its own). Without: `explicit` or `poppy_lp`'s shape, with the file's
     /// `rft_depth_power` law ([`Self::rft_depth_law`]) and no speed law.
     pub fn rft_law(&self, explicit: Option<(&str, RftCoefficients)>) -> Result<RftLaw> {
+        let sheared = match &self.sheared_bearing {
+            Some(b) => Some(
+                b.bearing()
+                    .with_context(|| format!("medium {:?}", self.name))?,
+            ),
+            None => None,
+        };
         match (&self.rft_shape, explicit) {
             (Some(_), Some((name, _))) => bail!(
                 "medium {:?} carries its own RFT shape, measured from intrusion tests; a coefficient set ({name}) cannot be named beside it (leave rft_coeffs out, or name a medium file without a shape)",
@@ -470,6 +551,7 @@ impl MediumFile {
                     .speed_law()
                     .with_context(|| format!("medium {:?}", self.name))?,
                 shape_measured: shape.form == ShapeForm::LiNine && shape.borrowed_from.is_none(),
+                sheared,
             }),
             (None, explicit) => {
                 let coefficients = match explicit {
@@ -481,6 +563,7 @@ impl MediumFile {
                     coefficients,
                     speed_law: None,
                     shape_measured: false,
+                    sheared,
                 })
             }
         }
@@ -599,6 +682,10 @@ impl MediumFile {
         let m: MediumFile = serde_yaml_ng::from_str(text)
             .with_context(|| format!("{} is not a medium file", file.display()))?;
         m.model().with_context(|| format!("{}", file.display()))?;
+        if let Some(b) = &m.sheared_bearing {
+            b.bearing()
+                .with_context(|| format!("{}: medium {:?}", file.display(), m.name))?;
+        }
         if m.rft_shape.is_some() {
             m.rft_law(None)
                 .with_context(|| format!("{}", file.display()))?;

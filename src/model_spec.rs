@@ -285,15 +285,13 @@ impl ModelSpec {
         coeffs: RftCoefficients,
         depth_law: Option<crate::model::RftDepthLaw>,
         speed_law: Option<crate::model::RftSpeedLaw>,
+        sheared: Option<crate::model::ShearedBearing>,
     ) -> Result<ForceModel> {
         Ok(match &self.shape {
-            LegShape::Body(body) => ForceModel::Body(Box::new(crate::model::BodyLeg::new(
-                (**body).clone(),
-                coeffs,
-                depth_law,
-                speed_law,
-                plate,
-            ))),
+            LegShape::Body(body) => ForceModel::Body(Box::new(
+                crate::model::BodyLeg::new((**body).clone(), coeffs, depth_law, speed_law, plate)
+                    .with_sheared_bearing(sheared),
+            )),
             _ => ForceModel::Rft(
                 self.rft_leg(plate, coeffs)?
                     .with_depth_law(depth_law)
@@ -362,6 +360,7 @@ impl ModelSpec {
                         law.coefficients,
                         Some(law.depth_law),
                         law.speed_law,
+                        law.sheared,
                     );
                 }
                 let set = match (&self.rft_coeffs, &self.medium.preset) {
@@ -387,7 +386,7 @@ impl ModelSpec {
                     );
                 }
                 let coeffs = RftCoefficients::by_name(&set, self.rft_zeta)?;
-                self.rft_model(plate, coeffs, None, None)
+                self.rft_model(plate, coeffs, None, None, None)
             }
             ModelKind::Sinkage => unreachable!("built above"),
         }

@@ -77,6 +77,9 @@ pub fn run(a: MediaArgs) -> Result<()> {
             }
         );
         s += &format!("  RFT's shape: {}\n", m.rft_shape_text());
+        if let Some(b) = &m.sheared_bearing {
+            s += &format!("  sheared:     {}\n", b.text());
+        }
         if let Some(shape) = &m.rft_shape {
             s += &format!(
                 "  RFT's coefficients (N/cm^3 at 1 cm, +- one standard deviation): {}\n",

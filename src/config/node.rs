@@ -99,6 +99,8 @@ pub struct LegConfig {
     /// RFT's stress in depth from the leg's medium file (`<leg>.medium`, model rft), where it
     /// is not RFT's linear one.
     pub rft_depth: Option<crate::model::RftDepthLaw>,
+    /// The bearing of the sand a body leg shears, from the leg's medium file where it has one.
+    pub rft_sheared: Option<crate::model::ShearedBearing>,
     /// Where the leg's RFT shape comes from, in words, for a leg whose medium is a file (a
     /// measured shape, or a preset's that the file's depth law scales).
     pub rft_shape_text: Option<String>,
@@ -156,6 +158,7 @@ impl LegConfig {
             rft: None,
             rft_speed: None,
             rft_depth: None,
+            rft_sheared: None,
             rft_shape_text: None,
             trough_depth_m: 0.0,
             trough_exit_depth_m: 0.0,
@@ -800,15 +803,16 @@ impl NodeConfig {
                 ForceModel::Terzaghi(TerzaghiModel::conventional(leg.plate, medium))
             }
             ModelKind::Rft => match (&leg.rft, &leg.profile) {
-                (Some(c), _) if leg.body.is_some() => {
-                    ForceModel::Body(Box::new(crate::model::BodyLeg::new(
+                (Some(c), _) if leg.body.is_some() => ForceModel::Body(Box::new(
+                    crate::model::BodyLeg::new(
                         leg.body.clone().expect("checked"),
                         c.clone(),
                         leg.rft_depth,
                         leg.rft_speed.map(|f| f.law),
                         leg.plate,
-                    )))
-                }
+                    )
+                    .with_sheared_bearing(leg.rft_sheared),
+                )),
                 (Some(c), Some(p)) => ForceModel::Rft(
                     RftModel::with_profile(
                         leg.plate,
@@ -1015,7 +1019,22 @@ fn leg_config(
         }
         _ => None,
     };
-    let rft_shape_text = rft_medium_file.as_ref().map(|(_, f)| f.rft_shape_text());
+    let rft_shape_text = rft_medium_file
+        .as_ref()
+        .map(|(_, f)| match &f.sheared_bearing {
+            Some(b) => format!("{}; {}", f.rft_shape_text(), b.text()),
+            None => f.rft_shape_text(),
+        });
+    let rft_sheared = match &rft_medium_file {
+        Some((path, file)) => match &file.sheared_bearing {
+            Some(b) => Some(
+                b.bearing()
+                    .map_err(|e| invalid(&k("medium"), path, format!("{e:#}")))?,
+            ),
+            None => None,
+        },
+        None => None,
+    };
     let rft_name = g
         .str(&k("rft_coeffs"))?
         .filter(|s| !s.is_empty())
@@ -1184,6 +1203,7 @@ fn leg_config(
         rft,
         rft_speed,
         rft_depth,
+        rft_sheared,
         rft_shape_text,
         trough_depth_m,
         trough_exit_depth_m,

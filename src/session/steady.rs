@@ -278,6 +278,7 @@ pub fn steady_runs(
         coefficients: &law.coefficients,
         depth_law: Some(&law.depth_law),
         speed_law: law.speed_law.as_ref(),
+        sheared: law.sheared.as_ref(),
     };
     let mut runs = Vec::new();
     for (row, record) in rdr.records().enumerate() {

@@ -161,6 +161,7 @@ fn steady(
             coefficients: &law.coefficients,
             depth_law: Some(&law.depth_law),
             speed_law: law.speed_law.as_ref(),
+            sheared: law.sheared.as_ref(),
         };
         let mut out: [Vec<f64>; 5] = std::array::from_fn(|_| Vec::with_capacity(n));
         for i in 0..n {

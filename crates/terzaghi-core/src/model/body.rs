@@ -16,6 +16,7 @@
 
 use super::batch::{Isa, LANES};
 use super::rft::{RftCoefficients, RftDepthLaw, RftFit, RftSpeedLaw};
+use super::sheared::ShearedBearing;
 use super::{HipMotion, ModelError, Plate, Prediction, Regime};
 
 mod mesh;
@@ -414,6 +415,20 @@ impl Body {
         speed_law: Option<&RftSpeedLaw>,
         hub: &HubMotion,
     ) -> BodyForce {
+        self.forces_of(
+            &Stress {
+                coefficients,
+                depth_law,
+                speed_law,
+                sheared: None,
+            },
+            hub,
+        )
+    }
+
+    /// [`Body::forces`] in the medium's whole stress: RFT's, and where the medium has one, the
+    /// bearing of the sand the body shears ([`ShearedBearing`]) on the vertical stress.
+    pub fn forces_of(&self, stress: &Stress, hub: &HubMotion) -> BodyForce {
         let (mut at, sinkage) = self.place(hub);
         // A motion so slow that an element's speed would square to zero (below 1e-154 m/s) is
         // summed at a scale where it does not: the stress takes its direction alone, the speed
@@ -434,15 +449,14 @@ impl Body {
             *hub
         };
         let hy = hub.velocity_m_s[1];
-        let stress = Stress {
-            coefficients,
-            depth_law,
-            speed_law,
-        };
-        let (f, m) = if hy == 0.0 && !self.planar.is_empty() {
-            self.planar_sum(&stress, hub, &at)
+        let (f, m, vertical_m) = if hy == 0.0 && !self.planar.is_empty() {
+            self.planar_sum(stress, hub, &at)
         } else {
-            Self::general_sum(self.spatial_surface(), &stress, hub, &at)
+            Self::general_sum(self.spatial_surface(), stress, hub, &at)
+        };
+        let (f, m) = match stress.sheared {
+            Some(sheared) => sheared.apply(f, m, vertical_m),
+            None => (f, m),
         };
         BodyForce {
             force_n: f,
@@ -502,18 +516,19 @@ impl Body {
         stress: &Stress,
         hub: &HubMotion,
         at: &Place,
-    ) -> ([f64; 3], [f64; 3]) {
+    ) -> ([f64; 3], [f64; 3], [f64; 2]) {
         let Stress {
             coefficients,
             depth_law,
             speed_law,
+            ..
         } = *stress;
         let [hx, hy, hz] = hub.velocity_m_s;
         let w = hub.omega_rad_s;
         let ((lx, ly), (tx, ty)) = (at.lowest_xy, at.travel);
         // A horizontal plate dragged along itself: the shear across an element's plane.
         let shear = coefficients.alpha_along((1.0, 0.0), (1.0, 0.0)).0;
-        let (mut f, mut m) = ([0.0; 3], [0.0; 3]);
+        let (mut f, mut m, mut vertical_m) = ([0.0; 3], [0.0; 3], [0.0; 2]);
         // The strips' places across the width, from the middle (m).
         let strip_y: [f64; Body::STRIPS] = std::array::from_fn(|j| {
             ((j as f64 + 0.5) / Body::STRIPS as f64 - 0.5) * surface.strip_width_m
@@ -654,8 +669,10 @@ impl Body {
             m[0] += py * fz - pz * fy;
             m[1] += pz * fx - px * fz;
             m[2] += px * fy - py * fx;
+            vertical_m[0] += py * fz;
+            vertical_m[1] -= px * fz;
         });
-        (f, m)
+        (f, m, vertical_m)
     }
 
     /// [`Body::general_sum`] over a prism's planar elements (normals in the `x`-`z` plane, at
@@ -664,7 +681,12 @@ impl Body {
     /// cancels from the stress), so that an element in the sand costs one square root, one
     /// division and its depth law, where the general sum takes four and eight. It agrees with
     /// the general sum to rounding (a test checks it).
-    fn planar_sum(&self, stress: &Stress, hub: &HubMotion, at: &Place) -> ([f64; 3], [f64; 3]) {
+    fn planar_sum(
+        &self,
+        stress: &Stress,
+        hub: &HubMotion,
+        at: &Place,
+    ) -> ([f64; 3], [f64; 3], [f64; 2]) {
         // Compiled for the processor's vector instructions where it has them: the same
         // operations (none fused), the same values.
         #[cfg(target_arch = "x86_64")]
@@ -686,7 +708,7 @@ impl Body {
         stress: &Stress,
         hub: &HubMotion,
         at: &Place,
-    ) -> ([f64; 3], [f64; 3]) {
+    ) -> ([f64; 3], [f64; 3], [f64; 2]) {
         self.planar_sum_any(stress, hub, at)
     }
 
@@ -698,7 +720,7 @@ impl Body {
         stress: &Stress,
         hub: &HubMotion,
         at: &Place,
-    ) -> ([f64; 3], [f64; 3]) {
+    ) -> ([f64; 3], [f64; 3], [f64; 2]) {
         self.planar_sum_any(stress, hub, at)
     }
 
@@ -720,17 +742,23 @@ impl Body {
 
     /// [`Body::planar_sum`] for any processor.
     #[inline(always)]
-    fn planar_sum_any(&self, stress: &Stress, hub: &HubMotion, at: &Place) -> ([f64; 3], [f64; 3]) {
+    fn planar_sum_any(
+        &self,
+        stress: &Stress,
+        hub: &HubMotion,
+        at: &Place,
+    ) -> ([f64; 3], [f64; 3], [f64; 2]) {
         let Stress {
             coefficients,
             depth_law,
             speed_law,
+            ..
         } = *stress;
         let [hx, _, hz] = hub.velocity_m_s;
         let w = hub.omega_rad_s;
         let (lx, tx) = (at.lowest_xy.0, at.travel.0);
         let (mut fx_sum, mut fz_sum) = (0.0, 0.0);
-        let mut my = 0.0;
+        let (mut my, mut vertical_my) = (0.0, 0.0);
         let keep = |e: &Element| {
             let ((px, pz), (nx, nz)) = if at.turned {
                 (at.turn(e.p[0], e.p[2]), at.turn(e.n[0], e.n[2]))
@@ -775,12 +803,13 @@ impl Body {
                     fx_sum += fx[l];
                     fz_sum += fz[l];
                     my += pz * fx[l] - px * fz[l];
+                    vertical_my -= px * fz[l];
                 }
                 if n < LANES {
                     break;
                 }
             }
-            return ([fx_sum, 0.0, fz_sum], [0.0, my, 0.0]);
+            return ([fx_sum, 0.0, fz_sum], [0.0, my, 0.0], [0.0, vertical_my]);
         }
         each_stressed(
             self.planar_in_reach(at),
@@ -813,9 +842,10 @@ impl Body {
                 fx_sum += fx;
                 fz_sum += fz;
                 my += pz * fx - px * fz;
+                vertical_my -= px * fz;
             },
         );
-        ([fx_sum, 0.0, fz_sum], [0.0, my, 0.0])
+        ([fx_sum, 0.0, fz_sum], [0.0, my, 0.0], [0.0, vertical_my])
     }
 }
 
@@ -1107,6 +1137,8 @@ pub struct Stress<'a> {
     pub depth_law: Option<&'a RftDepthLaw>,
     /// The dynamic stress of speed, if any.
     pub speed_law: Option<&'a RftSpeedLaw>,
+    /// The bearing of the sand the body shears, where the medium has it.
+    pub sheared: Option<&'a ShearedBearing>,
 }
 
 /// `body` driven as `drive` with its lowest point `sinkage_m` below the undisturbed surface: the
@@ -1125,12 +1157,40 @@ pub fn state_at_sinkage(
             why: "a sinkage is a number no deeper than the body's height",
         });
     }
-    let f = body.forces(
-        stress.coefficients,
-        stress.depth_law,
-        stress.speed_law,
+    let height_m = body.reach_m - sinkage_m;
+    // At rest, or creeping (slower than a leg's hold at its reach), no element leads: the body
+    // is borne as the sand pressed straight down bears it there, as a held leg is, with no
+    // drag, side force or torque.
+    let along = drive
+        .speed_m_s
+        .abs()
+        .max((drive.omega_rad_s * body.reach_m).abs());
+    if along < BodyLeg::MIN_SPEED_M_S {
+        let pressed = body.forces_of(
+            &Stress {
+                speed_law: None,
+                sheared: None,
+                ..*stress
+            },
+            &HubMotion {
+                height_m,
+                velocity_m_s: [0.0, 0.0, -1.0],
+                omega_rad_s: 0.0,
+                angle_rad: 0.0,
+            },
+        );
+        return Ok(Steady {
+            sinkage_m,
+            drawbar_n: 0.0,
+            side_n: 0.0,
+            torque_nm: 0.0,
+            load_n: pressed.force_n[2].max(0.0),
+        });
+    }
+    let f = body.forces_of(
+        stress,
         &HubMotion {
-            height_m: body.reach_m - sinkage_m,
+            height_m,
             velocity_m_s: velocity,
             omega_rad_s: drive.omega_rad_s,
             angle_rad: 0.0,
@@ -1170,16 +1230,45 @@ pub fn steady_sinkage(
     }
     let at = |sinkage: f64| state_at_sinkage(body, stress, sinkage, drive);
     let deepest = body.height_m();
-    let bottom = at(deepest)?;
-    // (A load borne that is no number is no bearing either.)
-    if bottom.load_n.is_nan() || bottom.load_n < load_n {
-        return Err(SteadyError::TooHeavy {
-            load_n,
-            max_load_n: bottom.load_n,
-            height_m: deepest,
-        });
-    }
     let (mut lo, mut hi) = (0.0, deepest);
+    if stress.sheared.is_some() {
+        // Sheared sand's bearing need not grow with the depth (a deeper skid leans its
+        // resultant further): the body settles at the first depth that bears it, the
+        // bracket about it found in steps of a hundredth of its height.
+        let mut most = f64::NEG_INFINITY;
+        let mut found = false;
+        for k in 1..=SCAN_STEPS {
+            let s = (deepest * k as f64 / SCAN_STEPS as f64).min(deepest);
+            let borne = at(s)?.load_n;
+            if borne.is_nan() {
+                most = f64::NAN;
+                break;
+            }
+            most = most.max(borne);
+            if borne >= load_n {
+                (lo, hi) = (deepest * (k - 1) as f64 / SCAN_STEPS as f64, s);
+                found = true;
+                break;
+            }
+        }
+        if !found {
+            return Err(SteadyError::TooHeavy {
+                load_n,
+                max_load_n: most,
+                height_m: deepest,
+            });
+        }
+    } else {
+        let bottom = at(deepest)?;
+        // (A load borne that is no number is no bearing either.)
+        if bottom.load_n.is_nan() || bottom.load_n < load_n {
+            return Err(SteadyError::TooHeavy {
+                load_n,
+                max_load_n: bottom.load_n,
+                height_m: deepest,
+            });
+        }
+    }
     while hi - lo > 1e-6 {
         let mid = 0.5 * (lo + hi);
         if at(mid)?.load_n >= load_n {
@@ -1190,6 +1279,10 @@ pub fn steady_sinkage(
     }
     at(hi)
 }
+
+/// Steps of a body's height in which [`steady_sinkage`] looks for the first depth that bears a
+/// load, where the sand's bearing need not grow with the depth.
+const SCAN_STEPS: usize = 100;
 
 fn positive(what: &'static str, v: f64, max: f64) -> Result<(), ModelError> {
     if v.is_finite() && v > 0.0 && v <= max {
@@ -1220,6 +1313,7 @@ pub struct BodyLeg {
     depth_law: Option<RftDepthLaw>,
     speed_law: Option<RftSpeedLaw>,
     plate: Plate,
+    sheared: Option<ShearedBearing>,
 }
 
 impl BodyLeg {
@@ -1242,7 +1336,19 @@ impl BodyLeg {
             depth_law,
             speed_law,
             plate,
+            sheared: None,
         }
+    }
+
+    /// The leg with the bearing of the sand it shears ([`ShearedBearing`]), or without.
+    pub fn with_sheared_bearing(mut self, sheared: Option<ShearedBearing>) -> BodyLeg {
+        self.sheared = sheared;
+        self
+    }
+
+    /// The bearing of the sand the body shears, where its medium has it.
+    pub fn sheared_bearing(&self) -> Option<&ShearedBearing> {
+        self.sheared.as_ref()
     }
 
     /// The body.
@@ -1297,10 +1403,13 @@ impl BodyLeg {
             .max((hip.omega_rad_s * self.body.reach_m).abs());
         let moving = along >= Self::MIN_SPEED_M_S || -hip.up_m_s >= Self::MIN_SPEED_M_S;
         if moving {
-            let f = self.body.forces(
-                &self.coefficients,
-                self.depth_law.as_ref(),
-                self.speed_law.as_ref(),
+            let f = self.body.forces_of(
+                &Stress {
+                    coefficients: &self.coefficients,
+                    depth_law: self.depth_law.as_ref(),
+                    speed_law: self.speed_law.as_ref(),
+                    sheared: self.sheared.as_ref(),
+                },
                 &HubMotion {
                     height_m: hip.height_m,
                     velocity_m_s: [hip.forward_m_s, hip.lateral_m_s, hip.up_m_s],
@@ -1375,6 +1484,7 @@ mod tests {
             coefficients: &c,
             depth_law: Some(&law),
             speed_law: None,
+            sheared: None,
         };
         let drive = Drive {
             speed_m_s: 0.01,
@@ -1726,9 +1836,10 @@ mod tests {
                             coefficients,
                             depth_law,
                             speed_law,
+                            sheared: None,
                         };
                         let got = body.forces(coefficients, depth_law, speed_law, &hub);
-                        let (f, m) = Body::general_sum(one_by_one, &stress, &hub, &at);
+                        let (f, m, _) = Body::general_sum(one_by_one, &stress, &hub, &at);
                         let scale = f.iter().chain(&m).fold(1e-6f64, |a, x| a.max(x.abs()));
                         for k in 0..3 {
                             assert!(
@@ -1821,6 +1932,7 @@ mod tests {
                             coefficients,
                             depth_law,
                             speed_law,
+                            sheared: None,
                         };
                         let planar = Surface {
                             elements: &body.planar,
@@ -1828,10 +1940,16 @@ mod tests {
                             strips: 0,
                             strip_width_m: 0.0,
                         };
-                        let (f, m) = Body::general_sum(planar, &stress, &hub, &at);
+                        let (f, m, vertical_m) = Body::general_sum(planar, &stress, &hub, &at);
                         // Every build of the planar sum the processor runs: the same values.
                         let any = body.planar_sum_any(&stress, &hub, &at);
-                        assert_eq!((fast.force_n, fast.moment_nm), any, "{hub:?}");
+                        assert_eq!((fast.force_n, fast.moment_nm), (any.0, any.1), "{hub:?}");
+                        // The vertical stresses' moment, the general sum's to rounding.
+                        assert!(
+                            (any.2[1] - vertical_m[1]).abs()
+                                <= 1e-12 * vertical_m[1].abs().max(1e-9),
+                            "{hub:?}"
+                        );
                         #[cfg(target_arch = "x86_64")]
                         if std::arch::is_x86_feature_detected!("avx2")
                             && std::arch::is_x86_feature_detected!("fma")

@@ -28,6 +28,7 @@ pub mod corrections;
 pub mod medium;
 pub mod plate;
 pub mod rft;
+pub mod sheared;
 pub mod sinkage;
 pub mod terzaghi;
 
@@ -42,6 +43,7 @@ pub use rft::{
     MAX_PROFILE_POINTS, RftCoefficients, RftDepthLaw, RftFit, RftGrid, RftModel, RftSpeedFit,
     RftSpeedLaw, RftSpeedTable, c_leg_profile, check_profile, rft_leg, rft_leg_moving,
 };
+pub use sheared::ShearedBearing;
 pub use terzaghi::{Terms, TerzaghiForce, TerzaghiModel};
 
 use serde::Serialize;
