@@ -6,3 +6,9 @@
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error("{0}")]
 pub struct Failure(pub String);
+
+/// Runs of `terzaghi steady` the sand does not bear within the body's height: every run was
+/// written, those among them as rows that say so. The command line exits 3 on it.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct NotBorne(pub String);

@@ -107,6 +107,86 @@ pub struct CalibrateArgs {
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
+    /// A wheel's slip sweep at slip angle 0 (a CSV of terzaghi steady's runs with the measured
+    /// sinkage_m and drawbar_n): fit the bearing of the sand a body shears to it, two
+    /// coefficients (tan delta_w and m) and their standard deviations, into the medium file.
+    /// Needs the body (--shape, --radius-m, --width-m, grousers) and the rft_depth_power law.
+    #[arg(long, value_name = "RUNS.csv", conflicts_with = "sheared_from_repose")]
+    pub slip_sweep: Option<PathBuf>,
+    /// Write the bearing of sheared sand from the physics alone: tan delta_w = tan(2/3 of the
+    /// angle of repose), Meyerhof's square; nothing from a wheel.
+    #[arg(long)]
+    pub sheared_from_repose: bool,
+    /// The sand's angle of repose (deg), for --sheared-from-repose; default: the plate tests'
+    /// JSON (medium.angle_of_repose_deg).
+    #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
+    pub angle_of_repose_deg: Option<f64>,
+    /// The slip sweep's body.
+    #[arg(long, value_enum, default_value = "wheel", requires = "slip_sweep")]
+    pub shape: super::steady::BodyShape,
+    /// The slip sweep's wheel width (m).
+    #[arg(long, value_name = "M", allow_negative_numbers = true, requires = "slip_sweep")]
+    pub width_m: Option<f64>,
+    #[command(flatten)]
+    pub body: super::steady::BodyArgs,
+}
+
+/// `medium` with the bearing of sheared sand that `--slip-sweep` fits or
+/// `--sheared-from-repose` gives.
+fn with_sheared(
+    a: &CalibrateArgs,
+    mut medium: MediumFile,
+    plates: Option<&PlatePart>,
+) -> Result<MediumFile> {
+    use crate::session::slip_sweep::{sheared_of_repose, sheared_of_sweep};
+    if a.slip_sweep.is_none() && !a.body.given().is_empty() {
+        bail!(
+            "{} describe the slip sweep's body: give --slip-sweep RUNS.csv",
+            a.body.given().join(", ")
+        );
+    }
+    if let Some(r) = a.angle_of_repose_deg
+        && !a.sheared_from_repose
+    {
+        bail!("--angle-of-repose-deg {r} serves --sheared-from-repose");
+    }
+    if let Some(sweep) = &a.slip_sweep {
+        if let Some(out) = &a.out {
+            crate::session::files::refuse_output_over_input(out, &[sweep.as_path()])?;
+        }
+        let shape = a
+            .shape
+            .to_possible_value()
+            .map_or(String::new(), |v| v.get_name().to_string());
+        let body = a.body.body(&shape, a.width_m)?;
+        let mut text = shape.clone();
+        if let Some(r) = a.body.radius_m {
+            text += &format!(" radius {r} m");
+        }
+        if let Some(w) = a.width_m {
+            text += &format!(" width {w} m");
+        }
+        if let Some(n) = a.body.grouser_count {
+            text += &format!(" with {n} grousers");
+        }
+        medium.sheared_bearing = Some(sheared_of_sweep(&medium, sweep, &body, &text)?);
+    } else if a.sheared_from_repose {
+        let (deg, source) = match a.angle_of_repose_deg {
+            Some(d) => (d, "given (--angle-of-repose-deg)".to_string()),
+            None => plates
+                .and_then(|p| {
+                    p.tests.iter().find_map(|t| {
+                        let s = t.sidecar.as_ref()?;
+                        Some((s.angle_of_repose_deg?, format!("{}'s JSON", s.file.display())))
+                    })
+                })
+                .context(
+                    "no plate test's JSON gives the sand's angle of repose (medium.angle_of_repose_deg): give --angle-of-repose-deg",
+                )?,
+        };
+        medium.sheared_bearing = Some(sheared_of_repose(deg, &source)?);
+    }
+    Ok(medium)
 }
 
 fn law_names() -> clap::builder::PossibleValuesParser {
@@ -291,6 +371,7 @@ pub fn run(a: CalibrateArgs) -> Result<()> {
         }
         (None, None) => bail!("no test given"),
     };
+    let medium = with_sheared(&a, medium, plates.as_ref())?;
     if let Some(out) = &a.out {
         crate::session::files::write_text(out, &medium.to_yaml()?)
             .context(crate::session::files::cannot_write(out))?;

@@ -67,7 +67,9 @@ pub enum Command {
     /// exponent, a power law in depth and width) to plate-sinkage tests and write a medium file.
     Calibrate(calibrate::CalibrateArgs),
     /// A wheel's or a foot's steady sinkage, drawbar pull, side force and drive torque under
-    /// each run's load, hub speed, rotation rate and slip angle (CSV in, CSV out).
+    /// each run's load, hub speed, rotation rate and slip angle (CSV in, CSV out). Every run is
+    /// a row; a run the sand does not bear within the body's height says so (`borne` false,
+    /// named on standard error), and the command then exits 3.
     Steady(steady::SteadyArgs),
     /// Write a synthetic session (one leg in continuous rotation, with sensor noise) as CSV.
     Simulate(simulate::SimulateArgs),
@@ -211,7 +213,9 @@ pub fn worded(e: &anyhow::Error) -> String {
 /// The exit code of a command that ended with `e`: 1 when the run failed although its input was
 /// fine (a [`Failure`](crate::session::Failure): an output not written, a DDS participant not
 /// made, a full disk), 2 for bad input (usage, parameters, geometry, a log or recording that
-/// cannot be used, a refusal). 0 is success. `docs/command-line.md` states it.
+/// cannot be used, a refusal), 3 when `terzaghi steady` wrote every run but the sand bears
+/// some not within the body's height ([`NotBorne`](crate::session::NotBorne)). 0 is success.
+/// `docs/command-line.md` states it.
 pub fn exit_code(e: &anyhow::Error) -> u8 {
     // anyhow's downcast finds a Failure given as context at any depth, or as the error itself.
     let failed = e.downcast_ref::<crate::session::Failure>().is_some()
@@ -225,6 +229,9 @@ pub fn exit_code(e: &anyhow::Error) -> u8 {
                 )
             })
         });
+    if e.downcast_ref::<crate::session::NotBorne>().is_some() {
+        return 3;
+    }
     if failed { 1 } else { 2 }
 }
 

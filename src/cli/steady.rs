@@ -231,9 +231,32 @@ pub fn run(a: SteadyArgs) -> Result<()> {
             summary += "\n";
         }
     }
+    if let Some(b) = &medium.sheared_bearing {
+        summary += &format!("  {}\n", b.text());
+    }
+    let not_borne = table.not_borne();
+    for r in &not_borne {
+        summary += &format!(
+            "  not borne: {} line {}: the sand bears at most {:.1} N of this body, buried to its top ({:.4} m), under a load of {} N (its row says borne false)\n",
+            a.runs.display(),
+            r.line,
+            r.steady.load_n,
+            r.steady.sinkage_m,
+            r.load_n.unwrap_or(f64::NAN)
+        );
+    }
     if let Some(out) = &a.out {
         summary += &format!("written: {}\n", out.display());
     }
     eprint!("{summary}");
+    if !not_borne.is_empty() {
+        return Err(crate::session::NotBorne(format!(
+            "{} of {} runs of {} are not borne within the body's height (every run was written; exit code 3)",
+            not_borne.len(),
+            table.runs.len(),
+            a.runs.display()
+        ))
+        .into());
+    }
     Ok(())
 }

@@ -55,7 +55,7 @@
 pub mod calibration_html;
 pub mod csv_rows;
 mod refusal;
-pub use crate::error::Failure;
+pub use crate::error::{Failure, NotBorne};
 pub use refusal::Refusal;
 pub mod diagnose;
 pub mod files;
@@ -70,6 +70,7 @@ pub mod reevaluate;
 #[cfg(feature = "node")]
 pub mod replay;
 pub(crate) mod report_html;
+pub mod slip_sweep;
 pub mod steady;
 pub mod topics;
 

@@ -48,6 +48,8 @@ pub struct RunSidecar {
     pub file: PathBuf,
     /// The sand's bulk density (kg/m^3).
     pub bulk_density_kg_m3: Option<f64>,
+    /// The sand's angle of repose (deg), where the JSON gives it.
+    pub angle_of_repose_deg: Option<f64>,
     /// The vertical mean of the run's zero file (N, as the sensor reads).
     pub zero_fz_n: Option<f64>,
     /// The vertical mean in the air before the run (N, as the sensor reads).
@@ -407,6 +409,7 @@ fn sidecar_of(file: &Path, json: &serde_json::Value) -> RunSidecar {
     RunSidecar {
         file: file.to_path_buf(),
         bulk_density_kg_m3: num("/medium/bulk_density_kg_m3"),
+        angle_of_repose_deg: num("/medium/angle_of_repose_deg"),
         zero_fz_n: num("/offsets/zero_bag_mean_F_N/2"),
         in_air_fz_n: num("/offsets/in_air_mean_F_N/2"),
         t_motion_start_s: num("/offsets/t_motion_start_s"),

@@ -6,7 +6,7 @@
 //! names, they are kept beside the predictions as `measured_<name>` and compared.
 
 use crate::medium_file::RftLaw;
-use crate::model::{Body, Drive, Stress, state_at_sinkage, steady_sinkage};
+use crate::model::{Body, Drive, Steady, SteadyError, Stress, state_at_sinkage, steady_sinkage};
 use anyhow::{Context as _, Result, bail};
 use std::path::Path;
 
@@ -167,8 +167,14 @@ pub struct SteadyRun {
     pub omega_rad_s: f64,
     /// The heading's angle from the travel (deg, + the travel toward the body's left).
     pub slip_angle_deg: f64,
-    /// The steady state.
+    /// The steady state; for a run the sand does not bear within the body's height, the body
+    /// buried to its top, `load_n` the most the sand bears there.
     pub steady: crate::model::Steady,
+    /// Whether the sand bears the run's load within the body's height (always, for a run held
+    /// at a given sinkage).
+    pub borne: bool,
+    /// The file's line of the run.
+    pub line: usize,
 }
 
 /// A file of runs with each run's steady state.
@@ -209,9 +215,10 @@ pub struct Group {
 }
 
 /// Every run of `text` (the CSV of runs named `file`) brought to its steady state for `body` in
-/// the medium `law`. A run with a value missing or no number, or one whose load the body cannot
-/// bear within its height, is an error naming the run and the value: a table of runs is a
-/// test's record, and a run left out would be lost without a word.
+/// the medium `law`. A run with a value missing or no number is an error naming the run and the
+/// value: a table of runs is a test's record, and a run left out would be lost without a word.
+/// A run whose load the sand does not bear within the body's height is a row all the same,
+/// the body buried to its top and `borne` false ([`SteadyTable::not_borne`]).
 pub fn steady_runs(
     file: &Path,
     text: &str,
@@ -315,8 +322,24 @@ pub fn steady_runs(
                 (None, state_at_sinkage(body, &stress, sinkage_m, &drive))
             }
         };
-        let steady = steady.with_context(|| format!("{name} line {line}"))?;
+        let (steady, borne) = match steady {
+            Err(SteadyError::TooHeavy { max_load_n, .. }) => {
+                // Buried to its top: its forces there, the most the sand bears as its load.
+                let deepest = state_at_sinkage(body, &stress, body.height_m(), &drive)
+                    .with_context(|| format!("{name} line {line}"))?;
+                (
+                    Steady {
+                        load_n: max_load_n,
+                        ..deepest
+                    },
+                    false,
+                )
+            }
+            other => (other.with_context(|| format!("{name} line {line}"))?, true),
+        };
         runs.push(SteadyRun {
+            borne,
+            line,
             fields: record.iter().map(str::to_string).collect(),
             load_n,
             hub_vx_m_s,
@@ -364,16 +387,24 @@ impl SteadyTable {
             .collect()
     }
 
-    /// The table as CSV: the runs' columns, then [`OUTPUT_COLUMNS`].
+    /// The runs the sand does not bear within the body's height.
+    pub fn not_borne(&self) -> Vec<&SteadyRun> {
+        self.runs.iter().filter(|r| !r.borne).collect()
+    }
+
+    /// The table as CSV: the runs' columns, then [`OUTPUT_COLUMNS`] and `borne` (`true`, or
+    /// `false` for a run the sand does not bear within the body's height).
     pub fn to_csv(&self) -> Result<Vec<u8>> {
         let mut w = csv::Writer::from_writer(Vec::new());
         let mut head = self.headers.clone();
         head.extend(OUTPUT_COLUMNS.iter().map(|s| s.to_string()));
+        head.push("borne".to_string());
         w.write_record(&head)?;
         for r in &self.runs {
             let s = &r.steady;
             let mut rec = r.fields.clone();
             rec.extend(outputs(s).iter().map(|v| v.to_string()));
+            rec.push(r.borne.to_string());
             w.write_record(&rec)?;
         }
         w.into_inner().map_err(|e| anyhow::anyhow!("{e}"))
