@@ -125,7 +125,12 @@ pub struct CalibrateArgs {
     #[arg(long, value_enum, default_value = "wheel", requires = "slip_sweep")]
     pub shape: super::steady::BodyShape,
     /// The slip sweep's wheel width (m).
-    #[arg(long, value_name = "M", allow_negative_numbers = true, requires = "slip_sweep")]
+    #[arg(
+        long,
+        value_name = "M",
+        allow_negative_numbers = true,
+        requires = "slip_sweep"
+    )]
     pub width_m: Option<f64>,
     #[command(flatten)]
     pub body: super::steady::BodyArgs,

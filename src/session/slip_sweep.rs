@@ -55,15 +55,22 @@ pub fn read_sweep(file: &Path, text: &str) -> Result<Vec<SweepRun>> {
         let mut v = [0.0; 6];
         for (k, c) in SWEEP_COLUMNS.iter().enumerate() {
             let text = record.get(index[k]).unwrap_or("");
-            let x: f64 = text
-                .parse()
-                .map_err(|_| anyhow::anyhow!("{name} line {line}: {c} is {text:?}, not a number"))?;
+            let x: f64 = text.parse().map_err(|_| {
+                anyhow::anyhow!("{name} line {line}: {c} is {text:?}, not a number")
+            })?;
             if !x.is_finite() {
                 bail!("{name} line {line}: {c} is {x}");
             }
             v[k] = x;
         }
-        let [load_n, hub_vx_m_s, omega_rad_s, slip_angle_deg, sinkage_m, drawbar_n] = v;
+        let [
+            load_n,
+            hub_vx_m_s,
+            omega_rad_s,
+            slip_angle_deg,
+            sinkage_m,
+            drawbar_n,
+        ] = v;
         if load_n <= 0.0 {
             bail!("{name} line {line}: load_n is {load_n}: a wheel on sand carries a load > 0 N");
         }
@@ -129,8 +136,7 @@ pub fn sheared_of_sweep(
     body_text: &str,
 ) -> Result<MediumShearedBearing> {
     let name = runs_file.display();
-    let text = std::fs::read_to_string(runs_file)
-        .with_context(|| format!("cannot read {name}"))?;
+    let text = std::fs::read_to_string(runs_file).with_context(|| format!("cannot read {name}"))?;
     let runs = read_sweep(runs_file, &text)?;
     let at_rest = MediumFile {
         sheared_bearing: None,
