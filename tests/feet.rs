@@ -275,8 +275,14 @@ fn a_box_foot_at_two_slip_angles_meets_the_dem_side_force() {
     let (measured, predicted) = (col("measured_side_n"), col("side_n"));
     let mut drags = 0;
     for l in lines {
-        let v: Vec<f64> = l.split(',').skip(1).map(|x| x.parse().unwrap()).collect();
-        // (the name column is skipped)
+        // (the name column is skipped, and the last, borne, is true)
+        assert!(l.ends_with(",true"), "{l}");
+        let v: Vec<f64> = l
+            .split(',')
+            .skip(1)
+            .take(head.len() - 2)
+            .map(|x| x.parse().unwrap())
+            .collect();
         assert!(v[measured - 1] > 0.0 && v[predicted - 1] > 0.0, "{l}");
         drags += 1;
     }
