@@ -80,9 +80,9 @@ fn r2_of(summary: &str, column: &str) -> f64 {
     line.split_whitespace().nth(2).unwrap().parse().unwrap()
 }
 
-/// The figures: with the sweep's two coefficients, sinkage R^2 >= 0.85 and drawbar
-/// >= 0.9 over the 27 runs, the locked wheel's sinkage and drawbar within 15 %; the physics
-/// alone printed beside them; docs/bodies.md shows both outputs.
+/// The figures: with the sweep's two coefficients, sinkage R^2 of 0.85 or more and
+/// drawbar of 0.9 or more over the 27 runs, the locked wheel's sinkage and drawbar within 15 %;
+/// the physics alone printed beside them; docs/bodies.md shows both outputs.
 #[test]
 fn the_shared_slip_sweep_with_the_sheared_bearing() {
     let dir = tempfile::tempdir().unwrap();
