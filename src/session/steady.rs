@@ -323,7 +323,8 @@ pub fn steady_runs(
             }
         };
         let (steady, borne) = match steady {
-            Err(SteadyError::TooHeavy { max_load_n, .. }) => {
+            // (A bearing that is no number is no row: the run is refused by name.)
+            Err(SteadyError::TooHeavy { max_load_n, .. }) if max_load_n.is_finite() => {
                 // Buried to its top: its forces there, the most the sand bears as its load.
                 let deepest = state_at_sinkage(body, &stress, body.height_m(), &drive)
                     .with_context(|| format!("{name} line {line}"))?;
