@@ -388,19 +388,24 @@ fn node_core(c: &mut Criterion) {
     );
     node_core_with_tf(c);
     // Six wheel legs (the real wheel of tests/data/real-wheel, 360 rim elements) in the plate
-    // runs' medium, at the configured hip height.
-    let mut wheels = String::from("-p model:=rft ");
-    for leg in RHEX_LEGS {
-        wheels += &format!(
-            "-p {leg}.shape:=wheel -p {leg}.wheel.radius_m:=0.058 -p {leg}.length_m:=0.058 -p {leg}.width_m:=0.05 -p {leg}.hip_height_m:=0.033 -p {leg}.medium:={}/tests/data/medium_without_shape.yaml ",
-            env!("CARGO_MANIFEST_DIR")
-        );
+    // runs' medium, at the configured hip height; and the same with the bearing of sheared sand
+    // the slip sweep fitted.
+    for (name, medium) in [
+        ("node_core_joint_state_6_wheel_legs", "medium_without_shape"),
+        (
+            "node_core_joint_state_6_wheel_legs_sheared",
+            "medium_slip_sweep",
+        ),
+    ] {
+        let mut wheels = String::from("-p model:=rft ");
+        for leg in RHEX_LEGS {
+            wheels += &format!(
+                "-p {leg}.shape:=wheel -p {leg}.wheel.radius_m:=0.058 -p {leg}.length_m:=0.058 -p {leg}.width_m:=0.05 -p {leg}.hip_height_m:=0.033 -p {leg}.medium:={}/tests/data/{medium}.yaml ",
+                env!("CARGO_MANIFEST_DIR")
+            );
+        }
+        node_core_with(c, name, rhex_config_with(&wheels));
     }
-    node_core_with(
-        c,
-        "node_core_joint_state_6_wheel_legs",
-        rhex_config_with(&wheels),
-    );
 }
 
 /// The same with every hip placed by the robot's state: each leg's `hip_frame` under

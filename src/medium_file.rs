@@ -526,13 +526,7 @@ impl MediumFile {
     /// carries its own). Without: `explicit` or `poppy_lp`'s shape, with the file's
     /// `rft_depth_power` law ([`Self::rft_depth_law`]) and no speed law.
     pub fn rft_law(&self, explicit: Option<(&str, RftCoefficients)>) -> Result<RftLaw> {
-        let sheared = match &self.sheared_bearing {
-            Some(b) => Some(
-                b.bearing()
-                    .with_context(|| format!("medium {:?}", self.name))?,
-            ),
-            None => None,
-        };
+        let sheared = self.sheared()?;
         match (&self.rft_shape, explicit) {
             (Some(_), Some((name, _))) => bail!(
                 "medium {:?} carries its own RFT shape, measured from intrusion tests; a coefficient set ({name}) cannot be named beside it (leave rft_coeffs out, or name a medium file without a shape)",
@@ -567,6 +561,18 @@ impl MediumFile {
                 })
             }
         }
+    }
+
+    /// The bearing of the sand a body shears, where the file has it, checked (a value outside
+    /// its physical range is an error naming it).
+    pub fn sheared(&self) -> Result<Option<crate::model::ShearedBearing>> {
+        self.sheared_bearing
+            .as_ref()
+            .map(|b| {
+                b.bearing()
+                    .with_context(|| format!("medium {:?}", self.name))
+            })
+            .transpose()
     }
 
     /// Where an RFT leg's angular shape comes from, in words.
@@ -682,10 +688,7 @@ impl MediumFile {
         let m: MediumFile = serde_yaml_ng::from_str(text)
             .with_context(|| format!("{} is not a medium file", file.display()))?;
         m.model().with_context(|| format!("{}", file.display()))?;
-        if let Some(b) = &m.sheared_bearing {
-            b.bearing()
-                .with_context(|| format!("{}: medium {:?}", file.display(), m.name))?;
-        }
+        m.sheared().with_context(|| format!("{}", file.display()))?;
         if m.rft_shape.is_some() {
             m.rft_law(None)
                 .with_context(|| format!("{}", file.display()))?;

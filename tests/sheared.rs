@@ -6,6 +6,7 @@
 #[path = "common/mod.rs"]
 mod common;
 
+use common::{csv_num as num, csv_rows as rows};
 use common::{ok, repo};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -32,32 +33,22 @@ fn run(args: &[&str]) -> Output {
         .unwrap()
 }
 
-fn plates() -> Vec<String> {
-    [
+/// `terzaghi calibrate` of the nine plate runs with `extra`, under the rft_depth_power law where
+/// `extra` names none.
+fn calibrate(extra: &[&str]) -> Output {
+    let plates: Vec<String> = [
         "1_D60", "2_D60", "3_D60", "4_D100", "5_D100", "6_D100", "7_D80", "8_D80", "9_D80",
     ]
     .iter()
     .map(|r| format!("tests/data/real-plate-sinkage/plate_smallbox_run{r}mm.csv"))
-    .collect()
-}
-
-fn rows(path: &Path) -> Vec<BTreeMap<String, String>> {
-    let mut rdr = csv::Reader::from_path(path).unwrap();
-    let head: Vec<String> = rdr.headers().unwrap().iter().map(str::to_string).collect();
-    rdr.records()
-        .map(|r| {
-            head.iter()
-                .cloned()
-                .zip(r.unwrap().iter().map(str::to_string))
-                .collect()
-        })
-        .collect()
-}
-
-fn num(row: &BTreeMap<String, String>, c: &str) -> f64 {
-    row[c]
-        .parse()
-        .unwrap_or_else(|_| panic!("{c}: {:?}", row[c]))
+    .collect();
+    let mut args = vec!["calibrate"];
+    args.extend(plates.iter().map(String::as_str));
+    if !extra.contains(&"--law") {
+        args.extend(["--law", "rft_depth_power"]);
+    }
+    args.extend(extra);
+    run(&args)
 }
 
 /// `terzaghi steady RUNS` of the wheel in `medium`, grouped by rim speed: its rows and summary.
@@ -132,16 +123,13 @@ fn calibrate_remakes_the_media_of_the_sheared_bearing() {
         ),
     ] {
         let out = dir.path().join("m.yaml");
-        let mut args: Vec<String> = vec!["calibrate".into()];
-        args.extend(plates());
-        args.extend(["--law", "rft_depth_power", "--name", name].map(String::from));
-        args.extend(extra.iter().map(|s| s.to_string()));
+        let mut args = vec!["--name", name];
+        args.extend(&extra);
         if extra[0] == "--slip-sweep" {
-            args.extend(WHEEL.map(String::from));
+            args.extend(WHEEL);
         }
-        args.extend(["-o".into(), out.display().to_string()]);
-        let o = run(&args.iter().map(String::as_str).collect::<Vec<_>>());
-        ok(&o);
+        args.extend(["-o", out.to_str().unwrap()]);
+        ok(&calibrate(&args));
         let read = |p: &Path| -> serde_yaml_ng::Value {
             serde_yaml_ng::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
         };
@@ -168,15 +156,13 @@ fn calibrate_remakes_the_media_of_the_sheared_bearing() {
 fn held_out_by_rim_speed() {
     let dir = tempfile::tempdir().unwrap();
     let fitted = dir.path().join("slow.yaml");
-    let calibrate = |sweep: &str, out: &Path| {
-        let mut args: Vec<String> = vec!["calibrate".into()];
-        args.extend(plates());
-        args.extend(["--law", "rft_depth_power", "--slip-sweep", sweep].map(String::from));
-        args.extend(WHEEL.map(String::from));
-        args.extend(["-o".into(), out.display().to_string()]);
-        run(&args.iter().map(String::as_str).collect::<Vec<_>>())
+    let fit_on = |sweep: &str, out: &Path| {
+        let mut args = vec!["--slip-sweep", sweep];
+        args.extend(WHEEL);
+        args.extend(["-o", out.to_str().unwrap()]);
+        calibrate(&args)
     };
-    ok(&calibrate(
+    ok(&fit_on(
         "tests/data/real-wheel/slip_sweep_rim_slow.csv",
         &fitted,
     ));
@@ -199,7 +185,7 @@ fn held_out_by_rim_speed() {
         rmse("sinkage_m") < 3e-3 && rmse("drawbar_n") < 2.0,
         "{summary}"
     );
-    let o = calibrate(
+    let o = fit_on(
         "tests/data/real-wheel/slip_sweep_rim_fast.csv",
         &dir.path().join("fast.yaml"),
     );
@@ -378,12 +364,9 @@ fn bad_sweeps_and_coefficients_are_refused_by_name() {
     for (text, words) in cases {
         let f = dir.path().join("sweep.csv");
         std::fs::write(&f, &text).unwrap();
-        let mut args: Vec<String> = vec!["calibrate".into()];
-        args.extend(plates());
-        args.extend(["--law", "rft_depth_power", "--slip-sweep"].map(String::from));
-        args.push(f.display().to_string());
-        args.extend(WHEEL.map(String::from));
-        let o = run(&args.iter().map(String::as_str).collect::<Vec<_>>());
+        let mut args = vec!["--slip-sweep", f.to_str().unwrap()];
+        args.extend(WHEEL);
+        let o = calibrate(&args);
         let err = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(2), "{err}");
         assert!(
@@ -421,4 +404,55 @@ fn bad_sweeps_and_coefficients_are_refused_by_name() {
             );
         }
     }
+}
+
+/// What the sheared bearing does not reach is said, never passed over: a planar leg's forces
+/// stay RFT's at rest (`predict` notes it), a file of another law cannot carry it, and a runs
+/// file with a column `steady` writes is refused by name.
+#[test]
+fn where_the_sheared_bearing_does_not_act_it_says_so() {
+    let o = run(&[
+        "predict",
+        "--model",
+        "rft",
+        "--medium-file",
+        SWEEP,
+        "--length-m",
+        "0.1",
+        "--width-m",
+        "0.02",
+        "--hip-height-m",
+        "0.05",
+        "--beta-deg",
+        "30",
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        o.status.success() && err.contains("not applied to a planar leg"),
+        "{err}"
+    );
+    let o = calibrate(&["--law", "bekker", "--sheared-from-repose"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("--sheared-from-repose") && err.contains("bekker"),
+        "{err}"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let runs = dir.path().join("runs.csv");
+    std::fs::write(
+        &runs,
+        "load_n,hub_vx_m_s,omega_rad_s,slip_angle_deg,borne\n20,0.01,0,0,yes\n",
+    )
+    .unwrap();
+    let mut args = vec!["steady", runs.to_str().unwrap()];
+    args.extend(WHEEL);
+    args.extend(["--medium-file", SWEEP]);
+    let o = run(&args);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("runs.csv") && err.contains("\"borne\""),
+        "{err}"
+    );
 }

@@ -5,6 +5,7 @@
 #[path = "common/mod.rs"]
 mod common;
 
+use common::{csv_num as num, csv_rows as rows};
 use common::{ok, refused, repo};
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -15,26 +16,6 @@ fn terzaghi() -> PathBuf {
 
 fn runs_file() -> PathBuf {
     repo().join("tests/data/real-wheel/slip_sweep_runs.csv")
-}
-
-fn rows(path: &Path) -> Vec<std::collections::BTreeMap<String, String>> {
-    let mut rdr = csv::Reader::from_path(path).unwrap();
-    let head: Vec<String> = rdr.headers().unwrap().iter().map(str::to_string).collect();
-    rdr.records()
-        .map(|r| {
-            let r = r.unwrap();
-            head.iter()
-                .cloned()
-                .zip(r.iter().map(str::to_string))
-                .collect()
-        })
-        .collect()
-}
-
-fn num(row: &std::collections::BTreeMap<String, String>, c: &str) -> f64 {
-    row[c]
-        .parse()
-        .unwrap_or_else(|_| panic!("{c}: {:?}", row[c]))
 }
 
 /// The medium calibrated on the real sand's plate runs alone (RFT's shape `poppy_lp`'s).

@@ -159,12 +159,9 @@ fn with_sheared(
         if let Some(out) = &a.out {
             crate::session::files::refuse_output_over_input(out, &[sweep.as_path()])?;
         }
-        let shape = a
-            .shape
-            .to_possible_value()
-            .map_or(String::new(), |v| v.get_name().to_string());
+        let shape = a.shape.name();
         let body = a.body.body(&shape, a.width_m)?;
-        let mut text = shape.clone();
+        let mut text = shape;
         if let Some(r) = a.body.radius_m {
             text += &format!(" radius {r} m");
         }
@@ -182,7 +179,7 @@ fn with_sheared(
                 .and_then(|p| {
                     p.tests.iter().find_map(|t| {
                         let s = t.sidecar.as_ref()?;
-                        Some((s.angle_of_repose_deg?, format!("{}'s JSON", s.file.display())))
+                        Some((s.angle_of_repose_deg?, s.file.display().to_string()))
                     })
                 })
                 .context(
@@ -190,6 +187,10 @@ fn with_sheared(
                 )?,
         };
         medium.sheared_bearing = Some(sheared_of_repose(deg, &source)?);
+        // Only an RFT leg takes it: a file of another law would carry it unread.
+        medium
+            .rft_law(None)
+            .context("--sheared-from-repose acts on RFT's stress, and the file has no RFT law (give --law rft_depth_power)")?;
     }
     Ok(medium)
 }
@@ -434,6 +435,15 @@ pub fn run(a: CalibrateArgs) -> Result<()> {
     }
     if let Some((held, skipped)) = &shape_held {
         s += &render_shape_cross_validation(held, skipped);
+    }
+    if let Some(b) = &medium.sheared_bearing {
+        s += &format!("\n{}\n", b.text());
+        if let Some(w) = &b.slip_sweep {
+            s += &format!(
+                "  the sweep's {} runs through terzaghi steady (in sample: the two values were fitted on them): sinkage R^2 {:.3}, drawbar R^2 {:.3}; with the sand at rest {:.3}, {:.3}\n",
+                w.runs, w.r2_sinkage, w.r2_drawbar, w.r2_sinkage_at_rest, w.r2_drawbar_at_rest
+            );
+        }
     }
     if let Some(out) = &a.out {
         s += &format!(

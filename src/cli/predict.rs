@@ -345,6 +345,18 @@ fn parse_profile(text: &str) -> Result<Vec<(f64, f64)>> {
 
 pub fn run(a: PredictArgs) -> Result<()> {
     let model = build_model(&a)?;
+    // A medium's sheared bearing acts on a body's elements, not on a planar leg's: say so.
+    if a.shape.body_name().is_none()
+        && let Some(f) = &a.medium_file
+        && crate::medium_file::MediumFile::read(f)?
+            .sheared_bearing
+            .is_some()
+    {
+        eprintln!(
+            "note: {}'s sheared bearing is not applied to a planar leg: its forces are RFT's sand at rest",
+            f.display()
+        );
+    }
     // A sinkage plate at each depth, pressed down (loading); a turning leg at each angle.
     let (values, sinkage) = match (&a.depth_m, &a.beta_deg) {
         (Some(d), _) => (parse_range_of("--depth-m", d)?, true),

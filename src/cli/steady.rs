@@ -27,6 +27,14 @@ pub enum BodyShape {
     Mesh,
 }
 
+impl BodyShape {
+    /// Its name, as the flag spells it (`wheel`, `disc`, ...).
+    pub fn name(self) -> String {
+        self.to_possible_value()
+            .map_or(String::new(), |v| v.get_name().to_string())
+    }
+}
+
 /// What a body's shape takes (`--shape wheel|disc|sphere|box|mesh`), but its width: `terzaghi
 /// steady`'s and `terzaghi predict`'s.
 #[derive(Debug, Clone, Args)]
@@ -170,11 +178,7 @@ pub struct SteadyArgs {
 pub fn run(a: SteadyArgs) -> Result<()> {
     let medium = MediumFile::read(&a.medium_file)?;
     let law = medium.rft_law(None)?;
-    let shape = a
-        .shape
-        .to_possible_value()
-        .map_or(String::new(), |v| v.get_name().to_string());
-    let body = a.body.body(&shape, a.width_m)?;
+    let body = a.body.body(&a.shape.name(), a.width_m)?;
     let text = std::fs::read_to_string(&a.runs)
         .with_context(|| format!("cannot read {}", a.runs.display()))?;
     let solve = match &a.at_sinkage {
@@ -233,6 +237,11 @@ pub fn run(a: SteadyArgs) -> Result<()> {
     }
     if let Some(b) = &medium.sheared_bearing {
         summary += &format!("  {}\n", b.text());
+        if b.slip_sweep.as_ref().is_some_and(|w| {
+            crate::session::files::same_file(std::path::Path::new(&w.file), &a.runs)
+        }) {
+            summary += "  (in sample: the sheared bearing was fitted on these runs)\n";
+        }
     }
     let not_borne = table.not_borne();
     for r in &not_borne {

@@ -1019,20 +1019,22 @@ fn leg_config(
         }
         _ => None,
     };
+    // The bearing of sheared sand acts on a body's elements; a planar leg's are RFT at rest,
+    // and its start-up line says so.
     let rft_shape_text = rft_medium_file
         .as_ref()
         .map(|(_, f)| match &f.sheared_bearing {
-            Some(b) => format!("{}; {}", f.rft_shape_text(), b.text()),
+            Some(b) if body.is_some() => format!("{}; {}", f.rft_shape_text(), b.text()),
+            Some(_) => format!(
+                "{}; the file's sheared bearing is not applied to a planar leg (RFT at rest)",
+                f.rft_shape_text()
+            ),
             None => f.rft_shape_text(),
         });
     let rft_sheared = match &rft_medium_file {
-        Some((path, file)) => match &file.sheared_bearing {
-            Some(b) => Some(
-                b.bearing()
-                    .map_err(|e| invalid(&k("medium"), path, format!("{e:#}")))?,
-            ),
-            None => None,
-        },
+        Some((path, file)) => file
+            .sheared()
+            .map_err(|e| invalid(&k("medium"), path, format!("{e:#}")))?,
         None => None,
     };
     let rft_name = g

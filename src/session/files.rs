@@ -189,3 +189,31 @@ mod tests {
         assert_eq!(std::fs::read_to_string(&p).unwrap(), "b\n");
     }
 }
+
+/// A CSV table of `text` (the file `name`) as the project's readers take one: fields trimmed,
+/// lines from `#` on comments, its header read (an error naming the file where there is none).
+pub fn csv_table<'t>(name: &str, text: &'t str) -> Result<(csv::Reader<&'t [u8]>, Vec<String>)> {
+    let mut rdr = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .comment(Some(b'#'))
+        .from_reader(text.as_bytes());
+    let headers = rdr
+        .headers()
+        .with_context(|| format!("{name}: no CSV header"))?
+        .iter()
+        .map(str::to_string)
+        .collect();
+    Ok((rdr, headers))
+}
+
+/// The field `text` of column `what` on line `line` of the file `name` as a finite number, or
+/// an error naming the file, the line and the value.
+pub fn csv_number(name: &str, line: usize, what: &str, text: &str) -> Result<f64> {
+    let v: f64 = text
+        .parse()
+        .map_err(|_| anyhow::anyhow!("{name} line {line}: {what} is {text:?}, not a number"))?;
+    if !v.is_finite() {
+        bail!("{name} line {line}: {what} is {v}");
+    }
+    Ok(v)
+}

@@ -121,16 +121,7 @@ pub fn parse_intrusion_test(file: &Path, text: &str, json: &str) -> Result<Intru
             json_file.display()
         );
     }
-    let mut rdr = csv::ReaderBuilder::new()
-        .trim(csv::Trim::All)
-        .comment(Some(b'#'))
-        .from_reader(text.as_bytes());
-    let headers: Vec<String> = rdr
-        .headers()
-        .with_context(|| format!("{name}: no CSV header"))?
-        .iter()
-        .map(str::to_string)
-        .collect();
+    let (mut rdr, headers) = crate::session::files::csv_table(&name, text)?;
     if let Some(h) = headers.iter().find(|h| !COLUMNS.contains(&h.as_str())) {
         bail!(
             "{name}: unknown column {h:?}; an intrusion test has {}",

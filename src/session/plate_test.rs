@@ -171,16 +171,7 @@ pub fn parse_test(
     regimes: &RegimeOptions,
 ) -> Result<PlateTest> {
     let name = file.display().to_string();
-    let mut rdr = csv::ReaderBuilder::new()
-        .trim(csv::Trim::All)
-        .comment(Some(b'#'))
-        .from_reader(text.as_bytes());
-    let headers: Vec<String> = rdr
-        .headers()
-        .with_context(|| format!("{name}: no CSV header"))?
-        .iter()
-        .map(str::to_string)
-        .collect();
+    let (mut rdr, headers) = crate::session::files::csv_table(&name, text)?;
     if headers.iter().any(|h| h == "z_raw_mm") {
         bail!(
             "{name} is a run's kinematics log (time_s, z_raw_mm, depth_m), not a test: give the run's force CSV (its depth is already in it)"

@@ -4,9 +4,10 @@
 //! body and the rest of the medium given; or the physics alone, from the sand's angle of
 //! repose.
 
-use crate::ident::sheared::{ShearedFitError, SweepRun, fit_sheared, slip};
+use crate::ident::sheared::{SweepRun, fit_sheared, slip};
 use crate::medium_file::{MediumFile, MediumShearedBearing, MediumSlipSweep};
 use crate::model::{Body, Drive, ShearedBearing, Stress};
+use crate::session::files::{csv_number, csv_table};
 use crate::session::steady::{Solve, steady_runs};
 use anyhow::{Context as _, Result, bail};
 use std::collections::BTreeMap;
@@ -27,17 +28,8 @@ pub const SWEEP_COLUMNS: [&str; 6] = [
 /// missing or no number, a load not above 0, a sinkage below 0 or a slip angle other than 0
 /// is an error naming the file, the line and the value.
 pub fn read_sweep(file: &Path, text: &str) -> Result<Vec<SweepRun>> {
-    let name = file.display();
-    let mut rdr = csv::ReaderBuilder::new()
-        .trim(csv::Trim::All)
-        .comment(Some(b'#'))
-        .from_reader(text.as_bytes());
-    let headers: Vec<String> = rdr
-        .headers()
-        .with_context(|| format!("{name}: no CSV header"))?
-        .iter()
-        .map(str::to_string)
-        .collect();
+    let name = file.display().to_string();
+    let (mut rdr, headers) = csv_table(&name, text)?;
     let mut index = [0usize; 6];
     for (k, c) in SWEEP_COLUMNS.iter().enumerate() {
         index[k] = headers.iter().position(|h| h == c).with_context(|| {
@@ -54,14 +46,7 @@ pub fn read_sweep(file: &Path, text: &str) -> Result<Vec<SweepRun>> {
         let line = record.position().map_or(row + 2, |p| p.line() as usize);
         let mut v = [0.0; 6];
         for (k, c) in SWEEP_COLUMNS.iter().enumerate() {
-            let text = record.get(index[k]).unwrap_or("");
-            let x: f64 = text.parse().map_err(|_| {
-                anyhow::anyhow!("{name} line {line}: {c} is {text:?}, not a number")
-            })?;
-            if !x.is_finite() {
-                bail!("{name} line {line}: {c} is {x}");
-            }
-            v[k] = x;
+            v[k] = csv_number(&name, line, c, record.get(index[k]).unwrap_or(""))?;
         }
         let [
             load_n,
@@ -151,10 +136,7 @@ pub fn sheared_of_sweep(
         speed_law: law.speed_law.as_ref(),
         sheared: None,
     };
-    let fit = fit_sheared(body, &stress, &runs).map_err(|e| match e {
-        ShearedFitError::Run { error, .. } => anyhow::anyhow!("{name}: {error}"),
-        e => anyhow::anyhow!("{name}: {e}"),
-    })?;
+    let fit = fit_sheared(body, &stress, &runs).map_err(|e| anyhow::anyhow!("{name}: {e}"))?;
     let reach = body.reach_m();
     let mut slips: Vec<f64> = runs.iter().map(|r| slip(&r.drive, reach)).collect();
     slips.sort_by(f64::total_cmp);

@@ -226,17 +226,8 @@ pub fn steady_runs(
     law: &RftLaw,
     solve: &Solve,
 ) -> Result<SteadyTable> {
-    let name = file.display();
-    let mut rdr = csv::ReaderBuilder::new()
-        .trim(csv::Trim::All)
-        .comment(Some(b'#'))
-        .from_reader(text.as_bytes());
-    let mut headers: Vec<String> = rdr
-        .headers()
-        .with_context(|| format!("{name}: no CSV header"))?
-        .iter()
-        .map(str::to_string)
-        .collect();
+    let name = file.display().to_string();
+    let (mut rdr, mut headers) = crate::session::files::csv_table(&name, text)?;
     let col = |c: &str| headers.iter().position(|h| h == c);
     let mut index = [None; 4];
     for (i, c) in INPUT_COLUMNS.iter().enumerate() {
@@ -248,6 +239,11 @@ pub fn steady_runs(
                 headers.join(",")
             );
         }
+    }
+    if headers.iter().any(|h| h == "borne") {
+        bail!(
+            "{name}: column \"borne\" is one terzaghi steady writes (whether the sand bears the run); rename it"
+        );
     }
     for h in headers.iter_mut() {
         if OUTPUT_COLUMNS.contains(&h.as_str()) {
@@ -295,14 +291,7 @@ pub fn steady_runs(
         }
         let line = record.position().map_or(row + 2, |p| p.line() as usize);
         let parse = |what: &str, i: usize| -> Result<f64> {
-            let text = record.get(i).unwrap_or("");
-            let v: f64 = text.parse().map_err(|_| {
-                anyhow::anyhow!("{name} line {line}: {what} is {text:?}, not a number")
-            })?;
-            if !v.is_finite() {
-                bail!("{name} line {line}: {what} is {v}");
-            }
-            Ok(v)
+            crate::session::files::csv_number(&name, line, what, record.get(i).unwrap_or(""))
         };
         let value = |i: usize| parse(INPUT_COLUMNS[i], index[i].unwrap_or(usize::MAX));
         let (hub_vx_m_s, omega_rad_s, slip_angle_deg) = (value(1)?, value(2)?, value(3)?);

@@ -41,8 +41,13 @@ pub struct SweepTable {
 const TABLE_DEPTHS: usize = 400;
 
 impl SweepTable {
-    /// The table of `runs` for `body` in `stress` (its own sheared bearing left out).
-    pub fn new(body: &Body, stress: &Stress, runs: &[SweepRun]) -> Result<SweepTable, SteadyError> {
+    /// The table of `runs` for `body` in `stress` (its own sheared bearing left out); a run
+    /// whose drive is no drive is an error naming it.
+    pub fn new(
+        body: &Body,
+        stress: &Stress,
+        runs: &[SweepRun],
+    ) -> Result<SweepTable, ShearedFitError> {
         let at_rest = Stress {
             sheared: None,
             ..*stress
@@ -52,10 +57,11 @@ impl SweepTable {
             .map(|k| (height * k as f64 / TABLE_DEPTHS as f64).min(height))
             .collect();
         let mut forces = Vec::with_capacity(runs.len());
-        for run in runs {
+        for (i, run) in runs.iter().enumerate() {
             let mut row = Vec::with_capacity(TABLE_DEPTHS);
             for &d in &depths_m {
-                let s = state_at_sinkage(body, &at_rest, d, &run.drive)?;
+                let s = state_at_sinkage(body, &at_rest, d, &run.drive)
+                    .map_err(|error| ShearedFitError::Run { run: i + 1, error })?;
                 row.push([s.load_n, s.drawbar_n, s.drawbar_n.hypot(s.side_n)]);
             }
             forces.push(row);
@@ -113,16 +119,6 @@ impl SweepTable {
         let b = component_fit(&pd, &md).r2;
         let m = (1.0 - a) + (1.0 - b);
         if m.is_finite() { m } else { f64::INFINITY }
-    }
-
-    /// How many runs there are.
-    pub fn len(&self) -> usize {
-        self.runs.len()
-    }
-
-    /// Whether there are none.
-    pub fn is_empty(&self) -> bool {
-        self.runs.is_empty()
     }
 }
 
@@ -270,10 +266,7 @@ pub fn fit_sheared(
             "a slip sweep needs runs at two slips or more; every run's is {first:.3}"
         )));
     }
-    let table = SweepTable::new(body, stress, runs).map_err(|error| {
-        // The tabulation fails only on a run's drive, which names itself.
-        ShearedFitError::Run { run: 0, error }
-    })?;
+    let table = SweepTable::new(body, stress, runs)?;
     let all: Vec<usize> = (0..runs.len()).collect();
     let (misfit, bearing) = best_over(&table, &all, None);
     if !misfit.is_finite() {
@@ -338,6 +331,16 @@ mod tests {
         )
     }
 
+    /// The plate runs' law on `poppy_lp`'s shape, at rest.
+    fn at_rest<'a>(c: &'a RftCoefficients, law: &'a RftDepthLaw) -> Stress<'a> {
+        Stress {
+            coefficients: c,
+            depth_law: Some(law),
+            speed_law: None,
+            sheared: None,
+        }
+    }
+
     /// A sweep the model itself settles under `truth`, at rim speeds 0-100 mm/s.
     fn generated(body: &Body, stress: &Stress, truth: &ShearedBearing) -> Vec<SweepRun> {
         let with = Stress {
@@ -367,12 +370,7 @@ mod tests {
     fn a_sweep_the_model_settled_gives_back_its_bearing() {
         let body = Body::wheel(0.058, 0.05, None, 360).unwrap();
         let (c, law) = medium();
-        let stress = Stress {
-            coefficients: &c,
-            depth_law: Some(&law),
-            speed_law: None,
-            sheared: None,
-        };
+        let stress = at_rest(&c, &law);
         let truth = ShearedBearing::new(0.35, 2.0).unwrap();
         let runs = generated(&body, &stress, &truth);
         let fit = fit_sheared(&body, &stress, &runs).unwrap();
@@ -404,12 +402,7 @@ mod tests {
     fn too_little_a_sweep_is_refused() {
         let body = Body::wheel(0.058, 0.05, None, 360).unwrap();
         let (c, law) = medium();
-        let stress = Stress {
-            coefficients: &c,
-            depth_law: Some(&law),
-            speed_law: None,
-            sheared: None,
-        };
+        let stress = at_rest(&c, &law);
         let runs = generated(&body, &stress, &ShearedBearing::new(0.35, 2.0).unwrap());
         let e = fit_sheared(&body, &stress, &runs[..4]).unwrap_err();
         assert!(e.to_string().contains("5 runs or more"), "{e}");

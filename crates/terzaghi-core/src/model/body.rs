@@ -495,6 +495,26 @@ impl Body {
         (place, sinkage)
     }
 
+    /// The most the sand bears of the body with its hub `height_m` above the surface, turned by
+    /// `angle_rad`: its vertical force pressed straight down there (N, never below 0), with no
+    /// speed law and no shear. A body held still, lifted or creeping is borne so.
+    pub fn pressed_lift_n(&self, stress: &Stress, height_m: f64, angle_rad: f64) -> f64 {
+        let pressed = self.forces_of(
+            &Stress {
+                speed_law: None,
+                sheared: None,
+                ..*stress
+            },
+            &HubMotion {
+                height_m,
+                velocity_m_s: [0.0, 0.0, -1.0],
+                omega_rad_s: 0.0,
+                angle_rad,
+            },
+        );
+        pressed.force_n[2].max(0.0)
+    }
+
     /// The elements a body moving in any direction sums ([`Body::general_sum`]).
     fn spatial_surface(&self) -> Surface<'_> {
         Surface {
@@ -1166,25 +1186,12 @@ pub fn state_at_sinkage(
         .abs()
         .max((drive.omega_rad_s * body.reach_m).abs());
     if along < BodyLeg::MIN_SPEED_M_S {
-        let pressed = body.forces_of(
-            &Stress {
-                speed_law: None,
-                sheared: None,
-                ..*stress
-            },
-            &HubMotion {
-                height_m,
-                velocity_m_s: [0.0, 0.0, -1.0],
-                omega_rad_s: 0.0,
-                angle_rad: 0.0,
-            },
-        );
         return Ok(Steady {
             sinkage_m,
             drawbar_n: 0.0,
             side_n: 0.0,
             torque_nm: 0.0,
-            load_n: pressed.force_n[2].max(0.0),
+            load_n: body.pressed_lift_n(stress, height_m, 0.0),
         });
     }
     let f = body.forces_of(
@@ -1346,11 +1353,6 @@ impl BodyLeg {
         self
     }
 
-    /// The bearing of the sand the body shears, where its medium has it.
-    pub fn sheared_bearing(&self) -> Option<&ShearedBearing> {
-        self.sheared.as_ref()
-    }
-
     /// The body.
     pub fn body(&self) -> &Body {
         &self.body
@@ -1420,20 +1422,19 @@ impl BodyLeg {
             return Ok((f, Regime::Penetration));
         }
         // Held or lifted: the sand's reaction pressed straight down there, upward only.
-        let pressed = self.body.forces(
-            &self.coefficients,
-            self.depth_law.as_ref(),
-            None,
-            &HubMotion {
-                height_m: hip.height_m,
-                velocity_m_s: [0.0, 0.0, -1.0],
-                omega_rad_s: 0.0,
-                angle_rad,
+        let pressed = self.body.pressed_lift_n(
+            &Stress {
+                coefficients: &self.coefficients,
+                depth_law: self.depth_law.as_ref(),
+                speed_law: None,
+                sheared: None,
             },
+            hip.height_m,
+            angle_rad,
         );
         Ok((
             BodyForce {
-                force_n: [0.0, 0.0, pressed.force_n[2].max(0.0)],
+                force_n: [0.0, 0.0, pressed],
                 moment_nm: [0.0; 3],
                 sinkage_m: sinkage,
             },

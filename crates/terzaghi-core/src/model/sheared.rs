@@ -26,7 +26,10 @@ use super::ModelError;
 
 /// The bearing of sand that a body shears ([module docs](self)): the interface's friction
 /// `tan delta_w` and the exponent `m`.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+///
+/// Built by [`ShearedBearing::new`] or [`ShearedBearing::of_repose`], which hold each value in
+/// its physical range.
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ShearedBearing {
     /// `tan delta_w`: the inclination's tangent up to which the sand bears fully.
     pub interface_tan: f64,
