@@ -6,7 +6,6 @@
 #[path = "common/mod.rs"]
 mod common;
 
-use common::{csv_num as num, csv_rows as rows};
 use common::{ok, repo};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -455,4 +454,26 @@ fn where_the_sheared_bearing_does_not_act_it_says_so() {
         err.contains("runs.csv") && err.contains("\"borne\""),
         "{err}"
     );
+}
+
+/// A CSV file's rows, each its columns by name.
+fn rows(path: &Path) -> Vec<std::collections::BTreeMap<String, String>> {
+    let mut rdr = csv::Reader::from_path(path).unwrap();
+    let head: Vec<String> = rdr.headers().unwrap().iter().map(str::to_string).collect();
+    rdr.records()
+        .map(|r| {
+            let r = r.unwrap();
+            head.iter()
+                .cloned()
+                .zip(r.iter().map(str::to_string))
+                .collect()
+        })
+        .collect()
+}
+
+/// Column `c` of a row of [`rows`] as a number.
+fn num(row: &std::collections::BTreeMap<String, String>, c: &str) -> f64 {
+    row[c]
+        .parse()
+        .unwrap_or_else(|_| panic!("{c}: {:?}", row[c]))
 }

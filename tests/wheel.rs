@@ -5,7 +5,6 @@
 #[path = "common/mod.rs"]
 mod common;
 
-use common::{csv_num as num, csv_rows as rows};
 use common::{ok, refused, repo};
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -776,4 +775,26 @@ fn replayed_rows_carry_a_body_s_side_force() {
             assert!((a - b).abs() <= 1e-2 * b.abs(), "{col}: {a} against {b}");
         }
     }
+}
+
+/// A CSV file's rows, each its columns by name.
+fn rows(path: &Path) -> Vec<std::collections::BTreeMap<String, String>> {
+    let mut rdr = csv::Reader::from_path(path).unwrap();
+    let head: Vec<String> = rdr.headers().unwrap().iter().map(str::to_string).collect();
+    rdr.records()
+        .map(|r| {
+            let r = r.unwrap();
+            head.iter()
+                .cloned()
+                .zip(r.iter().map(str::to_string))
+                .collect()
+        })
+        .collect()
+}
+
+/// Column `c` of a row of [`rows`] as a number.
+fn num(row: &std::collections::BTreeMap<String, String>, c: &str) -> f64 {
+    row[c]
+        .parse()
+        .unwrap_or_else(|_| panic!("{c}: {:?}", row[c]))
 }

@@ -169,27 +169,6 @@ pub fn is_mcap(path: &Path) -> Result<bool> {
     Ok(n == 5 && &magic == b"\x89MCAP")
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use std::os::unix::fs::FileTypeExt;
-
-    /// `-o /dev/null` writes to the device: it stays a device (renaming a temporary over it
-    /// would leave every program on the machine a regular file for /dev/null).
-    #[test]
-    fn a_device_is_written_in_place_and_stays_a_device() {
-        write_text(Path::new("/dev/null"), "rows\n").unwrap();
-        let m = std::fs::metadata("/dev/null").unwrap();
-        assert!(m.file_type().is_char_device(), "{m:?}");
-        // A regular file is still replaced whole.
-        let dir = tempfile::tempdir().unwrap();
-        let p = dir.path().join("out.csv");
-        write_text(&p, "a\n").unwrap();
-        write_text(&p, "b\n").unwrap();
-        assert_eq!(std::fs::read_to_string(&p).unwrap(), "b\n");
-    }
-}
-
 /// A CSV table of `text` (the file `name`) as the project's readers take one: fields trimmed,
 /// lines from `#` on comments, its header read (an error naming the file where there is none).
 pub fn csv_table<'t>(name: &str, text: &'t str) -> Result<(csv::Reader<&'t [u8]>, Vec<String>)> {
@@ -216,4 +195,25 @@ pub fn csv_number(name: &str, line: usize, what: &str, text: &str) -> Result<f64
         bail!("{name} line {line}: {what} is {v}");
     }
     Ok(v)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::os::unix::fs::FileTypeExt;
+
+    /// `-o /dev/null` writes to the device: it stays a device (renaming a temporary over it
+    /// would leave every program on the machine a regular file for /dev/null).
+    #[test]
+    fn a_device_is_written_in_place_and_stays_a_device() {
+        write_text(Path::new("/dev/null"), "rows\n").unwrap();
+        let m = std::fs::metadata("/dev/null").unwrap();
+        assert!(m.file_type().is_char_device(), "{m:?}");
+        // A regular file is still replaced whole.
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("out.csv");
+        write_text(&p, "a\n").unwrap();
+        write_text(&p, "b\n").unwrap();
+        assert_eq!(std::fs::read_to_string(&p).unwrap(), "b\n");
+    }
 }

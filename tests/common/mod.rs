@@ -411,25 +411,3 @@ pub fn python_venv(venv: &str, requirements: &str) -> std::path::PathBuf {
     );
     py
 }
-
-/// A CSV file's rows, each its columns by name.
-pub fn csv_rows(path: &Path) -> Vec<std::collections::BTreeMap<String, String>> {
-    let mut rdr = csv::Reader::from_path(path).unwrap();
-    let head: Vec<String> = rdr.headers().unwrap().iter().map(str::to_string).collect();
-    rdr.records()
-        .map(|r| {
-            let r = r.unwrap();
-            head.iter()
-                .cloned()
-                .zip(r.iter().map(str::to_string))
-                .collect()
-        })
-        .collect()
-}
-
-/// Column `c` of a row of [`csv_rows`] as a number.
-pub fn csv_num(row: &std::collections::BTreeMap<String, String>, c: &str) -> f64 {
-    row[c]
-        .parse()
-        .unwrap_or_else(|_| panic!("{c}: {:?}", row[c]))
-}
