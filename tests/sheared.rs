@@ -477,3 +477,173 @@ fn num(row: &std::collections::BTreeMap<String, String>, c: &str) -> f64 {
         .parse()
         .unwrap_or_else(|_| panic!("{c}: {:?}", row[c]))
 }
+
+/// The plate runs alone (`calibrate --law rft_depth_power`): nothing from a wheel.
+const PLATES: &str = "tests/data/medium_plate_runs_rft.yaml";
+
+/// `terzaghi diagnose RUNS --shape wheel ... --medium-file M --json`: its report.
+fn diagnose(runs: &str, medium: &str, out: &Path) -> serde_json::Value {
+    let mut args = vec!["diagnose", runs];
+    args.extend(WHEEL);
+    args.extend(["--medium-file", medium, "--json", "--out"]);
+    args.push(out.to_str().unwrap());
+    serde_json::from_str(&ok(&run(&args))).expect("the report's JSON")
+}
+
+/// The diagnosis of the shared sweep against the plates alone names the sheared sand's bearing,
+/// on the locked and skidding runs, with the coefficients a medium file takes (held out run by
+/// run, the gap closes); the medium it writes is read by steady and bears the sweep as
+/// calibrate's does; on a sweep the model itself settled (steady's own output), nothing to
+/// explain.
+#[test]
+fn diagnose_names_the_sheared_bearing_of_the_shared_sweep_and_nothing_on_the_models_own() {
+    let dir = tempfile::tempdir().unwrap();
+    let sweep = "tests/data/real-wheel/slip_sweep_runs.csv";
+    let r = diagnose(sweep, PLATES, &dir.path().join("real"));
+    assert_eq!(
+        r["verdict"]["effect"], "sheared_bearing",
+        "{}",
+        r["verdict"]
+    );
+    let claim = r["verdict"]["claim"].as_str().unwrap();
+    assert!(
+        claim.contains("3 of 3 locked") && claim.contains("skidding"),
+        "{claim}"
+    );
+    let groups = r["groups"].as_array().unwrap();
+    let group = |class: &str| groups.iter().find(|g| g["slip_class"] == class).unwrap();
+    // The bearing acts where the rim skids, not where it drives.
+    assert!(group("skidding")["sheared"].as_u64().unwrap() > 0);
+    assert_eq!(group("driving")["sheared"], 0);
+    // The load borne at the measured sinkage: a quarter of what the sand at rest bears there
+    // for the locked wheel; it follows the rim's lean more than the slip's sign.
+    assert!(group("locked")["median_load_share"].as_f64().unwrap() < 0.4);
+    let e = &r["evidence"];
+    assert!(
+        e["r_with_lean"].as_f64().unwrap() < -0.5
+            && e["r_with_slip"].as_f64().unwrap().abs() < e["r_with_lean"].as_f64().unwrap().abs(),
+        "{e}"
+    );
+    let best = &r["candidates"][0];
+    let held = &best["held_out"];
+    assert!(
+        held["r2_sinkage"].as_f64().unwrap() >= 0.85 && held["r2_drawbar"].as_f64().unwrap() >= 0.9,
+        "{best}"
+    );
+    // The other candidates were weighed, and close less.
+    let others: Vec<&str> = r["candidates"].as_array().unwrap()[1..]
+        .iter()
+        .map(|c| c["effect"].as_str().unwrap())
+        .collect();
+    assert_eq!(others.len(), 3, "{others:?}");
+    // Its coefficients as the medium file takes them: calibrate --slip-sweep's own.
+    let kept: serde_yaml_ng::Value =
+        serde_yaml_ng::from_str(&std::fs::read_to_string(repo().join(SWEEP)).unwrap()).unwrap();
+    let corrected = dir.path().join("real/corrected_medium.yaml");
+    let made: serde_yaml_ng::Value =
+        serde_yaml_ng::from_str(&std::fs::read_to_string(&corrected).unwrap()).unwrap();
+    for k in ["interface_tan", "exponent"] {
+        let (x, y) = (
+            made["sheared_bearing"][k].as_f64().unwrap(),
+            kept["sheared_bearing"][k].as_f64().unwrap(),
+        );
+        assert!((x - y).abs() <= 1e-6 * y, "{k}: {x} against {y}");
+    }
+    let (_, summary) = steady(
+        sweep,
+        corrected.to_str().unwrap(),
+        &dir.path().join("s.csv"),
+    );
+    assert!(r2_of(&summary, "sinkage_m") >= 0.85, "{summary}");
+
+    // The model's own sweep: steady's output, its sinkage_m and drawbar_n the model's.
+    let own = dir.path().join("own.csv");
+    steady(sweep, PLATES, &own);
+    let r = diagnose(own.to_str().unwrap(), PLATES, &dir.path().join("own"));
+    assert_eq!(r["verdict"]["effect"], "none", "{}", r["verdict"]);
+    assert!(
+        r["verdict"]["claim"]
+            .as_str()
+            .unwrap()
+            .starts_with("nothing to explain")
+    );
+    assert!(!dir.path().join("own/corrected_medium.yaml").exists());
+}
+
+/// The plate-only medium is what calibrate writes from the plate runs today.
+#[test]
+fn calibrate_remakes_the_plates_only_medium() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("m.yaml");
+    ok(&calibrate(&[
+        "--name",
+        "plate_runs",
+        "-o",
+        out.to_str().unwrap(),
+    ]));
+    let read = |p: &Path| -> serde_yaml_ng::Value {
+        serde_yaml_ng::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+    };
+    let (made, kept) = (read(&out), read(&repo().join(PLATES)));
+    assert_eq!(made["params"], kept["params"]);
+    assert!(kept.get("sheared_bearing").is_none());
+}
+
+/// A wheel's runs that cannot be diagnosed are refused by name.
+#[test]
+fn diagnose_refuses_what_is_no_wheel_test() {
+    let dir = tempfile::tempdir().unwrap();
+    let text =
+        std::fs::read_to_string(repo().join("tests/data/real-wheel/slip_sweep_runs.csv")).unwrap();
+    let few: String = text.lines().take(4).map(|l| format!("{l}\n")).collect();
+    let f = dir.path().join("few.csv");
+    std::fs::write(&f, few).unwrap();
+    let mut args = vec!["diagnose", f.to_str().unwrap()];
+    args.extend(WHEEL);
+    args.extend([
+        "--medium-file",
+        PLATES,
+        "--out",
+        dir.path().to_str().unwrap(),
+    ]);
+    let o = run(&args);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("few.csv") && err.contains("5 runs or more"),
+        "{err}"
+    );
+    // No body, no medium: what is missing is named.
+    let x = dir.path().join("x");
+    let x = x.to_str().unwrap();
+    let o = run(&[
+        "diagnose",
+        "tests/data/real-wheel/slip_sweep_runs.csv",
+        "--out",
+        x,
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("--shape wheel"), "{err}");
+    let mut args = vec!["diagnose", "tests/data/real-wheel/slip_sweep_runs.csv"];
+    args.extend(WHEEL);
+    args.extend(["--out", x]);
+    let err = String::from_utf8_lossy(&run(&args).stderr).into_owned();
+    assert!(err.contains("--medium-file"), "{err}");
+    // A bad value names its file and line.
+    let bad = text.replacen("22.9927", "heavy", 1);
+    let f = dir.path().join("bad.csv");
+    std::fs::write(&f, bad).unwrap();
+    let mut args = vec!["diagnose", f.to_str().unwrap()];
+    args.extend(WHEEL);
+    args.extend([
+        "--medium-file",
+        PLATES,
+        "--out",
+        dir.path().to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&run(&args).stderr).into_owned();
+    assert!(
+        err.contains("bad.csv line 2") && err.contains("heavy"),
+        "{err}"
+    );
+}

@@ -372,11 +372,14 @@ def steady(
     Returns:
         A dict of float64 arrays of the broadcast shape: ``sinkage_m``, ``drawbar_n`` (+
         forward), ``side_n`` (+ opposing the sideways motion), ``torque_nm`` (the drive torque,
-        + along a forward roll), ``load_borne_n``.
+        + along a forward roll), ``load_borne_n``; and ``borne``, a bool array: False where the
+        sand does not bear the run's load within the body's height (that run's row is the body
+        buried to its top, ``load_borne_n`` the most the sand bears there), as ``terzaghi
+        steady`` writes such a run.
 
     Raises:
-        TerzaghiError: a value the model refuses (a NaN, a load the wheel cannot carry within
-            its height, a bad wheel or medium file), named with the run's flat index.
+        TerzaghiError: a value the model refuses (a NaN, a bad wheel or medium file), named
+            with the run's flat index.
     """
     given = {"hub_vx_m_s": hub_vx_m_s, "omega_rad_s": omega_rad_s,
              "slip_angle_deg": slip_angle_deg}
@@ -398,7 +401,9 @@ def steady(
         flat["slip_angle_deg"], flat.get("sinkage_m"), body, os.fspath(medium_file))
     shape = b[0].shape
     names = ("sinkage_m", "drawbar_n", "side_n", "torque_nm", "load_borne_n")
-    return {k: np.asarray(c, dtype=np.float64).reshape(shape) for k, c in zip(names, cols)}
+    out = {k: np.asarray(c, dtype=np.float64).reshape(shape) for k, c in zip(names, cols)}
+    out["borne"] = np.asarray(cols[5], dtype=np.float64).reshape(shape) > 0.5
+    return out
 
 
 def fit(
@@ -507,22 +512,47 @@ def diagnose(
     out: PathLike,
     *,
     medium_file: Optional[PathLike] = None,
+    shape: Optional[str] = None,
+    radius_m: Optional[float] = None,
+    width_m: Optional[float] = None,
+    thickness_m: Optional[float] = None,
+    size_m: Optional[Sequence[float]] = None,
+    mesh_file: Optional[PathLike] = None,
+    mesh_scale: Optional[float] = None,
+    element_m: Optional[float] = None,
+    grouser_count: Optional[int] = None,
+    grouser_height_m: Optional[float] = None,
+    grouser_thickness_m: Optional[float] = None,
+    rim_elements: Optional[int] = None,
 ) -> List[Dict[str, Any]]:
     """Diagnoses a recording as ``terzaghi diagnose --out OUT --json`` does.
 
     Args:
-        path: an MCAP session (each leg with an F/T topic), or a plate-sinkage test (then
-            ``medium_file`` names the medium, written by ``terzaghi calibrate``).
+        path: an MCAP session (each leg with an F/T topic); a plate-sinkage test (then
+            ``medium_file`` names the medium, written by ``terzaghi calibrate``); or a wheel's
+            or a foot's runs (a CSV in ``terzaghi steady``'s format with the measured
+            ``sinkage_m`` and ``drawbar_n``: then ``medium_file`` and the body, ``shape`` with
+            the values ``steady`` takes).
         out: the directory the reports go to (``report.json``, ``report.html``,
-            ``corrected.yaml``; one directory per leg when there are several).
+            ``corrected.yaml``; one directory per leg when there are several; for a body's
+            runs ``report.json`` and, where the effect found is the sheared sand's bearing,
+            ``corrected_medium.yaml``).
 
     Returns:
-        One report per leg, as ``report.json`` holds it.
+        One report per leg (or the body's), as ``report.json`` holds it.
     """
+    body = None
+    if shape is not None:
+        body = _body(shape, radius_m, width_m, thickness_m, size_m, mesh_file, mesh_scale,
+                     element_m, grouser_count, grouser_height_m, grouser_thickness_m, rim_elements)
+    elif any(v is not None for v in (radius_m, width_m, thickness_m, size_m, mesh_file, mesh_scale,
+                                     element_m, grouser_count, rim_elements)):
+        raise TerzaghiError("a body's values describe a wheel's or a foot's runs: give its shape too")
     text = _terzaghi.diagnose_json(
         os.fspath(path),
         os.fspath(out),
         None if medium_file is None else os.fspath(medium_file),
+        body,
     )
     return json.loads(text)
 

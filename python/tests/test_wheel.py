@@ -50,8 +50,12 @@ def test_what_is_no_run_is_refused_by_name():
         terzaghi.steady([20.0, 20.0, 20.0], [0.01, 0.01], 0.1, **WHEEL)
     with pytest.raises(terzaghi.TerzaghiError, match=r"run 1 \(flat index\): load \(N\) is NaN"):
         terzaghi.steady([20.0, np.nan], 0.01, 0.1, **WHEEL)
-    with pytest.raises(terzaghi.TerzaghiError, match=r"bears at most .* 1000000 N"):
-        terzaghi.steady(1e6, 0.01, 0.1, **WHEEL)
+    # A load the sand cannot bear is a row all the same: not borne, the body buried to its top,
+    # the most the sand bears there as its load; the other runs answered beside it.
+    r = terzaghi.steady([20.0, 1e6], 0.01, 0.1, **WHEEL)
+    assert r["borne"].tolist() == [True, False]
+    assert r["load_borne_n"][1] < 1e6 and r["load_borne_n"][1] > r["load_borne_n"][0]
+    assert abs(r["sinkage_m"][1] - 2 * WHEEL["radius_m"]) < 1e-9
     with pytest.raises(terzaghi.TerzaghiError, match="load_n is needed"):
         terzaghi.steady(hub_vx_m_s=0.01, **WHEEL)
     with pytest.raises(terzaghi.TerzaghiError, match="not both"):
@@ -188,3 +192,26 @@ def test_predict_refuses_what_a_body_or_a_leg_does_not_take():
     plate = dict(length_m=0.25, width_m=0.06, hip_height_m=0.15, medium="hit_sand")
     assert "side_n" in terzaghi.predict(1.0, lateral_m_s=0.01, **plate)
     assert "side_n" not in terzaghi.predict(1.0, **plate)
+
+
+def test_a_wheels_runs_are_diagnosed_and_the_bearing_found_goes_into_a_medium_file(tmp_path):
+    runs = REPO / "tests" / "data" / "real-wheel" / "slip_sweep_runs.csv"
+    plates = REPO / "tests" / "data" / "medium_plate_runs_rft.yaml"
+    [r] = terzaghi.diagnose(runs, tmp_path / "d", medium_file=plates, shape="wheel",
+                            radius_m=0.058, width_m=0.05)
+    assert r["verdict"]["effect"] == "sheared_bearing", r["verdict"]
+    best = r["candidates"][0]
+    assert [c["name"] for c in best["coefficients"]] == ["interface_tan", "exponent"]
+    # The bearing the sweep gives through `calibrate --slip-sweep`, found here by the diagnosis.
+    assert abs(best["coefficients"][0]["value"] - 0.3457) < 0.01, best
+    assert best["held_out"]["r2_sinkage"] > 0.85 and best["held_out"]["r2_drawbar"] > 0.9, best
+    # The medium file written with it is one steady reads, and it bears the locked wheel less.
+    corrected = tmp_path / "d" / "corrected_medium.yaml"
+    locked = dict(radius_m=0.058, width_m=0.05)
+    before = terzaghi.steady(22.0, 0.01, 0.0, medium_file=plates, **locked)
+    after = terzaghi.steady(22.0, 0.01, 0.0, medium_file=corrected, **locked)
+    assert after["sinkage_m"] > before["sinkage_m"] + 0.01
+    with pytest.raises(terzaghi.TerzaghiError, match="give its body"):
+        terzaghi.diagnose(runs, tmp_path / "e", medium_file=plates)
+    with pytest.raises(terzaghi.TerzaghiError, match="give its shape too"):
+        terzaghi.diagnose(runs, tmp_path / "e", medium_file=plates, radius_m=0.058)

@@ -159,18 +159,8 @@ fn with_sheared(
         if let Some(out) = &a.out {
             crate::session::files::refuse_output_over_input(out, &[sweep.as_path()])?;
         }
-        let shape = a.shape.name();
-        let body = a.body.body(&shape, a.width_m)?;
-        let mut text = shape;
-        if let Some(r) = a.body.radius_m {
-            text += &format!(" radius {r} m");
-        }
-        if let Some(w) = a.width_m {
-            text += &format!(" width {w} m");
-        }
-        if let Some(n) = a.body.grouser_count {
-            text += &format!(" with {n} grousers");
-        }
+        let body = a.body.body(&a.shape.name(), a.width_m)?;
+        let text = a.body.text(a.shape, a.width_m);
         medium.sheared_bearing = Some(sheared_of_sweep(&medium, sweep, &body, &text)?);
     } else if a.sheared_from_repose {
         let (deg, source) = match a.angle_of_repose_deg {

@@ -76,9 +76,25 @@ pub struct DiagnoseArgs {
         requires = "medium_file"
     )]
     pub plate_diameter_m: Option<f64>,
+    /// For a wheel's or a foot's test (a CSV of `terzaghi steady`'s runs with the measured
+    /// sinkage_m and drawbar_n, at any slip and slip angle): its body (with --radius-m,
+    /// --width-m, grousers, as `terzaghi steady` takes them), judged against --medium-file.
+    #[arg(long, value_enum, value_name = "SHAPE")]
+    pub shape: Option<super::steady::BodyShape>,
+    #[command(flatten)]
+    pub body: super::steady::BodyArgs,
 }
 
 pub fn run(a: DiagnoseArgs) -> Result<()> {
+    if a.shape.is_some() || crate::session::wheel_test::is_wheel_test(&a.log) {
+        return wheel_test(&a);
+    }
+    if !a.body.given().is_empty() {
+        bail!(
+            "{} describe a body: give its --shape, for a wheel's or a foot's runs",
+            a.body.given().join(", ")
+        );
+    }
     if crate::session::plate_test::is_plate_test(&a.log) {
         return plate_test(&a);
     }
@@ -277,5 +293,46 @@ fn plate_test(a: &DiagnoseArgs) -> Result<()> {
         print_out(
             &(diagnosis_text(&d) + &format!("wrote {}\n", a.out.join("report.json").display())),
         )
+    }
+}
+
+/// A wheel's or a foot's runs judged against a calibrated medium; report.json (and the medium
+/// with the effect found, where a medium file takes it) in --out.
+fn wheel_test(a: &DiagnoseArgs) -> Result<()> {
+    use crate::session::wheel_test::{diagnose_runs, wheel_diagnosis_text, write_wheel_report};
+    let Some(shape) = a.shape else {
+        bail!(
+            "{} is a body's runs (load_n, hub_vx_m_s, ...): give its body with --shape wheel --radius-m R --width-m B (and grousers), and the medium with --medium-file",
+            a.log.display()
+        );
+    };
+    let Some(medium_file) = &a.medium_file else {
+        bail!(
+            "{} is a body's runs: give the medium to judge it against with --medium-file (written by terzaghi calibrate)",
+            a.log.display()
+        );
+    };
+    for (flag, given) in [
+        ("--length-m", a.plate.length_m.is_some()),
+        ("--hip-height-m", a.plate.hip_height_m.is_some()),
+        ("--plate-diameter-m", a.plate_diameter_m.is_some()),
+        ("--params-file", a.params_file.is_some()),
+        ("--joint", a.joint.is_some()),
+    ] {
+        if given {
+            bail!("{flag} is for a leg's session or a plate test, not a body's runs (--shape)");
+        }
+    }
+    if a.json {
+        crate::session::files::refuse_stdout_over_input(&[a.log.as_path(), medium_file.as_path()])?;
+    }
+    let body = a.body.body(&shape.name(), a.plate.width_m)?;
+    let text = a.body.text(shape, a.plate.width_m);
+    let d = diagnose_runs(&a.log, medium_file, &body, &text, &Default::default())?;
+    let json = write_wheel_report(&d, &a.out)?;
+    if a.json {
+        print_out(&json)
+    } else {
+        print_out(&wheel_diagnosis_text(&d, &a.out))
     }
 }

@@ -89,6 +89,22 @@ pub struct BodyArgs {
 }
 
 impl BodyArgs {
+    /// The body of `shape` and `width_m` in words, as the flags give it (`wheel radius 0.058 m
+    /// width 0.05 m with 12 grousers`).
+    pub fn text(&self, shape: BodyShape, width_m: Option<f64>) -> String {
+        let mut text = shape.name();
+        if let Some(r) = self.radius_m {
+            text += &format!(" radius {r} m");
+        }
+        if let Some(w) = width_m {
+            text += &format!(" width {w} m");
+        }
+        if let Some(n) = self.grouser_count {
+            text += &format!(" with {n} grousers");
+        }
+        text
+    }
+
     /// The flags given that only a body takes.
     pub fn given(&self) -> Vec<&'static str> {
         [

@@ -73,6 +73,7 @@ pub(crate) mod report_html;
 pub mod slip_sweep;
 pub mod steady;
 pub mod topics;
+pub mod wheel_test;
 
 use crate::record::read::{IndexedFile, Scan, Source, scan};
 use anyhow::{Context as _, Result};

@@ -28,6 +28,16 @@ pub const SWEEP_COLUMNS: [&str; 6] = [
 /// missing or no number, a load not above 0, a sinkage below 0 or a slip angle other than 0
 /// is an error naming the file, the line and the value.
 pub fn read_sweep(file: &Path, text: &str) -> Result<Vec<SweepRun>> {
+    read_runs(file, text, true)
+}
+
+/// The runs of a wheel's test at any slip angle (what `terzaghi diagnose` judges), checked as
+/// [`read_sweep`] checks them, a slip angle of any value.
+pub fn read_test_runs(file: &Path, text: &str) -> Result<Vec<SweepRun>> {
+    read_runs(file, text, false)
+}
+
+fn read_runs(file: &Path, text: &str, slip_angle_zero: bool) -> Result<Vec<SweepRun>> {
     let name = file.display().to_string();
     let (mut rdr, headers) = csv_table(&name, text)?;
     let mut index = [0usize; 6];
@@ -62,7 +72,7 @@ pub fn read_sweep(file: &Path, text: &str) -> Result<Vec<SweepRun>> {
         if sinkage_m < 0.0 {
             bail!("{name} line {line}: sinkage_m is {sinkage_m}: a sinkage is 0 m or deeper");
         }
-        if slip_angle_deg != 0.0 {
+        if slip_angle_zero && slip_angle_deg != 0.0 {
             bail!(
                 "{name} line {line}: slip_angle_deg is {slip_angle_deg}: a slip sweep calibrates at slip angle 0 (the other slip angles are what the medium then predicts)"
             );
@@ -72,7 +82,7 @@ pub fn read_sweep(file: &Path, text: &str) -> Result<Vec<SweepRun>> {
             drive: Drive {
                 speed_m_s: hub_vx_m_s,
                 omega_rad_s,
-                slip_angle_rad: 0.0,
+                slip_angle_rad: slip_angle_deg.to_radians(),
             },
             sinkage_m,
             drawbar_n,

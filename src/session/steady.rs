@@ -214,6 +214,31 @@ pub struct Group {
     pub means: Vec<(&'static str, f64, f64)>,
 }
 
+/// A run's steady state and whether the sand bears it: where it does not within the body's
+/// height (`solved` is [`SteadyError::TooHeavy`]), the body buried to its top, its forces there
+/// and the most the sand bears as its load, `false`. A bearing that is no number, or any other
+/// error, stays an error.
+pub fn borne_or_deepest(
+    body: &Body,
+    stress: &Stress,
+    drive: &Drive,
+    solved: Result<Steady, SteadyError>,
+) -> Result<(Steady, bool), SteadyError> {
+    match solved {
+        Err(SteadyError::TooHeavy { max_load_n, .. }) if max_load_n.is_finite() => {
+            let deepest = state_at_sinkage(body, stress, body.height_m(), drive)?;
+            Ok((
+                Steady {
+                    load_n: max_load_n,
+                    ..deepest
+                },
+                false,
+            ))
+        }
+        other => Ok((other?, true)),
+    }
+}
+
 /// Every run of `text` (the CSV of runs named `file`) brought to its steady state for `body` in
 /// the medium `law`. A run with a value missing or no number is an error naming the run and the
 /// value: a table of runs is a test's record, and a run left out would be lost without a word.
@@ -311,22 +336,8 @@ pub fn steady_runs(
                 (None, state_at_sinkage(body, &stress, sinkage_m, &drive))
             }
         };
-        let (steady, borne) = match steady {
-            // (A bearing that is no number is no row: the run is refused by name.)
-            Err(SteadyError::TooHeavy { max_load_n, .. }) if max_load_n.is_finite() => {
-                // Buried to its top: its forces there, the most the sand bears as its load.
-                let deepest = state_at_sinkage(body, &stress, body.height_m(), &drive)
-                    .with_context(|| format!("{name} line {line}"))?;
-                (
-                    Steady {
-                        load_n: max_load_n,
-                        ..deepest
-                    },
-                    false,
-                )
-            }
-            other => (other.with_context(|| format!("{name} line {line}"))?, true),
-        };
+        let (steady, borne) = borne_or_deepest(body, &stress, &drive, steady)
+            .with_context(|| format!("{name} line {line}"))?;
         runs.push(SteadyRun {
             borne,
             line,

@@ -128,7 +128,9 @@ fn base_model(
 
 /// A wheel's or a foot's steady state for each run of flat arrays of one length (`load_n`, `hub_vx_m_s`,
 /// `omega_rad_s`, `slip_angle_deg`; or, with `sinkage_m`, held there): sinkage, drawbar, side
-/// force, drive torque and the load borne, as `terzaghi steady` gives them.
+/// force, drive torque, the load borne and whether the sand bears the run (1) or not (0: the
+/// body buried to its top, the most the sand bears as its load), as `terzaghi steady` gives
+/// them.
 #[pyfunction]
 #[pyo3(signature = (load_n, hub_vx_m_s, omega_rad_s, slip_angle_deg, sinkage_m, body, medium_file))]
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
@@ -141,8 +143,9 @@ fn steady(
     sinkage_m: Option<Vec<f64>>,
     body: BodyArgs,
     medium_file: std::path::PathBuf,
-) -> PyResult<[Vec<f64>; 5]> {
+) -> PyResult<[Vec<f64>; 6]> {
     use terzaghi::model::{Drive, Stress, state_at_sinkage, steady_sinkage};
+    use terzaghi::session::steady::borne_or_deepest;
     let medium = terzaghi::medium_file::MediumFile::read(&medium_file).map_err(err)?;
     let law = medium.rft_law(None).map_err(err)?;
     let body = body_of(body)?;
@@ -163,22 +166,27 @@ fn steady(
             speed_law: law.speed_law.as_ref(),
             sheared: law.sheared.as_ref(),
         };
-        let mut out: [Vec<f64>; 5] = std::array::from_fn(|_| Vec::with_capacity(n));
+        let mut out: [Vec<f64>; 6] = std::array::from_fn(|_| Vec::with_capacity(n));
         for i in 0..n {
             let drive = Drive {
                 speed_m_s: hub_vx_m_s[i],
                 omega_rad_s: omega_rad_s[i],
                 slip_angle_rad: slip_angle_deg[i].to_radians(),
             };
-            let s = match &sinkage_m {
+            let solved = match &sinkage_m {
                 None => steady_sinkage(&body, &stress, load_n[i], &drive),
                 Some(z) => state_at_sinkage(&body, &stress, z[i], &drive),
-            }
-            .map_err(|e| TerzaghiError::new_err(format!("run {i} (flat index): {e}")))?;
-            for (c, v) in
-                out.iter_mut()
-                    .zip([s.sinkage_m, s.drawbar_n, s.side_n, s.torque_nm, s.load_n])
-            {
+            };
+            let (s, borne) = borne_or_deepest(&body, &stress, &drive, solved)
+                .map_err(|e| TerzaghiError::new_err(format!("run {i} (flat index): {e}")))?;
+            for (c, v) in out.iter_mut().zip([
+                s.sinkage_m,
+                s.drawbar_n,
+                s.side_n,
+                s.torque_nm,
+                s.load_n,
+                f64::from(u8::from(borne)),
+            ]) {
                 c.push(v);
             }
         }
@@ -635,15 +643,38 @@ impl Online {
 /// Diagnoses a recording (MCAP session, or a plate-sinkage test with `medium_file`) into
 /// `out`: the reports' JSON text, as `terzaghi diagnose --json` prints them (a list).
 #[pyfunction]
-#[pyo3(signature = (path, out, medium_file))]
+#[pyo3(signature = (path, out, medium_file, body))]
 fn diagnose_json(
     py: Python<'_>,
     path: std::path::PathBuf,
     out: std::path::PathBuf,
     medium_file: Option<std::path::PathBuf>,
+    body: Option<BodyArgs>,
 ) -> PyResult<String> {
+    let body = body.map(|b| {
+        let text = format!(
+            "{}{}{}",
+            b.0,
+            b.1.map_or(String::new(), |r| format!(" radius {r} m")),
+            b.2.map_or(String::new(), |w| format!(" width {w} m"))
+        );
+        body_of(b).map(|body| (body, text))
+    });
+    let body = body.transpose()?;
     py.detach(|| -> anyhow::Result<String> {
         use terzaghi::session::diagnose::{DiagnoseFileOptions, diagnose_file, write_reports};
+        use terzaghi::session::wheel_test::{diagnose_runs, is_wheel_test, write_wheel_report};
+        if body.is_some() || is_wheel_test(&path) {
+            let (Some((body, text)), Some(medium_file)) = (&body, &medium_file) else {
+                anyhow::bail!(
+                    "{} is a body's runs: give its body (shape, radius_m, width_m, ...) and the medium to judge it against (medium_file, written by terzaghi calibrate)",
+                    path.display()
+                );
+            };
+            let d = diagnose_runs(&path, medium_file, body, text, &Default::default())?;
+            let json = write_wheel_report(&d, &out)?;
+            return Ok(format!("[{json}]"));
+        }
         if terzaghi::session::plate_test::is_plate_test(&path) {
             let Some(medium_file) = medium_file else {
                 anyhow::bail!(

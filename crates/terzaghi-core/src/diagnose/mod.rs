@@ -28,6 +28,7 @@ pub mod kinematics;
 pub mod report;
 pub mod signatures;
 pub mod sinkage;
+pub mod wheel;
 
 pub(crate) use context::Context;
 pub use context::median;

@@ -102,6 +102,69 @@ impl SweepTable {
         None
     }
 
+    /// Run `i` settled with the sand's every stress scaled by `scale` (a medium softer or
+    /// harder than its tests said), under `bearing` (none: the sand at rest): its sinkage and
+    /// drawbar; `None` where no depth of the body bears it.
+    pub fn settle_scaled(
+        &self,
+        i: usize,
+        scale: f64,
+        bearing: Option<&ShearedBearing>,
+    ) -> Option<(f64, f64)> {
+        let load = self.runs[i].load_n;
+        let (mut last_d, mut last_v, mut last_h) = (0.0, 0.0, 0.0);
+        for (k, f) in self.forces[i].iter().enumerate() {
+            // The share depends on the resultant's lean alone, which a scale leaves as it is.
+            let share = bearing.map_or(1.0, |b| b.share(f[2], f[0]));
+            let (v, h) = (scale * f[0] * share, scale * f[1]);
+            if v >= load {
+                let t = if v > last_v {
+                    (load - last_v) / (v - last_v)
+                } else {
+                    1.0
+                };
+                return Some((
+                    last_d + t * (self.depths_m[k] - last_d),
+                    last_h + t * (h - last_h),
+                ));
+            }
+            (last_d, last_v, last_h) = (self.depths_m[k], v, h);
+        }
+        None
+    }
+
+    /// Run `i`'s forces of the sand at rest at `depth_m` (interpolated in the table; 0 above
+    /// the surface, the deepest row's below the body's height): `[vertical, drawbar,
+    /// |horizontal|]` (N).
+    pub fn at_depth(&self, i: usize, depth_m: f64) -> [f64; 3] {
+        let row = &self.forces[i];
+        let k = self.depths_m.partition_point(|&d| d < depth_m);
+        if k >= row.len() {
+            return row[row.len() - 1];
+        }
+        let (d0, f0) = if k == 0 {
+            (0.0, [0.0; 3])
+        } else {
+            (self.depths_m[k - 1], row[k - 1])
+        };
+        let t = if self.depths_m[k] > d0 {
+            ((depth_m - d0) / (self.depths_m[k] - d0)).clamp(0.0, 1.0)
+        } else {
+            1.0
+        };
+        std::array::from_fn(|c| f0[c] + t * (row[k][c] - f0[c]))
+    }
+
+    /// The runs tabulated.
+    pub fn runs(&self) -> &[SweepRun] {
+        &self.runs
+    }
+
+    /// The body's height the table reaches (m).
+    pub fn deepest_m(&self) -> f64 {
+        self.depths_m[self.depths_m.len() - 1]
+    }
+
     /// `(1 - R^2)` of the sinkage plus that of the drawbar over the runs `which`, settled
     /// under `bearing`; infinite where one of them is not borne.
     pub fn misfit(&self, bearing: Option<&ShearedBearing>, which: &[usize]) -> f64 {
@@ -137,6 +200,9 @@ pub struct ShearedFit {
     pub runs_sheared: usize,
     /// A value the best fit sits on the bound of, with that bound.
     pub on_bound: Option<(&'static str, f64)>,
+    /// The fit with each run left out in turn (run `i` at index `i`): what predicts run `i`
+    /// held out.
+    pub leave_one_out: Vec<ShearedBearing>,
 }
 
 /// Why a sweep gives no sheared bearing.
@@ -316,6 +382,7 @@ pub fn fit_sheared(
         misfit_at_rest: table.misfit(None, &all),
         runs_sheared,
         on_bound,
+        leave_one_out: each,
     })
 }
 
