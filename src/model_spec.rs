@@ -260,6 +260,9 @@ pub struct ModelSpec {
     pub rft_elements: usize,
     /// The leg's shape (a C-leg needs the RFT model).
     pub shape: LegShape,
+    /// Whether a planar leg (plate, C-leg, polyline) takes its medium file's bearing of
+    /// sheared sand (a body always does).
+    pub planar_sheared_bearing: bool,
 }
 
 impl ModelSpec {
@@ -295,7 +298,8 @@ impl ModelSpec {
             _ => ForceModel::Rft(
                 self.rft_leg(plate, coeffs)?
                     .with_depth_law(depth_law)
-                    .with_speed_law(speed_law),
+                    .with_speed_law(speed_law)
+                    .with_sheared_bearing(sheared.filter(|_| self.planar_sheared_bearing)),
             ),
         })
     }
@@ -436,6 +440,7 @@ mod tests {
             rft_zeta: None,
             rft_elements: 100,
             shape: LegShape::Plate,
+            planar_sheared_bearing: false,
         }
     }
 

@@ -701,3 +701,40 @@ fn a_shape_borrowed_from_another_medium_is_scaled_to_the_plates() {
     let (x, y) = (coefficient(&yaml(&again), "A00"), coefficient(&a, "A00"));
     assert!((x - y).abs() <= 1e-12 * y, "{x} against {y}");
 }
+
+/// The DEM bed's C-leg, turning through fresh sand, with the bed's medium and the bearing of
+/// sheared sand of its own friction angle (`tan(2/3 x 23.446 deg)`, `m` 2, the physics alone):
+/// a planar leg takes it only when `<leg>.sheared_bearing` asks (the figure without is the
+/// one of the bed's file alone, to the digit), and with it the C-leg's lift is lost where the
+/// bed keeps it; docs/bodies.md shows both.
+#[test]
+fn a_c_leg_takes_the_sheared_bearing_only_when_asked_and_loses_lift_with_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let medium = dir.path().join("sheared.yaml");
+    let tan = (2.0f64 / 3.0 * 23.446f64).to_radians().tan();
+    std::fs::write(
+        &medium,
+        std::fs::read_to_string(repo().join(DEM_MEDIUM)).unwrap()
+            + &format!(
+                "sheared_bearing:\n  interface_tan: {tan}\n  exponent: 2.0\n  std_dev:\n    interface_tan: 0.0\n    exponent: 0.0\n  source: the physics alone, tan(2/3 x the bed's friction angle 23.446 deg), m 2\n"
+            ),
+    )
+    .unwrap();
+    let m = format!("leg.medium:={}", medium.display());
+    let run = "tests/dem/campaign/runs/cleg.mcap";
+    let params = "launch_configs/dem_cleg_from_tests.yaml";
+    let alone = reevaluated(run, params, &[]);
+    let unasked = reevaluated(run, params, &["-p", &m]);
+    assert_eq!(cell(unasked), cell(alone));
+    let asked = reevaluated(run, params, &["-p", &m, "-p", "leg.sheared_bearing:=true"]);
+    println!("cleg: {} without, {} with", cell(alone), cell(asked));
+    assert_eq!(
+        cell(asked).split("drag").nth(1).map(|s| &s[..6]),
+        cell(alone).split("drag").nth(1).map(|s| &s[..6])
+    );
+    assert!(asked.2 < alone.2, "{asked:?} against {alone:?}");
+    let docs = std::fs::read_to_string(repo().join("docs/bodies.md")).unwrap();
+    for c in [cell(alone), cell(asked)] {
+        assert!(docs.contains(&c), "docs/bodies.md lacks {c}");
+    }
+}

@@ -405,31 +405,49 @@ fn bad_sweeps_and_coefficients_are_refused_by_name() {
     }
 }
 
-/// What the sheared bearing does not reach is said, never passed over: a planar leg's forces
-/// stay RFT's at rest (`predict` notes it), a file of another law cannot carry it, and a runs
-/// file with a column `steady` writes is refused by name.
+/// What the sheared bearing does not reach is said, never passed over: a planar leg takes it
+/// only when asked (`predict` notes it otherwise; with `--planar-sheared-bearing` its lift falls
+/// where its resultant leans, its drag stays), a file of another law cannot carry it, and a
+/// runs file with a column `steady` writes is refused by name.
 #[test]
 fn where_the_sheared_bearing_does_not_act_it_says_so() {
-    let o = run(&[
-        "predict",
-        "--model",
-        "rft",
-        "--medium-file",
-        SWEEP,
-        "--length-m",
-        "0.1",
-        "--width-m",
-        "0.02",
-        "--hip-height-m",
-        "0.05",
-        "--beta-deg",
-        "30",
-    ]);
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(
-        o.status.success() && err.contains("not applied to a planar leg"),
-        "{err}"
-    );
+    let predict = |medium: &str, extra: &[&str]| {
+        let mut args = vec![
+            "predict",
+            "--model",
+            "rft",
+            "--medium-file",
+            medium,
+            "--length-m",
+            "0.1",
+            "--width-m",
+            "0.02",
+            "--hip-height-m",
+            "0.05",
+            "--beta-deg",
+            "40:120:20",
+            "--format",
+            "json",
+        ];
+        args.extend(extra);
+        let o = run(&args);
+        let rows: Vec<serde_json::Value> = serde_json::from_str(&ok(&o)).unwrap();
+        (rows, String::from_utf8_lossy(&o.stderr).into_owned())
+    };
+    let (at_rest, _) = predict(PLATES, &[]);
+    let (off, err) = predict(SWEEP, &[]);
+    assert!(err.contains("unless --planar-sheared-bearing"), "{err}");
+    assert_eq!(off, at_rest);
+    let (on, err) = predict(SWEEP, &["--planar-sheared-bearing"]);
+    assert!(!err.contains("note:"), "{err}");
+    let lift = |r: &serde_json::Value| r["lift_n"].as_f64().unwrap();
+    let mut less = 0;
+    for (a, b) in at_rest.iter().zip(&on) {
+        assert_eq!(a["drag_n"], b["drag_n"]);
+        assert!(lift(b) <= lift(a) + 1e-12, "{a} against {b}");
+        less += usize::from(lift(b) < lift(a));
+    }
+    assert!(less > 0, "{on:?}");
     let o = calibrate(&["--law", "bekker", "--sheared-from-repose"]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{err}");
@@ -555,6 +573,20 @@ fn diagnose_names_the_sheared_bearing_of_the_shared_sweep_and_nothing_on_the_mod
         &dir.path().join("s.csv"),
     );
     assert!(r2_of(&summary, "sinkage_m") >= 0.85, "{summary}");
+
+    // docs/bodies.md shows the text of the same diagnosis, line for line.
+    let text_out = dir.path().join("text");
+    let mut args = vec!["diagnose", sweep];
+    args.extend(WHEEL);
+    args.extend(["--medium-file", PLATES, "--out", text_out.to_str().unwrap()]);
+    let printed = ok(&run(&args)).replace(text_out.to_str().unwrap(), "DIR");
+    let docs = std::fs::read_to_string(repo().join("docs/bodies.md")).unwrap();
+    for line in printed.lines() {
+        assert!(
+            docs.contains(line),
+            "docs/bodies.md lacks this line of the diagnosis:\n{line}"
+        );
+    }
 
     // The model's own sweep: steady's output, its sinkage_m and drawbar_n the model's.
     let own = dir.path().join("own.csv");

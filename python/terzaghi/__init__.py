@@ -221,6 +221,7 @@ def predict(
     grouser_height_m: Optional[float] = None,
     grouser_thickness_m: Optional[float] = None,
     rim_elements: Optional[int] = None,
+    planar_sheared_bearing: bool = False,
 ) -> Dict[str, np.ndarray]:
     """The forces on a leg or a body at each attack angle, as ``terzaghi predict`` gives them.
 
@@ -255,6 +256,10 @@ def predict(
             robot's left; m/s) and the leg's rotation rate (rad/s, + as the attack angle grows),
             arrays broadcast with ``beta_rad``. Without them a leg turns quasi-statically and a
             body is held (the sand's reaction to it, no drag), as ``terzaghi predict``.
+        planar_sheared_bearing: a planar leg (plate, C-leg, polyline) takes ``medium_file``'s
+            bearing of sheared sand, as ``terzaghi predict --planar-sheared-bearing`` (a body
+            always does; off by default, as a leg turning through fresh sand loses lift it
+            keeps: ``docs/bodies.md``).
 
     Returns:
         A dict of arrays shaped like ``beta_rad``: ``drag_n``, ``lift_n``,
@@ -298,13 +303,14 @@ def predict(
         cols, regime = _terzaghi.predict_moving(
             b.ravel().tolist(), h.ravel().tolist(), u.ravel().tolist(), f.ravel().tolist(),
             l.ravel().tolist(), w.ravel().tolist(), model, float(length_m), float(width_m),
-            *tail, body)
+            *tail, body, bool(planar_sheared_bearing))
         drag, lift, torque, submerged, depth, side, roll, yaw = (
             np.asarray(c).reshape(b.shape) for c in cols)
         regime = np.frombuffer(bytes(regime), dtype=np.uint8).reshape(b.shape).copy()
     else:
         drag, lift, torque, submerged, depth, regime = _terzaghi.predict(
-            beta_rad, model, float(length_m), float(width_m), float(hip_height_m), *tail)
+            beta_rad, model, float(length_m), float(width_m), float(hip_height_m), *tail,
+            bool(planar_sheared_bearing))
     out = {
         "drag_n": drag,
         "lift_n": lift,

@@ -55,6 +55,7 @@ def predict(
     c_leg_span_deg: Optional[float],
     profile: Optional[List[Tuple[float, float]]],
     medium_file: Optional[str],
+    planar_sheared_bearing: bool = ...,
 ) -> Tuple[
     npt.NDArray[np.float64],
     npt.NDArray[np.float64],
@@ -89,6 +90,7 @@ def predict_moving(
     profile: Optional[List[Tuple[float, float]]],
     medium_file: Optional[str],
     body: Optional[BodyArgs],
+    planar_sheared_bearing: bool = ...,
 ) -> Tuple[List[List[float]], List[int]]: ...
 def fit_json(
     beta_rad: npt.ArrayLike,
@@ -159,7 +161,8 @@ class Batch:
         profile: Optional[List[Tuple[float, float]]],
         medium_file: Optional[str],
         body: Optional[BodyArgs] = None,
-    ) -> None: ...
+            planar_sheared_bearing: bool = ...,
+) -> None: ...
     @property
     def vectorised(self) -> bool: ...
     @property

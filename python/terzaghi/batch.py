@@ -150,6 +150,8 @@ class LegBatch:
             elements takes a few microseconds).
         b_k, a, rft_coeffs, rft_zeta, rft_elements: as for :func:`terzaghi.predict` (RFT's
             elements over a leg's submerged length, 100 by default; not for a body).
+        planar_sheared_bearing: as for :func:`terzaghi.predict` (a planar leg with it goes
+            leg by leg, not through the vector loop).
     """
 
     def __init__(
@@ -182,6 +184,7 @@ class LegBatch:
         grouser_height_m: Optional[float] = None,
         grouser_thickness_m: Optional[float] = None,
         rim_elements: Optional[int] = None,
+        planar_sheared_bearing: bool = False,
     ) -> None:
         body_values = dict(radius_m=radius_m, thickness_m=thickness_m, size_m=size_m,
                            mesh_file=mesh_file, mesh_scale=mesh_scale, element_m=element_m,
@@ -205,6 +208,7 @@ class LegBatch:
                          100 if rft_elements is None else rft_elements, shape, c_leg_radius_m,
                          c_leg_span_deg, profile, medium_file),
             body,
+            bool(planar_sheared_bearing),
         )
 
     @property

@@ -17,7 +17,11 @@ WHEEL = dict(radius_m=0.058, width_m=0.05, medium_file=MEDIUM)
 def _columns(path):
     with open(path, newline="") as f:
         rows = list(csv.DictReader(f))
-    return {k: np.array([float(r[k]) for r in rows]) for k in rows[0] if k not in ("date", "file")}
+    cols = {k: np.array([float(r[k]) for r in rows]) for k in rows[0]
+            if k not in ("date", "file", "borne")}
+    if "borne" in rows[0]:
+        cols["borne"] = np.array([r["borne"] == "true" for r in rows])
+    return cols
 
 
 @pytest.mark.parametrize("held", [False, True])
@@ -34,6 +38,7 @@ def test_the_real_sweep_is_what_the_command_gives(tmp_path, held):
     for k in ("sinkage_m", "drawbar_n", "side_n", "torque_nm", "load_borne_n"):
         assert py[k].shape == (27,)
         np.testing.assert_allclose(py[k], cli[k], rtol=1e-12, atol=1e-12, err_msg=k)
+    np.testing.assert_array_equal(py["borne"], cli["borne"])
 
 
 def test_arrays_broadcast_and_a_yawed_wheel_is_pushed_back_either_way():
@@ -215,3 +220,24 @@ def test_a_wheels_runs_are_diagnosed_and_the_bearing_found_goes_into_a_medium_fi
         terzaghi.diagnose(runs, tmp_path / "e", medium_file=plates)
     with pytest.raises(terzaghi.TerzaghiError, match="give its shape too"):
         terzaghi.diagnose(runs, tmp_path / "e", medium_file=plates, radius_m=0.058)
+
+
+def test_a_planar_leg_takes_the_sheared_bearing_only_when_asked_in_predict_and_legbatch():
+    from terzaghi.batch import LegBatch
+    sweep = REPO / "tests" / "data" / "medium_slip_sweep.yaml"
+    plates = REPO / "tests" / "data" / "medium_plate_runs_rft.yaml"
+    leg = dict(model="rft", shape="c_leg", length_m=0.1, width_m=0.03)
+    beta = np.radians(np.arange(20.0, 170.0, 10.0))
+    at_rest = terzaghi.predict(beta, hip_height_m=0.04, medium_file=plates, **leg)
+    unasked = terzaghi.predict(beta, hip_height_m=0.04, medium_file=sweep, **leg)
+    asked = terzaghi.predict(beta, hip_height_m=0.04, medium_file=sweep,
+                             planar_sheared_bearing=True, **leg)
+    np.testing.assert_array_equal(unasked["lift_n"], at_rest["lift_n"])
+    np.testing.assert_array_equal(asked["drag_n"], at_rest["drag_n"])
+    assert np.all(asked["lift_n"] <= at_rest["lift_n"] + 1e-12)
+    assert np.any(asked["lift_n"] < at_rest["lift_n"] - 1e-3)
+    batch = LegBatch(medium_file=sweep, planar_sheared_bearing=True, **leg)
+    assert not batch.vectorised
+    drag, lift, torque = batch.forces(beta, np.full_like(beta, 0.04))
+    np.testing.assert_allclose(lift, asked["lift_n"], rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(torque, asked["hip_torque_nm"], rtol=1e-12, atol=1e-12)

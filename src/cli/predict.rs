@@ -86,6 +86,12 @@ pub struct PredictArgs {
     /// --element-m or --rim-elements).
     #[arg(long, value_name = "N")]
     pub rft_elements: Option<usize>,
+    /// A planar leg (plate, C-leg, polyline) takes the medium file's bearing of sheared sand
+    /// (a body always does): its lift, and the lift's hip torque, times the share the
+    /// resultant's lean leaves. Off by default: a leg turning through fresh sand loses lift it
+    /// keeps (the DEM bed's C-leg, docs/bodies.md).
+    #[arg(long)]
+    pub planar_sheared_bearing: bool,
     /// RFT coefficients: poppy_lp, poppy_cp, poppy_lp_grid (measured) or generic (needs
     /// --rft-zeta). Default: the medium preset's, if it has one.
     #[arg(long, value_name = "SET")]
@@ -321,6 +327,7 @@ pub fn build_model(a: &PredictArgs) -> Result<ForceModel> {
         rft_zeta: a.rft_zeta,
         rft_elements: a.rft_elements.unwrap_or(100),
         shape,
+        planar_sheared_bearing: a.planar_sheared_bearing,
     }
     .build()
 }
@@ -345,15 +352,16 @@ fn parse_profile(text: &str) -> Result<Vec<(f64, f64)>> {
 
 pub fn run(a: PredictArgs) -> Result<()> {
     let model = build_model(&a)?;
-    // A medium's sheared bearing acts on a body's elements, not on a planar leg's: say so.
+    // A medium's sheared bearing acts on a planar leg only when asked: say so.
     if a.shape.body_name().is_none()
+        && !a.planar_sheared_bearing
         && let Some(f) = &a.medium_file
         && crate::medium_file::MediumFile::read(f)?
             .sheared_bearing
             .is_some()
     {
         eprintln!(
-            "note: {}'s sheared bearing is not applied to a planar leg: its forces are RFT's sand at rest",
+            "note: {}'s sheared bearing is not applied to a planar leg unless --planar-sheared-bearing is given",
             f.display()
         );
     }

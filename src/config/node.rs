@@ -99,7 +99,8 @@ pub struct LegConfig {
     /// RFT's stress in depth from the leg's medium file (`<leg>.medium`, model rft), where it
     /// is not RFT's linear one.
     pub rft_depth: Option<crate::model::RftDepthLaw>,
-    /// The bearing of the sand a body leg shears, from the leg's medium file where it has one.
+    /// The bearing of the sand the leg shears, from the leg's medium file where it has one (a
+    /// planar leg's only with `<leg>.sheared_bearing: true`).
     pub rft_sheared: Option<crate::model::ShearedBearing>,
     /// Where the leg's RFT shape comes from, in words, for a leg whose medium is a file (a
     /// measured shape, or a preset's that the file's depth law scales).
@@ -289,7 +290,7 @@ pub const STARTUP_ONLY: [&str; 5] = [
 ];
 
 /// Names of the per-leg parameters (`<leg>.<name>`).
-pub const LEG_KEYS: [&str; 40] = [
+pub const LEG_KEYS: [&str; 41] = [
     "joint",
     "direction",
     "angle_offset_rad",
@@ -330,6 +331,7 @@ pub const LEG_KEYS: [&str; 40] = [
     "trough_depth_m",
     "trough_exit_depth_m",
     "sensor_hold_s",
+    "sheared_bearing",
 ];
 
 /// The longest sample period `<leg>.sensor_hold_s` takes (s): a sensor slower than 1 Hz does
@@ -821,12 +823,14 @@ impl NodeConfig {
                         p.line.clone(),
                     )?
                     .with_speed_law(leg.rft_speed.map(|f| f.law))
-                    .with_depth_law(leg.rft_depth),
+                    .with_depth_law(leg.rft_depth)
+                    .with_sheared_bearing(leg.rft_sheared),
                 ),
                 (Some(c), None) => ForceModel::Rft(
                     RftModel::new(leg.plate, c.clone(), self.rft_elements)?
                         .with_speed_law(leg.rft_speed.map(|f| f.law))
-                        .with_depth_law(leg.rft_depth),
+                        .with_depth_law(leg.rft_depth)
+                        .with_sheared_bearing(leg.rft_sheared),
                 ),
                 (None, _) => ForceModel::Terzaghi(TerzaghiModel::new(leg.plate, medium, width)),
             },
@@ -1019,22 +1023,26 @@ fn leg_config(
         }
         _ => None,
     };
-    // The bearing of sheared sand acts on a body's elements; a planar leg's are RFT at rest,
-    // and its start-up line says so.
+    // The bearing of sheared sand acts on a body's resultant, and on a planar leg's where
+    // `<leg>.sheared_bearing` asks for it (a leg turning through fresh sand loses lift it
+    // should not: docs/bodies.md); the start-up line says which.
+    let sheared_wanted = g.bool(&k("sheared_bearing"))?.unwrap_or(body.is_some());
     let rft_shape_text = rft_medium_file
         .as_ref()
         .map(|(_, f)| match &f.sheared_bearing {
-            Some(b) if body.is_some() => format!("{}; {}", f.rft_shape_text(), b.text()),
+            Some(b) if sheared_wanted => format!("{}; {}", f.rft_shape_text(), b.text()),
             Some(_) => format!(
-                "{}; the file's sheared bearing is not applied to a planar leg (RFT at rest)",
-                f.rft_shape_text()
+                "{}; the file's sheared bearing is not applied to this leg (set {}: true to apply it)",
+                f.rft_shape_text(),
+                k("sheared_bearing")
             ),
             None => f.rft_shape_text(),
         });
     let rft_sheared = match &rft_medium_file {
         Some((path, file)) => file
             .sheared()
-            .map_err(|e| invalid(&k("medium"), path, format!("{e:#}")))?,
+            .map_err(|e| invalid(&k("medium"), path, format!("{e:#}")))?
+            .filter(|_| sheared_wanted),
         None => None,
     };
     let rft_name = g

@@ -95,6 +95,7 @@ fn spec(
         rft_zeta,
         rft_elements,
         shape,
+        planar_sheared_bearing: false,
     })
 }
 
@@ -197,7 +198,7 @@ fn steady(
 /// The model's forces at every angle of `beta_rad` (any shape): drag, lift, hip torque,
 /// submerged length, depth (each the shape of `beta_rad`) and the regime's code.
 #[pyfunction]
-#[pyo3(signature = (beta_rad, model, length_m, width_m, hip_height_m, medium, unit_weight_n_m3, phi_deg, delta_deg, b_k, a, rft_coeffs, rft_zeta, rft_elements, shape, c_leg_radius_m, c_leg_span_deg, profile, medium_file))]
+#[pyo3(signature = (beta_rad, model, length_m, width_m, hip_height_m, medium, unit_weight_n_m3, phi_deg, delta_deg, b_k, a, rft_coeffs, rft_zeta, rft_elements, shape, c_leg_radius_m, c_leg_span_deg, profile, medium_file, planar_sheared_bearing=false))]
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
 fn predict<'py>(
     py: Python<'py>,
@@ -220,6 +221,7 @@ fn predict<'py>(
     c_leg_span_deg: Option<f64>,
     profile: Option<Vec<(f64, f64)>>,
     medium_file: Option<std::path::PathBuf>,
+    planar_sheared_bearing: bool,
 ) -> PyResult<(
     Bound<'py, PyArrayDyn<f64>>,
     Bound<'py, PyArrayDyn<f64>>,
@@ -228,26 +230,29 @@ fn predict<'py>(
     Bound<'py, PyArrayDyn<f64>>,
     Bound<'py, PyArrayDyn<u8>>,
 )> {
-    let m: ForceModel = spec(
-        model,
-        length_m,
-        width_m,
-        hip_height_m,
-        medium,
-        unit_weight_n_m3,
-        phi_deg,
-        delta_deg,
-        b_k,
-        a,
-        rft_coeffs,
-        rft_zeta,
-        rft_elements,
-        shape,
-        c_leg_radius_m,
-        c_leg_span_deg,
-        profile,
-        medium_file,
-    )?
+    let m: ForceModel = ModelSpec {
+        planar_sheared_bearing,
+        ..spec(
+            model,
+            length_m,
+            width_m,
+            hip_height_m,
+            medium,
+            unit_weight_n_m3,
+            phi_deg,
+            delta_deg,
+            b_k,
+            a,
+            rft_coeffs,
+            rft_zeta,
+            rft_elements,
+            shape,
+            c_leg_radius_m,
+            c_leg_span_deg,
+            profile,
+            medium_file,
+        )?
+    }
     .build()
     .map_err(err)?;
     let beta = beta_rad.as_array().to_owned();
@@ -343,7 +348,7 @@ fn with_body(
 /// width its own); the model is built with its hip at the surface. Columns: drag, lift, hip
 /// torque, submerged length, depth, side force, roll and yaw moments; and the regimes.
 #[pyfunction]
-#[pyo3(signature = (beta_rad, hip_height_m, up_m_s, forward_m_s, lateral_m_s, omega_rad_s, model, length_m, width_m, medium, unit_weight_n_m3, phi_deg, delta_deg, b_k, a, rft_coeffs, rft_zeta, rft_elements, shape, c_leg_radius_m, c_leg_span_deg, profile, medium_file, body))]
+#[pyo3(signature = (beta_rad, hip_height_m, up_m_s, forward_m_s, lateral_m_s, omega_rad_s, model, length_m, width_m, medium, unit_weight_n_m3, phi_deg, delta_deg, b_k, a, rft_coeffs, rft_zeta, rft_elements, shape, c_leg_radius_m, c_leg_span_deg, profile, medium_file, body, planar_sheared_bearing=false))]
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
 fn predict_moving<'py>(
     py: Python<'py>,
@@ -371,6 +376,7 @@ fn predict_moving<'py>(
     profile: Option<Vec<(f64, f64)>>,
     medium_file: Option<std::path::PathBuf>,
     body: Option<BodyArgs>,
+    planar_sheared_bearing: bool,
 ) -> PyResult<(Vec<Vec<f64>>, Vec<u8>)> {
     let n = beta_rad.len();
     let motion = [
@@ -406,6 +412,7 @@ fn predict_moving<'py>(
         profile,
         medium_file,
     )?;
+    spec.planar_sheared_bearing = planar_sheared_bearing;
     if let Some(b) = body {
         spec = with_body(spec, b)?;
     }
@@ -1034,7 +1041,7 @@ impl Batch {
 #[pymethods]
 impl Batch {
     #[new]
-    #[pyo3(signature = (model, length_m, width_m, medium, unit_weight_n_m3, phi_deg, delta_deg, b_k, a, rft_coeffs, rft_zeta, rft_elements, shape, c_leg_radius_m, c_leg_span_deg, profile, medium_file, body=None))]
+    #[pyo3(signature = (model, length_m, width_m, medium, unit_weight_n_m3, phi_deg, delta_deg, b_k, a, rft_coeffs, rft_zeta, rft_elements, shape, c_leg_radius_m, c_leg_span_deg, profile, medium_file, body=None, planar_sheared_bearing=false))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         model: &str,
@@ -1055,6 +1062,7 @@ impl Batch {
         profile: Option<Vec<(f64, f64)>>,
         medium_file: Option<std::path::PathBuf>,
         body: Option<BodyArgs>,
+        planar_sheared_bearing: bool,
     ) -> PyResult<Self> {
         // The hip height is given per leg and step; 0 to build.
         let mut model = spec(
@@ -1077,6 +1085,7 @@ impl Batch {
             profile,
             medium_file,
         )?;
+        model.planar_sheared_bearing = planar_sheared_bearing;
         if let Some(b) = body {
             model = with_body(model, b)?;
         }

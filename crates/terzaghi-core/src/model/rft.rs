@@ -12,7 +12,10 @@
 //! direction come from its own tangent and its own velocity about the hip, so that the same
 //! routine serves a plate, and every element may look up the measured grid.
 
-use super::{HipMotion, ModelError, Plate, Prediction, Regime, finite, positive, wrap_beta_rad};
+use super::{
+    HipMotion, ModelError, Plate, Prediction, Regime, ShearedBearing, finite, positive,
+    wrap_beta_rad,
+};
 use std::f64::consts::{FRAC_PI_2, PI};
 use std::sync::OnceLock;
 
@@ -852,6 +855,8 @@ pub struct RftModel {
     /// The stress's law in depth, where it is not RFT's linear one (boxed: most legs have
     /// none, and a model is held by value).
     depth_law: Option<Box<RftDepthLaw>>,
+    /// The bearing of sheared sand; `None`: the sand at rest.
+    sheared: Option<Box<ShearedBearing>>,
 }
 
 /// A medium's stress in depth beyond RFT's linear one, calibrated on plate-sinkage tests (a
@@ -963,6 +968,7 @@ impl RftModel {
             profile_elements: None,
             speed_law: None,
             depth_law: None,
+            sheared: None,
         })
     }
 
@@ -1057,7 +1063,7 @@ impl RftModel {
                 0.0
             },
         );
-        let [drag, lift, torque, side, roll, yaw] = rft_elements_moving(
+        let [drag, lift, torque, side, roll, yaw, lift_moment] = rft_elements_moving(
             &self.coefficients,
             elements,
             self.plate.width_m(),
@@ -1086,18 +1092,21 @@ impl RftModel {
         } else {
             Regime::Extraction
         };
-        Prediction {
-            beta_rad: beta,
-            submerged_m: submerged,
-            depth_m: depth,
-            drag_n: drag,
-            lift_n: lift,
-            hip_torque_nm: torque,
-            side_n: side,
-            roll_moment_nm: roll,
-            yaw_moment_nm: yaw,
-            regime,
-        }
+        self.sheared_bearing(
+            Prediction {
+                beta_rad: beta,
+                submerged_m: submerged,
+                depth_m: depth,
+                drag_n: drag,
+                lift_n: lift,
+                hip_torque_nm: torque,
+                side_n: side,
+                roll_moment_nm: roll,
+                yaw_moment_nm: yaw,
+                regime,
+            },
+            lift_moment,
+        )
     }
 
     /// Drag, lift and hip torque at attack angle `beta_rad` (wrapped to `[0, 2pi)`).
@@ -1166,7 +1175,7 @@ impl RftModel {
                     .alpha_along((m_still * ux, uz), (m_still * tx, tz)),
             )
         });
-        let (mut drag, mut lift, mut torque) = (0.0, 0.0, 0.0);
+        let (mut drag, mut lift, mut torque, mut lift_moment) = (0.0, 0.0, 0.0, 0.0);
         let mut side = [0.0; 3];
         for i in 0..self.elements {
             let r = (l - l_s) + (i as f64 + 0.5) * ds; // distance from the hip
@@ -1202,6 +1211,7 @@ impl RftModel {
                 drag += d_drag;
                 lift += d_lift;
                 torque += r * (d_drag * nx - d_lift * nz);
+                lift_moment -= r * d_lift * nz;
                 continue;
             }
             if vx == 0.0 && vz == 0.0 {
@@ -1234,8 +1244,9 @@ impl RftModel {
             lift += d_lift;
             // Resisting moment: the component of the element force against the rotation.
             torque += r * (d_drag * nx - d_lift * nz);
+            lift_moment -= r * d_lift * nz;
         }
-        Ok(Prediction {
+        let prediction = Prediction {
             beta_rad: beta,
             submerged_m: l_s,
             depth_m: l_s * sin_b,
@@ -1250,7 +1261,39 @@ impl RftModel {
             } else {
                 Regime::Extraction
             },
-        })
+        };
+        Ok(self.sheared_bearing(prediction, lift_moment))
+    }
+
+    /// `p` (the sand at rest) brought to the model's sheared bearing, if it has one: the lift,
+    /// and the part of the hip torque its vertical stresses give (`lift_moment_nm`), times
+    /// the share the resultant's lean leaves ([`ShearedBearing::share`]).
+    fn sheared_bearing(&self, p: Prediction, lift_moment_nm: f64) -> Prediction {
+        let Some(b) = self.sheared.as_deref() else {
+            return p;
+        };
+        let share = b.share(p.drag_n.hypot(p.side_n), p.lift_n);
+        if share == 1.0 {
+            return p;
+        }
+        Prediction {
+            lift_n: p.lift_n * share,
+            hip_torque_nm: p.hip_torque_nm - (1.0 - share) * lift_moment_nm,
+            ..p
+        }
+    }
+
+    /// The model with the bearing of sheared sand: its lift (and the lift's hip torque) times
+    /// the share the resultant of the sand at rest leaves (a foot sliding in stance, a C-leg
+    /// turning under the robot's weight); `None`: the sand at rest, as before.
+    pub fn with_sheared_bearing(mut self, bearing: Option<ShearedBearing>) -> Self {
+        self.sheared = bearing.map(Box::new);
+        self
+    }
+
+    /// The sheared bearing, if any.
+    pub fn sheared(&self) -> Option<&ShearedBearing> {
+        self.sheared.as_deref()
     }
 }
 
@@ -1410,7 +1453,7 @@ fn rft_elements_moving(
     speed_law: Option<&RftSpeedLaw>,
     depth_law: Option<&RftDepthLaw>,
     across: Option<&Across>,
-) -> [f64; 6] {
+) -> [f64; 7] {
     let still = omega_rad_s == 0.0 && hip_velocity_m_s == [0.0, 0.0] && across.is_none();
     let (omega, v_hip) = if still || !omega_rad_s.is_finite() {
         (1.0, [0.0, 0.0])
@@ -1424,7 +1467,7 @@ fn rft_elements_moving(
     // A point `s u + q n` is `-(s + i q) e^(i beta)` in the plane (x + i z), so a segment's
     // direction turns with the chord, and twice its angle by `e^(2 i beta)`.
     let (c2b, s2b) = (cos_b * cos_b - sin_b * sin_b, 2.0 * sin_b * cos_b);
-    let (mut drag, mut lift, mut torque) = (0.0, 0.0, 0.0);
+    let (mut drag, mut lift, mut torque, mut lift_moment) = (0.0, 0.0, 0.0, 0.0);
     let mut side = [0.0; 3];
     for &[s, q, len, c2, s2, ds, dq] in &elements.elements {
         let p = (s * u.0 + q * n.0, s * u.1 + q * n.1);
@@ -1484,8 +1527,9 @@ fn rft_elements_moving(
         drag -= fx;
         lift += fz;
         torque += p.1 * fx - p.0 * fz;
+        lift_moment -= p.0 * fz;
     }
-    [drag, lift, torque, side[0], side[1], side[2]]
+    [drag, lift, torque, side[0], side[1], side[2], lift_moment]
 }
 
 /// The speed of a velocity `(vx, vz)`: the square root of the sum of squares,
@@ -1597,6 +1641,56 @@ pub fn check_profile(line: &[(f64, f64)]) -> Result<(), String> {
 /// Both ends, `-pi/2` and `pi/2`, are the same vertical plate and give the same stress.
 fn wrap_half_pi(angle: f64) -> f64 {
     (angle + FRAC_PI_2).rem_euclid(PI) - FRAC_PI_2
+}
+
+#[cfg(test)]
+mod sheared_tests {
+    use super::*;
+
+    /// A plate and a C-leg with the bearing of sheared sand: the drag as at rest, the lift
+    /// times the share the resultant's lean leaves, and the hip torque less the lift's part of
+    /// it (for a flat plate, the lift's arm lies on the submerged length, `r cos beta`).
+    #[test]
+    fn a_planar_leg_bears_less_where_its_resultant_leans_and_the_same_where_it_does_not() {
+        let plate = Plate::new(0.1, 0.02, 0.05).unwrap();
+        let c = RftCoefficients::Fit(RftFit::POPPY_LP);
+        let b = ShearedBearing::new(0.35, 2.0).unwrap();
+        let flat = RftModel::new(plate, c.clone(), 100).unwrap();
+        let curved = RftModel::with_profile(plate, c, 100, c_leg_profile(0.05, PI, 24)).unwrap();
+        for rest in [flat, curved] {
+            let sheared = rest.clone().with_sheared_bearing(Some(b));
+            let (mut lost, mut kept) = (0, 0);
+            for deg in (30..=150).step_by(10) {
+                let beta = f64::from(deg).to_radians();
+                let (p0, p1) = (
+                    rest.evaluate(beta).unwrap(),
+                    sheared.evaluate(beta).unwrap(),
+                );
+                let share = b.share(p0.drag_n.hypot(p0.side_n), p0.lift_n);
+                assert_eq!(p1.drag_n, p0.drag_n);
+                assert!((p1.lift_n - p0.lift_n * share).abs() <= 1e-12 * p0.lift_n.abs());
+                if share < 1.0 {
+                    lost += 1;
+                    assert!(p1.lift_n < p0.lift_n && p1.lift_n > 0.0);
+                    if rest.profile().is_none() {
+                        // The lift's arm about the hip: on the submerged length.
+                        let arm = (p0.hip_torque_nm - p1.hip_torque_nm) / (p0.lift_n - p1.lift_n);
+                        let (l, l_s) = (0.1, p0.submerged_m);
+                        let c = beta.cos();
+                        let (lo, hi) = ((l - l_s) * c, l * c);
+                        assert!(
+                            arm >= lo.min(hi) - 1e-12 && arm <= lo.max(hi) + 1e-12,
+                            "{deg} deg: arm {arm} outside {lo}..{hi}"
+                        );
+                    }
+                } else {
+                    kept += 1;
+                    assert_eq!(p1, p0);
+                }
+            }
+            assert!(lost > 0 && kept > 0, "{lost} lost, {kept} kept");
+        }
+    }
 }
 
 #[cfg(test)]

@@ -741,7 +741,12 @@ impl LegKernel {
         let plan = match &model {
             ForceModel::Rft(m) => {
                 let parts: RftParts<'_> = m.batch_parts();
-                match (parts.coefficients, parts.has_speed_law) {
+                // A leg with the bearing of sheared sand goes leg by leg: its share depends on
+                // the whole leg's resultant, which the element loops do not form.
+                match (
+                    parts.coefficients,
+                    parts.has_speed_law || m.sheared().is_some(),
+                ) {
                     (super::RftCoefficients::Fit(f), false) => {
                         let fit = Fit {
                             a00: f.a00,
