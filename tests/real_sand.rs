@@ -966,3 +966,92 @@ fn a_hip_far_below_or_above_the_bed_is_skipped_or_zero() {
         assert!(lift.is_finite() && lift < 1e4, "{lift}");
     }
 }
+
+/// Every law `calibrate` fits writes a file its readers accept: `media`, `predict --model
+/// sinkage`, the node's configuration and, for the RFT law, `steady`; on the shared runs (where
+/// Bekker's `k_c` and Terzaghi's `N_gamma` fit best below 0) and on the 60 mm runs alone. A
+/// value held on its bound is said so.
+#[test]
+fn every_law_calibrate_fits_is_read_back_by_every_reader() {
+    let dir = tempfile::tempdir().unwrap();
+    let all = runs();
+    let small: Vec<PathBuf> = all
+        .iter()
+        .filter(|r| diameter_mm(r) == 60)
+        .cloned()
+        .collect();
+    let mut on_bound = 0;
+    for (set, tests) in [("all", &all), ("60mm", &small)] {
+        for law in [
+            "terzaghi_footing",
+            "bekker",
+            "reece",
+            "rft_depth_power",
+            "depth_width_power",
+        ] {
+            let file = dir.path().join(format!("{set}_{law}.yaml"));
+            let mut c = Command::new(terzaghi());
+            c.current_dir(repo()).arg("calibrate").args(tests.iter());
+            let printed = ok(&c.args(["--law", law, "-o"]).arg(&file).output().unwrap());
+            on_bound += printed.matches("on its bound").count();
+            let f = file.to_str().unwrap();
+            ok(&Command::new(terzaghi())
+                .args(["media", f])
+                .output()
+                .unwrap());
+            ok(&Command::new(terzaghi())
+                .args(["predict", "--model", "sinkage", "--medium-file", f])
+                .args([
+                    "--width-m",
+                    "0.06",
+                    "--length-m",
+                    "0.06",
+                    "--hip-height-m",
+                    "0",
+                ])
+                .args(["--depth-m", "0:0.03:0.01"])
+                .output()
+                .unwrap());
+            let ros = terzaghi::config::RosArgs {
+                params: [
+                    ("legs", "[leg]"),
+                    ("model", "sinkage"),
+                    ("leg.joint", "hip"),
+                    ("leg.length_m", "0.06"),
+                    ("leg.width_m", "0.06"),
+                    ("leg.hip_height_m", "0.0"),
+                    ("leg.medium", f),
+                ]
+                .into_iter()
+                .map(|(k, v)| (k.to_string(), terzaghi::config::parse_value(v)))
+                .collect(),
+                ..Default::default()
+            };
+            let params = terzaghi::config::load_params(&ros, "terzaghi", "/").unwrap();
+            terzaghi::config::NodeConfig::from_params(&params, "terzaghi", "/", &[])
+                .unwrap_or_else(|e| panic!("{set} {law}: the node refuses its file: {e}"));
+            if law == "rft_depth_power" {
+                let runs = dir.path().join("runs.csv");
+                std::fs::write(
+                    &runs,
+                    "load_n,hub_vx_m_s,omega_rad_s,slip_angle_deg\n20,0.01,0.1,0\n",
+                )
+                .unwrap();
+                ok(&Command::new(terzaghi())
+                    .args(["steady", runs.to_str().unwrap(), "--shape", "wheel"])
+                    .args([
+                        "--radius-m",
+                        "0.058",
+                        "--width-m",
+                        "0.05",
+                        "--medium-file",
+                        f,
+                    ])
+                    .output()
+                    .unwrap());
+            }
+        }
+    }
+    // Bekker's k_c and Terzaghi's N_gamma on the shared runs, at the least.
+    assert!(on_bound >= 2, "{on_bound} values on their bounds");
+}

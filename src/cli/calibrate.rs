@@ -488,7 +488,9 @@ fn render_plate_part(p: &PlatePart) -> String {
             .iter()
             .zip(f.model.params.iter().zip(&f.std_dev))
             .map(|(n, (v, sd))| {
-                if *sd == 0.0 && f.width_held {
+                if f.on_bound.iter().any(|(b, _)| b == n) {
+                    format!("{n} {} (on its bound: the best fit lies beyond)", sig(*v))
+                } else if *sd == 0.0 && f.width_held {
                     format!("{n} {} (held: one plate size)", sig(*v))
                 } else {
                     format!("{n} {} +- {}", sig(*v), sig(*sd))

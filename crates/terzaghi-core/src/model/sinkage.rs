@@ -175,6 +175,35 @@ impl SinkageLaw {
         }
     }
 
+    /// The physical range of each parameter, in the order of [`Self::param_names`]: the one
+    /// definition that the medium file's readers check ([`SinkageModel::new`]) and the fit
+    /// keeps to ([`crate::ident::sinkage::fit_sinkage`]). The moduli and bearing factors are
+    /// not negative; the exponents of depth lie in `(0, MAX_EXPONENT]`, the width exponent in
+    /// `(-MAX_EXPONENT, MAX_EXPONENT]`.
+    pub fn param_ranges(self) -> &'static [ParamRange] {
+        const NOT_NEGATIVE: ParamRange = ParamRange {
+            lo: 0.0,
+            hi: f64::INFINITY,
+            lo_open: false,
+        };
+        const DEPTH_EXPONENT: ParamRange = ParamRange {
+            lo: 0.0,
+            hi: MAX_EXPONENT,
+            lo_open: true,
+        };
+        const WIDTH_EXPONENT: ParamRange = ParamRange {
+            lo: -MAX_EXPONENT,
+            hi: MAX_EXPONENT,
+            lo_open: true,
+        };
+        match self {
+            SinkageLaw::TerzaghiFooting => &[NOT_NEGATIVE, NOT_NEGATIVE],
+            SinkageLaw::Bekker => &[NOT_NEGATIVE, NOT_NEGATIVE, DEPTH_EXPONENT],
+            SinkageLaw::Reece | SinkageLaw::RftDepthPower => &[NOT_NEGATIVE, DEPTH_EXPONENT],
+            SinkageLaw::DepthWidthPower => &[NOT_NEGATIVE, DEPTH_EXPONENT, WIDTH_EXPONENT],
+        }
+    }
+
     /// The parameter that scales the law's pressure in proportion (the one an online estimator
     /// learns as the medium's scale), as an index into its parameters; Bekker's two moduli
     /// scale together.
@@ -193,6 +222,58 @@ impl SinkageLaw {
             SinkageLaw::Bekker => Some((0, 0.0)),
             SinkageLaw::DepthWidthPower => Some((2, 0.0)),
             _ => None,
+        }
+    }
+}
+
+/// The range a sinkage parameter must lie in: `lo..=hi`, or `lo` left out where `lo_open`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ParamRange {
+    /// The lower bound.
+    pub lo: f64,
+    /// The upper bound (infinite: none).
+    pub hi: f64,
+    /// Whether `lo` itself lies outside.
+    pub lo_open: bool,
+}
+
+impl ParamRange {
+    /// Whether `v` lies in the range.
+    pub fn contains(&self, v: f64) -> bool {
+        (if self.lo_open {
+            v > self.lo
+        } else {
+            v >= self.lo
+        }) && v <= self.hi
+    }
+
+    /// The range in words: `>= 0`, `(0, 5]`.
+    pub fn text(&self) -> String {
+        match (self.hi.is_finite(), self.lo_open) {
+            (false, false) => format!(">= {}", self.lo),
+            (false, true) => format!("> {}", self.lo),
+            (true, open) => format!("{}{}, {}]", if open { "(" } else { "[" }, self.lo, self.hi),
+        }
+    }
+
+    /// The value of the range nearest `v`: `v` itself inside it; at an open bound, a
+    /// thousandth of the range's width (or of 1) inside.
+    pub fn nearest(&self, v: f64) -> f64 {
+        if self.contains(v) {
+            return v;
+        }
+        if v > self.hi {
+            return self.hi;
+        }
+        if self.lo_open {
+            let width = if self.hi.is_finite() {
+                self.hi - self.lo
+            } else {
+                1.0
+            };
+            self.lo + 1e-3 * width
+        } else {
+            self.lo
         }
     }
 }
@@ -248,36 +329,16 @@ impl SinkageModel {
             unit_weight_n_m3,
             rft_alpha_z_n_cm3,
         };
-        // Exponents of depth (and width) within what any soil shows, with room: a law that
-        // rises as z^1e17 has a pressure that is no number a metre down.
-        let exponent = |name: &str, v: f64, lo: f64| {
-            if v > lo && v <= MAX_EXPONENT {
-                Ok(())
-            } else {
-                Err(ModelError::OutOfRange {
+        // Every value within its physical range (exponents within what any soil shows, with
+        // room: a law that rises as z^1e17 has a pressure that is no number a metre down).
+        for ((v, name), range) in m.params.iter().zip(names).zip(law.param_ranges()) {
+            if !range.contains(*v) {
+                return Err(ModelError::OutOfRange {
                     what: param_label(name),
-                    value: v,
-                    range: format!("({lo}, {MAX_EXPONENT}]"),
-                })
+                    value: *v,
+                    range: range.text(),
+                });
             }
-        };
-        match law {
-            SinkageLaw::Bekker | SinkageLaw::Reece | SinkageLaw::RftDepthPower => {
-                exponent("n", m.params[names.len() - 1], 0.0)?;
-            }
-            SinkageLaw::DepthWidthPower => {
-                exponent("n", m.params[1], 0.0)?;
-                exponent(names[2], m.params[2], -MAX_EXPONENT)?;
-            }
-            SinkageLaw::TerzaghiFooting => {}
-        }
-        let scale = law.scale_params()[law.scale_params().len() - 1];
-        if m.params[scale] < 0.0 {
-            return Err(ModelError::OutOfRange {
-                what: param_label(names[scale]),
-                value: m.params[scale],
-                range: ">= 0".into(),
-            });
         }
         // Finite at the deepest and widest a leg or plate of this crate reaches: 1 m down
         // under a plate 1 m across, and at 1 mm under one of 1 mm.
