@@ -378,6 +378,13 @@ pub struct MediumSourceTest {
     pub r2: f64,
     /// RMSE of its force (N).
     pub rmse_n: f64,
+    /// Depth samples skipped as a potentiometer's spikes (absent: none).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub spikes_skipped: usize,
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 impl MediumFile {
@@ -422,6 +429,7 @@ impl MediumFile {
                         loaded_rows: f.rows,
                         r2: f.r2,
                         rmse_n: f.rmse_n,
+                        spikes_skipped: 0,
                     })
                     .collect(),
             },

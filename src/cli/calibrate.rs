@@ -351,6 +351,9 @@ pub fn run(a: CalibrateArgs) -> Result<()> {
                 &command,
                 &p.unit_weight_source,
             );
+            for (t, test) in m.source.tests.iter_mut().zip(&p.tests) {
+                t.spikes_skipped = test.spike_rows;
+            }
             m.rft_shape = shape
                 .as_ref()
                 .map(|s| MediumRftShape::of_fit(s, &intrusion_files));
@@ -390,7 +393,7 @@ pub fn run(a: CalibrateArgs) -> Result<()> {
                 serde_json::json!(p.tests.iter().map(|t| serde_json::json!({
                 "file": t.file, "plate": t.plate.label(), "depth_column": t.depth_column,
                 "rows": t.rows.len(), "loaded_rows": t.loaded().rows.len(),
-                "skipped_rows": t.skipped_rows,
+                "skipped_rows": t.skipped_rows, "spike_rows": t.spike_rows,
             })).collect::<Vec<_>>());
             v["unit_weight_n_m3"] = serde_json::json!(p.unit_weight);
             v["fits"] = serde_json::json!(p.fits);
@@ -470,6 +473,10 @@ fn render_plate_part(p: &PlatePart) -> String {
             t.deepest_m() * 1e3,
             if t.skipped_rows > 0 {
                 format!(", {} skipped (not finite)", t.skipped_rows)
+            } else {
+                String::new()
+            } + &if t.spike_rows > 0 {
+                format!(", {} skipped (depth spikes)", t.spike_rows)
             } else {
                 String::new()
             }

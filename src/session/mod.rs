@@ -63,6 +63,7 @@ pub mod identify;
 pub mod inputs;
 pub mod intrusion_test;
 pub mod legs;
+pub mod plate_export;
 pub mod plate_test;
 #[cfg(feature = "node")]
 pub mod record;

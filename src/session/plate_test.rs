@@ -71,6 +71,8 @@ pub struct PlateTest {
     pub rows: Vec<TestRow>,
     /// Rows skipped: a depth, force or time that is not a finite number.
     pub skipped_rows: usize,
+    /// Rows skipped as a potentiometer's spikes ([`spikes`]).
+    pub spike_rows: usize,
     /// The regime of each row.
     pub regimes: Vec<SinkageRegime>,
     /// The JSON beside a shared run, if there is one.
@@ -171,6 +173,27 @@ pub fn parse_test(
     regimes: &RegimeOptions,
 ) -> Result<PlateTest> {
     let name = file.display().to_string();
+    // A bevameter's export: free text, a header of force and sinkage with units, no time.
+    if let Some(e) = super::plate_export::parse_export(&name, text, plate)? {
+        let Some(plate) = plate else {
+            bail!(
+                "{name} is a bevameter's export (force and sinkage, no time): give its plate (--plate-diameter-m, or --plate-width-m and --plate-length-m)"
+            );
+        };
+        let rows = e
+            .rows
+            .iter()
+            .enumerate()
+            .map(|(k, &(depth_m, force_n, _))| TestRow {
+                t_s: k as f64 * super::plate_export::ROW_STEP_S,
+                depth_m,
+                force_n,
+                rig_depth_m: depth_m,
+                raw_force_n: None,
+            })
+            .collect();
+        return finish(file, plate, "sinkage", rows, 0, None, regimes);
+    }
     let (mut rdr, headers) = crate::session::files::csv_table(&name, text)?;
     if headers.iter().any(|h| h == "z_raw_mm") {
         bail!(
@@ -281,6 +304,37 @@ pub fn parse_test(
         last_t = row.t_s;
         rows.push(row);
     }
+    finish(
+        file,
+        plate,
+        depth_column,
+        rows,
+        skipped_rows,
+        sidecar,
+        regimes,
+    )
+}
+
+/// A test's rows, read: potentiometer spikes skipped and counted, then checked (a loaded part,
+/// a depth that does not go back before an intrusion's deepest point) and told into regimes.
+fn finish(
+    file: &Path,
+    plate: PlateShape,
+    depth_column: &'static str,
+    rows: Vec<TestRow>,
+    skipped_rows: usize,
+    sidecar: Option<RunSidecar>,
+    regimes: &RegimeOptions,
+) -> Result<PlateTest> {
+    let name = file.display().to_string();
+    let spike = spikes(&rows.iter().map(|r| r.rig_depth_m).collect::<Vec<_>>());
+    let spike_rows = spike.iter().filter(|s| **s).count();
+    let rows: Vec<TestRow> = rows
+        .into_iter()
+        .zip(&spike)
+        .filter(|(_, s)| !**s)
+        .map(|(r, _)| r)
+        .collect();
     let deepest = rows
         .iter()
         .map(|r| r.depth_m)
@@ -309,7 +363,7 @@ pub fn parse_test(
         for r in &part[..i_deepest] {
             if r.depth_m > 0.0 && r.depth_m < max_so_far - DEPTH_BACK_TOLERANCE_M {
                 bail!(
-                    "{name}: the depth goes back from {:.2} mm to {:.2} mm at t = {} s, before the intrusion's deepest point ({:.2} mm): a plate-sinkage test pushes down once per intrusion, and leaves the medium (at least {} mm above the surface) before the next (is the depth's sign flipped?)",
+                    "{name}: the depth goes back from {:.2} mm to {:.2} mm at t = {} s, and stays back, before the intrusion's deepest point ({:.2} mm): the plate was raised and pushed again within one intrusion; a plate-sinkage test pushes down once per intrusion, and leaves the medium (at least {} mm above the surface) before the next: split the test there, or lift the plate clear between pushes",
                     max_so_far * 1e3,
                     r.depth_m * 1e3,
                     r.t_s,
@@ -339,10 +393,51 @@ pub fn parse_test(
         depth_column,
         rows,
         skipped_rows,
+        spike_rows,
         regimes,
         sidecar,
     })
 }
+
+/// Which depth samples are a potentiometer's spikes: a sample (or two together) that leaves
+/// the samples about it, which agree with each other, by far more than the rig moves between
+/// samples (ten times the test's median step, and at least 2 mm).
+pub fn spikes(depth_m: &[f64]) -> Vec<bool> {
+    let n = depth_m.len();
+    let mut out = vec![false; n];
+    if n < 5 {
+        return out;
+    }
+    let mut steps: Vec<f64> = depth_m.windows(2).map(|w| (w[1] - w[0]).abs()).collect();
+    steps.sort_by(f64::total_cmp);
+    let jump = (10.0 * steps[steps.len() / 2]).max(SPIKE_MIN_M);
+    for i in 0..n {
+        // Two samples each side, skipping a neighbour that is itself far (a spike of two).
+        let around: Vec<f64> = [
+            i.wrapping_sub(3),
+            i.wrapping_sub(2),
+            i.wrapping_sub(1),
+            i + 1,
+            i + 2,
+            i + 3,
+        ]
+        .into_iter()
+        .filter(|&j| j < n)
+        .map(|j| depth_m[j])
+        .collect();
+        let mut a = around.clone();
+        a.sort_by(f64::total_cmp);
+        let mid = a[a.len() / 2];
+        let close = a.iter().filter(|v| (**v - mid).abs() <= 0.5 * jump).count();
+        if (depth_m[i] - mid).abs() > jump && close + 2 >= a.len() {
+            out[i] = true;
+        }
+    }
+    out
+}
+
+/// The least a spike leaves its neighbours by (m).
+const SPIKE_MIN_M: f64 = 2e-3;
 
 /// The rows of each intrusion: the maximal stretches between rows at least
 /// [`OUT_OF_MEDIUM_M`] above the surface that go below it.
