@@ -1055,3 +1055,33 @@ fn every_law_calibrate_fits_is_read_back_by_every_reader() {
     // Bekker's k_c and Terzaghi's N_gamma on the shared runs, at the least.
     assert!(on_bound >= 2, "{on_bound} values on their bounds");
 }
+
+/// With two plate sizes, each fold of `--cross-validate` trains on one: the width terms it
+/// cannot tell are held, and its table says so.
+#[test]
+fn cross_validation_says_what_a_fold_of_one_size_holds() {
+    let two: Vec<PathBuf> = runs()
+        .into_iter()
+        .filter(|r| diameter_mm(r) != 100)
+        .collect();
+    let out = Command::new(terzaghi())
+        .current_dir(repo())
+        .args(["calibrate", "--cross-validate"])
+        .args(two.iter())
+        .output()
+        .unwrap();
+    let text = ok(&out);
+    let held = &text[text
+        .find("Held in the folds")
+        .expect("a note of what folds held")..];
+    for law in ["depth_width_power", "bekker"] {
+        for size in ["disc 60 mm", "disc 80 mm"] {
+            assert!(
+                held.lines().any(|l| l.starts_with(law)
+                    && l.contains(size)
+                    && l.contains("the training set has one plate size")),
+                "{law} without {size}:\n{held}"
+            );
+        }
+    }
+}

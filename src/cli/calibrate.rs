@@ -787,5 +787,26 @@ pub fn render_cross_validation(held: &[HeldOut]) -> String {
             z.predicted_stress_ratio
         );
     }
+    // What each fold held, once per law and held-out size.
+    let mut said: Vec<(SinkageLaw, String)> = Vec::new();
+    for h in held.iter().filter(|h| !h.held.is_empty()) {
+        let key = (h.law, h.fit.plate.clone());
+        if said.contains(&key) {
+            continue;
+        }
+        if said.is_empty() {
+            s += "
+Held in the folds
+";
+        }
+        s += &format!(
+            "{:<18} without {:<12} {}
+",
+            h.law.name(),
+            h.fit.plate,
+            h.held.join("; ")
+        );
+        said.push(key);
+    }
     s
 }

@@ -578,6 +578,9 @@ pub struct HeldOut {
     pub measured_stress_ratio: f64,
     /// The same ratio as the law predicts it.
     pub predicted_stress_ratio: f64,
+    /// What the fold's fit held, in words: its width term where the training set has one plate
+    /// size, a value on its physical bound. Empty: nothing.
+    pub held: Vec<String>,
 }
 
 fn log_line(rows: &[(f64, f64)]) -> Option<(f64, f64)> {
@@ -638,6 +641,19 @@ pub fn cross_validate(tests: &[PlateTest], unit_weight_n_m3: f64) -> Result<Vec<
                 .map(|t| fit.model.pressure_pa(&t.plate, STRESS_DEPTH_M))
                 .sum::<f64>()
                 / train.len().max(1) as f64;
+            let mut held: Vec<String> = fit
+                .on_bound
+                .iter()
+                .map(|(name, bound)| format!("{name} on its bound {bound}"))
+                .collect();
+            if fit.width_held
+                && let Some((i, neutral)) = law.width_param()
+            {
+                held.push(format!(
+                    "{} held at {neutral}: the training set has one plate size",
+                    law.param_names()[i]
+                ));
+            }
             for test in loaded.iter().filter(|t| &t.plate.label() == size) {
                 let judged = judge(&fit.model, std::slice::from_ref(test)).remove(0);
                 let predicted_rows: Vec<(f64, f64)> = test
@@ -654,6 +670,7 @@ pub fn cross_validate(tests: &[PlateTest], unit_weight_n_m3: f64) -> Result<Vec<
                         .map_or(f64::NAN, |s| s / train_mean),
                     predicted_stress_ratio: fit.model.pressure_pa(&test.plate, STRESS_DEPTH_M)
                         / predicted_train,
+                    held: held.clone(),
                 });
             }
         }
