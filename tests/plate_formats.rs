@@ -110,6 +110,54 @@ fn a_bevameters_exports_calibrate_with_their_spikes_counted() {
     }
 }
 
+/// Three sizes together, each export's plate named in its own text (`Plate: disc 40 mm`): the
+/// depth-width power law's three values come back within their standard deviations or 1 %.
+#[test]
+fn exports_of_three_sizes_give_back_the_law_that_made_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut files = Vec::new();
+    for (d, units) in [
+        (0.040, ("N", "mm")),
+        (0.045, ("kN", "m")),
+        (0.060, ("N", "mm")),
+    ] {
+        let p = dir.path().join(format!("disc{}.csv", (d * 1e3) as u32));
+        export(&p, d, 1.0, units, &[60]);
+        files.push(p);
+    }
+    let out = dir.path().join("m.yaml");
+    let mut c = Command::new(terzaghi());
+    c.current_dir(repo()).arg("calibrate").args(&files);
+    let printed = ok(&c
+        .args([
+            "--law",
+            "depth_width_power",
+            "--unit-weight-n-m3",
+            "13000",
+            "-o",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap());
+    assert_eq!(
+        printed.matches("1 skipped (depth spikes)").count(),
+        3,
+        "{printed}"
+    );
+    let m: serde_yaml_ng::Value =
+        serde_yaml_ng::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    for (name, truth) in [("k_pa", K_PA), ("n", N), ("m", M)] {
+        let (v, sd) = (
+            m["params"][name].as_f64().unwrap(),
+            m["std_dev"][name].as_f64().unwrap(),
+        );
+        assert!(
+            (v - truth).abs() <= sd.max(0.01 * truth.abs()),
+            "{name}: {v} +- {sd} against {truth}"
+        );
+    }
+}
+
 /// What is no test is refused by name: an empty export, one row, a header with no numbers, a
 /// unit that does not parse, a plate of zero or negative size.
 #[test]
@@ -159,10 +207,16 @@ fn a_bad_export_is_refused_naming_file_and_line() {
         assert_eq!(o.status.code(), Some(2), "{err}");
         assert!(err.contains(bad), "{err}");
     }
-    // Without its plate an export names what it needs.
+    // Without its plate (no flag, and no line of its text names one) an export names what it
+    // needs.
+    let f = dir.path().join("plateless.csv");
+    std::fs::write(&f, "Bevameter\nForce (N), Sinkage (mm)\n1, 1\n2, 2\n3, 3\n").unwrap();
     let o = calibrate(&[f.to_str().unwrap()]);
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("--plate-diameter-m"), "{err}");
+    assert!(
+        err.contains("--plate-diameter-m") && err.contains("plateless.csv"),
+        "{err}"
+    );
 }
 
 /// The example of each layout in docs/real-data.md calibrates; the export reads as the docs say:

@@ -14,6 +14,47 @@ pub struct Export {
     pub rows: Vec<(f64, f64, usize)>,
     /// Lines of free text before the header.
     pub preamble_lines: usize,
+    /// The plate its free text names (`Plate: disc 45 mm`, `Plate: rectangle 50 x 100 mm`).
+    pub plate: Option<PlateShape>,
+}
+
+/// The plate a line of free text names: `plate ... disc D mm` (or `diameter D mm`), `plate ...
+/// rectangle W x L mm` (mm, cm or m); `None` where the line names none; an error naming the
+/// line where it names one that is no plate (zero or negative).
+fn plate_of(line: &str, file: &str, at: usize) -> Result<Option<PlateShape>> {
+    let l = line.to_ascii_lowercase();
+    if !l.contains("plate") {
+        return Ok(None);
+    }
+    let unit = if l.contains("mm") {
+        1e-3
+    } else if l.contains("cm") {
+        1e-2
+    } else if l.trim_end().ends_with('m') {
+        1.0
+    } else {
+        return Ok(None);
+    };
+    let nums: Vec<f64> = l
+        .split(|c: char| !(c.is_ascii_digit() || c == '.' || c == '-'))
+        .filter_map(|t| t.parse::<f64>().ok())
+        .collect();
+    let shape = if l.contains("disc") || l.contains("diameter") || l.contains("circular") {
+        match nums.first() {
+            Some(d) => PlateShape::disc(d * unit),
+            None => return Ok(None),
+        }
+    } else if l.contains("rectangle") || l.contains(" x ") {
+        match nums.as_slice() {
+            [w, len, ..] => PlateShape::rectangle(w * unit, len * unit),
+            _ => return Ok(None),
+        }
+    } else {
+        return Ok(None);
+    };
+    shape
+        .map(Some)
+        .map_err(|e| anyhow::anyhow!("{file} line {at}: {e} ({:?})", line.trim()))
 }
 
 /// The time a row of an export is given after the one before it (s).
@@ -122,7 +163,13 @@ pub fn parse_export(file: &str, text: &str, plate: Option<PlateShape>) -> Result
             lines[header_at].trim()
         );
     };
-    let area = match (kind, plate) {
+    let mut named = None;
+    for (k, l) in lines.iter().enumerate().take(header_at) {
+        if let Some(p) = plate_of(l, file, k + 1)? {
+            named = Some(p);
+        }
+    }
+    let area = match (kind, plate.or(named)) {
         ("pressure", Some(p)) => p.area_m2(),
         ("pressure", None) => bail!(
             "{file} line {}: a pressure column needs the plate's area: give its plate (--plate-diameter-m, or --plate-width-m and --plate-length-m)",
@@ -158,6 +205,7 @@ pub fn parse_export(file: &str, text: &str, plate: Option<PlateShape>) -> Result
     Ok(Some(Export {
         rows,
         preamble_lines: header_at,
+        plate: named,
     }))
 }
 
@@ -187,6 +235,25 @@ mod tests {
         let e = parse_export("t.csv", text, None).unwrap().unwrap();
         assert_eq!(e.preamble_lines, 3);
         assert_eq!(e.rows, vec![(1e-3, 10.0, 5), (2e-3, 20.0, 6)]);
+        assert_eq!(e.plate, None);
+        let named = "Plate: disc 45 mm\nForce (N), Sinkage (mm)\n1,1\n2,2\n";
+        let e = parse_export("t.csv", named, None).unwrap().unwrap();
+        assert_eq!(e.plate, Some(PlateShape::disc(0.045).unwrap()));
+        let e = parse_export(
+            "t.csv",
+            "Plate: rectangle 50 x 100 mm\nForce (N), Sinkage (mm)\n1,1\n2,2\n",
+            None,
+        )
+        .unwrap()
+        .unwrap();
+        assert_eq!(e.plate, Some(PlateShape::rectangle(0.05, 0.1).unwrap()));
+        let e = parse_export(
+            "t.csv",
+            "Plate: disc 0 mm\nForce (N), Sinkage (mm)\n1,1\n2,2\n",
+            None,
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("t.csv line 1"), "{e}");
         // The other layouts are no export.
         assert!(
             parse_export("t.csv", "t_s,depth_m,force_n\n0,0,0\n", None)

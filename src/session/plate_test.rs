@@ -175,9 +175,10 @@ pub fn parse_test(
     let name = file.display().to_string();
     // A bevameter's export: free text, a header of force and sinkage with units, no time.
     if let Some(e) = super::plate_export::parse_export(&name, text, plate)? {
-        let Some(plate) = plate else {
+        // The flags' plate, else the one its free text names.
+        let Some(plate) = plate.or(e.plate) else {
             bail!(
-                "{name} is a bevameter's export (force and sinkage, no time): give its plate (--plate-diameter-m, or --plate-width-m and --plate-length-m)"
+                "{name} is a bevameter's export (force and sinkage, no time) whose text names no plate (as \"Plate: disc 45 mm\"): give its plate (--plate-diameter-m, or --plate-width-m and --plate-length-m)"
             );
         };
         let rows = e
