@@ -177,7 +177,7 @@ impl SinkageLaw {
 
     /// The physical range of each parameter, in the order of [`Self::param_names`]: the one
     /// definition that the medium file's readers check ([`SinkageModel::new`]) and the fit
-    /// keeps to ([`crate::ident::sinkage::fit_sinkage`]). The moduli and bearing factors are
+    /// keeps to (`ident::sinkage::fit_sinkage`). The moduli and bearing factors are
     /// not negative; the exponents of depth lie in `(0, MAX_EXPONENT]`, the width exponent in
     /// `(-MAX_EXPONENT, MAX_EXPONENT]`.
     pub fn param_ranges(self) -> &'static [ParamRange] {
