@@ -185,6 +185,19 @@ pub fn csv_table<'t>(name: &str, text: &'t str) -> Result<(csv::Reader<&'t [u8]>
     Ok((rdr, headers))
 }
 
+/// The columns of `file`'s header (its first line that is not a `#` comment), read from its
+/// first 64 kB alone (a recording may be gigabytes, and is not text); `None` where it cannot be
+/// read or has no such line. What tells a test's kind by its columns.
+pub fn header_columns(file: &Path) -> Option<Vec<String>> {
+    use std::io::{BufRead, Read};
+    let f = std::fs::File::open(file).ok()?;
+    let header = std::io::BufReader::new(f.take(64 * 1024))
+        .lines()
+        .map_while(Result::ok)
+        .find(|l| !l.starts_with('#'))?;
+    Some(header.split(',').map(|c| c.trim().to_string()).collect())
+}
+
 /// The field `text` of column `what` on line `line` of the file `name` as a finite number, or
 /// an error naming the file, the line and the value.
 pub fn csv_number(name: &str, line: usize, what: &str, text: &str) -> Result<f64> {

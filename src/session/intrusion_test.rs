@@ -67,18 +67,8 @@ pub struct IntrusionFile {
 /// Whether `file`'s header (its first line that is not a `#` comment) names the columns of an
 /// intrusion test. Reads the header alone.
 pub fn is_intrusion_test(file: &Path) -> bool {
-    use std::io::{BufRead, Read};
-    let Ok(f) = std::fs::File::open(file) else {
-        return false;
-    };
-    let header = std::io::BufReader::new(f.take(64 * 1024))
-        .lines()
-        .map_while(Result::ok)
-        .find(|l| !l.starts_with('#'));
-    header.is_some_and(|h| {
-        let cols: Vec<&str> = h.split(',').map(str::trim).collect();
-        cols.contains(&"x_m") && cols.contains(&"fx_n")
-    })
+    super::files::header_columns(file)
+        .is_some_and(|cols| cols.iter().any(|c| c == "x_m") && cols.iter().any(|c| c == "fx_n"))
 }
 
 /// Reads an intrusion test: its CSV and the JSON of the same name beside it. A missing or

@@ -744,20 +744,10 @@ pub fn by_size(held: &[HeldOut]) -> Vec<HeldOutSize> {
 /// Whether a CSV file's header is a plate-sinkage test's (a shared run's `time_s, depth_m,
 /// fz_n`, or a plain log's `t_s, depth_m, force_n`).
 pub fn is_plate_test(file: &Path) -> bool {
-    use std::io::{BufRead, Read};
-    // The header alone: a recording may be gigabytes, and is not text.
-    let Ok(f) = std::fs::File::open(file) else {
+    let Some(cols) = super::files::header_columns(file) else {
         return false;
     };
-    let header = std::io::BufReader::new(f.take(64 * 1024))
-        .lines()
-        .map_while(Result::ok)
-        .find(|l| !l.starts_with('#'));
-    let Some(header) = header else {
-        return false;
-    };
-    let cols: Vec<&str> = header.split(',').map(str::trim).collect();
-    let has = |c: &str| cols.contains(&c);
+    let has = |c: &str| cols.iter().any(|h| h == c);
     (has("time_s") && has("fz_n")) || (has("depth_m") && has("force_n"))
 }
 

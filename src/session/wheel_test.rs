@@ -14,17 +14,8 @@ use std::path::{Path, PathBuf};
 
 /// Whether `file` is a body's runs (a CSV whose header has `load_n` and `hub_vx_m_s`).
 pub fn is_wheel_test(file: &Path) -> bool {
-    use std::io::{BufRead, Read};
-    let Ok(f) = std::fs::File::open(file) else {
-        return false;
-    };
-    let header = std::io::BufReader::new(f.take(64 * 1024))
-        .lines()
-        .map_while(Result::ok)
-        .find(|l| !l.starts_with('#'));
-    header.is_some_and(|h| {
-        let cols: Vec<&str> = h.split(',').map(str::trim).collect();
-        cols.contains(&"load_n") && cols.contains(&"hub_vx_m_s")
+    super::files::header_columns(file).is_some_and(|cols| {
+        cols.iter().any(|c| c == "load_n") && cols.iter().any(|c| c == "hub_vx_m_s")
     })
 }
 
