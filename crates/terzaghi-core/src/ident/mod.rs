@@ -13,6 +13,7 @@ pub mod metrics;
 pub mod online;
 pub mod rft_shape;
 pub mod scale;
+pub mod scatter;
 pub mod sheared;
 pub mod sinkage;
 pub mod sinkage_online;

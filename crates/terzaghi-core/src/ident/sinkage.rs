@@ -45,6 +45,10 @@ pub struct TestFit {
     pub rmse_n: f64,
     /// The largest measured force (N).
     pub peak_force_n: f64,
+    /// The test's own scale against the law ([`trial_scale`]): how much stiffer (above 1) or
+    /// softer its sand was than the law says; `None` where it has no row deeper than
+    /// [`FIT_MIN_DEPTH_M`] with a force.
+    pub scale: Option<f64>,
 }
 
 /// A law fitted to tests.
@@ -67,6 +71,13 @@ pub struct SinkageFit {
     pub rmse_n: f64,
     /// Each test's own R^2 and RMSE.
     pub tests: Vec<TestFit>,
+    /// The standard deviations include the spread of the values fitted leaving one test out
+    /// (a jackknife over the trials, [`super::scatter::fit_over_trials`]) where that is larger
+    /// than the rows' own.
+    pub std_dev_over_trials: bool,
+    /// The trials' scatter about the law and the band a further trial lies in, where there
+    /// are enough trials to tell it ([`super::scatter::TrialScatter`]).
+    pub scatter: Option<super::scatter::TrialScatter>,
 }
 
 /// Why a law could not be fitted.
@@ -111,9 +122,24 @@ pub fn judge(model: &SinkageModel, tests: &[LoadedTest]) -> Vec<TestFit> {
                 r2: fit.r2,
                 rmse_n: fit.rmse,
                 peak_force_n: measured.iter().cloned().fold(0.0, f64::max),
+                scale: trial_scale(model, t),
             }
         })
         .collect()
+}
+
+/// A test's own scale against `model`: the geometric mean of its measured over predicted force
+/// over its rows deeper than [`FIT_MIN_DEPTH_M`] with a force (the fit's rows), so that the law
+/// times it fits the test best in the fit's own measure; `None` without such a row.
+pub fn trial_scale(model: &SinkageModel, test: &LoadedTest) -> Option<f64> {
+    let logs: Vec<f64> = test
+        .rows
+        .iter()
+        .filter(|&&(z, f)| z.is_finite() && f.is_finite() && z > FIT_MIN_DEPTH_M && f > 0.0)
+        .map(|&(z, f)| (f / model.force_n(&test.plate, z)).ln())
+        .collect();
+    let mean = logs.iter().sum::<f64>() / logs.len() as f64;
+    (!logs.is_empty() && mean.is_finite()).then(|| mean.exp())
 }
 
 /// Fits `law` to the loaded rows of `tests` (the medium's unit weight and RFT's `alpha_z` for
@@ -297,6 +323,8 @@ pub fn fit_sinkage(
         on_bound,
         r2: fit.r2,
         rmse_n: fit.rmse,
+        std_dev_over_trials: false,
+        scatter: None,
     })
 }
 
