@@ -42,6 +42,10 @@ pub struct MediumFile {
     /// --slip-sweep`); without it, RFT's stress of sand at rest alone.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sheared_bearing: Option<MediumShearedBearing>,
+    /// The sand's scatter from trial to trial, where its plate tests tell it (three or more):
+    /// the band `--band` gives.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scatter: Option<MediumScatter>,
 }
 
 /// The bearing of the sand a body shears ([`crate::model::ShearedBearing`]), with where its
@@ -230,6 +234,16 @@ pub struct RftLaw {
     pub sheared: Option<crate::model::ShearedBearing>,
 }
 
+impl RftLaw {
+    /// The law in sand `scale` times as stiff: every stress at a depth times `scale` (the
+    /// band's ends, [`MediumFile::band`]).
+    pub fn scaled(&self, scale: f64) -> RftLaw {
+        let mut law = self.clone();
+        law.depth_law.scale *= scale;
+        law
+    }
+}
+
 impl MediumRftShape {
     /// The shape of a fit, its tests' files in the order of `fit.tests`.
     pub fn of_fit(fit: &RftShapeFit, files: &[PathBuf]) -> MediumRftShape {
@@ -381,6 +395,79 @@ pub struct MediumSourceTest {
     /// Depth samples skipped as a potentiometer's spikes (absent: none).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub spikes_skipped: usize,
+    /// The test's own scale against the law: its force over the law's (the geometric mean over
+    /// its rows deeper than 3 mm).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scale: Option<f64>,
+}
+
+/// The sand's scatter from trial to trial ([`crate::ident::scatter::TrialScatter`]): the band a
+/// further trial of the same preparation lies in, as a scale on the law's force.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MediumScatter {
+    /// The trials it was told from.
+    pub trials: usize,
+    /// The degrees of freedom of its spread.
+    pub degrees_of_freedom: usize,
+    /// The standard deviation of the logarithm of a trial's scale.
+    pub sd_ln_scale: f64,
+    /// The softest and the stiffest trial's scale against the law.
+    pub trial_scales: [f64; 2],
+    /// The share of further trials the band holds (0.9).
+    pub level: f64,
+    /// The band's low scale: a further trial's force at a depth over the law's.
+    pub low: f64,
+    /// The band's high scale.
+    pub high: f64,
+}
+
+impl MediumScatter {
+    /// The file's scatter of a fit's.
+    pub fn of(s: &crate::ident::scatter::TrialScatter) -> MediumScatter {
+        MediumScatter {
+            trials: s.trials,
+            degrees_of_freedom: s.degrees_of_freedom,
+            sd_ln_scale: s.sd_ln_scale,
+            trial_scales: [s.lowest_scale, s.highest_scale],
+            level: s.level,
+            low: s.low,
+            high: s.high,
+        }
+    }
+
+    /// The band checked: `0 < low <= high`, finite, a level in (0, 1).
+    pub fn check(&self) -> Result<()> {
+        if !(self.low.is_finite()
+            && self.high.is_finite()
+            && self.low > 0.0
+            && self.low <= self.high)
+        {
+            bail!(
+                "scatter: the band's low {} and high {} must be finite with 0 < low <= high",
+                self.low,
+                self.high
+            );
+        }
+        if !(self.level > 0.0 && self.level < 1.0) {
+            bail!("scatter.level must lie in (0, 1), got {}", self.level);
+        }
+        Ok(())
+    }
+
+    /// In words, for tables.
+    pub fn text(&self) -> String {
+        format!(
+            "{:.0} % of further trials of this preparation between {:.3} and {:.3} times the law's force (from {} trials, {:.3} to {:.3}; sd of ln scale {:.3})",
+            self.level * 100.0,
+            self.low,
+            self.high,
+            self.trials,
+            self.trial_scales[0],
+            self.trial_scales[1],
+            self.sd_ln_scale
+        )
+    }
 }
 
 fn is_zero(n: &usize) -> bool {
@@ -430,11 +517,13 @@ impl MediumFile {
                         r2: f.r2,
                         rmse_n: f.rmse_n,
                         spikes_skipped: 0,
+                        scale: f.scale,
                     })
                     .collect(),
             },
             rft_shape: None,
             sheared_bearing: None,
+            scatter: fit.scatter.as_ref().map(MediumScatter::of),
         }
     }
 
@@ -476,6 +565,7 @@ impl MediumFile {
             },
             rft_shape: Some(MediumRftShape::of_fit(fit, files)),
             sheared_bearing: None,
+            scatter: None,
         }
     }
 
@@ -674,6 +764,26 @@ impl MediumFile {
             .with_context(|| format!("medium {:?}", self.name))
     }
 
+    /// The band of the sand's trial-to-trial scatter (`--band`): its low and high scales on
+    /// the law's force; a file without one is refused, saying why it has none.
+    pub fn band(&self, file: &Path) -> Result<(f64, f64)> {
+        match &self.scatter {
+            Some(b) => Ok((b.low, b.high)),
+            None => bail!(
+                "{} has no trial-to-trial scatter to give a band: terzaghi calibrate writes one from three plate tests or more (four for a law with a width term); this file {}",
+                file.display(),
+                if self.source.tests.is_empty() {
+                    "was calibrated on intrusion tests alone".to_string()
+                } else {
+                    format!(
+                        "was calibrated on {} plate tests, or before the band was written",
+                        self.source.tests.len()
+                    )
+                }
+            ),
+        }
+    }
+
     /// The file as YAML, with a header that says what it is.
     pub fn to_yaml(&self) -> Result<String> {
         Ok(format!(
@@ -697,6 +807,9 @@ impl MediumFile {
             .with_context(|| format!("{} is not a medium file", file.display()))?;
         m.model().with_context(|| format!("{}", file.display()))?;
         m.sheared().with_context(|| format!("{}", file.display()))?;
+        if let Some(b) = &m.scatter {
+            b.check().with_context(|| format!("{}", file.display()))?;
+        }
         if m.rft_shape.is_some() {
             m.rft_law(None)
                 .with_context(|| format!("{}", file.display()))?;

@@ -18,22 +18,30 @@ const M: f64 = 1.0;
 /// A bevameter export of a disc of `diameter_m`, its force `scale` times the law's (the sand's
 /// preparation), in `force_unit` (`N` or `kN`) and `sinkage_unit` (`mm` or `m`), with spikes of
 /// the potentiometer (six times the depth) at the rows `spikes`.
-fn export(
+fn export(path: &Path, diameter_m: f64, scale: f64, units: (&str, &str), spikes: &[usize]) {
+    let area = std::f64::consts::PI * diameter_m * diameter_m / 4.0;
+    export_force(path, diameter_m, units, spikes, |z| {
+        scale * K_PA * (z / 0.01).powf(N) * (diameter_m / 2.0 / 0.01).powf(M) * area
+    });
+}
+
+/// A bevameter export of a disc of `diameter_m` whose force at sinkage `z` (m) is `force(z)`,
+/// with a wiggle of 2 % and spikes of the potentiometer (six times the depth) at the rows
+/// `spikes`; 241 rows to 30 mm, no time.
+fn export_force(
     path: &Path,
     diameter_m: f64,
-    scale: f64,
     (force_unit, sinkage_unit): (&str, &str),
     spikes: &[usize],
+    force: impl Fn(f64) -> f64,
 ) {
-    let area = std::f64::consts::PI * diameter_m * diameter_m / 4.0;
     let mut text = format!(
         "Hand-held bevameter export\nSoil: generated\nPlate: disc {} mm\nTrial 1\nForce ({force_unit}), Sinkage ({sinkage_unit})\n",
         diameter_m * 1e3
     );
     for i in 0..=240 {
         let z = i as f64 * 0.125e-3;
-        let p = scale * K_PA * (z / 0.01).powf(N) * (diameter_m / 2.0 / 0.01).powf(M);
-        let f = p * area * (1.0 + 0.02 * (i as f64 * 1.7).sin());
+        let f = force(z) * (1.0 + 0.02 * (i as f64 * 1.7).sin());
         let mut shown = if sinkage_unit == "mm" { z * 1e3 } else { z };
         if spikes.contains(&i) {
             shown *= 6.0;
@@ -42,6 +50,24 @@ fn export(
         text += &format!("{f:.6}, {shown:.6}\n");
     }
     std::fs::write(path, text).unwrap();
+}
+
+/// A standard normal sample from a seeded xorshift (Box-Muller): the tests' trials are the
+/// same on every run.
+struct Normal(u64);
+
+impl Normal {
+    fn uniform(&mut self) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        ((self.0 >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+    }
+
+    fn sample(&mut self) -> f64 {
+        let (u, v) = (self.uniform(), self.uniform());
+        (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
+    }
 }
 
 fn calibrate(args: &[&str]) -> Output {
@@ -261,5 +287,133 @@ fn the_example_export_reads_as_the_docs_say() {
     assert!(
         docs.contains(line.trim_end()),
         "docs/real-data.md lacks:\n{line}"
+    );
+}
+
+/// Every law, generated as a hand-held bevameter's trials are: three disc sizes (40, 60 and 80
+/// mm), five trials of each, each trial's sand at its own scale (log-normal, sd of ln 0.3: the
+/// stiffest about 3 times the softest), the potentiometer's spikes in some, no time column.
+/// `calibrate --law` gives each law's values back within three of their standard deviations
+/// (taken over the trials), counts every spike, and writes a band of 90 %: the force at 10 mm
+/// of forty further trials of each sand, through `predict --band`, lies in it as often as it
+/// says (counted over the 200).
+#[test]
+fn every_generated_law_comes_back_and_its_band_holds_further_trials() {
+    use terzaghi::model::sinkage::{PlateShape, SinkageLaw, SinkageModel};
+    let truths: [(&str, &[f64]); 5] = [
+        ("terzaghi_footing", &[30.0, 15.0]),
+        ("bekker", &[2.0e4, 2.0e6, 1.3]),
+        ("reece", &[400.0, 1.25]),
+        ("rft_depth_power", &[3.0, 1.3]),
+        ("depth_width_power", &[3000.0, 1.3, 1.0]),
+    ];
+    let (gamma, alpha) = (
+        13_000.0,
+        terzaghi::session::plate_test::rft_alpha_z_down_n_cm3(),
+    );
+    let sizes = [0.040, 0.060, 0.080];
+    let mut normal = Normal(0x7E12_A6B1);
+    let (mut inside, mut further) = (0, 0);
+    for (law_name, values) in truths {
+        let law = SinkageLaw::by_name(law_name).unwrap();
+        let truth = SinkageModel::new(law, values.to_vec(), gamma, alpha).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let mut files = Vec::new();
+        let mut spikes_made = 0;
+        for (k, &d) in sizes.iter().enumerate() {
+            let plate = PlateShape::disc(d).unwrap();
+            for trial in 0..5 {
+                let scale = (0.3 * normal.sample()).exp();
+                let spikes: Vec<usize> = match (k + trial) % 3 {
+                    0 => vec![],
+                    1 => vec![40 + 17 * trial],
+                    _ => vec![60, 130 + 11 * k],
+                };
+                spikes_made += spikes.len();
+                let p = dir
+                    .path()
+                    .join(format!("d{}_t{trial}.csv", (d * 1e3) as u32));
+                let units = if trial % 2 == 0 {
+                    ("N", "mm")
+                } else {
+                    ("kN", "m")
+                };
+                export_force(&p, d, units, &spikes, |z| scale * truth.force_n(&plate, z));
+                files.push(p);
+            }
+        }
+        let out = dir.path().join("m.yaml");
+        let mut c = Command::new(terzaghi());
+        c.current_dir(repo()).arg("calibrate").args(&files);
+        let printed = ok(&c
+            .args(["--law", law_name, "--unit-weight-n-m3", "13000", "-o"])
+            .arg(&out)
+            .output()
+            .unwrap());
+        // Every spike counted, on the output and in the file.
+        let counted: usize = printed
+            .lines()
+            .filter_map(|l| {
+                l.split(", ")
+                    .find(|p| p.ends_with("skipped (depth spikes)"))
+            })
+            .map(|p| p.split(' ').next().unwrap().parse::<usize>().unwrap())
+            .sum();
+        assert_eq!(counted, spikes_made, "{law_name}: {printed}");
+        let m: serde_yaml_ng::Value =
+            serde_yaml_ng::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+        let in_file: u64 = m["source"]["tests"]
+            .as_sequence()
+            .unwrap()
+            .iter()
+            .map(|t| t["spikes_skipped"].as_u64().unwrap_or(0))
+            .sum();
+        assert_eq!(in_file as usize, spikes_made, "{law_name}");
+        assert!(
+            printed.contains("Trial to trial: 90 % of further trials"),
+            "{printed}"
+        );
+        for (name, truth_value) in law.param_names().iter().zip(values) {
+            let (v, sd) = (
+                m["params"][*name].as_f64().unwrap(),
+                m["std_dev"][*name].as_f64().unwrap(),
+            );
+            assert!(
+                (v - truth_value).abs() <= 3.0 * sd,
+                "{law_name} {name}: {v} +- {sd} against {truth_value}\n{printed}"
+            );
+        }
+        // Forty further trials of this sand, their force at 10 mm against the band.
+        let band: Vec<(f64, f64)> = sizes
+            .iter()
+            .map(|d| {
+                let o = Command::new(terzaghi())
+                    .args(["predict", "--model", "sinkage", "--medium-file"])
+                    .arg(&out)
+                    .args(["--length-m", &d.to_string(), "--width-m", &d.to_string()])
+                    .args(["--hip-height-m", "0", "--depth-m", "0.01", "--band"])
+                    .args(["--format", "json"])
+                    .output()
+                    .unwrap();
+                let rows: serde_json::Value = serde_json::from_str(&ok(&o)).unwrap();
+                (
+                    rows[0]["lift_low_n"].as_f64().unwrap(),
+                    rows[0]["lift_high_n"].as_f64().unwrap(),
+                )
+            })
+            .collect();
+        for i in 0..40 {
+            let k = i % sizes.len();
+            let f = (0.3 * normal.sample()).exp()
+                * truth.force_n(&PlateShape::disc(sizes[k]).unwrap(), 0.01);
+            further += 1;
+            inside += usize::from(band[k].0 <= f && f <= band[k].1);
+        }
+    }
+    eprintln!("{inside} of {further} further trials in their sand's 90 % band");
+    // 90 % of 200: 180; binomial sd 4.2, and each sand's band its own estimate.
+    assert!(
+        (164..=194).contains(&inside),
+        "{inside} of {further} further trials in their sand's band"
     );
 }

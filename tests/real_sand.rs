@@ -968,7 +968,8 @@ fn a_hip_far_below_or_above_the_bed_is_skipped_or_zero() {
 }
 
 /// Every law `calibrate` fits writes a file its readers accept: `media`, `predict --model
-/// sinkage`, the node's configuration and, for the RFT law, `steady`; on the shared runs (where
+/// sinkage --band`, the node's configuration and, for the RFT law, `steady --band` (Python:
+/// `python/tests/test_shapes_media.py`); on the shared runs (where
 /// Bekker's `k_c` and Terzaghi's `N_gamma` fit best below 0) and on the 60 mm runs alone. A
 /// value held on its bound is said so.
 #[test]
@@ -1009,7 +1010,7 @@ fn every_law_calibrate_fits_is_read_back_by_every_reader() {
                     "--hip-height-m",
                     "0",
                 ])
-                .args(["--depth-m", "0:0.03:0.01"])
+                .args(["--depth-m", "0:0.03:0.01", "--band"])
                 .output()
                 .unwrap());
             let ros = terzaghi::config::RosArgs {
@@ -1046,6 +1047,7 @@ fn every_law_calibrate_fits_is_read_back_by_every_reader() {
                         "0.05",
                         "--medium-file",
                         f,
+                        "--band",
                     ])
                     .output()
                     .unwrap());

@@ -222,6 +222,7 @@ def predict(
     grouser_thickness_m: Optional[float] = None,
     rim_elements: Optional[int] = None,
     planar_sheared_bearing: bool = False,
+    band: bool = False,
 ) -> Dict[str, np.ndarray]:
     """The forces on a leg or a body at each attack angle, as ``terzaghi predict`` gives them.
 
@@ -260,6 +261,11 @@ def predict(
             bearing of sheared sand, as ``terzaghi predict --planar-sheared-bearing`` (a body
             always does; off by default, as a leg turning through fresh sand loses lift it
             keeps: ``docs/bodies.md``).
+        band: add the band of ``medium_file``'s trial-to-trial scatter, as ``terzaghi predict
+            --band``: ``drag_low_n``, ``drag_high_n``, ``lift_low_n``, ``lift_high_n``,
+            ``hip_torque_low_nm``, ``hip_torque_high_nm``, the forces at the band's low and
+            high scale (90 % of further trials of the sand so prepared between them; at a given
+            depth every stress scales with the sand's scale). A file without a band is refused.
 
     Returns:
         A dict of arrays shaped like ``beta_rad``: ``drag_n``, ``lift_n``,
@@ -321,7 +327,20 @@ def predict(
     }
     if full:
         out.update(side_n=side, roll_moment_nm=roll, yaw_moment_nm=yaw)
+    if band:
+        out.update(_band_columns(out, model, medium_file))
     return out
+
+
+def _band_columns(out: Dict[str, np.ndarray], model: str, medium_file) -> Dict[str, np.ndarray]:
+    """The forces of ``out`` at the band's low and high scale of ``medium_file``."""
+    if medium_file is None or model not in ("sinkage", "rft"):
+        raise TerzaghiError("band is the medium file's scatter: it goes with medium_file and "
+                            f"model 'sinkage' or 'rft' (model {model!r}, medium_file {medium_file!r})")
+    low, high, _ = _terzaghi.medium_band(os.fspath(medium_file))
+    columns = (("drag_n", "drag", "n"), ("lift_n", "lift", "n"), ("hip_torque_nm", "hip_torque", "nm"))
+    return {f"{name}_{end}_{unit}": out[k] * scale
+            for k, name, unit in columns for end, scale in (("low", low), ("high", high))}
 
 
 def steady(
@@ -344,6 +363,7 @@ def steady(
     grouser_thickness_m: Optional[float] = None,
     rim_elements: Optional[int] = None,
     sinkage_m: Optional[ArrayLike] = None,
+    band: bool = False,
 ) -> Dict[str, np.ndarray]:
     """A wheel's or a foot's steady state under each run's load, as ``terzaghi steady`` gives it.
 
@@ -371,6 +391,12 @@ def steady(
             does not take is refused, as a default or not.
         sinkage_m: hold each run at this sinkage (m) instead of solving for it; the load the
             sand bears there is then ``load_borne_n``.
+        band: add the band of ``medium_file``'s trial-to-trial scatter, as ``terzaghi steady
+            --band``: each run solved again in sand at the band's low and high scale (90 % of
+            further trials of the sand so prepared between them): ``sinkage_low_m``,
+            ``sinkage_high_m``, ``drawbar_low_n``, ``drawbar_high_n`` (low: the softer sand,
+            the deeper sinkage), or with ``sinkage_m`` ``load_borne_low_n`` and
+            ``load_borne_high_n``. A file without a band is refused.
 
     The arrays broadcast together (as numpy broadcasts); a shape that does not is refused
     naming every shape.
@@ -402,13 +428,25 @@ def steady(
     body = _body(shape, radius_m, width_m, thickness_m, size_m, mesh_file, mesh_scale, element_m,
                  grouser_count, grouser_height_m, grouser_thickness_m, rim_elements)
     n = len(flat["hub_vx_m_s"])
-    cols = _terzaghi.steady(
-        flat.get("load_n", [0.0] * n), flat["hub_vx_m_s"], flat["omega_rad_s"],
-        flat["slip_angle_deg"], flat.get("sinkage_m"), body, os.fspath(medium_file))
+
+    def solve(scale: float) -> List[List[float]]:
+        return _terzaghi.steady(
+            flat.get("load_n", [0.0] * n), flat["hub_vx_m_s"], flat["omega_rad_s"],
+            flat["slip_angle_deg"], flat.get("sinkage_m"), body, os.fspath(medium_file), scale)
+
+    cols = solve(1.0)
     shape = b[0].shape
     names = ("sinkage_m", "drawbar_n", "side_n", "torque_nm", "load_borne_n")
     out = {k: np.asarray(c, dtype=np.float64).reshape(shape) for k, c in zip(names, cols)}
     out["borne"] = np.asarray(cols[5], dtype=np.float64).reshape(shape) > 0.5
+    if band:
+        low, high, _ = _terzaghi.medium_band(os.fspath(medium_file))
+        banded = (("load_borne", "n", 4),) if sinkage_m is not None else (
+            ("sinkage", "m", 0), ("drawbar", "n", 1))
+        for end, scale in (("low", low), ("high", high)):
+            c = solve(scale)
+            for name, unit, k in banded:
+                out[f"{name}_{end}_{unit}"] = np.asarray(c[k], dtype=np.float64).reshape(shape)
     return out
 
 

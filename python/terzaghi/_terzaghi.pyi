@@ -33,7 +33,10 @@ def steady(
     sinkage_m: Optional[List[float]],
     body: BodyArgs,
     medium_file: str,
+    scale: float = 1.0,
 ) -> List[List[float]]: ...
+
+def medium_band(medium_file: str) -> Tuple[float, float, float]: ...
 
 def predict(
     beta_rad: npt.ArrayLike,

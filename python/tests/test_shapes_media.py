@@ -1,5 +1,8 @@
 """Polyline legs and medium files from Python, against the binary's node on the same inputs."""
 
+import csv
+import json
+
 import numpy as np
 import pytest
 
@@ -201,3 +204,55 @@ def test_a_medium_files_measured_rft_shape_reaches_predict_and_the_batch():
     # A coefficient set named beside a measured shape is refused, naming both.
     with pytest.raises(terzaghi.TerzaghiError, match="carries its own RFT shape"):
         terzaghi.predict(beta, medium_file=DEM_MEDIUM, rft_coeffs="poppy_lp", **leg)
+
+
+LAWS = ["terzaghi_footing", "bekker", "reece", "rft_depth_power", "depth_width_power"]
+
+
+@pytest.mark.parametrize("law", LAWS)
+@pytest.mark.parametrize("runs", ["all", "60mm"])
+def test_every_law_calibrate_writes_is_read_with_its_band(law, runs, tmp_path):
+    """Each law ``terzaghi calibrate`` fits (on the shared runs, where Bekker's ``k_c`` and
+    Terzaghi's ``N_gamma`` sit on their bound 0, and on the three 60 mm runs alone) is read by
+    Python's predict, and, for the RFT law, by its steady: the forces and their band are the
+    binary's."""
+    tests = RUNS if runs == "all" else [r for r in RUNS if "D60mm" in r.name]
+    path = tmp_path / f"{law}.yaml"
+    run("calibrate", *tests, "--law", law, "-o", path)
+    depth = np.array([0.005, 0.01, 0.02])
+    mine = terzaghi.predict(0.0, width_m=0.06, hip_height_m=-depth, up_m_s=-1e-3, model="sinkage",
+                            medium_file=path, band=True)
+    cli = json.loads(run("predict", "--model", "sinkage", "--medium-file", path, "--length-m",
+                         "0.06", "--width-m", "0.06", "--hip-height-m", "0", "--depth-m",
+                         "0.005:0.02:0.005", "--band", "--format", "json"))
+    cli = [r for r in cli if any(abs(r["depth_m"] - d) < 1e-9 for d in depth)]
+    for k in ("lift_n", "lift_low_n", "lift_high_n"):
+        np.testing.assert_allclose(mine[k], [r[k] for r in cli], rtol=1e-9, err_msg=k)
+    assert np.all(mine["lift_low_n"] < mine["lift_n"]) and np.all(mine["lift_n"] < mine["lift_high_n"])
+    if law == "rft_depth_power":
+        runs_csv = tmp_path / "runs.csv"
+        runs_csv.write_text("load_n,hub_vx_m_s,omega_rad_s,slip_angle_deg\n20,0.01,0.1,0\n")
+        out = tmp_path / "steady.csv"
+        run("steady", runs_csv, "--radius-m", "0.058", "--width-m", "0.05", "--medium-file", path,
+            "--band", "-o", out)
+        with open(out) as f:
+            row = next(csv.DictReader(f))
+        py = terzaghi.steady(20.0, 0.01, 0.1, 0.0, radius_m=0.058, width_m=0.05,
+                             medium_file=path, band=True)
+        for k in ("sinkage_m", "sinkage_low_m", "sinkage_high_m", "drawbar_low_n", "drawbar_high_n"):
+            np.testing.assert_allclose(py[k], float(row[k]), rtol=1e-12, err_msg=k)
+        # The softer sand of the band's low end sinks deeper.
+        assert py["sinkage_low_m"] > py["sinkage_m"] > py["sinkage_high_m"]
+
+
+def test_a_band_needs_a_file_that_has_one(tmp_path):
+    """Two trials tell no band: asked for one, Python refuses, naming the file and why."""
+    path = tmp_path / "two.yaml"
+    run("calibrate", *[r for r in RUNS if "D60mm" in r.name][:2], "--law", "rft_depth_power",
+        "-o", path)
+    with pytest.raises(terzaghi.TerzaghiError, match=r"two.yaml has no trial-to-trial scatter"):
+        terzaghi.predict(0.0, width_m=0.06, hip_height_m=-0.01, model="sinkage",
+                         medium_file=path, band=True)
+    with pytest.raises(terzaghi.TerzaghiError, match="goes with medium_file"):
+        terzaghi.predict(0.5, length_m=0.1, width_m=0.02, hip_height_m=0.0, medium="poppy_lp",
+                         band=True)

@@ -515,16 +515,35 @@ fn render_plate_part(p: &PlatePart) -> String {
     for (l, e) in failed {
         s += &format!("{:<18} not fitted: {e}\n", l.name());
     }
+    if fits.iter().any(|f| f.std_dev_over_trials) {
+        s += "(a standard deviation is the larger of the rows' and the trials', each test left out once)\n";
+    }
     s += &format!(
-        "\nPer test under {} (R^2, RMSE N)\n",
+        "\nPer test under {} (R^2, RMSE N, the trial's own scale against the law)\n",
         chosen.model.law.name()
     );
     for t in &chosen.tests {
         s += &format!(
-            "  {:<28} {:<12} R^2 {:>6.3}  RMSE {:>6.2} N  peak {:>6.1} N\n",
-            t.name, t.plate, t.r2, t.rmse_n, t.peak_force_n
+            "  {:<28} {:<12} R^2 {:>6.3}  RMSE {:>6.2} N  peak {:>6.1} N  scale {}\n",
+            t.name,
+            t.plate,
+            t.r2,
+            t.rmse_n,
+            t.peak_force_n,
+            t.scale.map_or("-".to_string(), |v| format!("{v:.3}"))
         );
     }
+    s += &match &chosen.scatter {
+        Some(b) => format!(
+            "Trial to trial: {} (predict --band, steady --band)\n",
+            crate::medium_file::MediumScatter::of(b).text()
+        ),
+        None => format!(
+            "Trial to trial: no band ({} tests; a band needs {} degrees of freedom: three trials, four with a width term)\n",
+            chosen.tests.len(),
+            crate::ident::scatter::MIN_BAND_DEGREES_OF_FREEDOM
+        ),
+    };
     if let Some(held) = &p.held {
         s += &render_cross_validation(held);
     }

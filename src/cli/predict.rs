@@ -149,6 +149,13 @@ pub struct PredictArgs {
     /// rolling forward).
     #[arg(long, value_name = "RAD_S", allow_negative_numbers = true)]
     pub omega_rad_s: Option<f64>,
+    /// Add the band of the sand's trial-to-trial scatter from --medium-file (terzaghi
+    /// calibrate writes it from three plate tests or more): drag, lift and hip torque at the
+    /// band's low and high scale (columns *_low_*, *_high_*), between which 90 % of further
+    /// trials of the sand so prepared lie. At a given depth every stress scales with the sand's
+    /// scale, so each is the prediction times the band's scale.
+    #[arg(long, requires = "medium_file")]
+    pub band: bool,
     /// Output format.
     #[arg(long, value_enum, default_value = "csv")]
     pub format: Format,
@@ -237,6 +244,46 @@ struct Row {
     roll_moment_nm: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     yaw_moment_nm: Option<f64>,
+    #[serde(flatten, skip_serializing_if = "Option::is_none")]
+    band: Option<BandColumns>,
+}
+
+/// A row's forces at the band's low and high scale.
+#[derive(Serialize)]
+struct BandColumns {
+    drag_low_n: f64,
+    drag_high_n: f64,
+    lift_low_n: f64,
+    lift_high_n: f64,
+    hip_torque_low_nm: f64,
+    hip_torque_high_nm: f64,
+}
+
+impl BandColumns {
+    fn of(p: &Prediction, (low, high): (f64, f64)) -> BandColumns {
+        BandColumns {
+            drag_low_n: p.drag_n * low,
+            drag_high_n: p.drag_n * high,
+            lift_low_n: p.lift_n * low,
+            lift_high_n: p.lift_n * high,
+            hip_torque_low_nm: p.hip_torque_nm * low,
+            hip_torque_high_nm: p.hip_torque_nm * high,
+        }
+    }
+
+    const HEADER: &str =
+        "drag_low_n,drag_high_n,lift_low_n,lift_high_n,hip_torque_low_nm,hip_torque_high_nm";
+
+    fn values(&self) -> [f64; 6] {
+        [
+            self.drag_low_n,
+            self.drag_high_n,
+            self.lift_low_n,
+            self.lift_high_n,
+            self.hip_torque_low_nm,
+            self.hip_torque_high_nm,
+        ]
+    }
 }
 
 pub fn build_model(a: &PredictArgs) -> Result<ForceModel> {
@@ -352,6 +399,15 @@ fn parse_profile(text: &str) -> Result<Vec<(f64, f64)>> {
 
 pub fn run(a: PredictArgs) -> Result<()> {
     let model = build_model(&a)?;
+    let band = match (&a.medium_file, a.band) {
+        (Some(f), true) => {
+            if !matches!(a.model, ModelKind::Sinkage | ModelKind::Rft) {
+                bail!("--band is the medium file's scatter: it goes with --model sinkage or rft");
+            }
+            Some(crate::medium_file::MediumFile::read(f)?.band(f)?)
+        }
+        _ => None,
+    };
     // A medium's sheared bearing acts on a planar leg only when asked: say so.
     if a.shape.body_name().is_none()
         && !a.planar_sheared_bearing
@@ -410,6 +466,7 @@ pub fn run(a: PredictArgs) -> Result<()> {
                 side_n: side(p.side_n),
                 roll_moment_nm: side(p.roll_moment_nm),
                 yaw_moment_nm: side(p.yaw_moment_nm),
+                band: band.map(|b| BandColumns::of(&p, b)),
             })
         })
         .collect::<Result<_>>()?;
@@ -420,6 +477,10 @@ pub fn run(a: PredictArgs) -> Result<()> {
                 String::from("beta_deg,submerged_m,depth_m,drag_n,lift_n,hip_torque_nm,regime");
             if full {
                 s += ",side_n,roll_moment_nm,yaw_moment_nm";
+            }
+            if band.is_some() {
+                s += ",";
+                s += BandColumns::HEADER;
             }
             s += "\n";
             for r in &rows {
@@ -437,6 +498,9 @@ pub fn run(a: PredictArgs) -> Result<()> {
                     .into_iter()
                     .flatten()
                 {
+                    s += &format!(",{v:.6}");
+                }
+                for v in r.band.iter().flat_map(BandColumns::values) {
                     s += &format!(",{v:.6}");
                 }
                 s += "\n";

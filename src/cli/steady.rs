@@ -186,6 +186,13 @@ pub struct SteadyArgs {
     /// predicted means of each output the runs measured.
     #[arg(long, value_name = "COLUMN")]
     pub group_by: Option<String>,
+    /// Add the band of the sand's trial-to-trial scatter from --medium-file (terzaghi
+    /// calibrate writes it from three plate tests or more): each run solved again in sand at
+    /// the band's low and high scale, between which 90 % of further trials of the sand so
+    /// prepared lie (columns sinkage_low_m, sinkage_high_m, drawbar_low_n, drawbar_high_n; with
+    /// --at-sinkage load_borne_low_n, load_borne_high_n).
+    #[arg(long)]
+    pub band: bool,
     /// Write the runs with their steady states here (CSV); without, to standard output.
     #[arg(short = 'o', long, value_name = "OUT.csv")]
     pub out: Option<PathBuf>,
@@ -201,7 +208,12 @@ pub fn run(a: SteadyArgs) -> Result<()> {
         Some(c) => Solve::AtSinkage(c.clone()),
         None => Solve::Sinkage,
     };
-    let table = steady_runs(&a.runs, &text, &body, &law, &solve)?;
+    let table = if a.band {
+        let band = medium.band(&a.medium_file)?;
+        crate::session::steady::steady_runs_in_band(&a.runs, &text, &body, &law, &solve, band)?
+    } else {
+        steady_runs(&a.runs, &text, &body, &law, &solve)?
+    };
     let csv = table.to_csv()?;
     match &a.out {
         Some(out) => {
@@ -250,6 +262,9 @@ pub fn run(a: SteadyArgs) -> Result<()> {
             }
             summary += "\n";
         }
+    }
+    if let (true, Some(b)) = (a.band, &medium.scatter) {
+        summary += &format!("  band: {}\n", b.text());
     }
     if let Some(b) = &medium.sheared_bearing {
         summary += &format!("  {}\n", b.text());

@@ -553,7 +553,7 @@ pub fn calibrate(
     let mut fits = Vec::new();
     let mut failed = Vec::new();
     for law in SinkageLaw::ALL {
-        match fit_sinkage(law, &loaded, unit_weight_n_m3, alpha) {
+        match crate::ident::scatter::fit_over_trials(law, &loaded, unit_weight_n_m3, alpha) {
             Ok(f) => fits.push(f),
             Err(e) => failed.push((law, e.to_string())),
         }

@@ -186,6 +186,9 @@ pub struct SteadyTable {
     pub solve: Solve,
     /// The runs, in the file's order.
     pub runs: Vec<SteadyRun>,
+    /// Columns of the band of the sand's trial-to-trial scatter ([`steady_runs_in_band`]), each
+    /// with a value per run: written after the outputs.
+    pub band: Vec<(String, Vec<f64>)>,
 }
 
 /// How well a predicted column follows a measured one over the runs that have it.
@@ -356,7 +359,48 @@ pub fn steady_runs(
         headers,
         runs,
         solve: solve.clone(),
+        band: Vec::new(),
     })
+}
+
+/// [`steady_runs`] with the band of the sand's trial-to-trial scatter (`(low, high)`, the
+/// medium file's [`crate::medium_file::MediumFile::band`]): each run solved again in sand at the
+/// band's low and at its high scale, and its columns added: `sinkage_low_m`, `sinkage_high_m`,
+/// `drawbar_low_n`, `drawbar_high_n` where the sinkage is solved for (low: the softer sand, the
+/// deeper sinkage; a run the softer sand does not bear has the body buried to its top there),
+/// `load_borne_low_n`, `load_borne_high_n` where it is held.
+pub fn steady_runs_in_band(
+    file: &Path,
+    text: &str,
+    body: &Body,
+    law: &RftLaw,
+    solve: &Solve,
+    (low, high): (f64, f64),
+) -> Result<SteadyTable> {
+    let mut table = steady_runs(file, text, body, law, solve)?;
+    let ends = [
+        (
+            "low",
+            steady_runs(file, text, body, &law.scaled(low), solve)?,
+        ),
+        (
+            "high",
+            steady_runs(file, text, body, &law.scaled(high), solve)?,
+        ),
+    ];
+    let columns: &[(&str, &str, usize)] = match solve {
+        Solve::Sinkage => &[("sinkage", "m", 0), ("drawbar", "n", 1)],
+        Solve::AtSinkage(_) => &[("load_borne", "n", 4)],
+    };
+    for &(name, unit, k) in columns {
+        for (end, t) in &ends {
+            table.band.push((
+                format!("{name}_{end}_{unit}"),
+                t.runs.iter().map(|r| outputs(&r.steady)[k]).collect(),
+            ));
+        }
+    }
+    Ok(table)
 }
 
 /// A run's outputs, in the order of [`OUTPUT_COLUMNS`].
@@ -400,12 +444,14 @@ impl SteadyTable {
         let mut head = self.headers.clone();
         head.extend(OUTPUT_COLUMNS.iter().map(|s| s.to_string()));
         head.push("borne".to_string());
+        head.extend(self.band.iter().map(|(c, _)| c.clone()));
         w.write_record(&head)?;
-        for r in &self.runs {
+        for (i, r) in self.runs.iter().enumerate() {
             let s = &r.steady;
             let mut rec = r.fields.clone();
             rec.extend(outputs(s).iter().map(|v| v.to_string()));
             rec.push(r.borne.to_string());
+            rec.extend(self.band.iter().map(|(_, v)| v[i].to_string()));
             w.write_record(&rec)?;
         }
         w.into_inner().map_err(|e| anyhow::anyhow!("{e}"))

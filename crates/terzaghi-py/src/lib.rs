@@ -127,13 +127,23 @@ fn base_model(
     Ok(terzaghi::model_spec::terzaghi_model(plate, &chosen, None))
 }
 
+/// The band of a medium file's trial-to-trial scatter: its low and high scale on the law's
+/// force and the share of further trials between them; a file without one is refused, saying
+/// why.
+#[pyfunction]
+fn medium_band(medium_file: std::path::PathBuf) -> PyResult<(f64, f64, f64)> {
+    let medium = terzaghi::medium_file::MediumFile::read(&medium_file).map_err(err)?;
+    let (low, high) = medium.band(&medium_file).map_err(err)?;
+    Ok((low, high, medium.scatter.map_or(f64::NAN, |s| s.level)))
+}
+
 /// A wheel's or a foot's steady state for each run of flat arrays of one length (`load_n`, `hub_vx_m_s`,
 /// `omega_rad_s`, `slip_angle_deg`; or, with `sinkage_m`, held there): sinkage, drawbar, side
 /// force, drive torque, the load borne and whether the sand bears the run (1) or not (0: the
 /// body buried to its top, the most the sand bears as its load), as `terzaghi steady` gives
 /// them.
 #[pyfunction]
-#[pyo3(signature = (load_n, hub_vx_m_s, omega_rad_s, slip_angle_deg, sinkage_m, body, medium_file))]
+#[pyo3(signature = (load_n, hub_vx_m_s, omega_rad_s, slip_angle_deg, sinkage_m, body, medium_file, scale = 1.0))]
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
 fn steady(
     py: Python<'_>,
@@ -144,11 +154,17 @@ fn steady(
     sinkage_m: Option<Vec<f64>>,
     body: BodyArgs,
     medium_file: std::path::PathBuf,
+    scale: f64,
 ) -> PyResult<[Vec<f64>; 6]> {
     use terzaghi::model::{Drive, Stress, state_at_sinkage, steady_sinkage};
     use terzaghi::session::steady::borne_or_deepest;
     let medium = terzaghi::medium_file::MediumFile::read(&medium_file).map_err(err)?;
-    let law = medium.rft_law(None).map_err(err)?;
+    if !(scale.is_finite() && scale > 0.0) {
+        return Err(TerzaghiError::new_err(format!(
+            "the medium's scale must be a number > 0, got {scale}"
+        )));
+    }
+    let law = medium.rft_law(None).map_err(err)?.scaled(scale);
     let body = body_of(body)?;
     let n = hub_vx_m_s.len();
     if [load_n.len(), omega_rad_s.len(), slip_angle_deg.len()]
@@ -1536,6 +1552,7 @@ fn _terzaghi(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("TerzaghiError", m.py().get_type::<TerzaghiError>())?;
     m.add_function(wrap_pyfunction!(predict, m)?)?;
     m.add_function(wrap_pyfunction!(steady, m)?)?;
+    m.add_function(wrap_pyfunction!(medium_band, m)?)?;
     m.add_function(wrap_pyfunction!(predict_moving, m)?)?;
     m.add_function(wrap_pyfunction!(read_topics, m)?)?;
     m.add_function(wrap_pyfunction!(fit_json, m)?)?;
