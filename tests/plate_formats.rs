@@ -417,3 +417,46 @@ fn every_generated_law_comes_back_and_its_band_holds_further_trials() {
         "{inside} of {further} further trials in their sand's band"
     );
 }
+
+/// `diagnose` takes a bevameter's export for the plate test it is: without a medium it asks for
+/// one, and with one it says why an export, which starts at the surface, cannot be judged for
+/// its surface (no row above it), instead of reading it as a session log.
+#[test]
+fn diagnose_takes_an_export_for_a_plate_test() {
+    let dir = tempfile::tempdir().unwrap();
+    let export_file = repo().join("tests/data/bevameter/disc45_trial1.csv");
+    let o = Command::new(terzaghi())
+        .args(["diagnose"])
+        .arg(&export_file)
+        .arg("--out")
+        .arg(dir.path().join("d"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("is a plate-sinkage test: give the medium"),
+        "{err}"
+    );
+    let medium = dir.path().join("m.yaml");
+    let mut c = Command::new(terzaghi());
+    ok(&c
+        .arg("calibrate")
+        .arg(&export_file)
+        .args(["--unit-weight-n-m3", "13000", "-o"])
+        .arg(&medium)
+        .output()
+        .unwrap());
+    let o = Command::new(terzaghi())
+        .arg("diagnose")
+        .arg(&export_file)
+        .arg("--medium-file")
+        .arg(&medium)
+        .arg("--out")
+        .arg(dir.path().join("d"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("above the surface"), "{err}");
+}

@@ -748,7 +748,24 @@ pub fn is_plate_test(file: &Path) -> bool {
         return false;
     };
     let has = |c: &str| cols.iter().any(|h| h == c);
-    (has("time_s") && has("fz_n")) || (has("depth_m") && has("force_n"))
+    (has("time_s") && has("fz_n")) || (has("depth_m") && has("force_n")) || is_export(file)
+}
+
+/// Whether `file` is a bevameter's export ([`super::plate_export`]): a header of force and
+/// sinkage after lines of free text. One that names itself so but does not read is one too
+/// (its reader then says what is wrong with it).
+fn is_export(file: &Path) -> bool {
+    const MAX_BYTES: u64 = 64 << 20;
+    if std::fs::metadata(file).map_or(true, |m| m.len() > MAX_BYTES) {
+        return false;
+    }
+    let Ok(text) = std::fs::read_to_string(file) else {
+        return false;
+    };
+    !matches!(
+        super::plate_export::parse_export(&file.display().to_string(), &text, None),
+        Ok(None)
+    )
 }
 
 /// The sensor's offset against its zero file, read where the plate is out of the medium: at
