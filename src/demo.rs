@@ -4,16 +4,16 @@
 //! the diagnosis of the recording found against what the simulation hid. `terzaghi demo` runs
 //! it and draws the live view.
 
-use crate::config::{NodeConfig, OutputTopics, ParamMap};
-use crate::ident::Estimate;
-use crate::msgs::{LegForce, ModelParams, WrenchStamped};
-use crate::node::NodeCore;
-use crate::node::handle::Publish;
-use crate::node::memory::{self, Message};
-use crate::sim::robot::{DEMO_RATE_HZ, Session, Truth, demo_truth, joint_state, wrench};
 use anyhow::{Result, bail};
 use std::path::Path;
 use std::time::{Duration, Instant};
+use terzaghi::config::{NodeConfig, OutputTopics, ParamMap};
+use terzaghi::ident::Estimate;
+use terzaghi::msgs::{LegForce, ModelParams, WrenchStamped};
+use terzaghi::node::NodeCore;
+use terzaghi::node::handle::Publish;
+use terzaghi::node::memory::{self, Message};
+use terzaghi::sim::robot::{DEMO_RATE_HZ, Session, Truth, demo_truth, joint_state, wrench};
 
 /// What watches the walk: the node's outputs as they are published, and each joint state the
 /// node has handled (its index in the session).
@@ -91,7 +91,7 @@ fn run_memory(
     })?;
     let _ = producer.join();
     if let Some(e) = &run.recording_error {
-        return Err(anyhow::Error::new(crate::session::Failure(format!(
+        return Err(anyhow::Error::new(terzaghi::session::Failure(format!(
             "recording the session failed: {e}"
         ))));
     }
@@ -117,9 +117,9 @@ fn run_dds(
     speed: f64,
     view: &impl Watch,
 ) -> Result<(Estimates, u64)> {
-    use crate::node::dds::{NodeSetup, publisher, subscription, tool_node};
-    let rt = crate::node::dds::runtime()?;
-    let (domain, local) = crate::node::dds::network_from_env()?;
+    use terzaghi::node::dds::{NodeSetup, publisher, subscription, tool_node};
+    let rt = terzaghi::node::dds::runtime()?;
+    let (domain, local) = terzaghi::node::dds::network_from_env()?;
     let setup = NodeSetup {
         params: params.clone(),
         config: cfg.clone(),
@@ -129,12 +129,12 @@ fn run_dds(
         foxglove: None,
     };
     let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
-    let node_task = rt.spawn(crate::node::dds::run(setup, async {
+    let node_task = rt.spawn(terzaghi::node::dds::run(setup, async {
         let _ = stop_rx.await;
     }));
     // The robot: a publisher of joint states and F/T; and a listener to the node's outputs.
     let mut robot = tool_node("terzaghi_demo_robot")?;
-    let js_pub = publisher::<crate::msgs::JointState>(&mut robot, &cfg.joint_states_topic)?;
+    let js_pub = publisher::<terzaghi::msgs::JointState>(&mut robot, &cfg.joint_states_topic)?;
     let ft_pubs = cfg
         .legs
         .iter()
@@ -341,7 +341,7 @@ impl Demo {
     /// Re-runs the recording through the node as it ran and with the corrections the diagnosis
     /// wrote (`corrected`), and adds each leg's prediction error of both to the summary.
     fn rerun(&self, corrected: &Path, summary: &mut Summary) -> Result<()> {
-        use crate::session::reevaluate::{ReevaluateOptions, RowErrors, reevaluate_file};
+        use terzaghi::session::reevaluate::{ReevaluateOptions, RowErrors, reevaluate_file};
         let session = self.out.join("session.mcap");
         let as_ran = reevaluate_file(&session, ReevaluateOptions::default(), |_| {})?;
         let with = reevaluate_file(
@@ -396,8 +396,8 @@ impl Demo {
     /// (`-p use_identified:=false`: RFT from the coefficients alone) and as it ran (the scale
     /// learnt as the strokes came), RMSE and R^2 of drag and lift.
     pub fn summarize_curved(&self, walked: &Walked) -> Result<Summary> {
-        use crate::config::ParamValue;
-        use crate::session::reevaluate::{ReevaluateOptions, reevaluate_file};
+        use terzaghi::config::ParamValue;
+        use terzaghi::session::reevaluate::{ReevaluateOptions, reevaluate_file};
         let started = Instant::now();
         let session = self.out.join("session.mcap");
         let as_ran = reevaluate_file(&session, ReevaluateOptions::default(), |_| {})?;
@@ -441,10 +441,10 @@ impl Demo {
             }
             let scale = walked.estimates.get(i).copied().flatten();
             let best = self.best_rft_scale(i);
-            let fits = |e: &crate::session::reevaluate::RowErrors| {
+            let fits = |e: &terzaghi::session::reevaluate::RowErrors| {
                 let (d, l) = (e.expected[0].fit(), e.expected[1].fit());
                 (
-                    crate::session::reevaluate::RowErrors::rmse_n(&e.expected),
+                    terzaghi::session::reevaluate::RowErrors::rmse_n(&e.expected),
                     d.r2,
                     l.r2,
                 )
@@ -532,24 +532,24 @@ impl Demo {
             bail!("demo walk of {seconds} s: must be a positive number of seconds");
         }
         std::fs::create_dir_all(out).map_err(|e| {
-            anyhow::Error::new(e).context(crate::session::Failure(format!(
+            anyhow::Error::new(e).context(terzaghi::session::Failure(format!(
                 "cannot create {}",
                 out.display()
             )))
         })?;
         let (params, mut cfg) = match legs {
-            Legs::Plate => crate::sim::robot::rhex()?,
-            Legs::C => crate::sim::robot::rhex_c_legs()?,
+            Legs::Plate => terzaghi::sim::robot::rhex()?,
+            Legs::C => terzaghi::sim::robot::rhex_c_legs()?,
         };
         cfg.record = Some(out.join("session.mcap"));
         let truth = demo_truth();
-        let gait = crate::sim::robot::Gait {
+        let gait = terzaghi::sim::robot::Gait {
             seconds,
             rate_hz: DEMO_RATE_HZ,
             mean_speed_rad_s: 4.0,
             seed,
         };
-        let session = crate::sim::robot::simulate(&cfg, &truth, &gait);
+        let session = terzaghi::sim::robot::simulate(&cfg, &truth, &gait);
         Ok(Demo {
             params,
             cfg,
@@ -579,7 +579,7 @@ impl Demo {
         let run_s = started.elapsed().as_secs_f64();
         // What the recording holds, from its summary (without reading the whole file).
         let session_path = self.out.join("session.mcap");
-        let recorded = crate::record::read::IndexedFile::open(&session_path)?
+        let recorded = terzaghi::record::read::IndexedFile::open(&session_path)?
             .map_or(recorded, |f| f.head().messages);
         Ok(Walked {
             estimates,
@@ -592,10 +592,10 @@ impl Demo {
     /// diagnosis's terms are the flat plate's: a walk on C-legs is re-evaluated instead, with
     /// RFT's scale as the node learnt it and with nothing fitted ([`Demo::summarize_curved`]).
     pub fn diagnose(&self, walked: &Walked) -> Result<Summary> {
-        use crate::session::diagnose::{DiagnoseFileOptions, diagnose_file, write_reports};
+        use terzaghi::session::diagnose::{DiagnoseFileOptions, diagnose_file, write_reports};
         if self.legs == Legs::C {
             let summary = self.summarize_curved(walked)?;
-            crate::session::files::write_text(
+            terzaghi::session::files::write_text(
                 &self.out.join("summary.json"),
                 &(serde_json::to_string_pretty(&summary.json)? + "\n"),
             )?;
@@ -624,7 +624,7 @@ impl Demo {
         if let Some(corrected) = &done.corrected {
             self.rerun(corrected, &mut summary)?;
         }
-        crate::session::files::write_text(
+        terzaghi::session::files::write_text(
             &self.out.join("summary.json"),
             &(serde_json::to_string_pretty(&summary.json)? + "\n"),
         )?;

@@ -29,12 +29,14 @@
 //! - [`dem`]: runs of the DEM testbed: reading, checking, writing as sessions.
 //! - `fuzzing`: what each fuzz target (`fuzz/`) runs on its input, which `cargo test` replays
 //!   over the committed corpora and regressions (not an API).
-//! - `demo`: the six-legged robot walking through the node, for `terzaghi demo`.
-//! - `cli`: the `terzaghi` command line, over all of the above.
+//!
+//! The `terzaghi` command line and its demo are the binary's (`src/main.rs`, `src/cli/`,
+//! `src/demo.rs`), over all of the above: the library does not reach up to them. The workspace's
+//! other binaries (`terzaghi-eval`, `terzaghi-bench`) use the library alone.
 //!
 //! Cargo features: `node` (default) is the node over DDS, its recorder thread and live view
 //! (tokio, ros2-client, RustDDS, Foxglove) and recording and replaying over DDS; `cli`
-//! (default) the command line and the demo. Without them (`default-features = false`) the
+//! (default) builds the command line's binary. Without them (`default-features = false`) the
 //! library is the model, identification, the diagnosis, synthetic sessions and session files.
 //!
 //! Re-evaluating and diagnosing a recording from Rust, without the command line: see
@@ -45,13 +47,9 @@
 
 #![deny(missing_docs)]
 
-#[cfg(feature = "cli")]
-mod cli;
 pub mod config;
 pub mod dataset;
 pub mod dem;
-#[cfg(feature = "cli")]
-mod demo;
 pub mod error;
 #[doc(hidden)]
 pub mod fuzzing;
@@ -63,13 +61,5 @@ pub mod node;
 pub mod record;
 pub mod session;
 pub mod sim;
-
-/// The `terzaghi` command line, for its binary and the workspace's own tools (`terzaghi-eval`,
-/// `terzaghi-bench`); not an API.
-#[cfg(feature = "cli")]
-#[doc(hidden)]
-pub mod command_line {
-    pub use crate::cli::{Cli, exit_code, print_out, run, worded};
-}
 
 pub use terzaghi_core::{diagnose, ident, model};

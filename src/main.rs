@@ -1,3 +1,6 @@
+mod cli;
+mod demo;
+
 use clap::Parser;
 use std::process::ExitCode;
 
@@ -8,12 +11,12 @@ use std::process::ExitCode;
 static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 fn main() -> ExitCode {
-    let cli = terzaghi::command_line::Cli::parse();
-    match terzaghi::command_line::run(cli) {
+    let cli = cli::Cli::parse();
+    match cli::run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {}", terzaghi::command_line::worded(&e));
-            ExitCode::from(terzaghi::command_line::exit_code(&e))
+            eprintln!("error: {}", cli::worded(&e));
+            ExitCode::from(cli::exit_code(&e))
         }
     }
 }

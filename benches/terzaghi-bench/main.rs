@@ -16,7 +16,7 @@ use anyhow::{Context as _, Result};
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 // Writes to stdout as `terzaghi` does: a closed pipe (`| head`) ends the command quietly.
-use terzaghi::command_line::print_out;
+use terzaghi::session::files::print_out;
 
 #[global_allocator]
 static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
@@ -60,7 +60,7 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
-            ExitCode::from(terzaghi::command_line::exit_code(&e))
+            ExitCode::from(terzaghi::error::exit_code(&e))
         }
     }
 }

@@ -1,24 +1,24 @@
 //! `terzaghi calibrate`: a medium's plate-sinkage laws fitted to plate-sinkage tests, and RFT's
 //! angular shape, law in depth and speed law fitted to intrusion tests in any direction; a
 //! medium file written, and (with --cross-validate) each plate size and each intrusion test
-//! predicted from the others (the work is [`crate::session::plate_test`] and
-//! [`crate::session::intrusion_test`]).
+//! predicted from the others (the work is [`terzaghi::session::plate_test`] and
+//! [`terzaghi::session::intrusion_test`]).
 
 use super::print_out;
-use crate::ident::rft_shape::{HeldOutIntrusion, RftShapeFit, ShapeForm, ShapeOptions};
-use crate::medium_file::{MediumRftShape, RFT_COEFFICIENT_NAMES};
-use crate::model::sinkage::{PlateShape, RegimeOptions, SinkageLaw};
-use crate::session::intrusion_test::{
-    IntrusionFile, calibrate_shape, cross_validate_tests, is_intrusion_test, read_intrusion_test,
-    unit_weight_of_tests,
-};
-use crate::session::plate_test::{
-    DepthColumn, HeldOut, MediumFile, PlateTest, STRESS_DEPTH_M, by_size, calibrate,
-    cross_validate, read_test, unit_weight_of,
-};
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
 use std::path::PathBuf;
+use terzaghi::ident::rft_shape::{HeldOutIntrusion, RftShapeFit, ShapeForm, ShapeOptions};
+use terzaghi::medium_file::{MediumRftShape, RFT_COEFFICIENT_NAMES};
+use terzaghi::model::sinkage::{PlateShape, RegimeOptions, SinkageLaw};
+use terzaghi::session::intrusion_test::{
+    IntrusionFile, calibrate_shape, cross_validate_tests, is_intrusion_test, read_intrusion_test,
+    unit_weight_of_tests,
+};
+use terzaghi::session::plate_test::{
+    DepthColumn, HeldOut, MediumFile, PlateTest, STRESS_DEPTH_M, by_size, calibrate,
+    cross_validate, read_test, unit_weight_of,
+};
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
 pub enum DepthArg {
@@ -143,7 +143,7 @@ fn with_sheared(
     mut medium: MediumFile,
     plates: Option<&PlatePart>,
 ) -> Result<MediumFile> {
-    use crate::session::slip_sweep::{sheared_of_repose, sheared_of_sweep};
+    use terzaghi::session::slip_sweep::{sheared_of_repose, sheared_of_sweep};
     if a.slip_sweep.is_none() && !a.body.given().is_empty() {
         bail!(
             "{} describe the slip sweep's body: give --slip-sweep RUNS.csv",
@@ -157,7 +157,7 @@ fn with_sheared(
     }
     if let Some(sweep) = &a.slip_sweep {
         if let Some(out) = &a.out {
-            crate::session::files::refuse_output_over_input(out, &[sweep.as_path()])?;
+            terzaghi::session::files::refuse_output_over_input(out, &[sweep.as_path()])?;
         }
         let body = a.body.body(&a.shape.name(), a.width_m)?;
         let text = a.body.text(a.shape, a.width_m);
@@ -210,7 +210,7 @@ struct PlatePart {
     tests: Vec<PlateTest>,
     unit_weight: f64,
     unit_weight_source: String,
-    fits: Vec<crate::ident::sinkage::SinkageFit>,
+    fits: Vec<terzaghi::ident::sinkage::SinkageFit>,
     failed: Vec<(SinkageLaw, String)>,
     chosen: usize,
     held: Option<Vec<HeldOut>>,
@@ -262,9 +262,9 @@ fn plate_part(a: &CalibrateArgs, files: &[PathBuf]) -> Result<PlatePart> {
 
 pub fn run(a: CalibrateArgs) -> Result<()> {
     let inputs: Vec<&std::path::Path> = a.tests.iter().map(|p| p.as_path()).collect();
-    crate::session::files::refuse_stdout_over_input(&inputs)?;
+    terzaghi::session::files::refuse_stdout_over_input(&inputs)?;
     for out in a.out.iter().chain(&a.report) {
-        crate::session::files::refuse_output_over_input(out, &inputs)?;
+        terzaghi::session::files::refuse_output_over_input(out, &inputs)?;
     }
     if let Some(w) = a.unit_weight_n_m3
         && !(w.is_finite() && w > 0.0)
@@ -372,19 +372,19 @@ pub fn run(a: CalibrateArgs) -> Result<()> {
     };
     let medium = with_sheared(&a, medium, plates.as_ref())?;
     if let Some(out) = &a.out {
-        crate::session::files::write_text(out, &medium.to_yaml()?)
-            .context(crate::session::files::cannot_write(out))?;
+        terzaghi::session::files::write_text(out, &medium.to_yaml()?)
+            .context(terzaghi::session::files::cannot_write(out))?;
     }
     if let Some(report) = &a.report {
         let Some(fit) = &shape else {
             bail!("--report draws RFT's shape, and no intrusion test was given");
         };
-        let html = crate::session::calibration_html::html(
+        let html = terzaghi::session::calibration_html::html(
             fit,
             shape_held.as_ref().map(|(h, _)| h.as_slice()),
         )?;
-        crate::session::files::write_text(report, &html)
-            .context(crate::session::files::cannot_write(report))?;
+        terzaghi::session::files::write_text(report, &html)
+            .context(terzaghi::session::files::cannot_write(report))?;
     }
     if a.json {
         let mut v = serde_json::json!({ "medium": medium });
@@ -536,12 +536,12 @@ fn render_plate_part(p: &PlatePart) -> String {
     s += &match &chosen.scatter {
         Some(b) => format!(
             "Trial to trial: {} (predict --band, steady --band)\n",
-            crate::medium_file::MediumScatter::of(b).text()
+            terzaghi::medium_file::MediumScatter::of(b).text()
         ),
         None => format!(
             "Trial to trial: no band ({} tests; a band needs {} degrees of freedom: three trials, four with a width term)\n",
             chosen.tests.len(),
-            crate::ident::scatter::MIN_BAND_DEGREES_OF_FREEDOM
+            terzaghi::ident::scatter::MIN_BAND_DEGREES_OF_FREEDOM
         ),
     };
     if let Some(held) = &p.held {

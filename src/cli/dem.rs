@@ -1,9 +1,9 @@
 //! `terzaghi import-dem`: DEM testbed runs as a ROS 2 session.
 
-use crate::dem::import_runs;
 use anyhow::Result;
 use clap::Args;
 use std::path::PathBuf;
+use terzaghi::dem::import_runs;
 
 #[derive(Debug, Args)]
 pub struct ImportDemArgs {
@@ -22,7 +22,7 @@ pub struct ImportDemArgs {
 
 pub fn import(a: ImportDemArgs) -> Result<()> {
     let inputs: Vec<&std::path::Path> = a.runs.iter().map(|r| r.as_path()).collect();
-    crate::session::files::refuse_output_over_input(&a.output, &inputs)?;
+    terzaghi::session::files::refuse_output_over_input(&a.output, &inputs)?;
     let run = import_runs(&a.runs, &a.output, a.overwrite)?;
     eprintln!(
         "{} samples of run {} written to {}",

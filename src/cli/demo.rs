@@ -5,12 +5,7 @@
 //! simulation hid.
 
 use super::print_out;
-use crate::config::NodeConfig;
 use crate::demo::{Demo, Legs, Watch};
-use crate::msgs::{DiagnosticArray, LegForce, ModelParams, WrenchStamped};
-use crate::node::handle::Publish;
-use crate::sim::robot::DEMO_RATE_HZ;
-use crate::sim::robot::{Session, Truth};
 use anyhow::{Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -18,6 +13,11 @@ use std::cell::RefCell;
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
+use terzaghi::config::NodeConfig;
+use terzaghi::msgs::{DiagnosticArray, LegForce, ModelParams, WrenchStamped};
+use terzaghi::node::handle::Publish;
+use terzaghi::sim::robot::DEMO_RATE_HZ;
+use terzaghi::sim::robot::{Session, Truth};
 
 #[derive(Debug, Args)]
 pub struct DemoArgs {
@@ -224,7 +224,7 @@ impl Publish for LiveView {
         }
     }
     fn diagnostics(&self, _msg: DiagnosticArray) {}
-    fn gap(&self, _leg: usize, _msg: crate::msgs::Gap) {}
+    fn gap(&self, _leg: usize, _msg: terzaghi::msgs::Gap) {}
 }
 
 impl Watch for LiveView {

@@ -1,17 +1,17 @@
 //! `terzaghi diagnose`: where the model and the measurements part, which unmodelled effect is
-//! responsible, and how far the gap shrinks with it (the work is [`crate::session::diagnose`]).
+//! responsible, and how far the gap shrinks with it (the work is [`terzaghi::session::diagnose`]).
 
 use super::{MediumArgs, OptionalPlateArgs, print_out};
-use crate::config::FtFrame;
-use crate::diagnose::{DiagnoseOptions, Report};
-use crate::model::Plate;
-use crate::session::diagnose::{
-    DiagnoseFileOptions, Diagnosed, Written, diagnose_file, write_reports,
-};
-use crate::session::legs::{JointLeg, LegsFrom};
 use anyhow::{Result, bail};
 use clap::Args;
 use std::path::{Path, PathBuf};
+use terzaghi::config::FtFrame;
+use terzaghi::diagnose::{DiagnoseOptions, Report};
+use terzaghi::model::Plate;
+use terzaghi::session::diagnose::{
+    DiagnoseFileOptions, Diagnosed, Written, diagnose_file, write_reports,
+};
+use terzaghi::session::legs::{JointLeg, LegsFrom};
 
 #[derive(Debug, Args)]
 pub struct DiagnoseArgs {
@@ -86,7 +86,7 @@ pub struct DiagnoseArgs {
 }
 
 pub fn run(a: DiagnoseArgs) -> Result<()> {
-    if a.shape.is_some() || crate::session::wheel_test::is_wheel_test(&a.log) {
+    if a.shape.is_some() || terzaghi::session::wheel_test::is_wheel_test(&a.log) {
         return wheel_test(&a);
     }
     if !a.body.given().is_empty() {
@@ -95,7 +95,7 @@ pub fn run(a: DiagnoseArgs) -> Result<()> {
             a.body.given().join(", ")
         );
     }
-    if crate::session::plate_test::is_plate_test(&a.log) {
+    if terzaghi::session::plate_test::is_plate_test(&a.log) {
         return plate_test(&a);
     }
     if a.medium_file.is_some() {
@@ -173,15 +173,15 @@ pub fn diagnose_to_dir(a: &DiagnoseArgs) -> Result<(Diagnosed, Written)> {
     let inputs: Vec<&Path> = std::iter::once(a.log.as_path())
         .chain(a.params_file.as_deref())
         .collect();
-    crate::session::files::refuse_output_over_input(&a.out, &inputs)?;
+    terzaghi::session::files::refuse_output_over_input(&a.out, &inputs)?;
     if a.json {
-        crate::session::files::refuse_stdout_over_input(&inputs)?;
+        terzaghi::session::files::refuse_stdout_over_input(&inputs)?;
     }
     let d = diagnose_file(&a.log, &options(a)?)?;
     // The log is checked against the reports by write_reports; the parameters file here.
     if let Some(params) = &a.params_file {
-        for path in crate::session::diagnose::report_paths(&d, &a.out) {
-            crate::session::files::refuse_output_over_input(&path, &[params])?;
+        for path in terzaghi::session::diagnose::report_paths(&d, &a.out) {
+            terzaghi::session::files::refuse_output_over_input(&path, &[params])?;
         }
     }
     let w = write_reports(&d, &a.out)?;
@@ -205,7 +205,7 @@ fn render(leg: &str, r: &Report, dir: &Path) -> String {
         "leg {leg}: verdict {}{}\n",
         r.verdict.effect,
         if r.steps.is_empty() {
-            if r.verdict.effect == crate::diagnose::VerdictEffect::None {
+            if r.verdict.effect == terzaghi::diagnose::VerdictEffect::None {
                 format!(" ({})", r.verdict.claim)
             } else {
                 String::new()
@@ -274,8 +274,8 @@ fn plate_from_flags(a: &DiagnoseArgs) -> Result<Plate> {
 
 /// A plate-sinkage test judged against a calibrated medium; report.json in --out.
 fn plate_test(a: &DiagnoseArgs) -> Result<()> {
-    use crate::model::sinkage::PlateShape;
-    use crate::session::plate_test::{diagnose_test_to_dir, diagnosis_text};
+    use terzaghi::model::sinkage::PlateShape;
+    use terzaghi::session::plate_test::{diagnose_test_to_dir, diagnosis_text};
     let Some(medium_file) = &a.medium_file else {
         bail!(
             "{} is a plate-sinkage test: give the medium to judge it against with --medium-file (written by terzaghi calibrate on other tests)",
@@ -283,7 +283,10 @@ fn plate_test(a: &DiagnoseArgs) -> Result<()> {
         );
     };
     if a.json {
-        crate::session::files::refuse_stdout_over_input(&[a.log.as_path(), medium_file.as_path()])?;
+        terzaghi::session::files::refuse_stdout_over_input(&[
+            a.log.as_path(),
+            medium_file.as_path(),
+        ])?;
     }
     let plate = a.plate_diameter_m.map(PlateShape::disc).transpose()?;
     let (d, json) = diagnose_test_to_dir(&a.log, medium_file, plate, &a.out)?;
@@ -299,7 +302,7 @@ fn plate_test(a: &DiagnoseArgs) -> Result<()> {
 /// A wheel's or a foot's runs judged against a calibrated medium; report.json (and the medium
 /// with the effect found, where a medium file takes it) in --out.
 fn wheel_test(a: &DiagnoseArgs) -> Result<()> {
-    use crate::session::wheel_test::{diagnose_runs, wheel_diagnosis_text, write_wheel_report};
+    use terzaghi::session::wheel_test::{diagnose_runs, wheel_diagnosis_text, write_wheel_report};
     let Some(shape) = a.shape else {
         bail!(
             "{} is a body's runs (load_n, hub_vx_m_s, ...): give its body with --shape wheel --radius-m R --width-m B (and grousers), and the medium with --medium-file",
@@ -324,7 +327,10 @@ fn wheel_test(a: &DiagnoseArgs) -> Result<()> {
         }
     }
     if a.json {
-        crate::session::files::refuse_stdout_over_input(&[a.log.as_path(), medium_file.as_path()])?;
+        terzaghi::session::files::refuse_stdout_over_input(&[
+            a.log.as_path(),
+            medium_file.as_path(),
+        ])?;
     }
     let body = a.body.body(&shape.name(), a.plate.width_m)?;
     let text = a.body.text(shape, a.plate.width_m);

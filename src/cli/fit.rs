@@ -3,9 +3,9 @@
 
 use super::log_source::LogArgs;
 use super::print_out;
-use crate::ident::{BatchFit, BatchOptions, GoodnessOfFit, fit_batch};
 use anyhow::{Result, bail};
 use clap::Args;
+use terzaghi::ident::{BatchFit, BatchOptions, GoodnessOfFit, fit_batch};
 
 #[derive(Debug, Args)]
 pub struct FitArgs {
@@ -39,7 +39,7 @@ pub fn run(a: FitArgs) -> Result<()> {
     if let Some(medium_file) = &a.medium_file {
         return fit_test(&a, medium_file);
     }
-    crate::session::files::refuse_stdout_over_input(&a.log.inputs())?;
+    terzaghi::session::files::refuse_stdout_over_input(&a.log.inputs())?;
     let (model, samples) = a.log.load()?;
     let opts = BatchOptions {
         fit_delta: a.fit_delta,
@@ -83,8 +83,8 @@ pub fn render(fit: &BatchFit, fit_delta: bool) -> String {
 /// `fit --medium-file`: the medium file's law fitted to a plate-sinkage test (its scale, the
 /// surface's level and the sensor's bias), as the diagnosis of a test fits it.
 fn fit_test(a: &FitArgs, medium_file: &std::path::Path) -> Result<()> {
-    use crate::model::sinkage::{PlateShape, RegimeOptions};
-    use crate::session::plate_test::{DepthColumn, diagnose_test, read_test};
+    use terzaghi::model::sinkage::{PlateShape, RegimeOptions};
+    use terzaghi::session::plate_test::{DepthColumn, diagnose_test, read_test};
     let l = &a.log;
     if l.plate.any() || l.medium.medium.is_some() || l.medium.unit_weight_n_m3.is_some() {
         bail!(
@@ -96,8 +96,8 @@ fn fit_test(a: &FitArgs, medium_file: &std::path::Path) -> Result<()> {
             "--medium-file fits a plate-sinkage test, which has no leg, node parameters, delta or regimes to choose"
         );
     }
-    crate::session::files::refuse_stdout_over_input(&[l.data.as_path(), medium_file])?;
-    let medium = crate::medium_file::MediumFile::read(medium_file)?;
+    terzaghi::session::files::refuse_stdout_over_input(&[l.data.as_path(), medium_file])?;
+    let medium = terzaghi::medium_file::MediumFile::read(medium_file)?;
     let plate = a.plate_diameter_m.map(PlateShape::disc).transpose()?;
     let test = read_test(
         &l.data,

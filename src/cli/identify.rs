@@ -1,16 +1,16 @@
 //! `terzaghi identify`: batch or online identification of a log, with a trace and its plot
-//! (the online replay is [`crate::session::identify`]).
+//! (the online replay is [`terzaghi::session::identify`]).
 
 use super::log_source::LogArgs;
 use super::print_out;
-use crate::ident::online::Forgetting;
-use crate::ident::{BatchOptions, OnlineOptions, fit_batch};
-use crate::session::files::write_atomically;
-use crate::session::identify::{identify_online, plot_trace_svg, write_trace_csv};
 use anyhow::{Context as _, Result, bail};
 use clap::Args;
 use std::io::Write;
 use std::path::PathBuf;
+use terzaghi::ident::online::Forgetting;
+use terzaghi::ident::{BatchOptions, OnlineOptions, fit_batch};
+use terzaghi::session::files::write_atomically;
+use terzaghi::session::identify::{identify_online, plot_trace_svg, write_trace_csv};
 
 #[derive(Debug, Args)]
 pub struct IdentifyArgs {
@@ -63,9 +63,9 @@ pub fn run(a: IdentifyArgs) -> Result<()> {
         );
     }
     let inputs = a.log.inputs();
-    crate::session::files::refuse_stdout_over_input(&inputs)?;
+    terzaghi::session::files::refuse_stdout_over_input(&inputs)?;
     for out in a.trace.iter().chain(&a.trace_plot) {
-        crate::session::files::refuse_output_over_input(out, &inputs)?;
+        terzaghi::session::files::refuse_output_over_input(out, &inputs)?;
     }
     let (base, samples) = a.log.load()?;
     if !a.online {

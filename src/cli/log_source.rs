@@ -2,14 +2,14 @@
 //! recorded session whose parameters carry them.
 
 use super::{MediumArgs, OptionalPlateArgs, terzaghi_model};
-use crate::dataset::read_samples_csv;
-use crate::ident::Sample;
-use crate::model::TerzaghiModel;
-use crate::session::files::is_mcap;
-use crate::session::legs::{LegsFrom, one_leg};
 use anyhow::{Result, bail};
 use clap::Args;
 use std::path::PathBuf;
+use terzaghi::dataset::read_samples_csv;
+use terzaghi::ident::Sample;
+use terzaghi::model::TerzaghiModel;
+use terzaghi::session::files::is_mcap;
+use terzaghi::session::legs::{LegsFrom, one_leg};
 
 #[derive(Debug, Args)]
 pub struct LogArgs {

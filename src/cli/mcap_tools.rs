@@ -1,14 +1,14 @@
 //! `terzaghi info` and `terzaghi recover`: looking into and mending MCAP sessions.
 
 use super::print_out;
-use crate::record::{read::scan, recover};
-use crate::session::files::read_file;
-use crate::session::refuse_cut_off;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::path::PathBuf;
+use terzaghi::record::{read::scan, recover};
+use terzaghi::session::files::read_file;
+use terzaghi::session::refuse_cut_off;
 
 #[derive(Debug, Args)]
 pub struct InfoArgs {
@@ -114,12 +114,12 @@ pub fn info(a: InfoArgs) -> Result<()> {
 }
 
 pub fn recover_cmd(a: RecoverArgs) -> Result<()> {
-    crate::session::files::refuse_output_over_input(&a.output, &[&a.input])?;
-    crate::session::files::refuse_existing_recording(&a.output, a.overwrite)?;
+    terzaghi::session::files::refuse_output_over_input(&a.output, &[&a.input])?;
+    terzaghi::session::files::refuse_existing_recording(&a.output, a.overwrite)?;
     let bytes = read_file(&a.input)?;
     let pb = progress(0, "recovering");
     let mut result = None;
-    crate::session::files::write_atomically(&a.output, |w| {
+    terzaghi::session::files::write_atomically(&a.output, |w| {
         let (_, r) = recover(&bytes, w, |n| {
             pb.set_position(n);
         })

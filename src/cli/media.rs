@@ -1,10 +1,10 @@
 //! `terzaghi media`: the presets and where their values come from.
 
 use super::print_out;
-use crate::model::medium::presets;
-use crate::session::plate_test::MediumFile;
 use anyhow::Result;
 use clap::Args;
+use terzaghi::model::medium::presets;
+use terzaghi::session::plate_test::MediumFile;
 
 #[derive(Debug, Args)]
 pub struct MediaArgs {
@@ -70,7 +70,8 @@ pub fn run(a: MediaArgs) -> Result<()> {
         }
         s += &format!(
             "  serves:      {}\n",
-            if m.law == crate::model::sinkage::SinkageLaw::RftDepthPower || m.rft_shape.is_some() {
+            if m.law == terzaghi::model::sinkage::SinkageLaw::RftDepthPower || m.rft_shape.is_some()
+            {
                 "model sinkage (a plate pushed straight down) and model rft (any leg shape: RFT's stress in depth)"
             } else {
                 "model sinkage (a plate pushed straight down); model rft takes the rft_depth_power law only"
@@ -83,7 +84,7 @@ pub fn run(a: MediaArgs) -> Result<()> {
         if let Some(shape) = &m.rft_shape {
             s += &format!(
                 "  RFT's coefficients (N/cm^3 at 1 cm, +- one standard deviation): {}\n",
-                crate::medium_file::RFT_COEFFICIENT_NAMES
+                terzaghi::medium_file::RFT_COEFFICIENT_NAMES
                     .iter()
                     .map(|n| format!(
                         "{n} {:.4} +- {:.4}",

@@ -1,5 +1,5 @@
 //! The `terzaghi` command line: each command parses its flags, calls the library (mostly
-//! [`crate::session`]), prints what it returns, and maps errors to the exit code 2.
+//! [`terzaghi::session`]), prints what it returns, and maps errors to the exit code 2.
 
 mod calibrate;
 mod dem;
@@ -19,9 +19,9 @@ mod simulate;
 mod simulate_robot;
 mod steady;
 
-use crate::model::{FittingWidth, Plate};
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::{Args, Parser, Subcommand};
+use terzaghi::model::{FittingWidth, Plate};
 
 /// Forces on flat legs rotating through sand and other granular media.
 #[derive(Debug, Parser)]
@@ -170,9 +170,9 @@ pub fn help_markdown() -> String {
 
 /// Runs a parsed command. Errors are for the user: `main` prints them on one line, exit code 2.
 /// An error as the command line prints it: its chain joined by ": ", as `{:#}` prints it, with
-/// each [`Refusal`](crate::session::Refusal) of the library worded in the flag that answers it.
+/// each [`Refusal`](terzaghi::session::Refusal) of the library worded in the flag that answers it.
 pub fn worded(e: &anyhow::Error) -> String {
-    use crate::session::Refusal;
+    use terzaghi::session::Refusal;
     e.chain()
         .map(|c| match c.downcast_ref::<Refusal>() {
             Some(Refusal::RecordingExists { path }) => format!(
@@ -210,30 +210,7 @@ pub fn worded(e: &anyhow::Error) -> String {
         .join(": ")
 }
 
-/// The exit code of a command that ended with `e`: 1 when the run failed although its input was
-/// fine (a [`Failure`](crate::session::Failure): an output not written, a DDS participant not
-/// made, a full disk), 2 for bad input (usage, parameters, geometry, a log or recording that
-/// cannot be used, a refusal), 3 when `terzaghi steady` wrote every run but the sand bears
-/// some not within the body's height ([`NotBorne`](crate::session::NotBorne)). 0 is success.
-/// `docs/command-line.md` states it.
-pub fn exit_code(e: &anyhow::Error) -> u8 {
-    // anyhow's downcast finds a Failure given as context at any depth, or as the error itself.
-    let failed = e.downcast_ref::<crate::session::Failure>().is_some()
-        || e.chain().any(|c| {
-            c.downcast_ref::<std::io::Error>().is_some_and(|io| {
-                matches!(
-                    io.kind(),
-                    std::io::ErrorKind::StorageFull
-                        | std::io::ErrorKind::WriteZero
-                        | std::io::ErrorKind::QuotaExceeded
-                )
-            })
-        });
-    if e.downcast_ref::<crate::session::NotBorne>().is_some() {
-        return 3;
-    }
-    if failed { 1 } else { 2 }
-}
+pub use terzaghi::error::exit_code;
 
 /// Runs one `terzaghi` command: what `main` does after parsing.
 pub fn run(cli: Cli) -> Result<()> {
@@ -275,7 +252,7 @@ pub struct PlateArgs {
 
 impl PlateArgs {
     pub fn plate(&self) -> Result<Plate> {
-        crate::model_spec::plate(self.length_m, self.width_m, self.hip_height_m)
+        terzaghi::model_spec::plate(self.length_m, self.width_m, self.hip_height_m)
     }
 }
 
@@ -328,12 +305,12 @@ pub struct MediumArgs {
     pub delta_deg: Option<f64>,
 }
 
-pub use crate::model_spec::ChosenMedium;
+pub use terzaghi::model_spec::ChosenMedium;
 
 impl MediumArgs {
     /// The medium spec the flags name (clap has checked that they go together).
-    pub fn spec(&self) -> crate::model_spec::MediumSpec {
-        crate::model_spec::MediumSpec {
+    pub fn spec(&self) -> terzaghi::model_spec::MediumSpec {
+        terzaghi::model_spec::MediumSpec {
             preset: self.medium.clone(),
             unit_weight_n_m3: self.unit_weight_n_m3,
             phi_deg: self.phi_deg,
@@ -371,32 +348,18 @@ pub struct WidthArgs {
 impl WidthArgs {
     /// The fitting width from the flags, else from the preset for this plate width.
     pub fn fitting_width(&self, chosen: &ChosenMedium, plate: &Plate) -> Result<FittingWidth> {
-        crate::model_spec::fitting_width(self.b_k, self.a, chosen, plate)
-    }
-
-    pub fn given(&self) -> bool {
-        self.b_k.is_some()
+        terzaghi::model_spec::fitting_width(self.b_k, self.a, chosen, plate)
     }
 }
 
-pub use crate::model_spec::terzaghi_model;
+pub use terzaghi::model_spec::terzaghi_model;
 
-/// Writes `text` to stdout; a closed pipe (`| head`) ends the command quietly.
-pub fn print_out(text: &str) -> Result<()> {
-    use std::io::Write;
-    let mut out = std::io::stdout().lock();
-    match out.write_all(text.as_bytes()).and_then(|_| out.flush()) {
-        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
-        r => r.context(crate::session::Failure(
-            "cannot write to standard output".into(),
-        )),
-    }
-}
+pub use terzaghi::session::files::print_out;
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::session::Refusal;
+    use terzaghi::session::Refusal;
 
     /// The library's refusals carry no flag; the command line names the one that answers each,
     /// also under a context.

@@ -1,11 +1,11 @@
 //! `terzaghi node`: the ROS 2 node.
 
-use crate::config::{LogLevel, NodeConfig, ParamValue, load_params, parse_ros_args};
-use crate::node::dds::{NodeSetup, run as run_node};
-use crate::node::log::LogSettings;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use std::path::PathBuf;
+use terzaghi::config::{LogLevel, NodeConfig, ParamValue, load_params, parse_ros_args};
+use terzaghi::node::dds::{NodeSetup, run as run_node};
+use terzaghi::node::log::LogSettings;
 
 #[derive(Debug, Args)]
 #[command(
@@ -94,11 +94,11 @@ pub fn setup(a: &NodeArgs) -> Result<NodeSetup> {
     let config = NodeConfig::from_params(&params, &node_name, &namespace, &ros.remaps)?;
     if let Some(path) = &config.record {
         let inputs: Vec<&std::path::Path> = ros.params_files.iter().map(|p| p.as_path()).collect();
-        crate::session::files::refuse_output_over_input(path, &inputs)?;
-        crate::session::files::refuse_existing_recording(path, a.overwrite)?;
+        terzaghi::session::files::refuse_output_over_input(path, &inputs)?;
+        terzaghi::session::files::refuse_existing_recording(path, a.overwrite)?;
     }
     let params = config.effective_params(&params);
-    let (domain_id, localhost_only) = crate::node::dds::network_from_env()?;
+    let (domain_id, localhost_only) = terzaghi::node::dds::network_from_env()?;
     let foxglove = match &a.foxglove {
         None => None,
         Some(s) => Some(s.parse::<std::net::SocketAddr>().map_err(|_| {
@@ -126,15 +126,15 @@ pub fn run(a: NodeArgs) -> Result<()> {
     let rt = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
-        .context(crate::session::Failure(
+        .context(terzaghi::session::Failure(
             "cannot start the async runtime".into(),
         ))?;
     // Before DDS starts its threads, so that they inherit both.
     if let Some(cpu) = a.cpu {
-        crate::node::realtime::pin_to_cpus(&[cpu]).context("--cpu")?;
+        terzaghi::node::realtime::pin_to_cpus(&[cpu]).context("--cpu")?;
     }
     if let Some(priority) = a.realtime_priority {
-        crate::node::realtime::set_realtime(priority).context("--realtime-priority")?;
+        terzaghi::node::realtime::set_realtime(priority).context("--realtime-priority")?;
     }
     // The node logs its start and what it did at the end (stderr and /rosout).
     rt.block_on(run_node(setup, shutdown_signal()))?;

@@ -1,11 +1,11 @@
 //! `terzaghi param get|set`: read and change a running node's parameters over its parameter
 //! services, as `ros2 param` does, without a ROS installation (the client is
-//! [`crate::node::param_client`]).
+//! [`terzaghi::node::param_client`]).
 
-use crate::node::param_client::ParamClient;
 use anyhow::{Result, bail};
 use clap::{Args, Subcommand};
 use std::time::Duration;
+use terzaghi::node::param_client::ParamClient;
 
 #[derive(Debug, Args)]
 pub struct ParamArgs {
@@ -42,7 +42,7 @@ pub fn run(a: ParamArgs) -> Result<()> {
         bail!("--timeout-s must be a positive number, got {}", a.timeout_s);
     }
     let timeout = Duration::from_secs_f64(a.timeout_s);
-    let rt = crate::node::dds::runtime()?;
+    let rt = terzaghi::node::dds::runtime()?;
     rt.block_on(async move {
         let mut client = ParamClient::new(timeout)?;
         let result = match &a.action {

@@ -2,10 +2,10 @@
 
 use super::steady::BodyArgs;
 use super::{MediumArgs, WidthArgs, print_out};
-use crate::model::{ForceModel, Prediction};
 use anyhow::{Result, bail};
 use clap::{Args, ValueEnum};
 use serde::Serialize;
+use terzaghi::model::{ForceModel, Prediction};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum ModelKind {
@@ -163,7 +163,7 @@ pub struct PredictArgs {
 
 impl PredictArgs {
     /// The hip's motion at `height_m`, where a motion flag is given.
-    fn motion(&self) -> Option<crate::model::HipMotion> {
+    fn motion(&self) -> Option<terzaghi::model::HipMotion> {
         let flags = [
             self.forward_m_s,
             self.lateral_m_s,
@@ -173,12 +173,12 @@ impl PredictArgs {
         flags
             .iter()
             .any(Option::is_some)
-            .then(|| crate::model::HipMotion {
+            .then(|| terzaghi::model::HipMotion {
                 forward_m_s: self.forward_m_s.unwrap_or(0.0),
                 lateral_m_s: self.lateral_m_s.unwrap_or(0.0),
                 up_m_s: self.up_m_s.unwrap_or(0.0),
                 omega_rad_s: self.omega_rad_s.unwrap_or(0.0),
-                ..crate::model::HipMotion::still(self.hip_height_m)
+                ..terzaghi::model::HipMotion::still(self.hip_height_m)
             })
     }
 
@@ -287,7 +287,7 @@ impl BandColumns {
 }
 
 pub fn build_model(a: &PredictArgs) -> Result<ForceModel> {
-    use crate::model_spec::LegShape;
+    use terzaghi::model_spec::LegShape;
     let body = match a.shape.body_name() {
         Some(name) => Some(
             a.body
@@ -349,12 +349,12 @@ pub fn build_model(a: &PredictArgs) -> Result<ForceModel> {
             (_, None) => bail!("--width-m is needed (the leg's width, m)"),
         },
     };
-    crate::model_spec::ModelSpec {
+    terzaghi::model_spec::ModelSpec {
         kind: match a.model {
-            ModelKind::Improved => crate::model_spec::ModelKind::Improved,
-            ModelKind::Conventional => crate::model_spec::ModelKind::Conventional,
-            ModelKind::Rft => crate::model_spec::ModelKind::Rft,
-            ModelKind::Sinkage => crate::model_spec::ModelKind::Sinkage,
+            ModelKind::Improved => terzaghi::model_spec::ModelKind::Improved,
+            ModelKind::Conventional => terzaghi::model_spec::ModelKind::Conventional,
+            ModelKind::Rft => terzaghi::model_spec::ModelKind::Rft,
+            ModelKind::Sinkage => terzaghi::model_spec::ModelKind::Sinkage,
         },
         length_m,
         width_m,
@@ -364,7 +364,7 @@ pub fn build_model(a: &PredictArgs) -> Result<ForceModel> {
             Some(_) => a.hip_height_m.max(0.0),
             None => a.hip_height_m,
         },
-        medium: crate::model_spec::MediumSpec {
+        medium: terzaghi::model_spec::MediumSpec {
             file: a.medium_file.clone(),
             ..a.medium.spec()
         },
@@ -404,7 +404,7 @@ pub fn run(a: PredictArgs) -> Result<()> {
             if !matches!(a.model, ModelKind::Sinkage | ModelKind::Rft) {
                 bail!("--band is the medium file's scatter: it goes with --model sinkage or rft");
             }
-            Some(crate::medium_file::MediumFile::read(f)?.band(f)?)
+            Some(terzaghi::medium_file::MediumFile::read(f)?.band(f)?)
         }
         _ => None,
     };
@@ -412,7 +412,7 @@ pub fn run(a: PredictArgs) -> Result<()> {
     if a.shape.body_name().is_none()
         && !a.planar_sheared_bearing
         && let Some(f) = &a.medium_file
-        && crate::medium_file::MediumFile::read(f)?
+        && terzaghi::medium_file::MediumFile::read(f)?
             .sheared_bearing
             .is_some()
     {
@@ -436,16 +436,16 @@ pub fn run(a: PredictArgs) -> Result<()> {
     let motion = a.motion().or_else(|| {
         a.shape
             .body_name()
-            .map(|_| crate::model::HipMotion::still(a.hip_height_m))
+            .map(|_| terzaghi::model::HipMotion::still(a.hip_height_m))
     });
     let full = a.full_wrench();
     let rows: Vec<Row> = values
         .iter()
         .map(|&v| {
             let (deg, p): (f64, Prediction) = if sinkage {
-                let hip = crate::model::HipMotion {
+                let hip = terzaghi::model::HipMotion {
                     up_m_s: -LOADING_M_S,
-                    ..crate::model::HipMotion::still(-v)
+                    ..terzaghi::model::HipMotion::still(-v)
                 };
                 (0.0, model.predict_moving(0.0, &hip)?)
             } else {

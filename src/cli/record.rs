@@ -1,12 +1,12 @@
 //! `terzaghi record`: record topics this project knows to an MCAP file, without running the
-//! model (the work is [`crate::session::record`]).
+//! model (the work is [`terzaghi::session::record`]).
 
-use crate::session::files::{recording_name, refuse_existing_recording};
-use crate::session::record::{kind_of, record_topics};
 use anyhow::{Result, bail};
 use clap::Args;
 use std::path::PathBuf;
 use std::time::Duration;
+use terzaghi::session::files::{recording_name, refuse_existing_recording};
+use terzaghi::session::record::{kind_of, record_topics};
 
 #[derive(Debug, Args)]
 pub struct RecordArgs {
@@ -43,7 +43,7 @@ pub fn run(a: RecordArgs) -> Result<()> {
         )
     });
     refuse_existing_recording(&output, a.overwrite)?;
-    let rt = crate::node::dds::runtime()?;
+    let rt = terzaghi::node::dds::runtime()?;
     let recorded = rt.block_on(async {
         let stop = async {
             let wait = async {

@@ -2,14 +2,14 @@
 //! play`), or re-evaluate it offline through the model and the estimator (`--reevaluate`).
 
 use super::mcap_tools::progress;
-use crate::session::files::write_atomically;
-use crate::session::reevaluate::{
-    ReevaluateOptions, Reevaluation, reevaluate_to_csv, reevaluate_to_mcap,
-};
-use crate::session::replay::{ReplayOptions, replay};
 use anyhow::{Result, anyhow, bail};
 use clap::Args;
 use std::path::PathBuf;
+use terzaghi::session::files::write_atomically;
+use terzaghi::session::reevaluate::{
+    ReevaluateOptions, Reevaluation, reevaluate_to_csv, reevaluate_to_mcap,
+};
+use terzaghi::session::replay::{ReplayOptions, replay};
 
 #[derive(Debug, Args)]
 pub struct ReplayArgs {
@@ -78,7 +78,7 @@ pub fn run(a: ReplayArgs) -> Result<()> {
 /// A cut-off recording is refused before anything is replayed or written: `terzaghi recover`
 /// mends it first (exit 2, as diagnose).
 fn refuse_cut_off(file: &std::path::Path) -> Result<()> {
-    if let Some(opened) = crate::session::Opened::mcap(file)? {
+    if let Some(opened) = terzaghi::session::Opened::mcap(file)? {
         opened.refuse_cut_off(file)?;
     }
     Ok(())
@@ -90,15 +90,15 @@ fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
         .chain(a.params_file.as_deref())
         .collect();
     match &a.output {
-        Some(out) => crate::session::files::refuse_output_over_input(out, &inputs)?,
-        None => crate::session::files::refuse_stdout_over_input(&inputs)?,
+        Some(out) => terzaghi::session::files::refuse_output_over_input(out, &inputs)?,
+        None => terzaghi::session::files::refuse_stdout_over_input(&inputs)?,
     }
     let params = a
         .params
         .iter()
         .map(|p| match p.split_once(":=") {
             Some((name, value)) if !name.is_empty() => {
-                Ok((name.to_string(), crate::config::parse_value(value)))
+                Ok((name.to_string(), terzaghi::config::parse_value(value)))
             }
             _ => Err(anyhow::anyhow!(
                 "--param {p:?}: expected NAME:=VALUE, e.g. -p leg.hip_frame:=leg_hip"
@@ -197,7 +197,7 @@ fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
             let learnt_surface = summary.surfaces.get(i).copied().flatten();
             e.map(|e| {
                 // An RFT leg learns RFT's scale (its estimate's b_k), a sinkage leg its law's.
-                if done.config.model == crate::config::ModelKind::Sinkage {
+                if done.config.model == terzaghi::config::ModelKind::Sinkage {
                     // Its surface, learnt with the scale, in millimetres.
                     let surface = learnt_surface.map_or(String::new(), |s| {
                         format!(
@@ -210,7 +210,7 @@ fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
                         "{}: scale {:.4} +- {:.4} of the medium file's law{surface} (converged: {}, changes detected: {})",
                         l.name, e.b_k, e.std_b_k, e.converged, e.changes_detected
                     )
-                } else if done.config.model == crate::config::ModelKind::Rft && l.rft.is_some() {
+                } else if done.config.model == terzaghi::config::ModelKind::Rft && l.rft.is_some() {
                     format!(
                         "{}: rft_scale {:.4} +- {:.4} (converged: {})",
                         l.name, e.b_k, e.std_b_k, e.converged
@@ -256,7 +256,7 @@ fn run_reevaluate(a: &ReplayArgs) -> Result<()> {
 /// leg's corrections, where it has them) and the bare model; with `per_stroke`, the expected
 /// reading's stroke by stroke too.
 fn error_table(done: &Reevaluation, per_stroke: bool) -> String {
-    use crate::session::reevaluate::RowErrors;
+    use terzaghi::session::reevaluate::RowErrors;
     let mut out = String::new();
     for (i, (l, e)) in done
         .config
@@ -326,7 +326,7 @@ fn run_dds(a: &ReplayArgs) -> Result<()> {
         clock_hz: a.clock,
     };
     let pb = progress(0, "replaying");
-    let rt = crate::node::dds::runtime()?;
+    let rt = terzaghi::node::dds::runtime()?;
     let done = rt.block_on(replay(
         &a.file,
         &opts,

@@ -1,14 +1,14 @@
 //! `terzaghi simulate`: a synthetic session of one leg in continuous rotation, as CSV.
 
 use super::{MediumArgs, PlateArgs, WidthArgs, print_out, terzaghi_model};
-use crate::session::files::write_atomically;
-use crate::sim;
 use anyhow::{Result, bail};
 use clap::Args;
 use rand::SeedableRng;
 use rand::rngs::StdRng;
 use std::io::Write;
 use std::path::PathBuf;
+use terzaghi::session::files::write_atomically;
+use terzaghi::sim;
 
 #[derive(Debug, Args)]
 pub struct SimulateArgs {

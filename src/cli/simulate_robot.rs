@@ -1,15 +1,15 @@
 //! `terzaghi simulate-robot`: a recording of the simulated six-legged robot walking, its body
 //! heaving, pitching and moving forward, with `/tf`.
 
-use crate::config::ParamValue;
-use crate::session::files::{refuse_existing_recording, write_atomically};
-use crate::sim::generator::IN_LIBRARY;
-use crate::sim::robot::{
-    Body, Gait, Truth, hip_frame, hip_offset_m, rhex, simulate_moving, write_recording,
-};
 use anyhow::{Result, bail};
 use clap::Args;
 use std::path::PathBuf;
+use terzaghi::config::ParamValue;
+use terzaghi::session::files::{refuse_existing_recording, write_atomically};
+use terzaghi::sim::generator::IN_LIBRARY;
+use terzaghi::sim::robot::{
+    Body, Gait, Truth, hip_frame, hip_offset_m, rhex, simulate_moving, write_recording,
+};
 
 #[derive(Debug, Args)]
 pub struct SimulateRobotArgs {
@@ -149,7 +149,7 @@ pub fn run(a: SimulateRobotArgs) -> Result<()> {
     // An offset of a stated size replaces the generator's, which it scales with the force.
     let offset_given = a.offset_n != 0.0 || a.offset_growth_n_per_s != 0.0;
     if offset_given {
-        effects.retain(|e| *e != crate::sim::generator::Hidden::SensorBias);
+        effects.retain(|e| *e != terzaghi::sim::generator::Hidden::SensorBias);
     }
     let truth = Truth {
         b_k: w.b_k() * a.medium_scale,
@@ -161,7 +161,7 @@ pub fn run(a: SimulateRobotArgs) -> Result<()> {
     };
     let gait = Gait {
         seconds: a.seconds,
-        rate_hz: crate::sim::robot::DEMO_RATE_HZ,
+        rate_hz: terzaghi::sim::robot::DEMO_RATE_HZ,
         mean_speed_rad_s: a.speed_rad_s,
         seed: a.seed,
     };

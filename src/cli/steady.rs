@@ -1,16 +1,16 @@
 //! `terzaghi steady`: a wheel's or a foot's steady sinkage, drawbar pull, side force and drive
 //! torque under each run's load, speed, rotation rate and slip angle (the work is
-//! [`crate::session::steady`]).
+//! [`terzaghi::session::steady`]).
 
 use super::print_out;
-use crate::medium_file::MediumFile;
-use crate::model::{Body, Grousers};
-use crate::session::steady::{
-    BodySpec, INPUT_COLUMNS, OUTPUT_COLUMNS, Solve, build_body, steady_runs,
-};
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use std::path::PathBuf;
+use terzaghi::medium_file::MediumFile;
+use terzaghi::model::{Body, Grousers};
+use terzaghi::session::steady::{
+    BodySpec, INPUT_COLUMNS, OUTPUT_COLUMNS, Solve, build_body, steady_runs,
+};
 
 /// The body's shape.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -210,7 +210,7 @@ pub fn run(a: SteadyArgs) -> Result<()> {
     };
     let table = if a.band {
         let band = medium.band(&a.medium_file)?;
-        crate::session::steady::steady_runs_in_band(&a.runs, &text, &body, &law, &solve, band)?
+        terzaghi::session::steady::steady_runs_in_band(&a.runs, &text, &body, &law, &solve, band)?
     } else {
         steady_runs(&a.runs, &text, &body, &law, &solve)?
     };
@@ -269,7 +269,7 @@ pub fn run(a: SteadyArgs) -> Result<()> {
     if let Some(b) = &medium.sheared_bearing {
         summary += &format!("  {}\n", b.text());
         if b.slip_sweep.as_ref().is_some_and(|w| {
-            crate::session::files::same_file(std::path::Path::new(&w.file), &a.runs)
+            terzaghi::session::files::same_file(std::path::Path::new(&w.file), &a.runs)
         }) {
             summary += "  (in sample: the sheared bearing was fitted on these runs)\n";
         }
@@ -290,7 +290,7 @@ pub fn run(a: SteadyArgs) -> Result<()> {
     }
     eprint!("{summary}");
     if !not_borne.is_empty() {
-        return Err(crate::session::NotBorne(format!(
+        return Err(terzaghi::session::NotBorne(format!(
             "{} of {} runs of {} are not borne within the body's height (every run was written; exit code 3)",
             not_borne.len(),
             table.runs.len(),

@@ -18,8 +18,11 @@ use std::time::{Duration, Instant};
 /// Where a log line was written in the source.
 #[derive(Debug, Clone, Copy)]
 pub struct Site {
+    /// The source file.
     pub file: &'static str,
+    /// The module path (rosout's `function`).
     pub function: &'static str,
+    /// The line.
     pub line: u32,
 }
 
@@ -38,8 +41,11 @@ macro_rules! log_site {
 /// What `--ros-args` asked of the log.
 #[derive(Debug, Clone, Copy)]
 pub struct LogSettings {
+    /// The lowest level written.
     pub level: LogLevel,
+    /// Lines go to standard error.
     pub stderr: bool,
+    /// Lines go to `/rosout`.
     pub rosout: bool,
 }
 
@@ -71,6 +77,7 @@ pub struct NodeLog {
 }
 
 impl NodeLog {
+    /// The log of the node `node_name` in `namespace`.
     pub fn new(namespace: &str, node_name: &str, settings: LogSettings) -> NodeLog {
         NodeLog {
             name: logger_name(namespace, node_name),
@@ -96,6 +103,7 @@ impl NodeLog {
         }
     }
 
+    /// The logger's name (`namespace.node`, as rosout names it).
     pub fn name(&self) -> &str {
         &self.name
     }
@@ -105,6 +113,7 @@ impl NodeLog {
         level >= self.settings.level
     }
 
+    /// Writes `msg` at `level` from `site`, where the settings ask for it.
     pub fn log(&self, level: LogLevel, msg: &str, site: Site) {
         if !self.enabled(level) {
             return;

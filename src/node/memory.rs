@@ -15,11 +15,14 @@ use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 /// A message for the node, owned while it waits in the queue ([`Message::input`] is what the
 /// core takes).
 pub enum Message {
+    /// A joint state.
     Joints(JointState),
+    /// A wrench of the leg of this index.
     Wrench(usize, WrenchStamped),
 }
 
 impl Message {
+    /// The core's input of the message.
     pub fn input(&self) -> Input<'_> {
         match self {
             Message::Joints(js) => Input::Joints(js),
@@ -31,10 +34,15 @@ impl Message {
 /// What a run through the in-memory transport did.
 #[derive(Debug, Clone, Default)]
 pub struct MemoryRun {
+    /// Joint states taken.
     pub joint_states: u64,
+    /// Wrenches taken.
     pub wrenches: u64,
+    /// Messages recorded.
     pub recorded: u64,
+    /// Messages the recorder dropped.
     pub recording_dropped: u64,
+    /// The recorder's error, where it had one.
     pub recording_error: Option<String>,
 }
 

@@ -210,6 +210,18 @@ pub fn csv_number(name: &str, line: usize, what: &str, text: &str) -> Result<f64
     Ok(v)
 }
 
+/// Writes `text` to stdout; a closed pipe (`| head`) ends the command quietly.
+pub fn print_out(text: &str) -> Result<()> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|_| out.flush()) {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        r => r.context(crate::error::Failure(
+            "cannot write to standard output".into(),
+        )),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -4,9 +4,9 @@ use crate::fidelity::{CampaignReport, Change, campaign_report};
 use anyhow::{Context, Result};
 use clap::Args;
 use std::path::PathBuf;
-use terzaghi::command_line::print_out;
 use terzaghi::dem::{default_baseline, read_campaign};
 use terzaghi::ident::GoodnessOfFit;
+use terzaghi::session::files::print_out;
 
 #[derive(Debug, Args)]
 pub struct DemReportArgs {

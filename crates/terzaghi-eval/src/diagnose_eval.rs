@@ -6,8 +6,8 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
-use terzaghi::command_line::print_out;
 use terzaghi::diagnose::DiagnoseOptions;
+use terzaghi::session::files::print_out;
 
 #[derive(Debug, Args)]
 pub struct DiagnoseEvalArgs {

@@ -33,8 +33,8 @@ fn main() -> std::process::ExitCode {
     match r {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {}", terzaghi::command_line::worded(&e));
-            std::process::ExitCode::from(terzaghi::command_line::exit_code(&e))
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::from(terzaghi::error::exit_code(&e))
         }
     }
 }
