@@ -816,11 +816,7 @@ pub fn mesh_file(data: &[u8]) {
 /// a refusal names a leg of the batch, and with a robot's inputs each leg's whole wrench is
 /// `predict_moving`'s.
 pub fn batch_legs(data: &[u8]) {
-    use crate::model::batch::{Isa, LegForcesOut, LegKernel, Legs, Real};
-    use crate::model::{
-        FittingWidth, ForceModel, Medium, Plate, RftCoefficients, RftFit, RftModel, TerzaghiModel,
-        c_leg_profile,
-    };
+    use crate::model::batch::{Isa, LegKernel};
     let mut u = Unstructured::new(data);
     let (Ok(kind), Ok(float32), Ok(widths), Ok(n)) = (
         u.int_in_range(0u8..=4),
@@ -835,35 +831,7 @@ pub fn batch_legs(data: &[u8]) {
     let Ok(first) = u.int_in_range(0..=n) else {
         return;
     };
-    let plate = Plate::new(0.1, 0.025, 0.0).expect("a plate");
-    let fit = RftCoefficients::Fit(RftFit::POPPY_LP);
-    // The plate runs' law in depth (their medium file's).
-    let plate_runs = crate::model::RftDepthLaw::new(4.546, 1.219).expect("the plate runs' law");
-    let model = match kind {
-        0 => ForceModel::Terzaghi(TerzaghiModel::new(
-            plate,
-            Medium::new(13000.0, 30.0, 20.0).expect("a medium"),
-            FittingWidth::new(30.0, 2.3).expect("a width"),
-        )),
-        1 | 3 => ForceModel::Rft(
-            RftModel::with_profile(
-                plate,
-                fit,
-                96,
-                c_leg_profile(0.05, std::f64::consts::PI, 32),
-            )
-            .expect("a C-leg")
-            .with_depth_law((kind == 3).then_some(plate_runs)),
-        ),
-        4 => ForceModel::Body(Box::new(crate::model::body::BodyLeg::new(
-            crate::model::Body::wheel(0.058, 0.05, None, 360).expect("a wheel"),
-            fit,
-            Some(plate_runs),
-            None,
-            Plate::new(0.058, 0.05, 0.0).expect("the wheel's plate"),
-        ))),
-        _ => ForceModel::Rft(RftModel::new(plate, fit, 50).expect("an RFT plate")),
-    };
+    let model = batch_model(kind);
     let widths = widths && kind == 0;
     // Each value a robot's (a byte over its range) or any number at all.
     let mut value = |lo: f64, hi: f64| -> Option<f64> {
@@ -914,193 +882,246 @@ pub fn batch_legs(data: &[u8]) {
         }
         let got = batch_agree::<f64>(&kernel, &baseline, &cols, first, widths, 1e-9);
         if let (Some(got), true) = (got, robot) {
-            let scale = got.iter().flatten().fold(1e-9f64, |a, f| a.max(f.abs()));
-            for (k, f) in got.iter().enumerate() {
-                let i = first + k;
-                let c = |j: usize| cols[j][i];
-                let want = match (&model, widths) {
-                    (ForceModel::Terzaghi(m), true) => {
-                        let w = FittingWidth::new(c(6), c(7)).expect("a width in range");
-                        let r = m
-                            .with_fitting_width(w)
-                            .evaluate_at_height(c(0) + c(2), c(1))
-                            .expect("a leg of a robot's size");
-                        [r.drag_n, r.lift_n, r.hip_torque_nm]
-                    }
-                    _ => {
-                        let p = model
-                            .predict_moving(c(0), &leg_hip(&cols, i, false))
-                            .expect("a leg of a robot's size");
-                        [p.drag_n, p.lift_n, p.hip_torque_nm]
-                    }
-                };
-                for (g, w) in f.iter().zip(want) {
+            batch_is_predict(&model, &cols, first, widths, &got);
+        }
+    }
+}
+
+/// The batch's model of fuzz kind `kind`: improved-model plates (0), RFT C-legs in poppy seeds
+/// (1) or in the plate runs' medium with its law in depth (3), RFT wheels (4), RFT plates.
+fn batch_model(kind: u8) -> crate::model::ForceModel {
+    use crate::model::{
+        FittingWidth, ForceModel, Medium, Plate, RftCoefficients, RftFit, RftModel, TerzaghiModel,
+        c_leg_profile,
+    };
+    let plate = Plate::new(0.1, 0.025, 0.0).expect("a plate");
+    let fit = RftCoefficients::Fit(RftFit::POPPY_LP);
+    // The plate runs' law in depth (their medium file's).
+    let plate_runs = crate::model::RftDepthLaw::new(4.546, 1.219).expect("the plate runs' law");
+    match kind {
+        0 => ForceModel::Terzaghi(TerzaghiModel::new(
+            plate,
+            Medium::new(13000.0, 30.0, 20.0).expect("a medium"),
+            FittingWidth::new(30.0, 2.3).expect("a width"),
+        )),
+        1 | 3 => ForceModel::Rft(
+            RftModel::with_profile(
+                plate,
+                fit,
+                96,
+                c_leg_profile(0.05, std::f64::consts::PI, 32),
+            )
+            .expect("a C-leg")
+            .with_depth_law((kind == 3).then_some(plate_runs)),
+        ),
+        4 => ForceModel::Body(Box::new(crate::model::body::BodyLeg::new(
+            crate::model::Body::wheel(0.058, 0.05, None, 360).expect("a wheel"),
+            fit,
+            Some(plate_runs),
+            None,
+            Plate::new(0.058, 0.05, 0.0).expect("the wheel's plate"),
+        ))),
+        _ => ForceModel::Rft(RftModel::new(plate, fit, 50).expect("an RFT plate")),
+    }
+}
+
+/// Each leg's float64 forces of a robot's batch (`got`, the legs from `first`) are
+/// `predict_moving`'s, or the improved model's at the leg's own fitting width (`widths`).
+fn batch_is_predict(
+    model: &crate::model::ForceModel,
+    cols: &[Vec<f64>],
+    first: usize,
+    widths: bool,
+    got: &[[f64; 3]],
+) {
+    use crate::model::{FittingWidth, ForceModel};
+    let scale = got.iter().flatten().fold(1e-9f64, |a, f| a.max(f.abs()));
+    for (k, f) in got.iter().enumerate() {
+        let i = first + k;
+        let c = |j: usize| cols[j][i];
+        let want = match (model, widths) {
+            (ForceModel::Terzaghi(m), true) => {
+                let w = FittingWidth::new(c(6), c(7)).expect("a width in range");
+                let r = m
+                    .with_fitting_width(w)
+                    .evaluate_at_height(c(0) + c(2), c(1))
+                    .expect("a leg of a robot's size");
+                [r.drag_n, r.lift_n, r.hip_torque_nm]
+            }
+            _ => {
+                let p = model
+                    .predict_moving(c(0), &batch_leg_hip(cols, i, false))
+                    .expect("a leg of a robot's size");
+                [p.drag_n, p.lift_n, p.hip_torque_nm]
+            }
+        };
+        for (g, w) in f.iter().zip(want) {
+            assert!(
+                (g - w).abs() <= 1e-9 * scale,
+                "leg {i}: the batch gives {f:?}, predict {want:?}"
+            );
+        }
+    }
+}
+
+/// Leg `i`'s hip in the columns (height, pitch, omega, forward, up; sideways at column 8
+/// where `lateral`).
+fn batch_leg_hip(cols: &[Vec<f64>], i: usize, lateral: bool) -> HipMotion {
+    let c = |j: usize| cols[j][i];
+    HipMotion {
+        height_m: c(1),
+        pitch_rad: c(2),
+        omega_rad_s: c(3),
+        forward_m_s: c(4),
+        up_m_s: c(5),
+        lateral_m_s: if lateral { c(8) } else { 0.0 },
+        ..HipMotion::default()
+    }
+}
+
+/// `LegKernel::wrenches` of the legs from `first`, the hips moving sideways at column 8:
+/// finite where given, a refusal naming a leg of the batch, and with a robot's inputs
+/// (`robot`) each leg's whole wrench `predict_moving`'s.
+fn batch_wrenches(
+    kernel: &crate::model::batch::LegKernel,
+    model: &crate::model::ForceModel,
+    cols: &[Vec<f64>],
+    first: usize,
+    robot: bool,
+) {
+    use crate::model::ForceModel;
+    use crate::model::batch::{LegForcesOut, LegSideOut, Legs};
+    let n = cols[0].len();
+    let m = n - first;
+    let mut o = vec![vec![0.0; m]; 6];
+    let [d, l, t, s, r, y] = &mut o[..] else {
+        unreachable!("six outputs")
+    };
+    let legs = Legs::moving(std::array::from_fn(|k| &cols[k][..]));
+    let got = kernel.wrenches(
+        &legs,
+        Some(&cols[8]),
+        first,
+        LegForcesOut {
+            drag_n: d,
+            lift_n: l,
+            hip_torque_nm: t,
+        },
+        LegSideOut {
+            side_n: s,
+            roll_moment_nm: r,
+            yaw_moment_nm: y,
+        },
+    );
+    if let Err(e) = got {
+        assert!(
+            (first..n).contains(&e.index),
+            "{e} is not a leg of the batch"
+        );
+        let leg: Vec<f64> = cols.iter().map(|c| c[e.index]).collect();
+        assert!(
+            !robot,
+            "a robot's legs refused: {e}: {leg:?} (beta, h, pitch, omega, forward, up, b_k, a, lateral) of {model:?}"
+        );
+        return;
+    }
+    let scale = o.iter().flatten().fold(1e-9f64, |a, f| a.max(f.abs()));
+    for k in 0..m {
+        let i = first + k;
+        let f: Vec<f64> = o.iter().map(|c| c[k]).collect();
+        for v in &f {
+            finite("a batch's wrench", *v);
+        }
+        if !robot {
+            continue;
+        }
+        let p = model
+            .predict_moving(cols[0][i], &batch_leg_hip(cols, i, true))
+            .expect("a leg of a robot's size");
+        let want = p.wrench();
+        // A planar leg moving in its plane takes the kernel (to rounding), the rest
+        // predict_moving itself; the flat-plate models have no side force.
+        let planar = matches!(model, ForceModel::Terzaghi(_));
+        for (j, (g, w)) in f.iter().zip(want).enumerate() {
+            let w = if planar && j >= 3 { 0.0 } else { w };
+            assert!(
+                (g - w).abs() <= 1e-9 * scale,
+                "leg {i}: the batch's wrench {f:?}, predict's {want:?}"
+            );
+        }
+    }
+}
+
+/// Runs both kernels on the legs from `first`: they agree (the same error, or forces within
+/// `tol` of the largest: the fused, estimated and rounded operations of one against the
+/// other's), every force is finite; the forces, where given.
+fn batch_agree<T: crate::model::batch::Real>(
+    kernel: &crate::model::batch::LegKernel,
+    baseline: &crate::model::batch::LegKernel,
+    cols: &[Vec<T>],
+    first: usize,
+    widths: bool,
+    tol: f64,
+) -> Option<Vec<[f64; 3]>> {
+    use crate::model::batch::{LegForcesOut, LegKernel, Legs};
+    let n = cols[0].len();
+    let run = |k: &LegKernel| {
+        let m = n - first;
+        let (mut d, mut l, mut t) = (vec![T::ZERO; m], vec![T::ZERO; m], vec![T::ZERO; m]);
+        let legs = Legs {
+            b_k: widths.then_some(&cols[6][..]),
+            a: widths.then_some(&cols[7][..]),
+            ..Legs::moving(std::array::from_fn(|k| &cols[k][..]))
+        };
+        let out = LegForcesOut {
+            drag_n: &mut d,
+            lift_n: &mut l,
+            hip_torque_nm: &mut t,
+        };
+        k.forces(&legs, first, out).map(|()| {
+            (0..m)
+                .map(|i| [d[i].to_f64(), l[i].to_f64(), t[i].to_f64()])
+                .collect::<Vec<_>>()
+        })
+    };
+    match (run(kernel), run(baseline)) {
+        (Ok(a), Ok(b)) => {
+            let scale = a.iter().flatten().fold(1e-9f64, |s, f| s.max(f.abs()));
+            for (i, (x, y)) in a.iter().zip(&b).enumerate() {
+                for (p, q) in x.iter().zip(y) {
+                    finite("a batch's force", *p);
                     assert!(
-                        (g - w).abs() <= 1e-9 * scale,
-                        "leg {i}: the batch gives {f:?}, predict {want:?}"
+                        (p - q).abs() <= tol * scale,
+                        "leg {}: {x:?} on {:?}, {y:?} on the baseline",
+                        first + i,
+                        kernel.isa()
                     );
                 }
             }
+            Some(a)
         }
-    }
-
-    /// Leg `i`'s hip in the columns (height, pitch, omega, forward, up; sideways at column 8
-    /// where `lateral`).
-    fn leg_hip(cols: &[Vec<f64>], i: usize, lateral: bool) -> HipMotion {
-        let c = |j: usize| cols[j][i];
-        HipMotion {
-            height_m: c(1),
-            pitch_rad: c(2),
-            omega_rad_s: c(3),
-            forward_m_s: c(4),
-            up_m_s: c(5),
-            lateral_m_s: if lateral { c(8) } else { 0.0 },
-            ..HipMotion::default()
-        }
-    }
-
-    /// `LegKernel::wrenches` of the legs from `first`, the hips moving sideways at column 8:
-    /// finite where given, a refusal naming a leg of the batch, and with a robot's inputs
-    /// (`robot`) each leg's whole wrench `predict_moving`'s.
-    fn batch_wrenches(
-        kernel: &LegKernel,
-        model: &ForceModel,
-        cols: &[Vec<f64>],
-        first: usize,
-        robot: bool,
-    ) {
-        use crate::model::batch::LegSideOut;
-        let n = cols[0].len();
-        let m = n - first;
-        let mut o = vec![vec![0.0; m]; 6];
-        let [d, l, t, s, r, y] = &mut o[..] else {
-            unreachable!("six outputs")
-        };
-        let legs = Legs::moving(std::array::from_fn(|k| &cols[k][..]));
-        let got = kernel.wrenches(
-            &legs,
-            Some(&cols[8]),
-            first,
-            LegForcesOut {
-                drag_n: d,
-                lift_n: l,
-                hip_torque_nm: t,
-            },
-            LegSideOut {
-                side_n: s,
-                roll_moment_nm: r,
-                yaw_moment_nm: y,
-            },
-        );
-        if let Err(e) = got {
-            assert!(
-                (first..n).contains(&e.index),
-                "{e} is not a leg of the batch"
+        (Err(a), Err(b)) => {
+            assert_eq!(
+                a.index,
+                b.index,
+                "{a} on {:?}, {b} on the baseline",
+                kernel.isa()
             );
-            let leg: Vec<f64> = cols.iter().map(|c| c[e.index]).collect();
             assert!(
-                !robot,
-                "a robot's legs refused: {e}: {leg:?} (beta, h, pitch, omega, forward, up, b_k, a, lateral) of {model:?}"
+                (first..n).contains(&a.index),
+                "{a} is not a leg of the batch"
             );
-            return;
+            None
         }
-        let scale = o.iter().flatten().fold(1e-9f64, |a, f| a.max(f.abs()));
-        for k in 0..m {
-            let i = first + k;
-            let f: Vec<f64> = o.iter().map(|c| c[k]).collect();
-            for v in &f {
-                finite("a batch's wrench", *v);
-            }
-            if !robot {
-                continue;
-            }
-            let p = model
-                .predict_moving(cols[0][i], &leg_hip(cols, i, true))
-                .expect("a leg of a robot's size");
-            let want = p.wrench();
-            // A planar leg moving in its plane takes the kernel (to rounding), the rest
-            // predict_moving itself; the flat-plate models have no side force.
-            let planar = matches!(model, ForceModel::Terzaghi(_));
-            for (j, (g, w)) in f.iter().zip(want).enumerate() {
-                let w = if planar && j >= 3 { 0.0 } else { w };
-                assert!(
-                    (g - w).abs() <= 1e-9 * scale,
-                    "leg {i}: the batch's wrench {f:?}, predict's {want:?}"
-                );
-            }
-        }
-    }
-
-    /// Runs both kernels on the legs from `first`: they agree (the same error, or forces within
-    /// `tol` of the largest: the fused, estimated and rounded operations of one against the
-    /// other's), every force is finite; the forces, where given.
-    fn batch_agree<T: Real>(
-        kernel: &LegKernel,
-        baseline: &LegKernel,
-        cols: &[Vec<T>],
-        first: usize,
-        widths: bool,
-        tol: f64,
-    ) -> Option<Vec<[f64; 3]>> {
-        let n = cols[0].len();
-        let run = |k: &LegKernel| {
-            let m = n - first;
-            let (mut d, mut l, mut t) = (vec![T::ZERO; m], vec![T::ZERO; m], vec![T::ZERO; m]);
-            let legs = Legs {
-                b_k: widths.then_some(&cols[6][..]),
-                a: widths.then_some(&cols[7][..]),
-                ..Legs::moving(std::array::from_fn(|k| &cols[k][..]))
-            };
-            let out = LegForcesOut {
-                drag_n: &mut d,
-                lift_n: &mut l,
-                hip_torque_nm: &mut t,
-            };
-            k.forces(&legs, first, out).map(|()| {
-                (0..m)
-                    .map(|i| [d[i].to_f64(), l[i].to_f64(), t[i].to_f64()])
-                    .collect::<Vec<_>>()
-            })
-        };
-        match (run(kernel), run(baseline)) {
-            (Ok(a), Ok(b)) => {
-                let scale = a.iter().flatten().fold(1e-9f64, |s, f| s.max(f.abs()));
-                for (i, (x, y)) in a.iter().zip(&b).enumerate() {
-                    for (p, q) in x.iter().zip(y) {
-                        finite("a batch's force", *p);
-                        assert!(
-                            (p - q).abs() <= tol * scale,
-                            "leg {}: {x:?} on {:?}, {y:?} on the baseline",
-                            first + i,
-                            kernel.isa()
-                        );
-                    }
-                }
-                Some(a)
-            }
-            (Err(a), Err(b)) => {
-                assert_eq!(
-                    a.index,
-                    b.index,
-                    "{a} on {:?}, {b} on the baseline",
-                    kernel.isa()
-                );
-                assert!(
-                    (first..n).contains(&a.index),
-                    "{a} is not a leg of the batch"
-                );
-                None
-            }
-            (Err(e), _) | (_, Err(e)) => {
-                let leg: Vec<f64> = cols.iter().map(|c| c[e.index].to_f64()).collect();
-                panic!(
-                    "{:?} on {:?}, {:?} on the baseline: leg {} {leg:?} (beta, h, pitch, omega, forward, up, b_k, a)",
-                    run(kernel).err(),
-                    kernel.isa(),
-                    run(baseline).err(),
-                    e.index
-                )
-            }
+        (Err(e), _) | (_, Err(e)) => {
+            let leg: Vec<f64> = cols.iter().map(|c| c[e.index].to_f64()).collect();
+            panic!(
+                "{:?} on {:?}, {:?} on the baseline: leg {} {leg:?} (beta, h, pitch, omega, forward, up, b_k, a)",
+                run(kernel).err(),
+                kernel.isa(),
+                run(baseline).err(),
+                e.index
+            )
         }
     }
 }

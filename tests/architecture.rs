@@ -220,3 +220,50 @@ fn rust_files(dir: &Path) -> Vec<PathBuf> {
     }
     out
 }
+
+/// A reader finds each step of the work in a function that fits on a screen or two: no function
+/// of the product's code (`src/`, `crates/*/src/`) is longer than 200 lines, from its `fn` line
+/// to the brace that closes it at the same indentation (rustfmt's layout).
+#[test]
+fn no_function_of_the_product_is_over_200_lines() {
+    let mut dirs = vec![repo().join("src")];
+    for e in std::fs::read_dir(repo().join("crates")).unwrap() {
+        dirs.push(e.unwrap().path().join("src"));
+    }
+    let mut long = Vec::new();
+    for dir in dirs {
+        for file in rust_files(&dir) {
+            let text = std::fs::read_to_string(&file).unwrap();
+            let lines: Vec<&str> = text.lines().collect();
+            for (i, line) in lines.iter().enumerate() {
+                let body = line.trim_start();
+                let indent = &line[..line.len() - body.len()];
+                let is_fn = [
+                    "fn ",
+                    "pub fn ",
+                    "pub(crate) fn ",
+                    "pub(super) fn ",
+                    "async fn ",
+                ]
+                .iter()
+                .chain(&["pub async fn ", "const fn ", "pub const fn "])
+                .any(|p| body.starts_with(p));
+                if !is_fn || line.ends_with('}') || line.ends_with(';') {
+                    continue;
+                }
+                let close = format!("{indent}}}");
+                if let Some(end) = lines[i + 1..].iter().position(|l| *l == close) {
+                    let n = end + 2;
+                    if n > 200 {
+                        long.push(format!("{}:{} ({n} lines): {body}", file.display(), i + 1));
+                    }
+                }
+            }
+        }
+    }
+    assert!(
+        long.is_empty(),
+        "functions over 200 lines:\n{}",
+        long.join("\n")
+    );
+}

@@ -858,6 +858,141 @@ fn leg_config(
     remaps: &[(String, String)],
 ) -> Result<LegConfig, ConfigError> {
     let k = |s: &str| format!("{leg}.{s}");
+    let (plate, width, length, body) = leg_geometry(g, leg, model)?;
+    let direction = g.f64(&k("direction"))?.unwrap_or(1.0);
+    if direction != 1.0 && direction != -1.0 {
+        return Err(invalid(&k("direction"), &direction, "expected 1 or -1"));
+    }
+    let LegMedia {
+        sinkage_file,
+        rft_medium_file,
+        medium,
+        preset,
+    } = leg_media(g, leg, model, width, length, &plate)?;
+    let fit = preset.and_then(|p| p.fitting_width_for(width));
+    let (given_b_k, given_a) = (g.f64(&k("b_k"))?, g.f64(&k("a"))?);
+    // The improved model's b_k, a come from the parameters, the preset's fit for this width,
+    // or the leg's own F/T (identified online from the conventional b_k = a = 1), as `terzaghi
+    // predict` asks for them; never silently from nowhere.
+    let has_ft = g.str(&k("ft_topic"))?.is_some_and(|t| !t.is_empty());
+    if model == ModelKind::Improved
+        && fit.is_none()
+        && (given_b_k.is_none() || given_a.is_none())
+        && !has_ft
+    {
+        let name = k(if given_b_k.is_none() { "b_k" } else { "a" });
+        let hint = match preset {
+            Some(p) => format!(
+                "medium {} has identified b_k, a only for plate widths {} m, not {width} m: give {} and {}, or an ft_topic to identify them online",
+                p.name,
+                p.fitted_widths_m(),
+                k("b_k"),
+                k("a")
+            ),
+            None => format!(
+                "the improved model needs b_k and a for a medium without a preset: give {} and {}, or an ft_topic to identify them online",
+                k("b_k"),
+                k("a")
+            ),
+        };
+        return Err(ConfigError::Missing { name, hint });
+    }
+    let b_k = given_b_k.or(fit.map(|f| f.b_k())).unwrap_or(1.0);
+    let a = given_a.or(fit.map(|f| f.a())).unwrap_or(1.0);
+    let width_fit = FittingWidth::new(b_k, a).map_err(model_err(&k("b_k")))?;
+    let corrections = leg_corrections(g.0, leg, &plate, &medium, b_k, a)?;
+    if corrections.is_some() && model != ModelKind::Improved {
+        return Err(invalid(
+            &k("corrections.effects"),
+            &model.as_str(),
+            "corrections are terms of the improved model: set model to improved, or leave the corrections out",
+        ));
+    }
+    let ft_topic = g
+        .str(&k("ft_topic"))?
+        .filter(|t| !t.is_empty())
+        .map(|t| resolve_topic(&t, namespace, node, remaps));
+    let frame = g.str(&k("ft_frame"))?;
+    let frame = frame.as_deref().unwrap_or("hip");
+    let ft_frame = FtFrame::from_name(frame)
+        .ok_or_else(|| invalid(&k("ft_frame"), &frame, "expected hip or leg"))?;
+    let LegRft {
+        rft_name,
+        rft,
+        rft_depth,
+        rft_speed,
+        rft_sheared,
+        rft_shape_text,
+    } = leg_rft(
+        g,
+        leg,
+        model,
+        rft_medium_file.as_ref(),
+        preset,
+        body.is_some(),
+    )?;
+    let profile = leg_profile(g, leg, &plate)?;
+    if let Some(p) = &profile
+        && model != ModelKind::Rft
+    {
+        return Err(invalid(
+            &k("shape"),
+            &p.shape,
+            format!(
+                "a {} leg is not a flat plate: the {} model is a flat plate's; set model to rft",
+                p.shape,
+                model.as_str()
+            ),
+        ));
+    }
+    let joint = g
+        .str(&k("joint"))?
+        .filter(|j| !j.is_empty())
+        .unwrap_or_else(|| leg.to_string());
+    let (hip_offset_m, hip_frame) = leg_hip(g, leg)?;
+    let (trough_depth_m, trough_exit_depth_m, sensor_hold_s) =
+        leg_trough_and_sensor(g, leg, &plate)?;
+    Ok(LegConfig {
+        name: leg.to_string(),
+        ft_topic_given: g.str(&k("ft_topic"))?.unwrap_or_default(),
+        rft_name: rft_name.unwrap_or_default(),
+        joint,
+        direction,
+        angle_offset_rad: g.f64(&k("angle_offset_rad"))?.unwrap_or(0.0),
+        plate,
+        medium,
+        preset,
+        width: width_fit,
+        ft_topic,
+        ft_frame,
+        rft,
+        rft_speed,
+        rft_depth,
+        rft_sheared,
+        rft_shape_text,
+        trough_depth_m,
+        trough_exit_depth_m,
+        sensor_hold_s,
+        profile,
+        corrections,
+        hip_frame,
+        hip_offset_m,
+        sinkage: sinkage_file.map(|(_, s)| s),
+        body: body.map(|(b, _)| b),
+    })
+}
+
+/// A leg's body where it is a foot or a wheel, with its reach below the hub (m).
+type LegBody = Option<(crate::model::Body, f64)>;
+
+/// A leg's plate (its length, width and hip height) with its width and length, and its body
+/// where the leg is a foot or a wheel.
+fn leg_geometry(
+    g: &Get,
+    leg: &str,
+    model: ModelKind,
+) -> Result<(Plate, f64, f64, LegBody), ConfigError> {
+    let k = |s: &str| format!("{leg}.{s}");
     let geom_hint = "each leg needs length_m, width_m and hip_height_m";
     let foot = leg_foot(g, leg, model)?;
     let width = match &foot {
@@ -890,12 +1025,32 @@ fn leg_config(
         };
         model_err(&k(which))(e)
     })?;
-    let direction = g.f64(&k("direction"))?.unwrap_or(1.0);
-    if direction != 1.0 && direction != -1.0 {
-        return Err(invalid(&k("direction"), &direction, "expected 1 or -1"));
-    }
+    Ok((plate, width, length, body))
+}
+
+/// A leg's media: its medium file (a sinkage leg's, or an RFT leg's law in depth), and the
+/// Terzaghi medium with its preset.
+struct LegMedia {
+    sinkage_file: Option<(
+        crate::medium_file::MediumFile,
+        crate::model::sinkage::SinkageLeg,
+    )>,
+    rft_medium_file: Option<(String, crate::medium_file::MediumFile)>,
+    medium: Medium,
+    preset: Option<&'static MediumPreset>,
+}
+
+fn leg_media(
+    g: &Get,
+    leg: &str,
+    model: ModelKind,
+    width: f64,
+    length: f64,
+    plate: &Plate,
+) -> Result<LegMedia, ConfigError> {
+    let k = |s: &str| format!("{leg}.{s}");
     let sinkage_file = match model {
-        ModelKind::Sinkage => Some(sinkage_medium(g, leg, width, length, &plate)?),
+        ModelKind::Sinkage => Some(sinkage_medium(g, leg, width, length, plate)?),
         _ => None,
     };
     // A medium file of an RFT leg: its law in depth and scale (see `rft_depth` below).
@@ -953,56 +1108,37 @@ fn leg_config(
             (m, None)
         }
     };
-    let fit = preset.and_then(|p| p.fitting_width_for(width));
-    let (given_b_k, given_a) = (g.f64(&k("b_k"))?, g.f64(&k("a"))?);
-    // The improved model's b_k, a come from the parameters, the preset's fit for this width,
-    // or the leg's own F/T (identified online from the conventional b_k = a = 1), as `terzaghi
-    // predict` asks for them; never silently from nowhere.
-    let has_ft = g.str(&k("ft_topic"))?.is_some_and(|t| !t.is_empty());
-    if model == ModelKind::Improved
-        && fit.is_none()
-        && (given_b_k.is_none() || given_a.is_none())
-        && !has_ft
-    {
-        let name = k(if given_b_k.is_none() { "b_k" } else { "a" });
-        let hint = match preset {
-            Some(p) => format!(
-                "medium {} has identified b_k, a only for plate widths {} m, not {width} m: give {} and {}, or an ft_topic to identify them online",
-                p.name,
-                p.fitted_widths_m(),
-                k("b_k"),
-                k("a")
-            ),
-            None => format!(
-                "the improved model needs b_k and a for a medium without a preset: give {} and {}, or an ft_topic to identify them online",
-                k("b_k"),
-                k("a")
-            ),
-        };
-        return Err(ConfigError::Missing { name, hint });
-    }
-    let b_k = given_b_k.or(fit.map(|f| f.b_k())).unwrap_or(1.0);
-    let a = given_a.or(fit.map(|f| f.a())).unwrap_or(1.0);
-    let width_fit = FittingWidth::new(b_k, a).map_err(model_err(&k("b_k")))?;
-    let corrections = leg_corrections(g.0, leg, &plate, &medium, b_k, a)?;
-    if corrections.is_some() && model != ModelKind::Improved {
-        return Err(invalid(
-            &k("corrections.effects"),
-            &model.as_str(),
-            "corrections are terms of the improved model: set model to improved, or leave the corrections out",
-        ));
-    }
-    let ft_topic = g
-        .str(&k("ft_topic"))?
-        .filter(|t| !t.is_empty())
-        .map(|t| resolve_topic(&t, namespace, node, remaps));
-    let frame = g.str(&k("ft_frame"))?;
-    let frame = frame.as_deref().unwrap_or("hip");
-    let ft_frame = FtFrame::from_name(frame)
-        .ok_or_else(|| invalid(&k("ft_frame"), &frame, "expected hip or leg"))?;
+    Ok(LegMedia {
+        sinkage_file,
+        rft_medium_file,
+        medium,
+        preset,
+    })
+}
+
+/// A leg's RFT: its coefficients (by name, grid file or a medium file's measured shape), law in
+/// depth, speed law and bearing of sheared sand, and how the start-up line names them.
+struct LegRft {
+    rft_name: Option<String>,
+    rft: Option<RftCoefficients>,
+    rft_depth: Option<crate::model::RftDepthLaw>,
+    rft_speed: Option<crate::model::RftSpeedFit>,
+    rft_sheared: Option<crate::model::ShearedBearing>,
+    rft_shape_text: Option<String>,
+}
+
+fn leg_rft(
+    g: &Get,
+    leg: &str,
+    model: ModelKind,
+    rft_medium_file: Option<&(String, crate::medium_file::MediumFile)>,
+    preset: Option<&'static MediumPreset>,
+    is_body: bool,
+) -> Result<LegRft, ConfigError> {
+    let k = |s: &str| format!("{leg}.{s}");
     // A medium file that carries its measured RFT shape gives the leg its coefficients, law in
     // depth and speed law; a coefficient set, grid or speed file beside it is refused.
-    let file_law = match &rft_medium_file {
+    let file_law = match rft_medium_file {
         Some((path, file)) if file.rft_shape.is_some() => {
             for key in ["rft_coeffs", "rft_grid_file", "rft_speed_file"] {
                 if let Some(v) = g.str(&k(key))?.filter(|s| !s.is_empty()) {
@@ -1026,19 +1162,17 @@ fn leg_config(
     // The bearing of sheared sand acts on a body's resultant, and on a planar leg's where
     // `<leg>.sheared_bearing` asks for it (a leg turning through fresh sand loses lift it
     // should not: docs/bodies.md); the start-up line says which.
-    let sheared_wanted = g.bool(&k("sheared_bearing"))?.unwrap_or(body.is_some());
-    let rft_shape_text = rft_medium_file
-        .as_ref()
-        .map(|(_, f)| match &f.sheared_bearing {
-            Some(b) if sheared_wanted => format!("{}; {}", f.rft_shape_text(), b.text()),
-            Some(_) => format!(
-                "{}; the file's sheared bearing is not applied to this leg (set {}: true to apply it)",
-                f.rft_shape_text(),
-                k("sheared_bearing")
-            ),
-            None => f.rft_shape_text(),
-        });
-    let rft_sheared = match &rft_medium_file {
+    let sheared_wanted = g.bool(&k("sheared_bearing"))?.unwrap_or(is_body);
+    let rft_shape_text = rft_medium_file.map(|(_, f)| match &f.sheared_bearing {
+        Some(b) if sheared_wanted => format!("{}; {}", f.rft_shape_text(), b.text()),
+        Some(_) => format!(
+            "{}; the file's sheared bearing is not applied to this leg (set {}: true to apply it)",
+            f.rft_shape_text(),
+            k("sheared_bearing")
+        ),
+        None => f.rft_shape_text(),
+    });
+    let rft_sheared = match rft_medium_file {
         Some((path, file)) => file
             .sheared()
             .map_err(|e| invalid(&k("medium"), path, format!("{e:#}")))?
@@ -1051,7 +1185,6 @@ fn leg_config(
         // A medium file's RFT law was calibrated against poppy_lp's stress.
         .or_else(|| {
             rft_medium_file
-                .as_ref()
                 .filter(|_| file_law.is_none())
                 .map(|_| crate::medium_file::RFT_SET.to_string())
         })
@@ -1081,7 +1214,7 @@ fn leg_config(
         }
         (None, None) => None,
     };
-    let rft_depth = match (&rft_medium_file, &rft) {
+    let rft_depth = match (rft_medium_file, &rft) {
         _ if file_law.is_some() => file_law.as_ref().map(|l| l.depth_law),
         (Some((path, file)), Some(c)) => Some(
             file.rft_depth_law(c)
@@ -1092,7 +1225,6 @@ fn leg_config(
     let rft_speed = match (g.str(&k("rft_speed_file"))?.filter(|f| !f.is_empty()), &rft) {
         _ if file_law.is_some() => {
             let explained = rft_medium_file
-                .as_ref()
                 .and_then(|(_, f)| f.rft_shape.as_ref()?.speed_law.as_ref())
                 .map_or(f64::NAN, |l| l.explained);
             file_law
@@ -1118,24 +1250,19 @@ fn leg_config(
         }
         (Some(f), Some(c)) => Some(rft_speed_from_file(&k("rft_speed_file"), &f, c)?),
     };
-    let profile = leg_profile(g, leg, &plate)?;
-    if let Some(p) = &profile
-        && model != ModelKind::Rft
-    {
-        return Err(invalid(
-            &k("shape"),
-            &p.shape,
-            format!(
-                "a {} leg is not a flat plate: the {} model is a flat plate's; set model to rft",
-                p.shape,
-                model.as_str()
-            ),
-        ));
-    }
-    let joint = g
-        .str(&k("joint"))?
-        .filter(|j| !j.is_empty())
-        .unwrap_or_else(|| leg.to_string());
+    Ok(LegRft {
+        rft_name,
+        rft,
+        rft_depth,
+        rft_speed,
+        rft_sheared,
+        rft_shape_text,
+    })
+}
+
+/// Where a leg's hip is for `/tf`: its offset in the body's frame and its frame's name.
+fn leg_hip(g: &Get, leg: &str) -> Result<(Option<[f64; 3]>, Option<String>), ConfigError> {
+    let k = |s: &str| format!("{leg}.{s}");
     let hip_offset_m = match g.0.get(&k("hip_offset_m")) {
         None => None,
         Some(ParamValue::DoubleArray(v)) if v.len() == 3 && v.iter().all(|x| x.is_finite()) => {
@@ -1163,6 +1290,17 @@ fn leg_config(
             "expected a frame name of /tf (no spaces)",
         ));
     }
+    Ok((hip_offset_m, hip_frame))
+}
+
+/// A leg's trough (how much deeper its own strokes dug where they entered and where they left)
+/// and its F/T sensor's sample period.
+fn leg_trough_and_sensor(
+    g: &Get,
+    leg: &str,
+    plate: &Plate,
+) -> Result<(f64, f64, f64), ConfigError> {
+    let k = |s: &str| format!("{leg}.{s}");
     let trough_depth_m = g.f64(&k("trough_depth_m"))?.unwrap_or(0.0);
     if !(trough_depth_m.is_finite() && (0.0..plate.length_m()).contains(&trough_depth_m)) {
         return Err(invalid(
@@ -1197,34 +1335,7 @@ fn leg_config(
             ),
         ));
     }
-    Ok(LegConfig {
-        name: leg.to_string(),
-        ft_topic_given: g.str(&k("ft_topic"))?.unwrap_or_default(),
-        rft_name: rft_name.unwrap_or_default(),
-        joint,
-        direction,
-        angle_offset_rad: g.f64(&k("angle_offset_rad"))?.unwrap_or(0.0),
-        plate,
-        medium,
-        preset,
-        width: width_fit,
-        ft_topic,
-        ft_frame,
-        rft,
-        rft_speed,
-        rft_depth,
-        rft_sheared,
-        rft_shape_text,
-        trough_depth_m,
-        trough_exit_depth_m,
-        sensor_hold_s,
-        profile,
-        corrections,
-        hip_frame,
-        hip_offset_m,
-        sinkage: sinkage_file.map(|(_, s)| s),
-        body: body.map(|(b, _)| b),
-    })
+    Ok((trough_depth_m, trough_exit_depth_m, sensor_hold_s))
 }
 
 /// Whether a `<leg>.medium` value names a medium file rather than a preset: a path (a `/`) or a

@@ -447,51 +447,7 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
     let spin_task = tokio::spawn(spinner.spin());
     let (wrench, force, params, gap, diagnostics) = publishers(&mut node, &cfg)?;
 
-    let depth = cfg.queue_depth;
-    let js_sub = subscription_with_depth::<JointState>(&mut node, &cfg.joint_states_topic, depth)?;
-    // The robot's state, for the legs it places: /tf as any input, /tf_static reliable and
-    // transient local, as tf2's static broadcaster offers it (so that transforms sent before
-    // the node started reach it).
-    let mut tf_subs = Vec::new();
-    if cfg.legs.iter().any(|l| l.hip_frame.is_some()) {
-        use crate::config::{TF_STATIC_TOPIC, TF_TOPIC};
-        tf_subs.push((
-            false,
-            subscription_with_depth::<TfMessage>(&mut node, TF_TOPIC, depth)?,
-        ));
-        let latched = QosProfile::subscription_default()
-            .reliability_reliable(WhenFull::DEFAULT)
-            .durability(Durability::TransientLocal)
-            .history(History::KeepLast { depth: 100 });
-        let t = node
-            .create_topic(
-                &topic_name(TF_STATIC_TOPIC)?,
-                message_type::<TfMessage>(),
-                &latched,
-            )
-            .context(crate::error::Failure("cannot create /tf_static".into()))?;
-        tf_subs.push((
-            true,
-            node.create_subscription::<TfMessage>(&t, Some(latched))
-                .context("cannot subscribe to /tf_static")?,
-        ));
-    }
-    let pose_sub = match &cfg.robot_state.pose_topic {
-        Some(topic) => Some((
-            Arc::<str>::from(topic.as_str()),
-            subscription_with_depth::<PoseStamped>(&mut node, topic, depth)?,
-        )),
-        None => None,
-    };
-    let mut ft_subs = Vec::new();
-    for (i, leg) in cfg.legs.iter().enumerate() {
-        if let Some(topic) = &leg.ft_topic {
-            ft_subs.push((
-                i,
-                subscription_with_depth::<WrenchStamped>(&mut node, topic, depth)?,
-            ));
-        }
-    }
+    let subs = subscriptions(&mut node, &cfg)?;
     // From here on the node is shared: the message tasks ask it who subscribes, and the clock
     // asks it the time.
     let node = Arc::new(node);
@@ -520,52 +476,18 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
         log: log.clone(),
         clock: clock.clone(),
     });
-    let publish_errors = Arc::new(AtomicU64::new(0));
     let pubs = Arc::new(Pubs {
         wrench,
         force,
         params,
         gap,
         diagnostics,
-        errors: publish_errors.clone(),
+        errors: Arc::new(AtomicU64::new(0)),
         node: node.clone(),
         live: live.clone(),
     });
     let (recorder, record_error) = start_recorder(&cfg, &setup.params, &log);
-    let mut tasks = vec![tokio::spawn(joint_states_task(
-        js_sub,
-        shared.clone(),
-        pubs.clone(),
-        recorder.clone(),
-        topics.clone(),
-    ))];
-    for (fixed, sub) in tf_subs {
-        tasks.push(tokio::spawn(tf_task(
-            fixed,
-            sub,
-            shared.clone(),
-            recorder.clone(),
-        )));
-    }
-    if let Some((topic, sub)) = pose_sub {
-        tasks.push(tokio::spawn(pose_task(
-            topic,
-            sub,
-            shared.clone(),
-            recorder.clone(),
-        )));
-    }
-    for (i, sub) in ft_subs {
-        tasks.push(tokio::spawn(wrench_task(
-            i,
-            sub,
-            shared.clone(),
-            pubs.clone(),
-            recorder.clone(),
-            topics.clone(),
-        )));
-    }
-
+    let tasks = spawn_tasks(subs, &shared, &pubs, &recorder, &topics);
     let mut diag_tick = tokio::time::interval(Duration::from_secs_f64(cfg.diagnostics_period_s));
     diag_tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let mut watch = Watch::default();
@@ -574,24 +496,7 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
         tokio::select! {
             _ = &mut shutdown => break,
             _ = diag_tick.tick() => {
-                if let Some(worker) = &shared.gap {
-                    let mut done = Vec::new();
-                    worker.done(&mut done);
-                    let now = clock.log_time_ns();
-                    for (job, result) in &done {
-                        let warning = {
-                            let core = &mut shared.lock_core().core;
-                            gap_done(recorder.as_deref(), &topics, core, job, result, now, &*pubs)
-                        };
-                        if let Some(w) = warning {
-                            log.log(LogLevel::Warn, &w, log_site!());
-                        }
-                    }
-                }
-                let d = node_status(&shared, &publish_errors, &recorder, record_error.as_deref());
-                watch.report(&shared, recorder.as_deref(), &cfg);
-                let now = clock.log_time_ns();
-                diagnostics_done(recorder.as_deref(), &topics, d, now, &*pubs);
+                on_tick(&shared, &pubs, &recorder, record_error.as_deref(), &topics, &mut watch, &cfg);
             }
         }
     }
@@ -603,22 +508,7 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
         let _ = t.await;
     }
     let summary = run_summary(&shared, cfg.legs.len());
-    if shared.gap.is_some() {
-        let (made, skipped) = {
-            let guard = shared.core.lock().unwrap_or_else(|p| p.into_inner());
-            (0..cfg.legs.len()).fold((0, 0), |(m, s), i| {
-                let (a, b) = guard.core.gap_counts(i);
-                (m + a, s + b)
-            })
-        };
-        log.log(
-            LogLevel::Info,
-            &format!(
-                "the node's own diagnoses: {made} of recent strokes, {skipped} superseded while waiting for the diagnosis thread"
-            ),
-            log_site!(),
-        );
-    }
+    log_gap_counts(&shared, cfg.legs.len(), &log);
     log.log(LogLevel::Info, &summary_line(&summary), log_site!());
     if let Some(r) = recorder.and_then(|r| Arc::try_unwrap(r).ok()) {
         finish_recording(r, &log);
@@ -633,6 +523,168 @@ pub async fn run(setup: NodeSetup, shutdown: impl Future<Output = ()>) -> Result
     drop(node);
     drop(context);
     Ok(summary)
+}
+
+/// The node's subscriptions: joint states, the robot's state (`/tf`, `/tf_static`, a body pose)
+/// where a leg needs it, and each leg's F/T.
+struct Subscriptions {
+    joint_states: Subscription<JointState>,
+    /// `(static, subscription)` of `/tf` and `/tf_static`.
+    tf: Vec<(bool, Subscription<TfMessage>)>,
+    pose: Option<(Arc<str>, Subscription<PoseStamped>)>,
+    /// `(leg index, subscription)`.
+    ft: Vec<(usize, Subscription<WrenchStamped>)>,
+}
+
+fn subscriptions(node: &mut Node, cfg: &NodeConfig) -> Result<Subscriptions> {
+    let depth = cfg.queue_depth;
+    let joint_states = subscription_with_depth::<JointState>(node, &cfg.joint_states_topic, depth)?;
+    // The robot's state, for the legs it places: /tf as any input, /tf_static reliable and
+    // transient local, as tf2's static broadcaster offers it (so that transforms sent before
+    // the node started reach it).
+    let mut tf_subs = Vec::new();
+    if cfg.legs.iter().any(|l| l.hip_frame.is_some()) {
+        use crate::config::{TF_STATIC_TOPIC, TF_TOPIC};
+        tf_subs.push((
+            false,
+            subscription_with_depth::<TfMessage>(node, TF_TOPIC, depth)?,
+        ));
+        let latched = QosProfile::subscription_default()
+            .reliability_reliable(WhenFull::DEFAULT)
+            .durability(Durability::TransientLocal)
+            .history(History::KeepLast { depth: 100 });
+        let t = node
+            .create_topic(
+                &topic_name(TF_STATIC_TOPIC)?,
+                message_type::<TfMessage>(),
+                &latched,
+            )
+            .context(crate::error::Failure("cannot create /tf_static".into()))?;
+        tf_subs.push((
+            true,
+            node.create_subscription::<TfMessage>(&t, Some(latched))
+                .context("cannot subscribe to /tf_static")?,
+        ));
+    }
+    let pose_sub = match &cfg.robot_state.pose_topic {
+        Some(topic) => Some((
+            Arc::<str>::from(topic.as_str()),
+            subscription_with_depth::<PoseStamped>(node, topic, depth)?,
+        )),
+        None => None,
+    };
+    let mut ft_subs = Vec::new();
+    for (i, leg) in cfg.legs.iter().enumerate() {
+        if let Some(topic) = &leg.ft_topic {
+            ft_subs.push((
+                i,
+                subscription_with_depth::<WrenchStamped>(node, topic, depth)?,
+            ));
+        }
+    }
+    Ok(Subscriptions {
+        joint_states,
+        tf: tf_subs,
+        pose: pose_sub,
+        ft: ft_subs,
+    })
+}
+
+/// A task per subscription, each handling its messages as it takes them off DDS.
+fn spawn_tasks(
+    subs: Subscriptions,
+    shared: &Arc<Shared>,
+    pubs: &Arc<Pubs>,
+    recorder: &Option<Arc<Recorder>>,
+    topics: &Arc<Topics>,
+) -> Vec<tokio::task::JoinHandle<()>> {
+    let mut tasks = vec![tokio::spawn(joint_states_task(
+        subs.joint_states,
+        shared.clone(),
+        pubs.clone(),
+        recorder.clone(),
+        topics.clone(),
+    ))];
+    for (fixed, sub) in subs.tf {
+        tasks.push(tokio::spawn(tf_task(
+            fixed,
+            sub,
+            shared.clone(),
+            recorder.clone(),
+        )));
+    }
+    if let Some((topic, sub)) = subs.pose {
+        tasks.push(tokio::spawn(pose_task(
+            topic,
+            sub,
+            shared.clone(),
+            recorder.clone(),
+        )));
+    }
+    for (i, sub) in subs.ft {
+        tasks.push(tokio::spawn(wrench_task(
+            i,
+            sub,
+            shared.clone(),
+            pubs.clone(),
+            recorder.clone(),
+            topics.clone(),
+        )));
+    }
+
+    tasks
+}
+
+/// The diagnostics' tick: the node's own diagnoses that are done published, `/diagnostics`
+/// published and recorded, and the watch on inputs reported.
+fn on_tick(
+    shared: &Shared,
+    pubs: &Pubs,
+    recorder: &Option<Arc<Recorder>>,
+    record_error: Option<&str>,
+    topics: &Topics,
+    watch: &mut Watch,
+    cfg: &NodeConfig,
+) {
+    let (log, clock) = (&shared.log, &shared.clock);
+    if let Some(worker) = &shared.gap {
+        let mut done = Vec::new();
+        worker.done(&mut done);
+        let now = clock.log_time_ns();
+        for (job, result) in &done {
+            let warning = {
+                let core = &mut shared.lock_core().core;
+                gap_done(recorder.as_deref(), topics, core, job, result, now, pubs)
+            };
+            if let Some(w) = warning {
+                log.log(LogLevel::Warn, &w, log_site!());
+            }
+        }
+    }
+    let d = node_status(shared, &pubs.errors, recorder, record_error);
+    watch.report(shared, recorder.as_deref(), cfg);
+    let now = clock.log_time_ns();
+    diagnostics_done(recorder.as_deref(), topics, d, now, pubs);
+}
+
+/// At shutdown, how many of its own diagnoses the node made and how many were superseded.
+fn log_gap_counts(shared: &Shared, legs: usize, log: &NodeLog) {
+    if shared.gap.is_some() {
+        let (made, skipped) = {
+            let guard = shared.core.lock().unwrap_or_else(|p| p.into_inner());
+            (0..legs).fold((0, 0), |(m, s), i| {
+                let (a, b) = guard.core.gap_counts(i);
+                (m + a, s + b)
+            })
+        };
+        log.log(
+            LogLevel::Info,
+            &format!(
+                "the node's own diagnoses: {made} of recent strokes, {skipped} superseded while waiting for the diagnosis thread"
+            ),
+            log_site!(),
+        );
+    }
 }
 
 /// The first line the node logs: who it is and what it listens to, and the speed law each RFT

@@ -456,15 +456,63 @@ pub struct PlotData {
     pub noise_var_n2: f64,
 }
 
-pub(super) fn analyse(
-    ctx: &Context,
-    fit_ctx: Option<&Context>,
-    opts: &DiagnoseOptions,
-    skipped: usize,
-    samples_given: usize,
-) -> Diagnosis {
-    let n = ctx.points.len();
-    let residuals = 2 * n;
+/// What every step of the analysis reads: the session, the options, the noise, the baseline
+/// and the gap it leaves.
+struct Ground<'a> {
+    ctx: &'a Context,
+    opts: &'a DiagnoseOptions,
+    noise: Noise,
+    /// The noise's variance over drag and lift (N^2).
+    var: f64,
+    base: Fit,
+    /// The baseline's held-out mean squared residual (N^2).
+    mse_b: f64,
+    /// What of it lies beyond the noise (N^2).
+    excess: f64,
+    gap: Gap,
+    /// The penalty on a held-out gain for each parameter a term adds (N^2).
+    penalty_per_param: f64,
+    signatures: Signatures,
+    base_strokes: Vec<f64>,
+    /// The paired t a gain must reach over the strokes.
+    min_t: f64,
+    length_m: f64,
+}
+
+impl Ground<'_> {
+    /// The share of the gap (%) a held-out mean squared residual `mse` closes.
+    fn closed(&self, mse: f64) -> f64 {
+        if self.excess > 0.0 {
+            100.0 * (self.mse_b - mse) / self.excess
+        } else {
+            0.0
+        }
+    }
+
+    /// The signatures of the session read against `f`'s fit (the baseline's as read first).
+    fn signatures_given(&self, f: &Fit, baseline: bool) -> Signatures {
+        if baseline {
+            return self.signatures.clone();
+        }
+        let mut sig = signatures::read(
+            self.ctx,
+            &f.fitted_n,
+            [self.noise.drag_n, self.noise.lift_n],
+        );
+        // A late sensor moves the onset of force later the faster the leg, against any
+        // prediction, and the baseline's does not depend on speed: where, against it, the onset
+        // comes clearly earlier with speed, a delay read against a fit with speed terms (whose
+        // own onset moves with speed) is that fit's, not the sensor's.
+        if self.signatures.delay.onset_slope_t < -4.0 {
+            sig.delay.significant = false;
+        }
+        sig
+    }
+}
+
+/// The noise, the baseline fitted with held-out strokes, and whether the gap it leaves is real.
+fn ground<'a>(ctx: &'a Context, opts: &'a DiagnoseOptions) -> Ground<'a> {
+    let residuals = 2 * ctx.points.len();
     let noise = noise(ctx);
     let var = (0.5 * (noise.drag_n.powi(2) + noise.lift_n.powi(2))).max(1e-18);
     let base = fit(ctx, &Design::baseline(ctx.folds), None);
@@ -475,14 +523,6 @@ pub(super) fn analyse(
     let resolution_n = opts.min_gap_n.max(noise.quantum_n);
     let below_resolution = gap_rms_n <= resolution_n;
     let real = excess > opts.min_excess_ratio * var && z > 5.0 && !below_resolution;
-    let closed = |mse: f64| {
-        if excess > 0.0 {
-            100.0 * (mse_b - mse) / excess
-        } else {
-            0.0
-        }
-    };
-    let penalty_per_param = opts.penalty * var * (residuals as f64).ln() / residuals as f64;
     let signatures = signatures::read(ctx, &base.fitted_n, [noise.drag_n, noise.lift_n]);
     let base_strokes = stroke_sse(ctx, &base.heldout_n);
     // Significant: one-sided 5 % level of the paired t over the strokes that hold points.
@@ -493,73 +533,110 @@ pub(super) fn analyse(
             .count()
             .saturating_sub(1),
     );
+    Ground {
+        ctx,
+        opts,
+        noise,
+        var,
+        mse_b,
+        excess,
+        gap: Gap {
+            real,
+            heldout_mse_n2: mse_b,
+            noise_var_n2: var,
+            excess_ratio: excess / var,
+            z,
+            gap_rms_n,
+            resolution_n,
+            below_resolution,
+        },
+        penalty_per_param: opts.penalty * var * (residuals as f64).ln() / residuals as f64,
+        signatures,
+        base_strokes,
+        min_t,
+        length_m: ctx.model.plate().length_m(),
+        base,
+    }
+}
 
+/// Each effect alone on the baseline, scored on held-out strokes: the candidates, best
+/// penalized gain first.
+fn candidates(g: &Ground) -> Vec<(Fit, Candidate)> {
+    let (ctx, real) = (g.ctx, g.gap.real);
     let mut fits: Vec<(Fit, Candidate)> = ALL
         .iter()
         .map(|&e| {
             let f = fit(ctx, &Design::baseline(ctx.folds), Some(e));
-            let t = t_statistic(&improvements(&base_strokes, &stroke_sse(ctx, &f.heldout_n)));
-            let gain = mse_b - f.heldout_mse() - penalty_per_param * e.parameter_count() as f64;
+            let t = t_statistic(&improvements(
+                &g.base_strokes,
+                &stroke_sse(ctx, &f.heldout_n),
+            ));
+            let gain = g.mse_b - f.heldout_mse() - g.penalty_per_param * e.parameter_count() as f64;
             let c = Candidate {
                 effect: e,
                 params: params(&f),
                 parameters: e.parameter_count(),
-                heldout_rmse_before_n: mse_b.sqrt(),
+                heldout_rmse_before_n: g.mse_b.sqrt(),
                 heldout_rmse_after_n: f.heldout_mse().sqrt(),
                 heldout_psi_after: psi(ctx, &f.heldout_n),
-                gap_closed_pct: real.then(|| closed(f.heldout_mse())),
+                gap_closed_pct: real.then(|| g.closed(f.heldout_mse())),
                 penalized_gain_n2: gain,
                 heldout_t: t,
-                significant: real && gain > 0.0 && t >= min_t,
-                direct_evidence: direct(&signatures, e),
+                significant: real && gain > 0.0 && t >= g.min_t,
+                direct_evidence: direct(&g.signatures, e),
             };
             (f, c)
         })
         .collect();
     fits.sort_by(|a, b| b.1.penalized_gain_n2.total_cmp(&a.1.penalized_gain_n2));
+    fits
+}
 
-    // Forward selection on held-out strokes: each round adds the effect with the largest
-    // held-out gain over the effects chosen so far that is significant (its gain holds stroke
-    // by stroke: paired t over strokes, and it pays for its parameters) and material (it closes
-    // a set share of the gap, or a direct signature of the session shows it).
-    let psi_before = psi(ctx, &base.heldout_n);
-    // Direct evidence given what is already modelled: a misfit that an earlier step explains
-    // (a surface level shifting the onset) must not pass for a delay.
-    // A late sensor moves the onset of force later the faster the leg, against any prediction,
-    // and the baseline's does not depend on speed: where, against it, the onset comes clearly
-    // earlier with speed, a delay read against a fit with speed terms (whose own onset moves
-    // with speed) is that fit's, not the sensor's.
-    let onset_against_delay = signatures.delay.onset_slope_t < -4.0;
-    let given = |f: &Fit, baseline: bool| {
-        if baseline {
-            signatures.clone()
-        } else {
-            let mut sig = signatures::read(ctx, &f.fitted_n, [noise.drag_n, noise.lift_n]);
-            if onset_against_delay {
-                sig.delay.significant = false;
-            }
-            sig
+/// What the selection of steps ends with.
+struct Selection {
+    steps: Vec<Step>,
+    /// The fit with every step.
+    current: Fit,
+    /// The fit with every step whose terms stay within their physical bounds: the corrected
+    /// model the node is given.
+    admissible: Fit,
+    /// The steps left out of it, by the effect they added, with why.
+    left_out: Vec<(Option<Effect>, CorrectionsError)>,
+    /// The effects not chosen in the last round, each with its share of what was left (%).
+    remaining: Vec<(Effect, f64)>,
+}
+
+impl Selection {
+    /// `f` becomes the admissible model where its terms stay within their bounds; else its step
+    /// is left out, with why.
+    fn admit(&mut self, g: &Ground, f: &Fit) {
+        match corrected_model(g.ctx, f).validate(g.length_m) {
+            Ok(()) => self.admissible = f.clone(),
+            Err(e) => self.left_out.push((f.design.effects.last().copied(), e)),
         }
+    }
+}
+
+/// Forward selection on held-out strokes: each round adds the effect with the largest held-out
+/// gain over the effects chosen so far that is significant (its gain holds stroke by stroke:
+/// paired t over strokes, and it pays for its parameters) and material (it closes a set share
+/// of the gap, or a direct signature of the session shows it). Then the sensor effects whose
+/// direct signature holds, given everything modelled.
+fn select(g: &Ground, fits: &[(Fit, Candidate)]) -> Selection {
+    let (ctx, opts, var, excess) = (g.ctx, g.opts, g.var, g.excess);
+    let closed = |mse: f64| g.closed(mse);
+    let mut sel = Selection {
+        steps: Vec::new(),
+        current: g.base.clone(),
+        admissible: g.base.clone(),
+        left_out: Vec::new(),
+        remaining: Vec::new(),
     };
-    let mut steps: Vec<Step> = Vec::new();
-    let mut current = base.clone();
-    // The corrected model the node is given: every step's terms, as long as their fit stays
-    // within the terms' physical bounds (a step whose fit leaves them, a negative b_k say,
-    // explains part of the gap but is no model to predict with).
-    let length_m = ctx.model.plate().length_m();
-    let mut admissible = base.clone();
-    // The steps left out, by the effect they added, with why.
-    let mut left_out: Vec<(Option<Effect>, CorrectionsError)> = Vec::new();
-    let mut admit = |f: &Fit, admissible: &mut Fit| match corrected_model(ctx, f).validate(length_m)
-    {
-        Ok(()) => *admissible = f.clone(),
-        Err(e) => left_out.push((f.design.effects.last().copied(), e)),
-    };
-    let mut remaining: Vec<(Effect, f64)> = Vec::new();
-    while real && steps.len() < opts.max_steps {
+    while g.gap.real && sel.steps.len() < opts.max_steps {
+        let current = &sel.current;
         let mse = current.heldout_mse();
         let cur_strokes = stroke_sse(ctx, &current.heldout_n);
-        let sig_now = given(&current, steps.is_empty());
+        let sig_now = g.signatures_given(current, sel.steps.is_empty());
         let mut tried: Vec<(Fit, f64, f64)> = ALL
             .iter()
             .filter(|e| !current.design.effects.contains(e))
@@ -573,12 +650,12 @@ pub(super) fn analyse(
                 }
                 .unwrap_or_else(|| fit(ctx, &current.design, Some(e)));
                 let t = t_statistic(&improvements(&cur_strokes, &stroke_sse(ctx, &f.heldout_n)));
-                let gain = mse - f.heldout_mse() - penalty_per_param * e.parameter_count() as f64;
+                let gain = mse - f.heldout_mse() - g.penalty_per_param * e.parameter_count() as f64;
                 (f, gain, t)
             })
             .collect();
         tried.sort_by(|a, b| b.1.total_cmp(&a.1));
-        remaining = tried
+        sel.remaining = tried
             .iter()
             .map(|(f, _, _)| {
                 let e = *f.design.effects.last().expect("one effect was added");
@@ -596,12 +673,12 @@ pub(super) fn analyse(
         let chosen = tried.into_iter().find(|(f, gain, t)| {
             let e = *f.design.effects.last().expect("one effect was added");
             let share = 100.0 * (mse - f.heldout_mse()) / excess;
-            *gain > 0.0 && *t >= min_t && (share >= opts.step_pct || direct(&sig_now, e))
+            *gain > 0.0 && *t >= g.min_t && (share >= opts.step_pct || direct(&sig_now, e))
         });
         let Some((next, _, t)) = chosen else { break };
         let e = *next.design.effects.last().expect("one effect was added");
         let seen = direct(&sig_now, e);
-        steps.push(Step {
+        sel.steps.push(Step {
             evidence: if seen {
                 Evidence::HeldOutAndDirect
             } else {
@@ -613,54 +690,58 @@ pub(super) fn analyse(
             contrast: contrast(ctx, &next, e, var, excess),
             ..step(ctx, &next, mse, t, &closed, excess)
         });
-        current = next;
-        admit(&current, &mut admissible);
-        remaining.clear();
-        if current.heldout_mse() - var <= opts.min_excess_ratio * var {
+        sel.admit(g, &next);
+        sel.current = next;
+        sel.remaining.clear();
+        if sel.current.heldout_mse() - var <= opts.min_excess_ratio * var {
             break;
         }
     }
-
     // A sensor effect whose direct signature holds, given everything modelled, is reported even
     // where the held-out fit cannot show it: the model's own misfit can mask a delay (a model
     // that lags the medium in angle looks better once the sensor lags too).
-    if real {
-        let sig_end = given(&current, steps.is_empty());
+    if g.gap.real {
+        let sig_end = g.signatures_given(&sel.current, sel.steps.is_empty());
         for e in ALL.into_iter().filter(|e| e.is_sensor()) {
-            if current.design.effects.contains(&e) || !direct(&sig_end, e) {
+            if sel.current.design.effects.contains(&e) || !direct(&sig_end, e) {
                 continue;
             }
-            let mse = current.heldout_mse();
-            let f = fit(ctx, &current.design, Some(e));
+            let mse = sel.current.heldout_mse();
+            let f = fit(ctx, &sel.current.design, Some(e));
             let t = t_statistic(&improvements(
-                &stroke_sse(ctx, &current.heldout_n),
+                &stroke_sse(ctx, &sel.current.heldout_n),
                 &stroke_sse(ctx, &f.heldout_n),
             ));
-            steps.push(Step {
+            sel.steps.push(Step {
                 evidence: Evidence::Direct,
                 direct_share_of_gap_pct: direct_share(ctx, e, &sig_end, var, excess),
                 ..step(ctx, &f, mse, t, &closed, excess)
             });
             if f.heldout_mse() < mse {
-                current = f;
-                admit(&current, &mut admissible);
+                sel.admit(g, &f);
+                sel.current = f;
             }
         }
     }
-
-    for st in &mut steps {
-        st.basis = basis_of(st, &signatures);
+    for st in &mut sel.steps {
+        st.basis = basis_of(st, &g.signatures);
         st.claim = claim(st.effect, st.basis, opts.cohesive_medium);
     }
+    sel
+}
 
-    // The verdict: the significant effect with the largest share of the gap, if that share is
-    // material; otherwise `unexplained` (a real gap) or `none`.
-    let named = steps
+/// The verdict: the significant effect with the largest share of the gap, if that share is
+/// material; otherwise `unexplained` (a real gap) or `none`.
+fn verdict(g: &Ground, fits: &[(Fit, Candidate)], sel: &Selection) -> Verdict {
+    let psi_before = psi(g.ctx, &g.base.heldout_n);
+    let named = sel
+        .steps
         .iter()
         .max_by(|a, b| a.share_of_gap_pct.total_cmp(&b.share_of_gap_pct))
-        .filter(|s| s.share_of_gap_pct >= opts.accept_pct);
-    let all_closed = steps.last().map_or(0.0, |s| s.gap_closed_pct);
-    let verdict = match named {
+        .filter(|s| s.share_of_gap_pct >= g.opts.accept_pct);
+    let all_closed = sel.steps.last().map_or(0.0, |s| s.gap_closed_pct);
+    let real = g.gap.real;
+    match named {
         Some(st) => {
             let alone = fits
                 .iter()
@@ -689,29 +770,48 @@ pub(super) fn analyse(
                 .unwrap_or(0.0)
                 .max(0.0),
             heldout_psi_before: psi_before,
-            heldout_psi_after: if steps.is_empty() {
+            heldout_psi_after: if sel.steps.is_empty() {
                 psi_before
             } else {
-                psi(ctx, &current.heldout_n)
+                psi(g.ctx, &sel.current.heldout_n)
             },
             all_steps_gap_closed_pct: all_closed,
             basis: None,
             claim: if real {
                 "an effect no candidate term explains, or the model's own misfit".into()
-            } else if below_resolution {
+            } else if g.gap.below_resolution {
                 format!(
-                    "no gap to explain: {gap_rms_n:.3} N beyond the noise, within what the sensor resolves ({resolution_n:.3} N)"
+                    "no gap to explain: {:.3} N beyond the noise, within what the sensor resolves ({:.3} N)",
+                    g.gap.gap_rms_n, g.gap.resolution_n
                 )
             } else {
                 "no gap to explain: the model fits to the noise level".into()
             },
         },
-    };
-    // A step left out because its fit, built on an earlier step's, left the bounds is tried
-    // again on the admissible model alone: a term that stays physical beside the kept ones and
-    // predicts the held-out strokes better is kept (on DEM strokes of rising speed, `rate`
-    // beside a cohesion-like term, once a surcharge step before it had fitted a negative b_k).
-    for e in steps.iter().map(|st| st.effect) {
+    }
+}
+
+/// The corrected model the node is given, with what the report says of it.
+struct CorrectedParts {
+    model: Corrections,
+    std: Option<CorrectedStd>,
+    fit_samples: usize,
+    refit_refused: Option<String>,
+    gap_closed_pct: f64,
+    forward_gap_closed_pct: Option<f64>,
+    left_out: Vec<String>,
+}
+
+/// The corrected model of the admissible steps: a step left out because its fit, built on an
+/// earlier step's, left the bounds is tried again on the admissible model alone, and the chosen
+/// terms are fitted again on every sample of `fit_ctx`.
+fn corrected(g: &Ground, fit_ctx: Option<&Context>, sel: &Selection) -> CorrectedParts {
+    let (ctx, length_m) = (g.ctx, g.length_m);
+    // A term that stays physical beside the kept ones and predicts the held-out strokes better
+    // is kept (on DEM strokes of rising speed, `rate` beside a cohesion-like term, once a
+    // surcharge step before it had fitted a negative b_k).
+    let mut admissible = sel.admissible.clone();
+    for e in sel.steps.iter().map(|st| st.effect) {
         if admissible.design.effects.contains(&e) {
             continue;
         }
@@ -722,14 +822,9 @@ pub(super) fn analyse(
             admissible = f;
         }
     }
-    let after = current.heldout_n.clone();
-    let corrected_model_gap_closed_pct = closed(admissible.heldout_mse());
-    let corrected_model_forward_gap_closed_pct = opts
-        .forward_share
-        .then(|| forward_gap_closed_pct(ctx, &admissible, var))
-        .flatten();
-    let corrected_model_left_out = left_out
-        .into_iter()
+    let left_out = sel
+        .left_out
+        .iter()
         .filter(|(e, _)| e.is_none_or(|e| !admissible.design.effects.contains(&e)))
         .map(|(e, why)| format!("{} ({why})", e.map_or("baseline", Effect::name)))
         .collect();
@@ -749,12 +844,7 @@ pub(super) fn analyse(
                 .map(|()| (c, corrected_std(&f), full.points.len()))
                 .map_err(|e| e.to_string())
         });
-    let (
-        corrected_model,
-        corrected_model_std,
-        corrected_model_fit_samples,
-        corrected_model_refit_refused,
-    ) = match refit {
+    let (model, std, fit_samples, refit_refused) = match refit {
         Some(Ok((c, std, fitted_on))) => (c, std, fitted_on, None),
         other => (
             corrected_model(ctx, &admissible),
@@ -763,11 +853,27 @@ pub(super) fn analyse(
             other.and_then(Result::err),
         ),
     };
+    CorrectedParts {
+        model,
+        std,
+        fit_samples,
+        refit_refused,
+        gap_closed_pct: g.closed(admissible.heldout_mse()),
+        forward_gap_closed_pct: g
+            .opts
+            .forward_share
+            .then(|| forward_gap_closed_pct(ctx, &admissible, g.var))
+            .flatten(),
+        left_out,
+    }
+}
 
-    let where_ = where_bins(ctx, &base.heldout_n, var);
-    let unexplained = real.then(|| {
-        let left = current.heldout_mse() - var;
-        let mut resembles: Vec<Resemblance> = remaining
+/// What of a real gap every step leaves, where it lies and which effects it resembles.
+fn unexplained(g: &Ground, sel: &Selection) -> Option<Unexplained> {
+    g.gap.real.then(|| {
+        let left = sel.current.heldout_mse() - g.var;
+        let mut resembles: Vec<Resemblance> = sel
+            .remaining
             .iter()
             .filter(|(_, pct)| *pct > 0.0)
             .map(|&(effect, pct)| Resemblance {
@@ -777,63 +883,69 @@ pub(super) fn analyse(
             .collect();
         resembles.truncate(3);
         Unexplained {
-            share_of_gap_pct: (100.0 * left / excess).clamp(0.0, 100.0),
-            heldout_rmse_n: current.heldout_mse().sqrt(),
-            where_: where_left(where_bins(ctx, &current.heldout_n, var)),
+            share_of_gap_pct: (100.0 * left / g.excess).clamp(0.0, 100.0),
+            heldout_rmse_n: sel.current.heldout_mse().sqrt(),
+            where_: where_left(where_bins(g.ctx, &sel.current.heldout_n, g.var)),
             resembles,
         }
-    });
+    })
+}
+
+pub(super) fn analyse(
+    ctx: &Context,
+    fit_ctx: Option<&Context>,
+    opts: &DiagnoseOptions,
+    skipped: usize,
+    samples_given: usize,
+) -> Diagnosis {
+    let g = ground(ctx, opts);
+    let fits = candidates(&g);
+    let sel = select(&g, &fits);
+    let verdict = verdict(&g, &fits, &sel);
+    let corrected = corrected(&g, fit_ctx, &sel);
+    let unexplained = unexplained(&g, &sel);
+    let where_ = where_bins(ctx, &g.base.heldout_n, g.var);
     let baseline = Baseline {
-        b_k: base.coefficients[0],
-        a: base.a,
-        psi_drag: psi_component(ctx, &base.heldout_n, 0),
-        psi_lift: psi_component(ctx, &base.heldout_n, 1),
-        rmse_n: mse_b.sqrt(),
-    };
-    let gap = Gap {
-        real,
-        heldout_mse_n2: mse_b,
-        noise_var_n2: var,
-        excess_ratio: excess / var,
-        z,
-        gap_rms_n,
-        resolution_n,
-        below_resolution,
+        b_k: g.base.coefficients[0],
+        a: g.base.a,
+        psi_drag: psi_component(ctx, &g.base.heldout_n, 0),
+        psi_lift: psi_component(ctx, &g.base.heldout_n, 1),
+        rmse_n: g.mse_b.sqrt(),
     };
     let candidates: Vec<Candidate> = fits.into_iter().map(|(_, c)| c).collect();
     let summary = summary(
-        &gap,
+        &g.gap,
         &where_,
         &candidates,
-        &steps,
+        &sel.steps,
         &verdict,
-        &noise,
+        &g.noise,
         unexplained.as_ref(),
     );
     Diagnosis {
         report: Report {
             samples: samples_given,
-            analysed: n,
+            analysed: ctx.points.len(),
             skipped_non_finite: skipped,
             strokes: ctx.strokes,
             folds: ctx.folds,
-            noise,
+            noise: g.noise.clone(),
             baseline,
-            gap,
+            gap: g.gap.clone(),
             where_,
             candidates,
-            steps,
+            steps: sel.steps,
             verdict,
             summary,
             unexplained,
-            signatures,
-            corrected_model,
-            corrected_model_gap_closed_pct,
-            corrected_model_forward_gap_closed_pct,
-            corrected_model_left_out,
-            corrected_model_std,
-            corrected_model_fit_samples,
-            corrected_model_refit_refused,
+            signatures: g.signatures.clone(),
+            corrected_model: corrected.model,
+            corrected_model_gap_closed_pct: corrected.gap_closed_pct,
+            corrected_model_forward_gap_closed_pct: corrected.forward_gap_closed_pct,
+            corrected_model_left_out: corrected.left_out,
+            corrected_model_std: corrected.std,
+            corrected_model_fit_samples: corrected.fit_samples,
+            corrected_model_refit_refused: corrected.refit_refused,
             hip_placed_points: ctx
                 .points
                 .iter()
@@ -844,9 +956,9 @@ pub(super) fn analyse(
             beta_rad: ctx.points.iter().map(|p| p.beta_rad).collect(),
             speed_rad_s: ctx.points.iter().map(|p| p.speed_rad_s).collect(),
             measured_n: ctx.points.iter().map(|p| p.y_n).collect(),
-            before_n: base.heldout_n,
-            after_n: after,
-            noise_var_n2: var,
+            before_n: g.base.heldout_n.clone(),
+            after_n: sel.current.heldout_n,
+            noise_var_n2: g.var,
         },
     }
 }

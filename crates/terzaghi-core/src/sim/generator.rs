@@ -271,18 +271,7 @@ pub fn measure(case: &Case, motion: &[MotionSample], omit: &[Hidden]) -> (Vec<Sa
     let phi = case.medium.phi_rad();
     let k_p = (PI / 4.0 + phi / 2.0).tan().powi(2);
     // A scale for the additive effects: the truth's RMS force in the medium.
-    let scale = {
-        let (mut s, mut k) = (0.0, 0usize);
-        for x in motion {
-            if let Ok(f) = truth.evaluate(x.beta_rad)
-                && f.submerged_m > 0.0
-            {
-                s += f.drag_n * f.drag_n + f.lift_n * f.lift_n;
-                k += 2;
-            }
-        }
-        (s / k.max(1) as f64).sqrt()
-    };
+    let scale = rms_in_medium(&truth, motion);
     let size = 0.12 + 0.18 * m; // 12-30 % of the RMS force
 
     // The clean, effect-laden force at every motion sample.
@@ -375,35 +364,8 @@ pub fn measure(case: &Case, motion: &[MotionSample], omit: &[Hidden]) -> (Vec<Sa
         clean.push([d, li]);
         raw_effects.push(extra);
     }
-    // Scale every additive effect to its share of the RMS force.
-    let count = raw_effects.first().map_or(0, Vec::len);
-    // The effects' RMS is over the whole session, in and out of the medium; the force's only in it.
-    let in_share = motion
-        .iter()
-        .filter(|x| {
-            truth
-                .evaluate(x.beta_rad)
-                .is_ok_and(|f| f.submerged_m > 0.0)
-        })
-        .count() as f64
-        / motion.len().max(1) as f64;
-    for j in 0..count {
-        let rms = (raw_effects
-            .iter()
-            .map(|e| e[j][0] * e[j][0] + e[j][1] * e[j][1])
-            .sum::<f64>()
-            / (2 * raw_effects.len().max(1)) as f64)
-            .sqrt();
-        let k = if rms > 0.0 {
-            size * scale * in_share.sqrt() / rms
-        } else {
-            0.0
-        };
-        for (c, e) in clean.iter_mut().zip(&raw_effects) {
-            c[0] += k * e[j][0];
-            c[1] += k * e[j][1];
-        }
-    }
+    // Every additive effect at its share of the RMS force.
+    add_effects(&mut clean, &raw_effects, &truth, motion, size * scale);
     let sigma = case.noise_frac * scale * 2.5;
     let times: Vec<f64> = motion.iter().map(|x| x.t_s).collect();
     let samples = motion
@@ -430,6 +392,59 @@ pub fn measure(case: &Case, motion: &[MotionSample], omit: &[Hidden]) -> (Vec<Sa
         })
         .collect();
     (samples, sigma)
+}
+
+/// The truth's RMS force over the samples of `motion` in the medium (N).
+fn rms_in_medium(truth: &TerzaghiModel, motion: &[MotionSample]) -> f64 {
+    let (mut s, mut k) = (0.0, 0usize);
+    for x in motion {
+        if let Ok(f) = truth.evaluate(x.beta_rad)
+            && f.submerged_m > 0.0
+        {
+            s += f.drag_n * f.drag_n + f.lift_n * f.lift_n;
+            k += 2;
+        }
+    }
+    (s / k.max(1) as f64).sqrt()
+}
+
+/// Adds to `clean` each additive effect of `raw_effects` (per sample, per effect), scaled so
+/// that its RMS over the medium's samples is `share_n`.
+fn add_effects(
+    clean: &mut [[f64; 2]],
+    raw_effects: &[Vec<[f64; 2]>],
+    truth: &TerzaghiModel,
+    motion: &[MotionSample],
+    share_n: f64,
+) {
+    let count = raw_effects.first().map_or(0, Vec::len);
+    // The effects' RMS is over the whole session, in and out of the medium; the force's only in it.
+    let in_share = motion
+        .iter()
+        .filter(|x| {
+            truth
+                .evaluate(x.beta_rad)
+                .is_ok_and(|f| f.submerged_m > 0.0)
+        })
+        .count() as f64
+        / motion.len().max(1) as f64;
+    for j in 0..count {
+        let rms = (raw_effects
+            .iter()
+            .map(|e| e[j][0] * e[j][0] + e[j][1] * e[j][1])
+            .sum::<f64>()
+            / (2 * raw_effects.len().max(1)) as f64)
+            .sqrt();
+        let k = if rms > 0.0 {
+            share_n * in_share.sqrt() / rms
+        } else {
+            0.0
+        };
+        for (c, e) in clean.iter_mut().zip(raw_effects) {
+            c[0] += k * e[j][0];
+            c[1] += k * e[j][1];
+        }
+    }
 }
 
 fn sign(rng: &mut StdRng) -> f64 {
