@@ -214,8 +214,8 @@ LAWS = ["terzaghi_footing", "bekker", "reece", "rft_depth_power", "depth_width_p
 def test_every_law_calibrate_writes_is_read_with_its_band(law, runs, tmp_path):
     """Each law ``terzaghi calibrate`` fits (on the shared runs, where Bekker's ``k_c`` and
     Terzaghi's ``N_gamma`` sit on their bound 0, and on the three 60 mm runs alone) is read by
-    Python's predict, and, for the RFT law, by its steady: the forces and their band are the
-    binary's."""
+    Python's predict, by the node's code replaying a log with it as the leg's medium, and, for
+    the RFT law, by Python's steady: the forces and their band are the binary's."""
     tests = RUNS if runs == "all" else [r for r in RUNS if "D60mm" in r.name]
     path = tmp_path / f"{law}.yaml"
     run("calibrate", *tests, "--law", law, "-o", path)
@@ -229,6 +229,20 @@ def test_every_law_calibrate_writes_is_read_with_its_band(law, runs, tmp_path):
     for k in ("lift_n", "lift_low_n", "lift_high_n"):
         np.testing.assert_allclose(mine[k], [r[k] for r in cli], rtol=1e-9, err_msg=k)
     assert np.all(mine["lift_low_n"] < mine["lift_n"]) and np.all(mine["lift_n"] < mine["lift_high_n"])
+    # Replayed through the node's code (a CSV force log of a plate pushed down, as
+    # terzaghi replay --reevaluate takes it), with the file as the leg's medium.
+    t = np.arange(0.0, 20.0, 0.1)
+    d = np.minimum(t * 1e-3, 0.015)
+    log = tmp_path / "push.csv"
+    np.savetxt(log, np.column_stack([t, 0 * t, 0 * t, 0 * t, -d]), delimiter=",",
+               header="t_s,beta_rad,drag_n,lift_n,hip_height_m", comments="", fmt="%.9g")
+    params = tmp_path / "plate.yaml"
+    params.write_text(
+        "/**:\n  ros__parameters:\n    model: sinkage\n    legs: [plate]\n    plate:\n"
+        "      joint: plate_joint\n      width_m: 0.06\n      hip_height_m: 0.0\n"
+        f"      medium: {path}\n      ft_topic: /plate/ft\n")
+    rows = terzaghi.session_rows(log, params_file=params, params={"use_identified": False})["plate"]
+    assert np.all(np.isfinite(rows["predicted_lift_n"])) and rows["predicted_lift_n"].max() > 10.0
     if law == "rft_depth_power":
         runs_csv = tmp_path / "runs.csv"
         runs_csv.write_text("load_n,hub_vx_m_s,omega_rad_s,slip_angle_deg\n20,0.01,0.1,0\n")

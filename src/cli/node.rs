@@ -16,7 +16,11 @@ Environment: ROS_DOMAIN_ID (0-232), ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST or \
 ROS_LOCALHOST_ONLY=1 (DDS on loopback only).\n\
 Simulated time: -p use_sim_time:=true, and the node's time (diagnostics, parameter events, \
 recorded receive times) follows /clock (rosgraph_msgs/msg/Clock).\n\
-Parameters: see launch_configs/ and docs/node.md."
+Parameters: see launch_configs/ and docs/node.md.\n\
+Built by colcon (docs/node.md, in a colcon workspace): ros2 run terzaghi terzaghi node ...; \
+ros2 launch terzaghi rhex.launch.xml, rhex.launch.yaml, testbed.launch.xml or \
+testbed.launch.yaml (params_file:=FILE); parameter files in \
+$(ros2 pkg prefix terzaghi)/share/terzaghi/launch_configs/."
 )]
 pub struct NodeArgs {
     /// Record the session (inputs and outputs) to this MCAP file (or the parameter `record`).
