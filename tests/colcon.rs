@@ -20,38 +20,12 @@ use std::process::Command;
 /// The venv `target/colconvenv` with colcon and ament_index_python (made on first use: needs
 /// PyPI); its `bin/`.
 fn colcon_bin() -> PathBuf {
-    let venv = repo().join("target/colconvenv");
-    let bin = venv.join("bin");
-    let lock_path = venv.with_extension("lock");
-    std::fs::create_dir_all(repo().join("target")).unwrap();
-    let lock = std::fs::File::create(&lock_path).unwrap();
-    lock.lock().unwrap();
-    let ready = || {
-        bin.join("colcon").exists()
-            && bin.join("cargo-ament-build").exists()
-            && Command::new(bin.join("python"))
-                .args(["-c", "import ament_index_python, colcon_ros_cargo"])
-                .output()
-                .is_ok_and(|o| o.status.success())
-    };
-    if !ready() {
-        let made = Command::new("python3")
-            .args(["-m", "venv"])
-            .arg(&venv)
-            .status()
-            .is_ok_and(|s| s.success())
-            && Command::new(bin.join("pip"))
-                .args(["install", "-q", "-r"])
-                .arg(repo().join("tests/python/requirements-colcon.txt"))
-                .status()
-                .is_ok_and(|s| s.success());
-        assert!(
-            made && ready(),
-            "cannot set up colcon in {} (pip install -r tests/python/requirements-colcon.txt needs PyPI)",
-            venv.display()
-        );
-    }
-    bin
+    let py = common::venv_python(
+        "target/colconvenv",
+        "tests/python/requirements-colcon.txt",
+        "ament_index_python, colcon_ros_cargo",
+    );
+    py.parent().unwrap().to_path_buf()
 }
 
 /// `colcon` with `args` in the workspace `ws`, the venv's tools first on PATH.

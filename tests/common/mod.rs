@@ -126,36 +126,51 @@ pub fn python() -> PathBuf {
     if let Some(p) = std::env::var_os("TERZAGHI_PYTHON") {
         return PathBuf::from(p);
     }
-    let venv = repo().join("target/venv");
+    venv_python(
+        "target/venv",
+        "tests/python/requirements.txt",
+        "cyclonedds, mcap_ros2, rosbags, websockets",
+    )
+}
+
+/// The Python of the venv `venv` (a path under the repository), made on first use with
+/// `requirements` installed (which needs PyPI), until it imports `imports`; one install at a
+/// time among the processes that ask (a lock on `<venv>.lock`).
+#[allow(dead_code)]
+pub fn venv_python(venv: &str, requirements: &str, imports: &str) -> PathBuf {
+    let venv = repo().join(venv);
     let py = venv.join("bin/python");
     let ready = || {
         Command::new(&py)
-            .args(["-c", "import cyclonedds, mcap_ros2, rosbags, websockets"])
+            .args(["-c", &format!("import {imports}")])
             .output()
             .is_ok_and(|o| o.status.success())
     };
+    if ready() {
+        return py;
+    }
+    std::fs::create_dir_all(venv.parent().unwrap()).unwrap();
+    let lock_path = venv.with_extension("lock");
+    let lock = std::fs::File::create(&lock_path)
+        .unwrap_or_else(|e| panic!("cannot open {}: {e}", lock_path.display()));
+    lock.lock()
+        .unwrap_or_else(|e| panic!("cannot lock {}: {e}", lock_path.display()));
     if !ready() {
-        // One install at a time among this binary's tests (cargo runs the binaries one after
-        // the other).
-        static INSTALL: std::sync::Mutex<()> = std::sync::Mutex::new(());
-        let _one = INSTALL.lock().unwrap_or_else(|p| p.into_inner());
-        if !ready() {
-            let ok = Command::new("python3")
-                .args(["-m", "venv"])
-                .arg(&venv)
+        let ok = Command::new("python3")
+            .args(["-m", "venv"])
+            .arg(&venv)
+            .status()
+            .is_ok_and(|s| s.success())
+            && Command::new(venv.join("bin/pip"))
+                .args(["install", "-q", "-r"])
+                .arg(repo().join(requirements))
                 .status()
-                .is_ok_and(|s| s.success())
-                && Command::new(venv.join("bin/pip"))
-                    .args(["install", "-q", "-r"])
-                    .arg(repo().join("tests/python/requirements.txt"))
-                    .status()
-                    .is_ok_and(|s| s.success());
-            assert!(
-                ok && ready(),
-                "cannot set up the Python peers in {} (pip install -r tests/python/requirements.txt needs PyPI)",
-                venv.display()
-            );
-        }
+                .is_ok_and(|s| s.success());
+        assert!(
+            ok && ready(),
+            "cannot set up the venv {} (pip install -r {requirements} needs PyPI)",
+            venv.display()
+        );
     }
     py
 }
