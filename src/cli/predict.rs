@@ -261,13 +261,14 @@ struct BandColumns {
 
 impl BandColumns {
     fn of(p: &Prediction, (low, high): (f64, f64)) -> BandColumns {
+        let (lo, hi) = (p.scaled(low), p.scaled(high));
         BandColumns {
-            drag_low_n: p.drag_n * low,
-            drag_high_n: p.drag_n * high,
-            lift_low_n: p.lift_n * low,
-            lift_high_n: p.lift_n * high,
-            hip_torque_low_nm: p.hip_torque_nm * low,
-            hip_torque_high_nm: p.hip_torque_nm * high,
+            drag_low_n: lo.drag_n,
+            drag_high_n: hi.drag_n,
+            lift_low_n: lo.lift_n,
+            lift_high_n: hi.lift_n,
+            hip_torque_low_nm: lo.hip_torque_nm,
+            hip_torque_high_nm: hi.hip_torque_nm,
         }
     }
 

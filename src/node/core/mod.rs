@@ -152,19 +152,6 @@ fn kept_at<T: Copy>(ring: &VecDeque<(i64, T)>, stamp_ns: i64) -> Option<T> {
         .map(|(_, v)| *v)
 }
 
-/// `p` with its forces and torque multiplied by `scale` (RFT's learnt scale).
-fn scaled(p: Prediction, scale: f64) -> Prediction {
-    Prediction {
-        drag_n: p.drag_n * scale,
-        lift_n: p.lift_n * scale,
-        hip_torque_nm: p.hip_torque_nm * scale,
-        side_n: p.side_n * scale,
-        roll_moment_nm: p.roll_moment_nm * scale,
-        yaw_moment_nm: p.yaw_moment_nm * scale,
-        ..p
-    }
-}
-
 /// Predictions kept per corrected leg for the rows of a re-evaluation, by their angle's stamp.
 const RECENT_PREDICTIONS: usize = 1024;
 
@@ -993,7 +980,7 @@ impl NodeCore {
                     }
                     let rft_scale = leg.rft_scale(self.cfg.use_identified);
                     if let Some(s) = rft_scale {
-                        p = scaled(p, s);
+                        p = p.scaled(s);
                     }
                     // An RFT or sinkage leg learns a scale, never a Terzaghi b_k.
                     let is_rft = matches!(
@@ -1364,7 +1351,7 @@ impl NodeCore {
                     }
                     .ok()?;
                 let mut p = match l.rft_scale(self.cfg.use_identified) {
-                    Some(s) => scaled(p, s),
+                    Some(s) => p.scaled(s),
                     None => p,
                 };
                 if p.regime == Regime::Penetration

@@ -279,6 +279,20 @@ pub struct Prediction {
 }
 
 impl Prediction {
+    /// The prediction in a medium `scale` times as stiff: every force and moment times
+    /// `scale`, the geometry and regime as they are (a learnt scale, a trial's band).
+    pub fn scaled(self, scale: f64) -> Prediction {
+        Prediction {
+            drag_n: self.drag_n * scale,
+            lift_n: self.lift_n * scale,
+            hip_torque_nm: self.hip_torque_nm * scale,
+            side_n: self.side_n * scale,
+            roll_moment_nm: self.roll_moment_nm * scale,
+            yaw_moment_nm: self.yaw_moment_nm * scale,
+            ..self
+        }
+    }
+
     /// The whole wrench at the hip, in the order of the batch's outputs: drag, lift (N), hip
     /// torque (N m), side force (N), roll and yaw moments (N m).
     pub fn wrench(&self) -> [f64; 6] {
